@@ -1,0 +1,93 @@
+// ricci — connectivity of a manifold, consistently oriented triangle mesh, as flat arrays.
+//
+// Built once by build_topology() and never mutated. Corner, edge and rotation conventions are in
+// conventions.h. All arrays are indexed by 0-based Index values; kInvalid (-1) marks a boundary.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ricci/conventions.h"
+#include "ricci/status.h"
+
+namespace ricci {
+
+struct Topology {
+  Index num_vertices = 0;
+  Index num_edges = 0;
+  Index num_faces = 0;
+
+  /// #F×3: corner → corner across the edge opposite it, kInvalid on the boundary.
+  std::vector<Index> opposite;
+  /// #F×3: corner → edge opposite it (per-face edge k is opposite corner k).
+  std::vector<Index> corner_edge;
+  /// #E×2: edge → its two end vertices, oriented as the edge runs in the face of
+  /// edge_corners[2e] (from vertex(next(c)) to vertex(prev(c)) for c = edge_corners[2e]).
+  std::vector<Index> edge_vertices;
+  /// #E×2: edge → the corners opposite it. The first is the smaller corner index of an interior
+  /// edge; the second is kInvalid for a boundary edge.
+  std::vector<Index> edge_corners;
+  /// CSR vertex → corners: the corners of vertex v are
+  /// vertex_corners[vertex_corner_offsets[v] .. vertex_corner_offsets[v+1]), in counter-clockwise
+  /// order. An interior vertex's cycle starts at its smallest corner; a boundary vertex's fan
+  /// starts at the corner with no clockwise neighbour (see conventions.h). #V+1 and #F×3.
+  std::vector<Index> vertex_corner_offsets;
+  std::vector<Index> vertex_corners;
+  /// CSR boundary loops: loop i has vertices boundary_vertices[boundary_offsets[i] ..
+  /// boundary_offsets[i+1]) in the order the loop runs (surface on the left), and
+  /// boundary_corners[j] is the corner opposite the edge from boundary_vertices[j] to the next
+  /// vertex of the loop. Loops are ordered by their smallest boundary corner; each loop starts at
+  /// the edge of its smallest corner. #b+1, #boundary edges, #boundary edges.
+  std::vector<Index> boundary_offsets;
+  std::vector<Index> boundary_vertices;
+  std::vector<Index> boundary_corners;
+  /// #F: face → connected component (components numbered by their smallest face).
+  std::vector<Index> face_component;
+  Index num_components = 0;
+
+  Index num_corners() const { return 3 * num_faces; }
+  Index num_boundary_loops() const {
+    return boundary_offsets.empty() ? 0 : static_cast<Index>(boundary_offsets.size() - 1);
+  }
+  Index num_boundary_edges() const { return static_cast<Index>(boundary_corners.size()); }
+  /// χ = V − E + F.
+  std::int64_t euler_characteristic() const {
+    return std::int64_t{num_vertices} - num_edges + num_faces;
+  }
+  /// Total genus Σ g_i over the components: (2·components − χ − b) / 2.
+  std::int64_t genus() const {
+    return (2 * std::int64_t{num_components} - euler_characteristic() - num_boundary_loops()) / 2;
+  }
+  /// The surface is closed (no boundary edges).
+  bool is_closed() const { return boundary_corners.empty(); }
+  /// Vertex v lies on the boundary (its fan starts at a corner whose clockwise edge is a
+  /// boundary edge). False for a vertex used by no face.
+  bool is_boundary_vertex(Index v) const {
+    if (vertex_corner_offsets[v] == vertex_corner_offsets[v + 1]) return false;
+    const Index c = vertex_corners[vertex_corner_offsets[v]];
+    return opposite[prev_corner(c)] == kInvalid;
+  }
+  /// Number of corners (faces) around vertex v.
+  Index valence(Index v) const { return vertex_corner_offsets[v + 1] - vertex_corner_offsets[v]; }
+};
+
+struct TopologyResult {
+  /// Ok, or one of IndexOutOfRange, DegenerateFace (a face repeats a vertex), NonManifoldEdge,
+  /// InconsistentOrientation, NonManifoldVertex, InvalidArgument (buffer sizes).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+  Topology topology;
+};
+
+/// Builds the connectivity of a triangle mesh. Preconditions (each checked, each a status):
+/// faces.size() is a multiple of 3; all indices in [0, num_vertices); no face repeats a vertex;
+/// every edge has one or two faces; neighbouring faces are consistently oriented; the faces
+/// around every vertex form a single fan. Vertices used by no face are allowed (their corner
+/// range is empty; they count in V). Linear time and memory; deterministic.
+TopologyResult build_topology(std::span<const Index> faces, Index num_vertices);
+
+}  // namespace ricci

@@ -1,0 +1,144 @@
+// ricci — checking, repairing and loading meshes.
+//
+// diagnose()      describes any triangle soup (never fails): counts of vertices, edges, boundary
+//                 loops, components, non-manifold elements, orientation defects, …
+// validate_mesh() turns a soup into a clean mesh ready for the flow — connected, manifold,
+//                 consistently oriented, no degenerate or duplicate faces, no unused vertices —
+//                 repairing what can be repaired without guessing and refusing the rest.
+// load_mesh()     read_mesh() followed by validate_mesh().
+//
+// Checks, in this order; the first failing one decides the status:
+//   1. NoFaces                  the mesh has no faces
+//   2. IndexOutOfRange          a face index is outside [0, #V)
+//   3. NonFiniteCoordinate      a vertex used by a face has a NaN or infinite coordinate
+//   4. DegenerateFace           a face repeats a vertex
+//   5. MultipleComponents       faces form several components (connected through shared vertices);
+//                               with keep_largest_component the largest (most faces; ties: the
+//                               one with the smallest face index) is kept and the rest dropped
+//   6. DegenerateFace           a face has (numerically) zero area: twice its area is at most
+//                               degenerate_tolerance × (its longest edge)²
+//   7. DuplicateFace            two faces use the same three vertices (in any order)
+//   8. NonManifoldEdge          an edge has more than two faces
+//   9. NonOrientable            no consistent orientation exists; otherwise inconsistent
+//                               orientation is repaired by flipping faces (breadth-first), keeping
+//                               the orientation of the majority of the area
+//  10. NonManifoldVertex        the faces around a vertex form several fans (pinched vertex)
+// Repairs: unused vertices are dropped, faces are flipped, components dropped (option); each is
+// reported in ValidateResult::repairs. A consistently oriented input keeps its orientation.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ricci/io.h"
+#include "ricci/mesh.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+/// Facts about a triangle soup; every field is well defined for any input (faces with
+/// out-of-range indices or repeated vertices are excluded from the edge-based counts).
+struct MeshDiagnostics {
+  std::int64_t vertices_listed = 0;       ///< #V in the buffer
+  std::int64_t vertices_referenced = 0;   ///< vertices used by at least one face
+  std::int64_t faces = 0;                 ///< #F
+  std::int64_t edges = 0;                 ///< distinct undirected edges
+  std::int64_t boundary_edges = 0;        ///< edges with exactly one face
+  std::int64_t boundary_loops = 0;        ///< connected components of the boundary edges
+  std::int64_t components = 0;            ///< components of faces sharing vertices
+  std::int64_t euler_characteristic = 0;  ///< vertices_referenced − edges + faces
+  std::int64_t out_of_range_faces = 0;    ///< faces with an index outside [0, #V)
+  std::int64_t non_finite_vertices = 0;   ///< referenced vertices with a NaN/inf coordinate
+  std::int64_t repeated_vertex_faces = 0; ///< faces that repeat a vertex
+  std::int64_t zero_area_faces = 0;       ///< faces of (numerically) zero area
+  std::int64_t duplicate_faces = 0;       ///< faces whose vertex set appeared before
+  std::int64_t non_manifold_edges = 0;    ///< edges with more than two faces
+  std::int64_t non_manifold_vertices = 0; ///< vertices whose faces form more than one fan
+  std::int64_t inconsistent_edges = 0;    ///< manifold edges traversed the same way by both faces
+  bool orientable = true;                 ///< a consistent orientation exists (per component)
+  bool manifold = true;                   ///< no non-manifold edge or vertex
+  /// Total genus (2·components − χ − b)/2; meaningful only when manifold and orientable.
+  std::int64_t genus = 0;
+  double min_corner_angle = 0;            ///< radians, over non-degenerate faces
+  double max_corner_angle = 0;            ///< radians, over non-degenerate faces
+  double obtuse_face_fraction = 0;        ///< share of faces with an angle > π/2
+};
+
+/// Describes a triangle soup. Never fails; linear time up to sorting.
+/// `degenerate_tolerance` as in ValidateOptions.
+MeshDiagnostics diagnose(const Mesh& mesh, double degenerate_tolerance = 1e-12);
+
+struct ValidateOptions {
+  /// Keep the largest component instead of failing with MultipleComponents.
+  bool keep_largest_component = false;
+  /// Repair inconsistent face orientation by flipping faces; false makes it an error
+  /// (Status::InconsistentOrientation).
+  bool repair_orientation = true;
+  /// A face is degenerate when 2·area ≤ degenerate_tolerance · (longest edge)². In [0, 1).
+  double degenerate_tolerance = 1e-12;
+
+  bool is_valid(std::string* why) const;
+};
+
+enum class RepairKind : int {
+  UnreferencedVerticesDropped,
+  FacesFlipped,
+  ComponentsDropped,
+  PolygonsTriangulated,
+};
+
+/// Stable snake_case name of a repair ("faces_flipped", …).
+std::string_view repair_name(RepairKind k);
+
+struct Repair {
+  RepairKind kind;
+  std::int64_t count = 0;  ///< vertices dropped, faces flipped, components dropped, polygons split
+  std::string message;     ///< a full sentence, e.g. "dropped 1113 vertices used by no face (first: 34835)"
+};
+
+struct ValidateResult {
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// Element the error refers to, with its index in the *input* numbering.
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+
+  /// The clean mesh (valid only when status is Ok). Texture coordinates are carried along.
+  Mesh mesh;
+  /// Its connectivity (valid only when status is Ok).
+  Topology topology;
+  /// #V_out: output vertex → input vertex; #F_out: output face → input face.
+  std::vector<Index> vertex_to_input;
+  std::vector<Index> face_to_input;
+  /// What was changed, in the order it was done.
+  std::vector<Repair> repairs;
+};
+
+/// Checks and repairs a mesh; see the list at the top of this header.
+ValidateResult validate_mesh(const Mesh& mesh, const ValidateOptions& options = {});
+
+struct LoadOptions {
+  ReadOptions read;
+  ValidateOptions validate;
+};
+
+struct LoadResult {
+  /// Status of reading or, if reading succeeded, of validating. Messages name the file.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  std::int64_t line = -1;  ///< as ReadResult::line
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+
+  ReadResult read;          ///< the raw file content, unchanged (diagnose() it for reports)
+  ValidateResult validated; ///< the clean mesh and its topology (when status is Ok)
+  /// Repairs from reading (polygon triangulation) and from validation.
+  std::vector<Repair> repairs;
+};
+
+/// read_mesh() + validate_mesh(). The raw soup stays in `read.mesh` so callers can diagnose() it.
+LoadResult load_mesh(const std::string& path, const LoadOptions& options = {});
+
+}  // namespace ricci

@@ -1,0 +1,62 @@
+// Shared helpers for the test suite: where the data is, temporary folders, running the CLI,
+// and the invariant checks every topology must pass.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ricci/mesh.h"
+#include "ricci/topology.h"
+
+namespace ricci_test {
+
+namespace fs = std::filesystem;
+
+/// The repository's fixtures/ folder.
+fs::path fixtures_dir();
+/// ../shared/meshes beside the repository (or $RICCI_SHARED_MESHES); empty path when absent.
+fs::path shared_meshes_dir();
+/// Mesh files (.obj, .off, .ply) directly inside `dir`, sorted by name; empty when `dir` is absent.
+std::vector<fs::path> mesh_files(const fs::path& dir);
+
+/// A fresh, empty temporary folder removed when the object goes out of scope.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const fs::path& path() const { return path_; }
+  fs::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  fs::path path_;
+};
+
+/// Whole content of a file (binary); empty string when it cannot be read.
+std::string read_bytes(const fs::path& p);
+/// Writes bytes to a file (not atomic; for test inputs only).
+void write_bytes(const fs::path& p, const std::string& data);
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;  ///< standard output
+  std::string err;  ///< standard error
+};
+/// Runs the ricci CLI with the given arguments (no shell), capturing stdout and stderr.
+CommandResult run_cli(const std::vector<std::string>& args);
+/// Runs any program with arguments (no shell), capturing stdout and stderr.
+CommandResult run_program(const std::string& program, const std::vector<std::string>& args);
+
+/// Checks every invariant of a topology against its faces (see conventions.h and topology.h):
+/// opposite corners are involutive and point back across the same edge in the opposite
+/// direction; corner→edge and edge→corner/vertex agree; the vertex→corner lists cover every
+/// corner once and are ordered counter-clockwise fans; boundary loops are closed, run along the
+/// face orientation and cover every boundary edge once; components are edge-connected.
+/// Returns an empty string when all hold, else a description of the first violation.
+std::string check_topology(const ricci::Topology& topo, const std::vector<ricci::Index>& faces);
+
+}  // namespace ricci_test
