@@ -168,7 +168,7 @@ std::string check_topology(const ricci::Topology& t, const std::vector<Index>& f
       if (c < 0 || c >= nc || vert(c) != v) return fail("vertex corner list holds another vertex's corner", v);
       ++in_fan[c];
       const Index o = t.opposite[next_corner(c)];
-      const Index ccw = o == kInvalid ? kInvalid : prev_corner(o);
+      const Index ccw = o == kInvalid ? kInvalid : next_corner(o);
       if (i + 1 < e) {
         if (ccw != t.vertex_corners[i + 1]) return fail("fan is not in counter-clockwise order", v);
       } else if (boundary) {

@@ -7,6 +7,7 @@ std::string_view status_name(Status s) {
     case Status::Ok: return "ok";
     case Status::NotRun: return "not_run";
     case Status::InvalidArgument: return "invalid_argument";
+    case Status::OutOfMemory: return "out_of_memory";
     case Status::FileNotFound: return "file_not_found";
     case Status::FileUnreadable: return "file_unreadable";
     case Status::UnknownFormat: return "unknown_format";

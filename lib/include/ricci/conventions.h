@@ -27,8 +27,9 @@
 // vertex(prev(c)) and vertex(prev(opposite[c])) == vertex(next(c)).
 //
 // Rotation around a vertex (corner c at vertex v):
-//   counter-clockwise neighbour: ccw(c) = prev(opposite[next(c)])   (-1 if that edge is boundary)
-//   clockwise neighbour:         cw(c)  = next(opposite[prev(c)])   (-1 if that edge is boundary)
+//   counter-clockwise neighbour: ccw(c) = next(opposite[next(c)])   (-1 if that edge is boundary)
+//   clockwise neighbour:         cw(c)  = prev(opposite[prev(c)])   (-1 if that edge is boundary)
+// (ccw(c) lies across the edge v–vertex(prev(c)), cw(c) across the edge v–vertex(next(c)).)
 // The fan of a boundary vertex starts at the corner with no clockwise neighbour and ends at the
 // corner with no counter-clockwise neighbour. Boundary loops run along the face orientation, so
 // the surface lies to the left of a loop (a disk's outer loop is counter-clockwise).

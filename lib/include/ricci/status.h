@@ -15,6 +15,7 @@ enum class Status : int {
   Ok = 0,
   NotRun,                   ///< the driver has not been run
   InvalidArgument,          ///< an option or argument is out of its documented range
+  OutOfMemory,              ///< an allocation failed; nothing was returned
   // Files.
   FileNotFound,             ///< the input path does not exist
   FileUnreadable,           ///< the input exists but cannot be read (permissions, a directory…)

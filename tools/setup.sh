@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages ricci needs to build and test. Idempotent: installs only what
+# is missing and does nothing (not even 'apt-get update') when everything is present.
+set -euo pipefail
+
+packages=(
+  g++ make cmake          # toolchain (CMake >= 3.20)
+  libgomp1                # OpenMP runtime (per-face parallel loops)
+  libeigen3-dev           # Eigen: dense and sparse linear algebra
+  libceres-dev            # Ceres Solver: least-squares fits (deck transformations)
+  libsuitesparse-dev      # SuiteSparse/CHOLMOD: sparse Cholesky for Newton's method
+  doctest-dev             # doctest: the test framework
+  libcli11-dev            # CLI11: command-line parsing
+  nlohmann-json3-dev      # nlohmann-json: JSON reports
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
+    echo "setup: missing packages: ${missing[*]}; run as root or install them with apt-get" >&2
+    exit 1
+  fi
+fi
+echo "setup: installing ${missing[*]}"
+$sudo apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
