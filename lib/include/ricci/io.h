@@ -15,9 +15,11 @@
 //        z of any scalar type; element `face` with a list property `vertex_indices` (or
 //        `vertex_index`); all other elements and properties are skipped.
 //
-// Numbers are parsed locale-independently. Declared counts are checked against the file size
-// before anything is allocated. Errors name the file, the line (text) or byte offset (binary),
-// and the element.
+// Numbers are parsed locale-independently. Memory reserved for declared counts is capped by what
+// the remaining bytes can hold, so a hostile header cannot exhaust memory: a file shorter than
+// its header says is a ParseError naming what was expected and where the file ended. Only regular
+// files are read (a pipe or device is FileUnreadable). Errors name the file, the line (text) or
+// byte offset (binary), and the element.
 #pragma once
 
 #include <cstdint>
@@ -98,6 +100,9 @@ struct WriteResult {
 /// renamed over `path` only when complete. On failure nothing is left behind and an existing
 /// file at `path` is unchanged. Numbers are written so that reading them back gives the same
 /// bits (shortest round-trip decimal for text formats, IEEE doubles for binary PLY).
+/// Statuses: InvalidArgument for a mesh that could not be read back (buffer sizes, indices out of
+/// range, non-finite values), UnknownFormat for an unknown extension with FileFormat::Auto,
+/// OutputIsInput, WriteFailed.
 WriteResult write_mesh(const std::string& path, const Mesh& mesh, const WriteOptions& options = {});
 
 /// Writes `data` to `path` atomically (temporary file in the same directory + rename), refusing
@@ -105,7 +110,8 @@ WriteResult write_mesh(const std::string& path, const Mesh& mesh, const WriteOpt
 WriteResult write_file_atomic(const std::string& path, std::string_view data,
                               const std::vector<std::string>& protected_paths = {});
 
-/// Serialises a mesh to bytes in the given format (not Auto). Used by write_mesh().
+/// Serialises a mesh to bytes in the given format. Returns an empty string (never a valid
+/// output) for FileFormat::Auto or when memory runs out. Used by write_mesh().
 std::string serialize_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords = true);
 
 }  // namespace ricci

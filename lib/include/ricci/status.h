@@ -21,7 +21,7 @@ enum class Status : int {
   FileUnreadable,           ///< the input exists but cannot be read (permissions, a directory…)
   UnknownFormat,            ///< the file extension / header names no supported format
   ParseError,               ///< malformed content; `line` (text) or byte offset says where
-  FileTooLarge,             ///< declared sizes exceed what the file or the limits can hold
+  FileTooLarge,             ///< over ReadOptions::max_file_bytes, or counts beyond 32-bit indices
   WriteFailed,              ///< the output could not be written; nothing was left behind
   OutputIsInput,            ///< refused: the output path is the input (or another protected) file
   // Mesh content.
