@@ -124,6 +124,7 @@ std::string check_topology(const ricci::Topology& t, const std::vector<Index>& f
   if (static_cast<Index>(t.edge_vertices.size()) != 2 * t.num_edges ||
       static_cast<Index>(t.edge_corners.size()) != 2 * t.num_edges)
     return "per-edge arrays have the wrong size";
+  if (t.corner_vertex != faces) return "corner_vertex is not the face buffer";
   auto vert = [&](Index c) { return faces[c]; };
   // Opposite corners.
   for (Index c = 0; c < nc; ++c) {

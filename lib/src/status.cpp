@@ -25,6 +25,11 @@ std::string_view status_name(Status s) {
     case Status::InconsistentOrientation: return "inconsistent_orientation";
     case Status::NonOrientable: return "non_orientable";
     case Status::MultipleComponents: return "multiple_components";
+    case Status::TriangleInequality: return "triangle_inequality";
+    case Status::InfeasibleTarget: return "infeasible_target";
+    case Status::NotConverged: return "not_converged";
+    case Status::LineSearchFailed: return "line_search_failed";
+    case Status::NumericalFailure: return "numerical_failure";
   }
   return "unknown_status";
 }

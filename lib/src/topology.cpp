@@ -124,6 +124,7 @@ TopologyResult build_topology(std::span<const Index> faces, Index num_vertices) 
   t.num_vertices = num_vertices;
   t.num_faces = nf;
   t.num_edges = table.num_groups();
+  t.corner_vertex.assign(faces.begin(), faces.end());
   t.opposite.assign(static_cast<std::size_t>(nc), kInvalid);
   t.corner_edge.assign(static_cast<std::size_t>(nc), kInvalid);
   t.edge_vertices.resize(2 * static_cast<std::size_t>(t.num_edges));

@@ -35,6 +35,12 @@ enum class Status : int {
   InconsistentOrientation,  ///< neighbouring faces traverse their shared edge the same way
   NonOrientable,            ///< no choice of face orientations is consistent (Möbius, Klein…)
   MultipleComponents,       ///< the mesh has several connected components
+  // Metrics and flows.
+  TriangleInequality,       ///< a triangle's lengths violate the triangle inequality
+  InfeasibleTarget,         ///< the target curvature violates Gauss–Bonnet or admissibility
+  NotConverged,             ///< the iteration limit was reached before the tolerance
+  LineSearchFailed,         ///< no step along the search direction decreased the energy
+  NumericalFailure,         ///< a factorization failed or a value left its valid range
 };
 
 /// Stable snake_case name of a status ("non_manifold_edge"), used in JSON reports.

@@ -19,6 +19,8 @@ struct Topology {
   Index num_edges = 0;
   Index num_faces = 0;
 
+  /// #F×3: corner → vertex (a copy of the face buffer, so kernels need the topology alone).
+  std::vector<Index> corner_vertex;
   /// #F×3: corner → corner across the edge opposite it, kInvalid on the boundary.
   std::vector<Index> opposite;
   /// #F×3: corner → edge opposite it (per-face edge k is opposite corner k).

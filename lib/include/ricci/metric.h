@@ -1,0 +1,130 @@
+// ricci — discrete conformal metrics: edge lengths, corner angles, curvature, areas and the
+// Hessian ∂K/∂u, in euclidean (E), hyperbolic (H) and spherical (S) background geometry.
+//
+// One length formula serves every scheme (Zhang, Guo, Zeng, Luo, Yau, Gu 2014, "The unified
+// discrete surface Ricci flow"). With a per-scheme constant ε and a fixed weight η_ij per edge,
+//
+//     Q_ij = 2 η_ij e^{u_i + u_j} + ε e^{2 u_i} + ε e^{2 u_j}
+//
+//     E:  l_ij²          = Q_ij
+//     H:  sinh²(l_ij/2)  = Q_ij / ((1 − ε e^{2u_i}) (1 − ε e^{2u_j}))
+//     S:  sin²(l_ij/2)   = Q_ij / ((1 + ε e^{2u_i}) (1 + ε e^{2u_j}))
+//
+// with u_i = log γ_i (E), log tanh(γ_i/2) (H), log tan(γ_i/2) (S) (the paper's eq. 9).
+//   circle packing (Thurston; the paper's eq. 12):  ε = 1, η = cos Φ_ij, Φ ∈ [0, π/2]
+//   inversive distance:                              ε = 1, η = I_ij (any value > −1)
+//   vertex scaling / Yamabe:                         ε = 0, η = l⁰²/2, sinh²(l⁰/2)/2, sin²(l⁰/2)/2
+// For ε = 1 these are the cosine laws l² = γ_i² + γ_j² + 2γ_iγ_j η (E), cosh l = cosh γ_i cosh γ_j
+// + sinh γ_i sinh γ_j η (H) and cos l = cos γ_i cos γ_j − sin γ_i sin γ_j η (S), written in the
+// half-length form so that short edges keep full relative precision.
+//
+// Angles come from lengths by the half-angle formula tan²(θ_i/2) = f(s−l_j) f(s−l_k) /
+// (f(s) f(s−l_i)), f = identity / sinh / sin, s the half perimeter (atan2 form, no acos). A
+// triangle that violates the triangle inequality (or, in S, has perimeter ≥ 2π) is reported; its
+// angles are set to the limit (π at the vertex opposite the longest edge, 0 elsewhere) so no NaN
+// ever leaves a kernel.
+//
+// Curvature K_i = 2π − Σθ at interior vertices and π − Σθ on the boundary (eq. 7); discrete
+// Gauss–Bonnet reads Σ K_i + λ Σ A_f = 2πχ with λ = 0 (E), −1 (H), +1 (S).
+//
+// Kernels write into caller-sized outputs, allocate nothing and run as OpenMP loops over faces
+// (angles, Hessian blocks) or vertices (curvature, gathered through the vertex → corner lists),
+// each iteration writing only its own slots: results are bitwise identical for any thread count.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ricci/mesh.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+enum class Geometry : int { Euclidean = 0, Hyperbolic, Spherical };
+enum class Scheme : int { CirclePacking = 0, InversiveDistance, Yamabe };
+
+std::string_view geometry_name(Geometry g);  ///< "euclidean", "hyperbolic", "spherical"
+std::string_view scheme_name(Scheme s);      ///< "circle-packing", "inversive-distance", "yamabe"
+
+/// λ in Gauss–Bonnet: 0 (E), −1 (H), +1 (S).
+double gauss_bonnet_lambda(Geometry g);
+
+/// The fixed part of a discrete conformal metric: background geometry, scheme and edge weights.
+/// Together with a vector u (#V) it determines every edge length.
+struct ConformalStructure {
+  Geometry geometry = Geometry::Euclidean;
+  Scheme scheme = Scheme::CirclePacking;
+  double epsilon = 1;        ///< ε: 1 for circle packing and inversive distance, 0 for Yamabe
+  std::vector<double> eta;   ///< #E: η_ij (cos Φ_ij, inversive distance, or the Yamabe weight)
+};
+
+struct InitialMetricOptions {
+  Geometry geometry = Geometry::Euclidean;
+  Scheme scheme = Scheme::CirclePacking;
+  /// Uniform scale applied to the 3D edge lengths before they are read in H or S; 0 picks the
+  /// default: 1 in E; in S the scale making the total area 4π; in H the scale making the total
+  /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
+  double length_scale = 0;
+
+  bool is_valid(std::string* why) const;
+};
+
+struct InitialMetric {
+  /// Ok, InvalidArgument, DegenerateFace (a 3D triangle violates the triangle inequality or a
+  /// radius comes out non-positive), NumericalFailure (lengths too long for S).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  ConformalStructure structure;
+  std::vector<double> u;        ///< #V: the starting metric (u = 0 for Yamabe)
+  std::vector<double> gamma;    ///< #V: initial radii γ_i (circle schemes; empty for Yamabe)
+  std::vector<double> l0;       ///< #E: the scaled 3D edge lengths the metric approximates
+  double length_scale = 1;      ///< the scale that was applied
+  Index edges_clamped_high = 0; ///< circle packing: Φ clamped to π/2 (cos Φ < 0)
+  Index edges_clamped_low = 0;  ///< circle packing: Φ clamped to 0 (circles did not meet)
+};
+
+/// Step 2 of the paper for circle packing: radii γ_i^{jk} = (l_ki + l_ij − l_jk)/2 per face,
+/// averaged per vertex; Φ_ij from the cosine law of the geometry, clamped to [0, π/2]. For
+/// inversive distance the same radii with I_ij chosen so that u reproduces l0 exactly; for
+/// Yamabe u = 0 and η reproducing l0.
+InitialMetric initial_metric(const Mesh& mesh, const Topology& topology, const InitialMetricOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Kernels. Shapes: u #V, l #E, theta #F×3 (per corner), K #V, area #F, blocks #F×9.
+
+/// Edge lengths from u. Returns the first edge whose length is not a positive finite number (or,
+/// in S, exceeds π; in H, whose radius is not below 1 in tanh form), else kInvalid.
+Index edge_lengths(const Topology& topology, const ConformalStructure& structure, std::span<const double> u,
+                   std::span<double> l);
+
+struct AngleReport {
+  Index violations = 0;         ///< faces that violate the triangle inequality (or S perimeter)
+  Index first_violation = kInvalid;
+};
+
+/// Corner angles theta[c] from edge lengths (per-face edge k opposite corner k).
+AngleReport corner_angles(const Topology& topology, Geometry geometry, std::span<const double> l,
+                          std::span<double> theta);
+
+/// Curvature per vertex from corner angles: 2π − Σθ inside, π − Σθ on the boundary.
+void vertex_curvature(const Topology& topology, std::span<const double> theta, std::span<double> K);
+
+/// Face areas: E from the side lengths (½ l_j l_k sin θ_i), H and S by L'Huilier's formula.
+void face_areas(const Topology& topology, Geometry geometry, std::span<const double> l,
+                std::span<const double> theta, std::span<double> area);
+
+/// Per-face 3×3 blocks of ∂θ/∂u: blocks[9f + 3a + b] = ∂θ(corner 3f+a) / ∂u(vertex of corner
+/// 3f+b). Needs u, l and theta of the same metric.
+void angle_derivative_blocks(const Topology& topology, const ConformalStructure& structure,
+                             std::span<const double> u, std::span<const double> l, std::span<const double> theta,
+                             std::span<double> blocks);
+
+/// Gauss–Bonnet defect Σ K + λ Σ A − 2πχ (0 up to rounding for every admissible metric).
+double gauss_bonnet_defect(const Topology& topology, Geometry geometry, std::span<const double> K,
+                           std::span<const double> area);
+
+}  // namespace ricci
