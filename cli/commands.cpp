@@ -1,1 +1,524 @@
-// placeholder: being written
+// ricci command-line driver: subcommand setup and implementation (see commands.h).
+#include "commands.h"
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ricci/io.h"
+#include "ricci/mesh.h"
+#include "ricci/topology.h"
+#include "ricci/validate.h"
+
+namespace ricci_cli {
+
+using ricci::FileFormat;
+using ricci::Status;
+
+int exit_code(Status status) {
+  switch (status) {
+    case Status::Ok:
+      return kExitOk;
+    case Status::InvalidArgument:
+      return kExitUsage;
+    case Status::FileNotFound:
+    case Status::FileUnreadable:
+    case Status::UnknownFormat:
+    case Status::FileTooLarge:
+      return kExitInputUnavailable;
+    case Status::ParseError:
+    case Status::IndexOutOfRange:
+    case Status::NonFiniteCoordinate:
+      return kExitMalformedInput;
+    case Status::NoFaces:
+    case Status::DegenerateFace:
+    case Status::DuplicateFace:
+    case Status::NonManifoldEdge:
+    case Status::NonManifoldVertex:
+    case Status::InconsistentOrientation:
+    case Status::NonOrientable:
+    case Status::MultipleComponents:
+      return kExitInvalidMesh;
+    case Status::WriteFailed:
+    case Status::OutputIsInput:
+      return kExitOutputFailure;
+    case Status::NotRun:       // a library driver returned without running
+    case Status::OutOfMemory:  // an allocation failed
+      break;
+    // Metric and flow outcomes: no subcommand runs a flow yet, so none of these can reach here.
+    // A flow subcommand must give them their own exit code(s) and document it in commands.h.
+    case Status::TriangleInequality:
+    case Status::InfeasibleTarget:
+    case Status::NotConverged:
+    case Status::LineSearchFailed:
+    case Status::NumericalFailure:
+      break;
+  }
+  return kExitInternal;
+}
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+constexpr const char* kVersion = RICCI_VERSION;  // from CMake's project(VERSION)
+
+constexpr const char* kExitCodeFooter =
+    "Exit codes:\n"
+    "  0  success\n"
+    "  1  unexpected internal error\n"
+    "  2  usage error (bad arguments or options)\n"
+    "  3  input cannot be opened (not found, unreadable, unknown format, too large)\n"
+    "  4  malformed file content (parse error, index out of range, non-finite coordinate)\n"
+    "  5  invalid mesh (no faces, degenerate or duplicate face, non-manifold edge or vertex,\n"
+    "     inconsistent orientation, non-orientable, several components)\n"
+    "  6  output failure (write failed, output is the input)";
+
+// ---- messages -------------------------------------------------------------------------------
+
+void print_note(bool quiet, const std::string& message) {
+  if (!quiet) std::cerr << "ricci: " << message << '\n';
+}
+
+void print_error(const std::string& message) {
+  std::cerr << "ricci: error: " << message << '\n';
+}
+
+/// Flushes stdout; a report that could not be written is an output failure.
+int finish_stdout(int code) {
+  std::cout.flush();
+  if (!std::cout) {
+    print_error("could not write to standard output");
+    return kExitOutputFailure;
+  }
+  return code;
+}
+
+// ---- small formatting helpers ---------------------------------------------------------------
+
+std::optional<std::string> format_name(FileFormat f) {
+  switch (f) {
+    case FileFormat::Obj:
+      return "obj";
+    case FileFormat::Off:
+      return "off";
+    case FileFormat::PlyAscii:
+      return "ply-ascii";
+    case FileFormat::PlyBinary:
+      return "ply-binary";
+    case FileFormat::Auto:
+      break;
+  }
+  return std::nullopt;
+}
+
+/// The --format choices of `convert`.
+std::optional<FileFormat> format_from_option(const std::string& name) {
+  if (name.empty()) return FileFormat::Auto;
+  if (name == "obj") return FileFormat::Obj;
+  if (name == "off") return FileFormat::Off;
+  if (name == "ply") return FileFormat::PlyBinary;
+  if (name == "ply-ascii") return FileFormat::PlyAscii;
+  return std::nullopt;
+}
+
+std::string printf_string(const char* fmt, double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, x);
+  return buf;
+}
+
+double degrees(double radians) {
+  return radians * 180.0 / std::numbers::pi;
+}
+
+const char* yes_no(bool b) {
+  return b ? "yes" : "no";
+}
+
+/// The repair record for polygons split by the reader (the reader reports only counts).
+std::optional<ricci::Repair> triangulation_repair(const ricci::ReadResult& read) {
+  if (read.polygons_triangulated <= 0) return std::nullopt;
+  ricci::Repair r{ricci::RepairKind::PolygonsTriangulated, read.polygons_triangulated, {}};
+  r.message = "triangulated " + std::to_string(read.polygons_triangulated) +
+              (read.polygons_triangulated == 1 ? " polygon" : " polygons") +
+              " with more than three sides into triangle fans";
+  return r;
+}
+
+// ---- info -----------------------------------------------------------------------------------
+
+/// Everything `info` reports, independent of the output form. Mesh counts describe the validated
+/// mesh when status is Ok and the raw triangle soup (diagnose()) otherwise.
+struct InfoReport {
+  std::string file;
+  bool embedded = false;
+  std::optional<std::string> format;
+  Status status = Status::NotRun;
+  std::string message;
+  std::int64_t line = -1;
+  ricci::Element element = ricci::Element::None;
+  std::int64_t element_index = -1;
+
+  bool have_mesh = false;  ///< false when the file could not be read: no counts at all
+  bool valid = false;      ///< counts come from the validated mesh and its topology
+  std::int64_t vertices = 0;
+  std::int64_t vertices_listed = 0;
+  std::int64_t vertices_unreferenced = 0;  ///< in the file as read
+  std::int64_t edges = 0;
+  std::int64_t faces = 0;
+  std::int64_t boundary_loops = 0;
+  std::vector<std::int64_t> boundary_loop_sizes;  ///< only when valid
+  std::int64_t euler_characteristic = 0;
+  std::optional<std::int64_t> genus;
+  std::string genus_undefined_reason;
+  std::int64_t components = 0;
+  bool orientable = false;
+  bool manifold = false;
+  std::int64_t non_manifold_edges = 0;
+  std::int64_t non_manifold_vertices = 0;
+  std::int64_t inconsistent_edges = 0;
+  std::int64_t inconsistent_edges_input = 0;  ///< in the file as read (before any repair)
+  bool have_angles = false;                   ///< the mesh has faces, so the angle statistics mean something
+  double min_angle_deg = 0;
+  double max_angle_deg = 0;
+  double obtuse_fraction = 0;
+  std::vector<ricci::Repair> repairs;
+};
+
+/// Why the genus of a raw soup is undefined, or "" when it is defined.
+std::string genus_undefined_reason(const ricci::MeshDiagnostics& d) {
+  if (d.faces == 0) return "no faces";
+  if (!d.manifold) return "not manifold";
+  if (!d.orientable) return "not orientable";
+  if (d.components != 1) return "not connected: " + std::to_string(d.components) + " components";
+  return {};
+}
+
+InfoReport make_info_report(const InfoOptions& options) {
+  InfoReport r;
+  ricci::ReadResult read;
+  if (options.mesh.empty()) {
+    r.file = embedded_default_name();
+    r.embedded = true;
+    ricci::ReadOptions ro;
+    ro.format = FileFormat::Obj;
+    read = ricci::read_mesh_from_memory(embedded_default_mesh(), r.file, ro);
+  } else {
+    r.file = options.mesh;
+    read = ricci::read_mesh(options.mesh);
+  }
+  r.format = format_name(read.format);
+  r.status = read.status;
+  r.message = read.message;
+  r.line = read.line;
+  r.element = read.element;
+  r.element_index = read.element_index;
+  if (read.status != Status::Ok) return r;
+
+  if (auto t = triangulation_repair(read)) r.repairs.push_back(*t);
+  const ricci::MeshDiagnostics raw = ricci::diagnose(read.mesh);
+  ricci::ValidateOptions vo;
+  vo.keep_largest_component = options.largest_component;
+  vo.repair_orientation = !options.no_repair_orientation;
+  const ricci::ValidateResult validated = ricci::validate_mesh(read.mesh, vo);
+  r.repairs.insert(r.repairs.end(), validated.repairs.begin(), validated.repairs.end());
+  r.status = validated.status;
+  r.message = validated.status == Status::Ok ? std::string("ok") : validated.message;
+  r.line = -1;
+  r.element = validated.element;
+  r.element_index = validated.element_index;
+
+  r.have_mesh = true;
+  r.have_angles = raw.faces > 0;
+  r.vertices_listed = raw.vertices_listed;
+  r.vertices_unreferenced = raw.vertices_listed - raw.vertices_referenced;
+  r.inconsistent_edges_input = raw.inconsistent_edges;
+  if (validated.status == Status::Ok) {
+    // The clean mesh: connectivity numbers from its topology, quality from diagnose() of it.
+    const ricci::Topology& t = validated.topology;
+    const ricci::MeshDiagnostics clean = ricci::diagnose(validated.mesh);
+    r.valid = true;
+    r.vertices = t.num_vertices;
+    r.edges = t.num_edges;
+    r.faces = t.num_faces;
+    r.boundary_loops = t.num_boundary_loops();
+    for (ricci::Index i = 0; i < t.num_boundary_loops(); ++i)
+      r.boundary_loop_sizes.push_back(t.boundary_offsets[i + 1] - t.boundary_offsets[i]);
+    r.euler_characteristic = t.euler_characteristic();
+    r.genus = t.genus();
+    r.components = t.num_components;
+    r.orientable = true;
+    r.manifold = true;
+    r.non_manifold_edges = clean.non_manifold_edges;
+    r.non_manifold_vertices = clean.non_manifold_vertices;
+    r.inconsistent_edges = clean.inconsistent_edges;
+    r.min_angle_deg = degrees(clean.min_corner_angle);
+    r.max_angle_deg = degrees(clean.max_corner_angle);
+    r.obtuse_fraction = clean.obtuse_face_fraction;
+  } else {
+    r.vertices = raw.vertices_referenced;
+    r.edges = raw.edges;
+    r.faces = raw.faces;
+    r.boundary_loops = raw.boundary_loops;
+    r.euler_characteristic = raw.euler_characteristic;
+    r.genus_undefined_reason = genus_undefined_reason(raw);
+    if (r.genus_undefined_reason.empty()) r.genus = raw.genus;
+    r.components = raw.components;
+    r.orientable = raw.orientable;
+    r.manifold = raw.manifold;
+    r.non_manifold_edges = raw.non_manifold_edges;
+    r.non_manifold_vertices = raw.non_manifold_vertices;
+    r.inconsistent_edges = raw.inconsistent_edges;
+    r.min_angle_deg = degrees(raw.min_corner_angle);
+    r.max_angle_deg = degrees(raw.max_corner_angle);
+    r.obtuse_fraction = raw.obtuse_face_fraction;
+  }
+  return r;
+}
+
+Json info_json(const InfoReport& r) {
+  Json j;
+  j["status"] = std::string(ricci::status_name(r.status));
+  j["message"] = r.message;
+  j["file"] = r.file;
+  j["embedded_default"] = r.embedded;
+  j["format"] = r.format ? Json(*r.format) : Json(nullptr);
+  j["line"] = r.line >= 0 ? Json(r.line) : Json(nullptr);
+  j["element"] =
+      r.element != ricci::Element::None ? Json(std::string(ricci::element_name(r.element))) : Json(nullptr);
+  j["element_index"] = r.element_index >= 0 ? Json(r.element_index) : Json(nullptr);
+  j["counts_from"] = !r.have_mesh ? Json(nullptr) : Json(r.valid ? "validated_mesh" : "input");
+
+  auto count = [&](const char* key, std::int64_t v) { j[key] = r.have_mesh ? Json(v) : Json(nullptr); };
+  auto flag = [&](const char* key, bool v) { j[key] = r.have_mesh ? Json(v) : Json(nullptr); };
+  // Angles are undefined without a (non-degenerate) face.
+  auto real = [&](const char* key, double v) { j[key] = r.have_angles ? Json(v) : Json(nullptr); };
+  count("vertices", r.vertices);
+  count("vertices_listed", r.vertices_listed);
+  count("vertices_unreferenced", r.vertices_unreferenced);
+  count("edges", r.edges);
+  count("faces", r.faces);
+  count("boundary_loops", r.boundary_loops);
+  j["boundary_loop_sizes"] = r.valid ? Json(r.boundary_loop_sizes) : Json(nullptr);
+  count("euler_characteristic", r.euler_characteristic);
+  j["genus"] = r.genus ? Json(*r.genus) : Json(nullptr);
+  j["genus_undefined_reason"] = r.have_mesh && !r.genus ? Json(r.genus_undefined_reason) : Json(nullptr);
+  count("components", r.components);
+  flag("orientable", r.orientable);
+  flag("manifold", r.manifold);
+  count("non_manifold_edges", r.non_manifold_edges);
+  count("non_manifold_vertices", r.non_manifold_vertices);
+  count("inconsistent_edges", r.inconsistent_edges);
+  count("inconsistent_edges_input", r.inconsistent_edges_input);
+  real("min_angle_deg", r.min_angle_deg);
+  real("max_angle_deg", r.max_angle_deg);
+  real("obtuse_fraction", r.obtuse_fraction);
+  Json repairs = Json::array();
+  for (const ricci::Repair& rep : r.repairs) {
+    repairs.push_back(Json{
+        {"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
+  }
+  j["repairs"] = std::move(repairs);
+  return j;
+}
+
+void print_info_text(const InfoReport& r, std::ostream& os) {
+  auto row = [&](const std::string& label, const std::string& value) {
+    constexpr std::size_t kWidth = 31;
+    os << label << ':' << std::string(label.size() + 1 < kWidth ? kWidth - label.size() - 1 : 1, ' ') << value
+       << '\n';
+  };
+  auto num = [](std::int64_t v) { return std::to_string(v); };
+
+  row("file", r.embedded ? r.file + " (embedded default mesh)" : r.file);
+  if (r.format) row("format", *r.format);
+  if (r.have_mesh) {
+    std::string v = num(r.vertices);
+    if (r.vertices_listed != r.vertices)
+      v += " (file lists " + num(r.vertices_listed) + ", " + num(r.vertices_unreferenced) + " unreferenced)";
+    row("vertices", v);
+    row("edges", num(r.edges));
+    row("faces", num(r.faces));
+    std::string b = num(r.boundary_loops);
+    if (r.valid && !r.boundary_loop_sizes.empty()) {
+      b += " (vertices per loop:";
+      for (std::size_t i = 0; i < r.boundary_loop_sizes.size(); ++i)
+        b += (i ? ", " : " ") + num(r.boundary_loop_sizes[i]);
+      b += ")";
+    }
+    row("boundary loops", b);
+    row("euler characteristic", num(r.euler_characteristic));
+    row("genus", r.genus ? num(*r.genus) : "n/a (" + r.genus_undefined_reason + ")");
+    row("components", num(r.components));
+    row("orientable", yes_no(r.orientable));
+    row("manifold", yes_no(r.manifold));
+    row("non-manifold edges", num(r.non_manifold_edges));
+    row("non-manifold vertices", num(r.non_manifold_vertices));
+    std::string inc = num(r.inconsistent_edges);
+    if (r.inconsistent_edges_input != r.inconsistent_edges)
+      inc += " (" + num(r.inconsistent_edges_input) + " in the input)";
+    row("inconsistently oriented edges", inc);
+    if (r.have_angles) {
+      row("min corner angle", printf_string("%.4g deg", r.min_angle_deg));
+      row("max corner angle", printf_string("%.4g deg", r.max_angle_deg));
+      row("obtuse triangles", printf_string("%.1f%%", 100.0 * r.obtuse_fraction));
+    } else {
+      row("corner angles", "n/a (no faces)");
+    }
+  } else if (r.line >= 0) {
+    row(r.element == ricci::Element::Byte ? "byte offset" : "line", num(r.line));
+  }
+  for (const ricci::Repair& rep : r.repairs) row("repair", rep.message);
+  if (r.status == Status::Ok)
+    os << "status: ok\n";
+  else
+    os << "error: " << r.message << '\n';
+}
+
+// ---- command-line setup ---------------------------------------------------------------------
+
+CLI::App* add_info_command(CLI::App& app, InfoOptions& o) {
+  CLI::App* cmd = app.add_subcommand(
+      "info",
+      "Describe a mesh: counts, topology (χ, genus, boundary loops), defects, angle quality "
+      "and the repairs validation would make.");
+  cmd->add_option("MESH", o.mesh,
+                  "Mesh file (.obj, .off, .ply). Default: the embedded genus-2 mesh (" +
+                      std::string(embedded_default_name()) + ").");
+  cmd->add_flag("--json", o.json, "Print one JSON object on stdout instead of text. Default: off.");
+  cmd->add_flag("--largest-component", o.largest_component,
+                "Keep the largest connected component instead of failing on several. Default: off.");
+  cmd->add_flag("--no-repair-orientation", o.no_repair_orientation,
+                "Report inconsistently oriented faces as an error instead of flipping them. "
+                "Default: off (orientation is repaired).");
+  cmd->add_flag("-q,--quiet", o.quiet, "Silence notes on stderr; errors are still printed. Default: off.");
+  return cmd;
+}
+
+CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
+  CLI::App* cmd =
+      app.add_subcommand("convert",
+                         "Rewrite a mesh in another format (OBJ, OFF, PLY). The output is written "
+                         "atomically and never replaces the input.");
+  cmd->add_option("IN", o.input, "Input mesh file (.obj, .off, .ply). Required.")->required();
+  cmd->add_option("-o,--output", o.output, "Output mesh file. Required.")->required();
+  CLI::Option* validate =
+      cmd->add_flag("--validate", o.validate,
+                    "Validate and repair the mesh before writing (drop unused vertices, fix "
+                    "orientation); fail on an invalid mesh. Default: off (written as read).");
+  cmd->add_flag("--largest-component", o.largest_component,
+                "With --validate: keep the largest connected component. Default: off.")
+      ->needs(validate);
+  cmd->add_option("--format", o.format,
+                  "Output format: obj, off, ply (binary little-endian) or ply-ascii. "
+                  "Default: from the extension of OUT.")
+      ->check(CLI::IsMember({"obj", "off", "ply", "ply-ascii"}));
+  cmd->add_flag("-q,--quiet", o.quiet, "Silence notes on stderr; errors are still printed. Default: off.");
+  return cmd;
+}
+
+}  // namespace
+
+int run_info(const InfoOptions& options) {
+  if (options.mesh.empty())
+    print_note(options.quiet,
+               std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
+  const InfoReport report = make_info_report(options);
+  if (options.json)
+    std::cout << info_json(report).dump(2) << '\n';
+  else
+    print_info_text(report, std::cout);
+  // Read errors name the file already; validation errors do not.
+  if (report.status != Status::Ok)
+    print_error(report.have_mesh ? report.file + ": " + report.message : report.message);
+  return finish_stdout(exit_code(report.status));
+}
+
+int run_convert(const ConvertOptions& options) {
+  const std::optional<FileFormat> format = format_from_option(options.format);
+  if (!format) {
+    print_error("unknown output format '" + options.format + "' (use obj, off, ply or ply-ascii)");
+    return kExitUsage;
+  }
+  if (*format == FileFormat::Auto && ricci::format_from_path(options.output) == FileFormat::Auto) {
+    print_error("cannot tell the output format from '" + options.output +
+                "'; use an .obj, .off or .ply extension or --format");
+    return kExitUsage;
+  }
+
+  ricci::ReadResult read = ricci::read_mesh(options.input);
+  if (read.status != Status::Ok) {
+    print_error(read.message);
+    return exit_code(read.status);
+  }
+  if (auto t = triangulation_repair(read)) print_note(options.quiet, t->message);
+
+  ricci::ValidateResult validated;
+  const ricci::Mesh* mesh = &read.mesh;
+  if (options.validate) {
+    ricci::ValidateOptions vo;
+    vo.keep_largest_component = options.largest_component;
+    validated = ricci::validate_mesh(read.mesh, vo);
+    if (validated.status != Status::Ok) {
+      print_error(options.input + ": " + validated.message);
+      return exit_code(validated.status);
+    }
+    for (const ricci::Repair& rep : validated.repairs) print_note(options.quiet, rep.message);
+    mesh = &validated.mesh;
+  }
+
+  ricci::WriteOptions wo;
+  wo.format = *format;
+  wo.protected_paths = {options.input};
+  const ricci::WriteResult written = ricci::write_mesh(options.output, *mesh, wo);
+  if (written.status != Status::Ok) {
+    print_error(written.message);
+    if (written.status == Status::OutputIsInput)
+      print_error("the output must be a different file from the input; nothing was written");
+    return exit_code(written.status);
+  }
+  const FileFormat out_format =
+      *format == FileFormat::Auto ? ricci::format_from_path(options.output) : *format;
+  print_note(options.quiet, "wrote " + options.output + " (" + format_name(out_format).value_or("?") + ", " +
+                                std::to_string(mesh->num_vertices()) + " vertices, " +
+                                std::to_string(mesh->num_faces()) + " faces, " +
+                                std::to_string(written.bytes_written) + " bytes)");
+  return kExitOk;
+}
+
+int run(int argc, const char* const* argv) {
+  CLI::App app("ricci — discrete surface Ricci flow on triangle meshes.", "ricci");
+  app.footer(kExitCodeFooter);  // set before the subcommands, which inherit it
+  app.set_version_flag("--version", std::string("ricci ") + kVersion, "Print the version and exit.");
+  app.require_subcommand(1);
+
+  InfoOptions info;
+  ConvertOptions convert;
+  CLI::App* info_cmd = add_info_command(app, info);
+  CLI::App* convert_cmd = add_convert_command(app, convert);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) {
+      app.exit(e);  // --help or --version: prints to stdout
+      return finish_stdout(kExitOk);
+    }
+    std::cerr << "ricci: error: " << e.what() << "\nRun with --help for more information.\n";
+    return kExitUsage;
+  }
+
+  if (info_cmd->parsed()) return run_info(info);
+  if (convert_cmd->parsed()) return run_convert(convert);
+  print_error("no subcommand given");
+  return kExitUsage;
+}
+
+}  // namespace ricci_cli
