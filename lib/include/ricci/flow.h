@@ -1,0 +1,147 @@
+// ricci — target curvatures and the discrete Ricci flow solvers (gradient descent, Newton).
+//
+// The flow du/dt = K̄ − K is the gradient flow of the Ricci energy
+//     E(u) = ∫ Σ_i (K_i − K̄_i) du_i,      ∇E = K − K̄,      ∇²E = ∂K/∂u,
+// convex in E (strictly on Σu = 0) and strictly convex in H (the paper's Theorems 5 and 6); not
+// convex in S. Newton's method solves ∂K/∂u · δ = K̄ − K with a sparse Cholesky factorization
+// whose symbolic analysis is done once per solve, and is globalised by a backtracking line search
+// on E (energy differences by Gauss–Legendre quadrature along the step).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ricci/metric.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+// ---------------------------------------------------------------------------------------------
+// Targets.
+
+/// What is prescribed on the boundary.
+enum class BoundaryMode : int {
+  Free = 0,      ///< boundary vertices carry an explicit K̄ like interior ones (per-vertex targets)
+  FixedLengths,  ///< u is held at its starting value on the boundary (Dirichlet); boundary K free
+  Circle,        ///< each loop becomes a circle: K̄ on a loop ∝ the length at each vertex (half the
+                 ///< two incident boundary edges), recomputed as lengths change; loop totals +2π
+                 ///< for the longest loop and −2π for the others unless given
+  Geodesic,      ///< K̄ = 0 on the boundary (hyperbolic background): geodesic boundary loops
+  LoopTotals,    ///< a given total curvature per loop, spread by length as for Circle
+};
+
+std::string_view boundary_mode_name(BoundaryMode m);  ///< "free", "fixed", "circle", "geodesic", "loop-totals"
+
+/// A target curvature. Vertices with fixed_u[v] != 0 keep their u and have no curvature
+/// condition. For boundary modes Circle and LoopTotals the K̄ of boundary vertices is derived
+/// from the current lengths and loop_total at every iteration (its stored value is ignored).
+struct Target {
+  std::vector<double> K;               ///< #V: K̄_i
+  std::vector<std::uint8_t> fixed_u;   ///< #V: 1 where u is held fixed (empty: none)
+  BoundaryMode boundary = BoundaryMode::Free;
+  std::vector<double> loop_total;      ///< #loops: total K̄ per boundary loop (Circle, LoopTotals)
+};
+
+/// Uniformization of a closed surface: K̄ = 0 everywhere. For surfaces with boundary, interior
+/// K̄ = 0 and the boundary as `mode` says (Circle: longest loop +2π, others −2π).
+Target uniform_target(const Topology& topology, BoundaryMode mode = BoundaryMode::Circle);
+
+/// All of 2πχ (minus what the boundary takes) at one vertex, zero elsewhere inside.
+Target single_vertex_target(const Topology& topology, Index vertex, BoundaryMode mode = BoundaryMode::Circle);
+
+/// Geometry chosen by the uniformization theorem for a closed surface: S for χ > 0, E for χ = 0,
+/// H for χ < 0. With boundary: E for genus 0 (circle domain), H for genus ≥ 1 (geodesic boundary).
+Geometry natural_geometry(const Topology& topology);
+/// The natural boundary mode for the geometry: none (closed), Circle in E, Geodesic in H.
+BoundaryMode natural_boundary_mode(const Topology& topology, Geometry geometry);
+
+struct TargetFileResult {
+  Status status = Status::NotRun;  ///< Ok, FileNotFound, FileUnreadable, ParseError, IndexOutOfRange
+  std::string message = "not run";
+  std::int64_t line = -1;
+  Target target;
+};
+/// Reads `vertex_index curvature` lines (0-based vertex, radians; `#` comments, blank lines).
+/// Unlisted interior vertices get 0; unlisted boundary vertices follow `mode`. A vertex listed
+/// twice is a ParseError.
+TargetFileResult read_target_file(const std::string& path, const Topology& topology,
+                                  BoundaryMode mode = BoundaryMode::Free);
+
+/// The effective K̄ for the current edge lengths l (#E): target.K, except that boundary
+/// vertices of Circle / LoopTotals targets get loop_total[loop] · (½ of their two boundary edge
+/// lengths) / (loop length). Writes #V values; allocates nothing.
+void effective_target(const Topology& topology, const Target& target, std::span<const double> l,
+                      std::span<double> K_target);
+
+struct TargetCheck {
+  Status status = Status::NotRun;  ///< Ok or InfeasibleTarget (or InvalidArgument for sizes)
+  std::string message = "not run";
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+};
+/// Checks a target before any iteration: sizes; Gauss–Bonnet (E: Σ K̄ = 2πχ; H: Σ K̄ > 2πχ;
+/// S: Σ K̄ < 2πχ; the message states the expected value and the given sum); cone angles
+/// positive (K̄ < 2π inside, K̄ < π on the boundary); and the admissibility condition of the
+/// paper's Theorem 4 for every single vertex and every single boundary loop.
+TargetCheck check_target(const Topology& topology, const ConformalStructure& structure, const Target& target);
+
+// ---------------------------------------------------------------------------------------------
+// Solvers.
+
+enum class Method : int { Newton = 0, GradientDescent };
+
+struct FlowOptions {
+  Method method = Method::Newton;
+  /// Stop when max_i |K̄_i − K_i| < tolerance (over vertices with a curvature condition).
+  double tolerance = 1e-10;
+  /// Iteration limit: Newton steps, or gradient-descent steps.
+  int max_iterations = 200;
+  /// Gradient descent: u += step · (K̄ − K) (the paper's ε; at most 0.05 there).
+  double gradient_step = 0.05;
+  /// OpenMP threads for the kernels; 0 keeps the current setting.
+  int threads = 0;
+  /// Called after every iteration (for progress output; the library never prints).
+  std::function<void(const struct IterationRecord&)> on_iteration;
+
+  bool is_valid(std::string* why) const;
+};
+
+struct IterationRecord {
+  int iteration = 0;
+  double max_error = 0;   ///< max |K̄ − K| after the step
+  double energy = 0;      ///< E(u) − E(u_start)
+  double step = 0;        ///< accepted step length (Newton: fraction of the Newton step)
+  double seconds = 0;     ///< time since the start of the solve
+};
+
+struct FlowResult {
+  /// Ok (converged), NotConverged, LineSearchFailed, InfeasibleTarget, TriangleInequality,
+  /// NumericalFailure, InvalidArgument. u, l, K are the last iterate in every case but
+  /// InvalidArgument/InfeasibleTarget (then empty).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  std::vector<double> u;         ///< #V
+  std::vector<double> l;         ///< #E
+  std::vector<double> K;         ///< #V
+  std::vector<double> K_target;  ///< #V: the final target (boundary modes derive it from lengths)
+  int iterations = 0;
+  double max_curvature_error = 0;
+  double gauss_bonnet_error = 0;  ///< |Σ K + λ Σ A − 2πχ|
+  double seconds = 0;
+  std::vector<IterationRecord> history;
+  /// Notes on safeguards that acted (spherical damping, fallback to the flow, …).
+  std::vector<std::string> notes;
+
+  /// One line: status, geometry, iterations, error, time.
+  std::string brief_report() const;
+};
+
+/// Solves for u such that K(u) = K̄ from the start u0 (#V).
+FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure, std::span<const double> u0,
+                      const Target& target, const FlowOptions& options = {});
+
+}  // namespace ricci
