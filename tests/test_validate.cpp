@@ -279,3 +279,22 @@ TEST_CASE("validate: diagnose agrees with the topology on valid surfaces") {
     CHECK(d.inconsistent_edges == 0);
   }
 }
+
+TEST_CASE("validate: errors in triangulated polygons name the polygon of the file") {
+  // Quad 1 (vertices 2 3 6 5, 1-based) has three collinear corners: its first fan triangle is degenerate.
+  const std::string obj =
+      "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 3 0 0\n"
+      "f 1 2 5 4\nf 2 3 6 5\n";
+  ReadResult read = read_mesh_from_memory(obj, "quads.obj");
+  REQUIRE(read.status == Status::Ok);
+  CHECK(read.triangle_polygon == std::vector<Index>{0, 0, 1, 1});
+  const LoadResult r = validate_read(std::move(read), "quads.obj");
+  CHECK(r.status == Status::DegenerateFace);
+  CHECK(r.element == Element::Face);
+  CHECK(r.element_index == 1);
+  CHECK(r.message.find("quads.obj") == 0);
+  CHECK(r.message.find("polygon 1") != std::string::npos);
+  CHECK(r.repairs.size() == 1);
+  // Files of triangles only need no map.
+  CHECK(read_mesh_from_memory("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").triangle_polygon.empty());
+}

@@ -232,7 +232,15 @@ bool append_polygon(ReadContext& ctx, std::span<const Index> polygon, std::int64
                              std::to_string(kMaxCorners / 3) + " triangles, the most ricci can index";
     return ctx.fail_at(Status::FileTooLarge, binary, line, what, Element::Face, r.polygons_read);
   }
+  const std::size_t first_triangle = faces.size() / 3;
   append_fan(polygon, faces);
+  if (polygon.size() > 3 && r.polygons_triangulated == 0) {
+    // The first polygon that is not a triangle: every earlier triangle was its own polygon.
+    r.triangle_polygon.resize(first_triangle);
+    for (std::size_t f = 0; f < first_triangle; ++f) r.triangle_polygon[f] = static_cast<Index>(f);
+  }
+  if (polygon.size() > 3 || r.polygons_triangulated > 0)
+    r.triangle_polygon.resize(faces.size() / 3, static_cast<Index>(r.polygons_read));
   ++r.polygons_read;
   if (polygon.size() > 3) ++r.polygons_triangulated;
   return true;

@@ -314,8 +314,12 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
 }
 
 LoadResult load_mesh(const std::string& path, const LoadOptions& options) {
+  return validate_read(read_mesh(path, options.read), path, options.validate);
+}
+
+LoadResult validate_read(ReadResult read, const std::string& name, const ValidateOptions& options) {
   LoadResult r;
-  r.read = read_mesh(path, options.read);
+  r.read = std::move(read);
   if (r.read.status != Status::Ok) {
     r.status = r.read.status;
     r.message = r.read.message;
@@ -327,11 +331,19 @@ LoadResult load_mesh(const std::string& path, const LoadOptions& options) {
   if (r.read.polygons_triangulated > 0)
     r.repairs.push_back({RepairKind::PolygonsTriangulated, r.read.polygons_triangulated,
                          "fan-triangulated " + str(r.read.polygons_triangulated) + " polygons with more than 3 sides"});
-  r.validated = validate_mesh(r.read.mesh, options.validate);
+  r.validated = validate_mesh(r.read.mesh, options);
   r.status = r.validated.status;
-  r.message = r.validated.status == Status::Ok ? "ok" : path + ": " + r.validated.message;
+  r.message = r.validated.status == Status::Ok ? "ok" : name + ": " + r.validated.message;
   r.element = r.validated.element;
   r.element_index = r.validated.element_index;
+  const auto& polygon_of = r.read.triangle_polygon;
+  if (r.element == Element::Face && r.element_index >= 0 &&
+      r.element_index < static_cast<std::int64_t>(polygon_of.size())) {
+    // Faces of a triangulated file are triangles; name the polygon the user can find in the file.
+    r.message += " (triangle " + str(r.element_index) + " is part of polygon " + str(polygon_of[r.element_index]) +
+                 " of the file)";
+    r.element_index = polygon_of[r.element_index];
+  }
   r.repairs.insert(r.repairs.end(), r.validated.repairs.begin(), r.validated.repairs.end());
   return r;
 }

@@ -68,6 +68,9 @@ struct ReadResult {
   std::int64_t polygons_triangulated = 0;
   /// Number of input polygons read (before triangulation).
   std::int64_t polygons_read = 0;
+  /// #F when any polygon was triangulated: triangle → index of its polygon in the file (0-based,
+  /// file order). Empty when every polygon was a triangle (triangle f is polygon f).
+  std::vector<Index> triangle_polygon;
   /// Format that was actually read.
   FileFormat format = FileFormat::Auto;
 };

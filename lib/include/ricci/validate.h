@@ -138,7 +138,12 @@ struct LoadResult {
   std::vector<Repair> repairs;
 };
 
-/// read_mesh() + validate_mesh(). The raw soup stays in `read.mesh` so callers can diagnose() it.
+/// read_mesh() + validate_read(). The raw soup stays in `read.mesh` so callers can diagnose() it.
 LoadResult load_mesh(const std::string& path, const LoadOptions& options = {});
+
+/// validate_mesh() on what a reader returned: messages start with `name`, repairs include the
+/// reader's polygon triangulation, and a face named by an error is mapped to the polygon of the
+/// file it came from. (Returns the reader's error unchanged when reading failed.)
+LoadResult validate_read(ReadResult read, const std::string& name, const ValidateOptions& options = {});
 
 }  // namespace ricci
