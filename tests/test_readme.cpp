@@ -1,0 +1,45 @@
+// README.md promises: its library example is this repository's tests/readme_example.cpp, it
+// builds and runs; its two commands are the ones the scripts and CI run.
+#include <doctest/doctest.h>
+
+#include "support.h"
+
+namespace {
+
+std::string readme() { return ricci_test::read_bytes(ricci_test::fs::path(RICCI_SOURCE_DIR) / "README.md"); }
+
+std::string trim_comment_header(const std::string& source) {
+  // The file starts with one comment line that the README leaves out.
+  return source.substr(source.find('\n') + 1);
+}
+
+}  // namespace
+
+TEST_CASE("readme: the library example is the compiled tests/readme_example.cpp") {
+  const std::string text = readme();
+  const std::string code =
+      trim_comment_header(ricci_test::read_bytes(ricci_test::fs::path(RICCI_SOURCE_DIR) / "tests/readme_example.cpp"));
+  REQUIRE(!code.empty());
+  CHECK(text.find("```cpp\n" + code + "```") != std::string::npos);
+}
+
+TEST_CASE("readme: the library example runs and prints the topology") {
+  const auto r = ricci_test::run_program(RICCI_README_EXAMPLE_PATH, {(ricci_test::fixtures_dir() / "torus.obj").string()});
+  CHECK(r.exit_code == 0);
+  CHECK(r.out.find("chi=0 b=0 genus=1") != std::string::npos);
+  const auto bad = ricci_test::run_program(RICCI_README_EXAMPLE_PATH, {"/nonexistent/mesh.obj"});
+  CHECK(bad.exit_code == 1);
+  CHECK(bad.err.find("/nonexistent/mesh.obj") != std::string::npos);
+}
+
+TEST_CASE("readme: it opens with the two commands, and CI runs the second") {
+  const std::string text = readme();
+  const auto demo = text.find("bash tools/demo.sh");
+  const auto check = text.find("bash tools/check.sh");
+  REQUIRE(demo != std::string::npos);
+  REQUIRE(check != std::string::npos);
+  CHECK(demo < text.find("\n## ", text.find("\n## ") + 1));  // both in the first section
+  CHECK(check < text.find("\n## ", text.find("\n## ") + 1));
+  const std::string ci = ricci_test::read_bytes(ricci_test::fs::path(RICCI_SOURCE_DIR) / ".ci/run");
+  CHECK(ci.find("bash tools/check.sh") != std::string::npos);
+}
