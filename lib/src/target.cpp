@@ -1,1 +1,593 @@
-// placeholder: being written
+// Target curvatures: uniformization targets, per-vertex targets from a file, the boundary modes,
+// the effective target for the current lengths, and the feasibility checks run before a flow.
+//
+// Notation. K̄ the target curvature (target.K), χ = V − E + F, b the number of boundary loops,
+// Φ(e) = acos η_e the intersection angle of a circle packing.
+//
+// Outer loop of a Circle target. uniform_target(), single_vertex_target() and
+// read_target_file() decide it from the topology alone, once: the loop with the most vertices
+// (ties: the smallest loop index, i.e. the loop with the smallest boundary corner) gets +2π, all
+// others −2π. The choice is stored in Target::loop_total, and effective_target() only reads
+// loop_total, so it cannot change from one iteration to the next. (Any loop of a genus-0
+// surface may be the outer circle of a circle domain — Koebe — so the choice only fixes which
+// loop encloses the others in the plane; callers who prefer the longest loop by 3D length
+// overwrite loop_total.)
+//
+// Admissibility (the paper's Theorem 4, Thurston; Chow & Luo 2003). For a weighted closed
+// triangulated surface with Φ : E → [0, π/2] and a nonempty vertex set I,
+//
+//     Σ_{i∈I} K̄_i  >  −Σ_{(e,v)∈Lk(I)} (π − Φ(e)) + 2π χ(F_I),                          (T4)
+//
+// where F_I is the subcomplex spanned by I (the vertices of I, the edges and faces with all
+// vertices in I) and Lk(I) the pairs (e, v) of a face whose vertex v is in I and whose opposite
+// edge e has no vertex in I. In E the curvatures realised by circle packings are exactly those
+// with Σ K̄ = 2πχ satisfying (T4) for every proper subset I; in H exactly those satisfying (T4)
+// for every nonempty I (I = V gives Σ K̄ > 2πχ).
+//
+// Surfaces with boundary (K = π − Σθ there) are handled by doubling along the boundary: a
+// boundary vertex of the double has curvature 2K̄, a symmetric set I ∪ I' spans a complex with
+// χ = 2χ(F_I) − χ(F_I ∩ ∂M), and its link is two copies of Lk(I). Halving (T4) for the double:
+//
+//     Σ_{i∈I} K̄_i  >  −Σ_{Lk(I)} (π − Φ(e)) + 2π χ(F_I) − π χ(F_I ∩ ∂M),                 (T4b)
+//
+// F_I ∩ ∂M being the boundary vertices of I and the boundary edges joining two of them. (T4b)
+// is also the sum of elementary angle bounds, which is why it remains a valid *necessary*
+// condition whatever the other vertices do (held u, derived boundary curvatures): per face, the
+// angle at a vertex of I is < π − Φ(opposite edge) when that edge avoids I (the limit as the
+// vertex's radius → 0, approached monotonically), and the angles at two or three vertices of I
+// in one face sum to < π (E: ≤ π − the third angle; H: the angle sum is below π). Writing
+// n_int, n_∂ for the interior and boundary vertices of I and F₂ for the faces with at least two
+// vertices in I, (T4b) reads
+//
+//     Σ_{i∈I} K̄_i  >  2π n_int + π n_∂ − π F₂ − Σ_{faces with one vertex v in I} (π − Φ(e_v)),
+//
+// and for the two families checked here:
+//   single vertex v:  K̄_v > 2π − Σ_{corners c at v} (π − Φ(e_c))    (interior)
+//                     K̄_v >  π − Σ_{corners c at v} (π − Φ(e_c))    (boundary)
+//                     i.e. the cone angle 2π − K̄ (π − K̄) is below Σ (π − Φ) over the edges
+//                     opposite v;
+//   boundary loop L:  Σ_{i∈L} K̄_i > π n_L − π F₂(L) − Σ_{faces with one vertex in L} (π − Φ(e)),
+//                     where Σ K̄ is the loop total for Circle / LoopTotals targets.
+// They are applied to circle packing in E and H with every η used in [0, 1] (a loop or vertex
+// whose link has an η outside [0, 1] is skipped) and to proper subsets only. In S (triangles
+// have angle sums above π) and for inversive distance and Yamabe (no such bound on single
+// angles) only the Gauss–Bonnet sign and the positivity of cone angles are checked.
+//
+// Gauss–Bonnet, Σ K̄ + λ·area = 2πχ with area > 0, with the tolerance τ = 1e-9·(1 + |2πχ|):
+// E: |Σ K̄ − 2πχ| ≤ τ; H: Σ K̄ − 2πχ > τ; S: 2πχ − Σ K̄ > τ (an area lost in rounding is no area).
+// Cone angles: K̄ < 2π inside, K̄ < π on the boundary, and a loop total below π·(its vertex
+// count) (all geometries). Checks never reject a target that some metric realises.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <new>
+#include <numbers>
+#include <string>
+#include <system_error>
+
+#include "io_internal.h"
+#include "ricci/flow.h"
+
+namespace ricci {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2 * std::numbers::pi;
+
+using io_detail::is_finite_bits;
+
+/// A real number for messages: up to 12 significant digits.
+std::string fmt(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.12g", x);
+  return buf;
+}
+
+bool uses_loop_totals(BoundaryMode m) {
+  return m == BoundaryMode::Circle || m == BoundaryMode::LoopTotals;
+}
+
+Index loop_size(const Topology& t, Index loop) {
+  return t.boundary_offsets[loop + 1] - t.boundary_offsets[loop];
+}
+
+/// The Circle loop totals: +2π for the loop with the most vertices (ties: the smallest loop
+/// index), −2π for every other loop.
+std::vector<double> circle_loop_totals(const Topology& t) {
+  const Index loops = t.num_boundary_loops();
+  std::vector<double> totals(static_cast<std::size_t>(loops), -kTwoPi);
+  Index outer = 0;
+  for (Index i = 1; i < loops; ++i)
+    if (loop_size(t, i) > loop_size(t, outer)) outer = i;
+  if (loops > 0) totals[outer] = kTwoPi;
+  return totals;
+}
+
+/// The part of a target every constructor shares: K̄ = 0, the boundary as `mode` says. Circle
+/// and LoopTotals targets get the Circle loop totals, and their boundary vertices store the
+/// equal share total/n of their loop (what effective_target() gives for equal lengths), so that
+/// Σ target.K matches the Gauss–Bonnet sum; effective_target() replaces these values.
+Target base_target(const Topology& t, BoundaryMode mode) {
+  Target target;
+  target.boundary = mode;
+  target.K.assign(static_cast<std::size_t>(t.num_vertices), 0.0);
+  if (mode == BoundaryMode::FixedLengths) {
+    target.fixed_u.assign(static_cast<std::size_t>(t.num_vertices), 0);
+    for (const Index v : t.boundary_vertices) target.fixed_u[v] = 1;
+  }
+  if (uses_loop_totals(mode)) {
+    target.loop_total = circle_loop_totals(t);
+    for (Index i = 0; i < t.num_boundary_loops(); ++i) {
+      const double share = target.loop_total[i] / loop_size(t, i);
+      for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j)
+        target.K[t.boundary_vertices[j]] = share;
+    }
+  }
+  return target;
+}
+
+double two_pi_chi(const Topology& t) {
+  return kTwoPi * static_cast<double>(t.euler_characteristic());
+}
+
+}  // namespace
+
+std::string_view boundary_mode_name(BoundaryMode m) {
+  switch (m) {
+    case BoundaryMode::Free:
+      return "free";
+    case BoundaryMode::FixedLengths:
+      return "fixed";
+    case BoundaryMode::Circle:
+      return "circle";
+    case BoundaryMode::Geodesic:
+      return "geodesic";
+    case BoundaryMode::LoopTotals:
+      return "loop-totals";
+  }
+  return "unknown";
+}
+
+// Free on a surface with boundary: the boundary vertices share 2πχ equally (interior K̄ = 0), so
+// that the euclidean Gauss–Bonnet condition holds. Geodesic: K̄ = 0 everywhere. FixedLengths:
+// K̄ = 0 inside, boundary u held. Circle and LoopTotals: the Circle loop totals (see the top).
+Target uniform_target(const Topology& t, BoundaryMode mode) {
+  Target target = base_target(t, mode);
+  if (mode == BoundaryMode::Free && !t.boundary_vertices.empty()) {
+    const double share = two_pi_chi(t) / static_cast<double>(t.boundary_vertices.size());
+    for (const Index v : t.boundary_vertices) target.K[v] = share;
+  }
+  return target;
+}
+
+// The vertex gets 2πχ minus the loop totals (Circle, LoopTotals) and every other vertex with a
+// condition gets 0 (Free and Geodesic boundaries take nothing; a FixedLengths boundary has no
+// condition, and a chosen boundary vertex is released from it). A boundary vertex of a Circle or
+// LoopTotals target is governed by its loop, so choose an interior vertex there. An out-of-range
+// vertex gives an empty K (check_target() then reports InvalidArgument).
+Target single_vertex_target(const Topology& t, Index vertex, BoundaryMode mode) {
+  Target target = base_target(t, mode);
+  if (vertex < 0 || vertex >= t.num_vertices) {
+    target.K.clear();
+    return target;
+  }
+  double boundary_takes = 0;
+  for (const double total : target.loop_total) boundary_takes += total;
+  target.K[vertex] = two_pi_chi(t) - boundary_takes;
+  if (mode == BoundaryMode::FixedLengths) target.fixed_u[vertex] = 0;
+  return target;
+}
+
+Geometry natural_geometry(const Topology& t) {
+  if (t.is_closed()) {
+    const std::int64_t chi = t.euler_characteristic();
+    return chi > 0 ? Geometry::Spherical : (chi == 0 ? Geometry::Euclidean : Geometry::Hyperbolic);
+  }
+  return t.genus() == 0 ? Geometry::Euclidean : Geometry::Hyperbolic;
+}
+
+// S with boundary is not chosen by natural_geometry(); Geodesic is returned for it (feasible for
+// a disk: a domain bounded by a great circle has Σ K̄ = 0 < 2π).
+BoundaryMode natural_boundary_mode(const Topology& t, Geometry geometry) {
+  if (t.is_closed()) return BoundaryMode::Free;
+  return geometry == Geometry::Euclidean ? BoundaryMode::Circle : BoundaryMode::Geodesic;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Target files.
+
+namespace {
+
+bool fail_file(TargetFileResult& r, const std::string& path, Status status, const std::string& what) {
+  r.status = status;
+  r.message = path + ": " + what;
+  r.line = -1;
+  return false;
+}
+
+bool fail_line(TargetFileResult& r, const std::string& path, Status status, std::int64_t line,
+               const std::string& what) {
+  r.status = status;
+  r.message = path + ": line " + std::to_string(line) + ": " + what;
+  r.line = line;
+  return false;
+}
+
+/// Reads a whole regular file into `data`; records FileNotFound / FileUnreadable otherwise.
+bool load_text(const std::string& path, std::string& data, TargetFileResult& r) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) {
+    if (!ec || ec == std::errc::no_such_file_or_directory || ec == std::errc::not_a_directory)
+      return fail_file(r, path, Status::FileNotFound, "the target file does not exist");
+    return fail_file(r, path, Status::FileUnreadable, "the target file cannot be read: " + ec.message());
+  }
+  if (fs::is_directory(st))
+    return fail_file(r, path, Status::FileUnreadable, "the path is a directory, not a target file");
+  if (!fs::is_regular_file(st))
+    return fail_file(r, path, Status::FileUnreadable, "the path is not a regular file (a pipe or a device)");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail_file(r, path, Status::FileUnreadable, "the target file cannot be opened");
+  data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  if (in.bad()) return fail_file(r, path, Status::FileUnreadable, "the target file cannot be read");
+  return true;
+}
+
+/// A token that looks like an integer (optional sign, digits only), possibly beyond int64.
+bool is_integer_like(std::string_view token) {
+  if (!token.empty() && (token[0] == '+' || token[0] == '-')) token.remove_prefix(1);
+  return !token.empty() &&
+         std::all_of(token.begin(), token.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+bool parse_target_text(std::string_view data, const std::string& path, const Topology& t, BoundaryMode mode,
+                       TargetFileResult& r) {
+  Target target = base_target(t, mode);
+  const Index nv = t.num_vertices;
+  std::vector<std::int64_t> listed_on(static_cast<std::size_t>(nv), -1);
+  io_detail::TextCursor cursor(data, 1, /*comments=*/true, /*continuations=*/false);
+  cursor.skip_byte_order_mark();
+  std::int64_t listed = 0;
+  for (;;) {
+    const std::string_view index_token = cursor.token();
+    if (index_token.empty()) break;
+    const std::int64_t line = cursor.line();
+    const std::string_view value_token = cursor.token_on_line();
+    if (value_token.empty())
+      return fail_line(r, path, Status::ParseError, line,
+                       "expected `vertex_index curvature`, found only " + io_detail::quote(index_token));
+    if (const std::string_view extra = cursor.token_on_line(); !extra.empty())
+      return fail_line(r, path, Status::ParseError, line,
+                       "expected `vertex_index curvature`, found a third value " + io_detail::quote(extra));
+
+    std::int64_t index = 0;
+    if (!io_detail::parse_integer(index_token, index)) {
+      if (is_integer_like(index_token))
+        return fail_line(r, path, Status::IndexOutOfRange, line,
+                         "vertex index " + io_detail::quote(index_token) + " is out of range: the mesh has " +
+                             std::to_string(nv) + " vertices");
+      return fail_line(r, path, Status::ParseError, line,
+                       "the vertex index " + io_detail::quote(index_token) + " is not an integer");
+    }
+    if (index < 0 || index >= nv)
+      return fail_line(r, path, Status::IndexOutOfRange, line,
+                       "vertex index " + std::to_string(index) + " is out of range: the mesh has " +
+                           std::to_string(nv) + " vertices (valid indices 0 to " + std::to_string(nv - 1) +
+                           ")");
+    double value = 0;
+    switch (io_detail::parse_real(value_token, value)) {
+      case io_detail::NumberParse::Ok:
+        break;
+      case io_detail::NumberParse::Malformed:
+        return fail_line(r, path, Status::ParseError, line,
+                         "the curvature " + io_detail::quote(value_token) + " of vertex " +
+                             std::to_string(index) + " is not a number");
+      case io_detail::NumberParse::NonFinite:
+        return fail_line(r, path, Status::ParseError, line,
+                         "the curvature " + io_detail::quote(value_token) + " of vertex " +
+                             std::to_string(index) + " is not a finite number");
+    }
+    const Index v = static_cast<Index>(index);
+    if (listed_on[v] >= 0)
+      return fail_line(r, path, Status::ParseError, line,
+                       "vertex " + std::to_string(v) + " is listed twice, on line " +
+                           std::to_string(listed_on[v]) + " and on line " + std::to_string(line));
+    if (uses_loop_totals(mode) && t.is_boundary_vertex(v))
+      return fail_line(r, path, Status::ParseError, line,
+                       "vertex " + std::to_string(v) + " lies on the boundary, whose curvature the " +
+                           std::string(boundary_mode_name(mode)) +
+                           " boundary mode derives from the loop totals; list interior vertices only or use "
+                           "the free boundary mode");
+    listed_on[v] = line;
+    ++listed;
+    target.K[v] = value;
+    // A listed boundary vertex of a FixedLengths target carries its curvature instead of a held u.
+    if (mode == BoundaryMode::FixedLengths) target.fixed_u[v] = 0;
+  }
+  r.status = Status::Ok;
+  r.message = path + ": read " + std::to_string(listed) + " target curvature" + (listed == 1 ? "" : "s") +
+              " (" + std::to_string(nv - listed) + " of " + std::to_string(nv) +
+              " vertices unlisted; boundary mode " + std::string(boundary_mode_name(mode)) + ")";
+  r.line = -1;
+  r.target = std::move(target);
+  return true;
+}
+
+}  // namespace
+
+TargetFileResult read_target_file(const std::string& path, const Topology& t, BoundaryMode mode) {
+  TargetFileResult r;
+  try {
+    std::string data;
+    if (!load_text(path, data, r)) return r;
+    parse_target_text(data, path, t, mode, r);
+  } catch (const std::bad_alloc&) {
+    fail_file(r, path, Status::FileUnreadable, "not enough memory to read the target file");
+  } catch (const std::length_error&) {
+    fail_file(r, path, Status::FileUnreadable, "the target file is too large to hold in memory");
+  }
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The effective target.
+
+// Loops are visited in index order and each loop's length is summed in loop order, so the result
+// is deterministic. With inconsistent sizes (which check_target() reports) it writes what it can
+// and never reads or writes out of range: K̄ is copied for min(#V, |target.K|, |K_target|)
+// vertices, and the loops are spread only when loop_total has one entry per loop and l has #E
+// entries. A loop whose length is not a positive finite number gets equal shares.
+void effective_target(const Topology& t, const Target& target, std::span<const double> l,
+                      std::span<double> K_target) {
+  const std::size_t n =
+      std::min({static_cast<std::size_t>(t.num_vertices), target.K.size(), K_target.size()});
+  std::copy_n(target.K.begin(), n, K_target.begin());
+  if (!uses_loop_totals(target.boundary)) return;
+  const Index loops = t.num_boundary_loops();
+  if (target.loop_total.size() != static_cast<std::size_t>(loops)) return;
+  if (l.size() < static_cast<std::size_t>(t.num_edges) ||
+      K_target.size() < static_cast<std::size_t>(t.num_vertices))
+    return;
+  for (Index i = 0; i < loops; ++i) {
+    const Index begin = t.boundary_offsets[i], end = t.boundary_offsets[i + 1];
+    if (end <= begin) continue;
+    const double total = target.loop_total[i];
+    // Edge j of the loop runs from boundary_vertices[j] to the next vertex of the loop.
+    double length = 0;
+    for (Index j = begin; j < end; ++j) length += l[t.corner_edge[t.boundary_corners[j]]];
+    if (!(is_finite_bits(length) && length > 0)) {
+      const double share = total / (end - begin);
+      for (Index j = begin; j < end; ++j) K_target[t.boundary_vertices[j]] = share;
+      continue;
+    }
+    double before = l[t.corner_edge[t.boundary_corners[end - 1]]];  // the edge arriving at `begin`
+    for (Index j = begin; j < end; ++j) {
+      const double after = l[t.corner_edge[t.boundary_corners[j]]];
+      K_target[t.boundary_vertices[j]] = total * (0.5 * (before + after) / length);
+      before = after;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Checks.
+
+namespace {
+
+TargetCheck make_check(Status status, std::string message, Element element = Element::None,
+                       std::int64_t index = -1) {
+  TargetCheck c;
+  c.status = status;
+  c.message = std::move(message);
+  c.element = element;
+  c.element_index = index;
+  return c;
+}
+
+/// π − Φ(e) for a circle-packing weight η_e = cos Φ(e) in [0, 1]; −1 when η_e is outside
+/// [0, 1] or not finite (no bound is known then).
+double link_term(double eta) {
+  if (!is_finite_bits(eta) || eta < 0 || eta > 1) return -1;
+  return kPi - std::acos(eta);
+}
+
+}  // namespace
+
+TargetCheck check_target(const Topology& t, const ConformalStructure& structure, const Target& target) {
+  const Index nv = t.num_vertices, loops = t.num_boundary_loops();
+  const auto nv_size = static_cast<std::size_t>(nv);
+
+  // --- Sizes and values.
+  if (target.K.size() != nv_size)
+    return make_check(Status::InvalidArgument, "the target has " + std::to_string(target.K.size()) +
+                                                   " curvatures, but the mesh has " + std::to_string(nv) +
+                                                   " vertices");
+  if (!target.fixed_u.empty() && target.fixed_u.size() != nv_size)
+    return make_check(Status::InvalidArgument, "the target has " + std::to_string(target.fixed_u.size()) +
+                                                   " fixed_u flags, but the mesh has " + std::to_string(nv) +
+                                                   " vertices (give one per vertex, or none)");
+  const bool with_totals = uses_loop_totals(target.boundary);
+  if (with_totals && target.loop_total.size() != static_cast<std::size_t>(loops))
+    return make_check(Status::InvalidArgument, "the " + std::string(boundary_mode_name(target.boundary)) +
+                                                   " boundary mode needs one loop "
+                                                   "total per boundary loop: the target has " +
+                                                   std::to_string(target.loop_total.size()) +
+                                                   ", the mesh has " + std::to_string(loops) + " loops");
+  if (structure.eta.size() != static_cast<std::size_t>(t.num_edges))
+    return make_check(Status::InvalidArgument,
+                      "the conformal structure has " + std::to_string(structure.eta.size()) +
+                          " edge weights, but the mesh has " + std::to_string(t.num_edges) + " edges");
+
+  auto is_fixed = [&](Index v) { return !target.fixed_u.empty() && target.fixed_u[v] != 0; };
+  // A vertex whose K̄ is a condition read from target.K (not held, not derived from a loop total).
+  auto explicit_condition = [&](Index v) {
+    return !is_fixed(v) && !(with_totals && t.is_boundary_vertex(v));
+  };
+  bool any_fixed = false;
+  for (Index v = 0; v < nv; ++v) {
+    any_fixed = any_fixed || is_fixed(v);
+    if (explicit_condition(v) && !is_finite_bits(target.K[v]))
+      return make_check(Status::InvalidArgument,
+                        "the target curvature of vertex " + std::to_string(v) + " is not a finite number",
+                        Element::Vertex, v);
+  }
+  if (with_totals)
+    for (Index i = 0; i < loops; ++i)
+      if (!is_finite_bits(target.loop_total[i]))
+        return make_check(Status::InvalidArgument, "the total curvature of boundary loop " +
+                                                       std::to_string(i) + " is not a finite number");
+
+  // --- Gauss–Bonnet: Σ K̄ + λ·area = 2πχ with area > 0. Loops with a total count by it. When
+  // some vertex holds its u (fixed_u), its curvature is whatever the metric gives, so the sum is
+  // not constrained and this check is skipped.
+  const Geometry g = structure.geometry;
+  if (!any_fixed) {
+    double sum = 0;
+    for (Index v = 0; v < nv; ++v)
+      if (explicit_condition(v)) sum += target.K[v];
+    if (with_totals)
+      for (const double total : target.loop_total) sum += total;
+    const double expected = two_pi_chi(t);
+    const double tolerance = 1e-9 * (1 + std::abs(expected));
+    const std::string given = "the target curvatures sum to " + fmt(sum) +
+                              (with_totals ? " (boundary loops counted by their totals)" : "");
+    const std::string chi =
+        "2πχ = " + fmt(expected) + " (χ = " + std::to_string(t.euler_characteristic()) + ")";
+    if (g == Geometry::Euclidean && !(std::abs(sum - expected) <= tolerance))
+      return make_check(Status::InfeasibleTarget,
+                        "Gauss–Bonnet: in euclidean background the target curvatures must sum to " + chi +
+                            ", but " + given + " (difference " + fmt(sum - expected) + ")");
+    if (g == Geometry::Hyperbolic && !(sum - expected > tolerance))
+      return make_check(
+          Status::InfeasibleTarget,
+          "Gauss–Bonnet: in hyperbolic background the target curvatures must sum to more than " + chi +
+              " (the hyperbolic area is their sum minus 2πχ), but " + given);
+    if (g == Geometry::Spherical && !(expected - sum > tolerance))
+      return make_check(Status::InfeasibleTarget,
+                        "Gauss–Bonnet: in spherical background the target curvatures must sum to less than " +
+                            chi + " (the spherical area is 2πχ minus their sum), but " + given);
+  }
+
+  // --- Positive cone angles: 2π − K̄ > 0 inside, π − K̄ > 0 on the boundary (every geometry).
+  // Vertices used by no face have no angles and are skipped.
+  for (Index v = 0; v < nv; ++v) {
+    if (!explicit_condition(v) || t.valence(v) == 0) continue;
+    const bool boundary = t.is_boundary_vertex(v);
+    const double limit = boundary ? kPi : kTwoPi;
+    if (!(target.K[v] < limit))
+      return make_check(Status::InfeasibleTarget,
+                        "the target curvature " + fmt(target.K[v]) + " of " +
+                            (boundary ? "boundary " : "interior ") + "vertex " + std::to_string(v) +
+                            " leaves no positive cone angle: it must be below " + (boundary ? "π" : "2π") +
+                            " = " + fmt(limit),
+                        Element::Vertex, v);
+  }
+  // A loop with a total: the angles at its n vertices are positive, so its total is below nπ.
+  if (with_totals)
+    for (Index i = 0; i < loops; ++i)
+      if (!(target.loop_total[i] < kPi * loop_size(t, i)))
+        return make_check(Status::InfeasibleTarget,
+                          "the total curvature " + fmt(target.loop_total[i]) + " of boundary loop " +
+                              std::to_string(i) + " leaves no positive angles: with " +
+                              std::to_string(loop_size(t, i)) + " vertices it must be below " +
+                              fmt(kPi * loop_size(t, i)));
+
+  // --- Theorem 4 (see the top of this file): circle packing in E and H only.
+  if (structure.scheme != Scheme::CirclePacking || g == Geometry::Spherical) {
+    return make_check(Status::Ok, "the target passes the Gauss–Bonnet and cone-angle checks (" +
+                                      std::string(scheme_name(structure.scheme)) + ", " +
+                                      std::string(geometry_name(g)) + ": no admissibility bound applies)");
+  }
+  const std::string where = "Theorem 4 (circle packing, " + std::string(geometry_name(g)) + ")";
+  if (nv >= 2) {
+    for (Index v = 0; v < nv; ++v) {
+      if (!explicit_condition(v) || t.valence(v) == 0) continue;
+      double link = 0;
+      bool known = true;
+      for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+        const double term = link_term(structure.eta[t.corner_edge[t.vertex_corners[k]]]);
+        known = known && term >= 0;
+        link += term;
+      }
+      if (!known) continue;
+      const bool boundary = t.is_boundary_vertex(v);
+      const double full = boundary ? kPi : kTwoPi;
+      const double bound = full - link;
+      if (!(target.K[v] > bound))
+        return make_check(Status::InfeasibleTarget,
+                          where + ": the target curvature " + fmt(target.K[v]) + " of " +
+                              (boundary ? "boundary " : "interior ") + "vertex " + std::to_string(v) +
+                              " is not admissible: it must exceed " + (boundary ? "π" : "2π") +
+                              " − Σ(π − Φ) over its " + std::to_string(t.valence(v)) +
+                              " opposite edges = " + fmt(bound) + " (the cone angle " +
+                              fmt(full - target.K[v]) + " must be below Σ(π − Φ) = " + fmt(link) + ")",
+                          Element::Vertex, v);
+    }
+  }
+
+  // Boundary loops: I = the vertices of one loop, all with a curvature condition, I ≠ V.
+  if (loops > 0) {
+    std::vector<Index> loop_of(nv_size, kInvalid);
+    for (Index i = 0; i < loops; ++i)
+      for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j)
+        loop_of[t.boundary_vertices[j]] = i;
+    std::vector<double> link(static_cast<std::size_t>(loops), 0.0);
+    std::vector<Index> faces_with_two(static_cast<std::size_t>(loops), 0);
+    std::vector<std::uint8_t> known(static_cast<std::size_t>(loops), 1);
+    for (Index f = 0; f < t.num_faces; ++f) {
+      for (Index k = 0; k < 3; ++k) {
+        const Index loop = loop_of[t.corner_vertex[3 * f + k]];
+        if (loop == kInvalid) continue;
+        // Count each (face, loop) once: at the first corner of the face on that loop.
+        bool first = true;
+        for (Index m = 0; m < k; ++m) first = first && loop_of[t.corner_vertex[3 * f + m]] != loop;
+        if (!first) continue;
+        Index on_loop = 0;
+        for (Index m = 0; m < 3; ++m) on_loop += loop_of[t.corner_vertex[3 * f + m]] == loop ? 1 : 0;
+        if (on_loop >= 2) {
+          ++faces_with_two[loop];
+        } else {
+          const double term = link_term(structure.eta[t.corner_edge[3 * f + k]]);
+          if (term < 0)
+            known[loop] = 0;
+          else
+            link[loop] += term;
+        }
+      }
+    }
+    for (Index i = 0; i < loops; ++i) {
+      const Index n = loop_size(t, i);
+      if (n >= nv || !known[i]) continue;
+      double sum = 0;
+      bool all_conditions = true;
+      if (with_totals) {
+        sum = target.loop_total[i];
+      } else {
+        for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1] && all_conditions; ++j) {
+          const Index v = t.boundary_vertices[j];
+          all_conditions = !is_fixed(v);
+          if (all_conditions) sum += target.K[v];
+        }
+      }
+      if (!all_conditions) continue;
+      const double bound = kPi * n - kPi * faces_with_two[i] - link[i];
+      if (!(sum > bound))
+        return make_check(
+            Status::InfeasibleTarget,
+            where + ": the total target curvature " + fmt(sum) + " of boundary loop " + std::to_string(i) +
+                " (" + std::to_string(n) + " vertices, first " +
+                std::to_string(t.boundary_vertices[t.boundary_offsets[i]]) +
+                ") is not admissible: it must exceed −Σ_Lk(π − Φ) + 2πχ(F_I) − πχ(F_I ∩ ∂) = " + fmt(bound) +
+                " (Σ_Lk(π − Φ) = " + fmt(link[i]) + " over the faces touching the loop at one vertex)");
+    }
+  }
+
+  return make_check(Status::Ok, "the target passes the Gauss–Bonnet, cone-angle and " + where + " checks");
+}
+
+}  // namespace ricci
