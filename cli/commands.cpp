@@ -48,19 +48,37 @@ int exit_code(Status status) {
     case Status::WriteFailed:
     case Status::OutputIsInput:
       return kExitOutputFailure;
-    case Status::NotRun:       // a library driver returned without running
-    case Status::OutOfMemory:  // an allocation failed
-      break;
-    // Metric and flow outcomes: no subcommand runs a flow yet, so none of these can reach here.
-    // A flow subcommand must give them their own exit code(s) and document it in commands.h.
     case Status::TriangleInequality:
-    case Status::InfeasibleTarget:
     case Status::NotConverged:
     case Status::LineSearchFailed:
     case Status::NumericalFailure:
+      return kExitFlowFailed;
+    case Status::InfeasibleTarget:
+      return kExitInfeasibleTarget;
+    case Status::NotRun:       // a library driver returned without running
+    case Status::OutOfMemory:  // an allocation failed
       break;
   }
   return kExitInternal;
+}
+
+// ---- messages -------------------------------------------------------------------------------
+
+void print_note(bool quiet, const std::string& message) {
+  if (!quiet) std::cerr << "ricci: " << message << '\n';
+}
+
+void print_error(const std::string& message) {
+  std::cerr << "ricci: error: " << message << '\n';
+}
+
+int finish_stdout(int code) {
+  std::cout.flush();
+  if (!std::cout) {
+    print_error("could not write to standard output");
+    return kExitOutputFailure;
+  }
+  return code;
 }
 
 namespace {
@@ -78,27 +96,10 @@ constexpr const char* kExitCodeFooter =
     "  4  malformed file content (parse error, index out of range, non-finite coordinate)\n"
     "  5  invalid mesh (no faces, degenerate or duplicate face, non-manifold edge or vertex,\n"
     "     inconsistent orientation, non-orientable, several components)\n"
-    "  6  output failure (write failed, output is the input)";
-
-// ---- messages -------------------------------------------------------------------------------
-
-void print_note(bool quiet, const std::string& message) {
-  if (!quiet) std::cerr << "ricci: " << message << '\n';
-}
-
-void print_error(const std::string& message) {
-  std::cerr << "ricci: error: " << message << '\n';
-}
-
-/// Flushes stdout; a report that could not be written is an output failure.
-int finish_stdout(int code) {
-  std::cout.flush();
-  if (!std::cout) {
-    print_error("could not write to standard output");
-    return kExitOutputFailure;
-  }
-  return code;
-}
+    "  6  output failure (write failed, output is the input)\n"
+    "  7  the flow failed (not converged, line search failed, numerical failure, triangle\n"
+    "     inequality violated)\n"
+    "  8  infeasible target curvature (Gauss-Bonnet or admissibility violated)";
 
 // ---- small formatting helpers ---------------------------------------------------------------
 
@@ -501,8 +502,10 @@ int run(int argc, const char* const* argv) {
 
   InfoOptions info;
   ConvertOptions convert;
+  FlowCommandOptions flow;
   CLI::App* info_cmd = add_info_command(app, info);
   CLI::App* convert_cmd = add_convert_command(app, convert);
+  CLI::App* flow_cmd = add_flow_command(app, flow);
 
   try {
     app.parse(argc, argv);
@@ -517,6 +520,7 @@ int run(int argc, const char* const* argv) {
 
   if (info_cmd->parsed()) return run_info(info);
   if (convert_cmd->parsed()) return run_convert(convert);
+  if (flow_cmd->parsed()) return run_flow(flow);
   print_error("no subcommand given");
   return kExitUsage;
 }

@@ -1,24 +1,30 @@
 // ricci command-line driver: the subcommands and the mapping of library statuses to exit codes.
 //
-// The CLI holds no geometry logic: it calls the library (io.h, validate.h) and turns its results
-// into text, JSON and exit codes. Messages go to stderr prefixed "ricci: "; reports go to stdout.
+// The CLI holds no geometry logic: it calls the library (io.h, validate.h, metric.h, flow.h) and
+// turns its results into text, JSON and exit codes. Messages go to stderr prefixed "ricci: ";
+// reports go to stdout. `info` and `convert` live in commands.cpp, `flow` in flow_command.cpp.
 //
 // Exit codes (also listed in the --help footer):
 //   0  success
-//   1  unexpected internal error (an exception reached main, out_of_memory, or a status the CLI
-//      does not expect: not_run, and the metric/flow statuses, which no subcommand produces yet)
+//   1  unexpected internal error (an exception reached main, out_of_memory, or not_run)
 //   2  usage error: bad arguments or options (every CLI11 parse error)
 //   3  the input cannot be opened: file_not_found, file_unreadable, unknown_format, file_too_large
 //   4  malformed file content: parse_error, index_out_of_range, non_finite_coordinate
 //   5  invalid mesh: no_faces, degenerate_face, duplicate_face, non_manifold_edge,
 //      non_manifold_vertex, inconsistent_orientation, non_orientable, multiple_components
 //   6  output failure: write_failed, output_is_input (also: standard output cannot be written)
+//   7  the flow failed: not_converged, line_search_failed, numerical_failure, triangle_inequality
+//   8  infeasible target curvature: infeasible_target (Gauss–Bonnet or admissibility violated)
 #pragma once
 
 #include <string>
 #include <string_view>
 
 #include "ricci/status.h"
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace ricci_cli {
 
@@ -29,6 +35,8 @@ inline constexpr int kExitInputUnavailable = 3;
 inline constexpr int kExitMalformedInput = 4;
 inline constexpr int kExitInvalidMesh = 5;
 inline constexpr int kExitOutputFailure = 6;
+inline constexpr int kExitFlowFailed = 7;
+inline constexpr int kExitInfeasibleTarget = 8;
 
 /// The exit code for a library status (the table above). The one place this mapping lives.
 int exit_code(ricci::Status status);
@@ -53,6 +61,39 @@ struct ConvertOptions {
   bool quiet = false;
 };
 int run_convert(const ConvertOptions& options);
+
+/// `ricci flow [MESH]`: load → initial metric → target → check → solve_flow, with progress on
+/// stderr, a summary (text or --json) on stdout and optionally the metric written to a file.
+/// Option values are the strings of the command line (checked again here, so callers other than
+/// the parser get a usage error, not an exception, for a bad value).
+struct FlowCommandOptions {
+  std::string mesh;                        ///< input path; empty: the embedded default mesh
+  std::string geometry = "auto";           ///< auto, euclidean, hyperbolic, spherical
+  std::string scheme = "circle-packing";   ///< circle-packing, inversive-distance, yamabe
+  std::string target = "auto";             ///< auto, uniform, cones=FILE, single-vertex=I
+  std::string boundary = "auto";           ///< auto, free, fixed, circle, geodesic, loop-totals=T1,…
+  std::string method = "newton";           ///< newton, gradient
+  double tolerance = 1e-10;                ///< max |K̄ − K| at convergence
+  int max_iterations = 0;                  ///< 0: 200 for newton, 20000 for gradient
+  double step = 0.05;                      ///< gradient-descent step
+  int threads = 0;                         ///< OpenMP threads; 0: the OpenMP default
+  std::string output;                      ///< -o OUT; empty: write no file
+  bool json = false;                       ///< summary as one JSON object on stdout
+  bool quiet = false;                      ///< no progress or notes on stderr
+  bool largest_component = false;          ///< keep the largest component instead of failing
+};
+int run_flow(const FlowCommandOptions& options);
+
+/// Registers the `flow` subcommand (its options bound to `o`) on `app`.
+CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o);
+
+// Shared by the subcommands.
+/// "ricci: MESSAGE" on stderr unless quiet.
+void print_note(bool quiet, const std::string& message);
+/// "ricci: error: MESSAGE" on stderr.
+void print_error(const std::string& message);
+/// Flushes stdout and returns `code`, or kExitOutputFailure if stdout could not be written.
+int finish_stdout(int code);
 
 /// Parses the command line and runs the chosen subcommand; returns the process exit code.
 /// May throw std::exception on an internal error (main() maps that to kExitInternal).

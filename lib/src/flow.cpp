@@ -1,1 +1,1281 @@
-// placeholder: being written
+// The discrete Ricci flow solvers: gradient descent (the paper's Step 3.1) and Newton's method
+// (Step 3.2) with a sparse Cholesky factorization whose symbolic analysis is done once per solve.
+//
+// Design notes.
+//
+// Unknowns. A vertex has a curvature condition unless it holds its u (target.fixed_u) or is used
+// by no face. The Newton system has one row per condition vertex, minus the gauge-pinned ones
+// below; the others keep their u (Dirichlet).
+//
+// Gauges. In E the angles do not change when u moves by a constant on a connected component,
+// so ∂K/∂u has the constants of every component without a fixed vertex in its null space. Newton
+// pins the first condition vertex of such a component (its update is 0 in the linear system,
+// which is then positive definite), then subtracts the mean of the update over the component:
+// since the rows of ∂K/∂u sum to zero there, the shifted update solves the full system too, and
+// Σu keeps its starting value. The right-hand side K̄ − K sums to zero only up to rounding (which
+// grows with the mesh); its mean is removed first, or the pinned vertex would collect the sum. (The paper's
+// Step 3.1 normalises Σu = 0; holding Σu at its start instead gives the same metric up to a global scale and
+// keeps the caller's scale: a mesh scaled by s gives u + log s. Gradient descent applies the same rule to its
+// updates.) In S, a closed genus-0 component with K̄ = 0 everywhere (the round sphere) has a 3-dimensional
+// family of solutions, the Möbius transformations, and ∂K/∂u is singular at the solution. Newton
+// then pins three vertices far apart in the graph (about a quarter of the diameter from each
+// other, so that their circles are not on one great circle) at their starting u and solves for
+// the rest. The pinned curvature conditions hold at the solution by Möbius invariance (and are
+// checked with the others) provided the right-hand side is orthogonal to the three Möbius
+// directions, which rounding breaks by an amount growing with the mesh; so the right-hand side is
+// projected onto their complement (three extra solves per step, see project_moebius()).
+//
+// Factorization. E and H: supernodal LLᵀ (CHOLMOD), as ∂K/∂u is positive definite for the
+// circle-packing scheme (Theorems 5 and 6). S: simplicial LDLᵀ, as ∂K/∂u is indefinite there
+// (growing all circles grows all angles, so the constants are a direction of negative curvature).
+// When a factorization fails (a non-positive or zero pivot, e.g. for inversive distance or
+// Yamabe far from a solution), A + μI is factorized for μ = 10⁻¹⁰, 10⁻⁸, … times the largest
+// diagonal entry; when that fails too, or the direction is not a descent direction of the merit
+// function below, the step falls back to the gradient direction. Each such event is counted in
+// FlowResult::notes.
+//
+// Line search. E and H (targets that do not depend on the lengths): backtracking (Armijo, c = 10⁻⁴, halving)
+// on the Ricci energy E(u) = ∫ Σ (K_i − K̄_i) du_i, whose change along t·δ is ∫_0^t (K(u + sδ) − K̄)·δ ds,
+// evaluated by 4-point Gauss–Lobatto quadrature (curvature evaluations only; the end nodes are the current
+// and the trial point, so a trial costs three curvature evaluations in all). When the energy
+// change is below what rounding can resolve (near convergence), a step is accepted if it lowers
+// the maximal curvature error; when even the slope is, only a few halvings are tried before the
+// solve stops (LineSearchFailed: the tolerance is below the rounding level of the mesh).
+// S: the target is a saddle point of E, not a minimum, so the merit function is ½‖K̄ − K‖² over
+// the system rows (Newton directions are descent directions of it); the energy (with K̄ held over
+// the step) is still recorded, as it is for length-dependent targets.
+// Trial points whose u leaves the admissible range, whose lengths are not positive and finite (or
+// unreasonably long in H), or which violate a triangle inequality are rejected (the step is
+// halved). A step below 10⁻¹² is LineSearchFailed.
+//
+// Targets whose boundary mode is Circle or LoopTotals depend on the lengths. Newton solves
+// K(u) − K̄(l(u)) = 0 with the Jacobian J = ∂K/∂u − ∂K̄/∂u: the second term lives on the boundary
+// loops only, so J δ = g reduces to a system of the size of the boundary, solved by GMRES with the
+// factorization of ∂K/∂u (see coupled_direction()), and the line search uses the residual merit
+// ½‖K̄(l) − K‖² with K̄ recomputed at each trial. (Holding K̄ fixed within a step converges
+// linearly at best — 20–110 steps on disks, annuli and spheres with holes — and oscillates without
+// converging on surfaces with several holes; the coupled step takes 3–5.)
+//
+// Determinism. Every parallel loop writes its own slots; sums use fixed chunks added in a fixed
+// order; maxima are exact. Results do not depend on the number of threads.
+#include "ricci/flow.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "hessian.h"
+#include "sparse_solver.h"
+
+namespace ricci {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using detail::kParallelMin;
+constexpr double kPi = std::numbers::pi;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+
+constexpr double kArmijo = 1e-4;
+constexpr double kMinStep = 1e-12;
+constexpr int kMaxShifts = 6;  // μ = 1e-10, 1e-8, …, 1 times the largest diagonal entry
+constexpr double kFirstShift = 1e-10;
+constexpr double kShiftGrowth = 100;
+// Guards that keep every kernel free of overflow and division by zero (the debug tests trap
+// them): e^{2u} stays below e^300; in H with ε > 0, 1 − ε e^{2u} stays above 1e-30; lengths stay
+// above 1e-100 and, in H, below 200 (so sinh of half perimeters and their products are finite).
+constexpr double kMaxU = 150;
+constexpr double kMinHyperbolicGap = 1e-30;
+constexpr double kMinLength = 1e-100;
+constexpr double kMaxHyperbolicLength = 200;
+
+// Quadrature of the energy change along a step: the 4-point Gauss–Lobatto rule on [0, 1]
+// (exact for polynomials of degree 5, like 3-point Gauss–Legendre). Its end nodes are the current
+// point and the trial point, whose curvatures are known anyway, so each trial costs two extra
+// curvature evaluations instead of the three or four of a Gauss–Legendre rule of the same order.
+constexpr int kQuadratureNodes = 4;
+constexpr double kQuadratureNode[kQuadratureNodes] = {0.0, 0.5 - 0.5 / 2.2360679774997896964,
+                                                      0.5 + 0.5 / 2.2360679774997896964, 1.0};
+constexpr double kQuadratureWeight[kQuadratureNodes] = {1.0 / 12, 5.0 / 12, 5.0 / 12, 1.0 / 12};
+
+// Meshes with fewer faces than this are solved on the calling thread unless FlowOptions::threads
+// asks otherwise: the kernels fork a team several times per iteration, which costs more than the
+// work on a small mesh (and much more on an oversubscribed machine, where idle team members
+// spin). The results do not depend on the thread count.
+constexpr Index kSmallMeshFaces = 20000;
+
+// Sets the OpenMP thread count for the duration of a solve.
+class ThreadScope {
+ public:
+  ThreadScope(int threads, Index num_faces) {
+    if (threads == 0 && num_faces < kSmallMeshFaces) threads = 1;
+    if (threads > 0) {
+      saved_ = omp_get_max_threads();
+      omp_set_num_threads(threads);
+    }
+  }
+  ~ThreadScope() {
+    if (saved_ > 0) omp_set_num_threads(saved_);
+  }
+  ThreadScope(const ThreadScope&) = delete;
+  ThreadScope& operator=(const ThreadScope&) = delete;
+
+ private:
+  int saved_ = 0;
+};
+
+// Sums in fixed chunks, the chunks added in order: the same bits for any thread count.
+class ChunkedSum {
+ public:
+  static constexpr std::int64_t kChunk = 4096;
+  explicit ChunkedSum(std::int64_t max_n) : partial_(static_cast<std::size_t>(max_n / kChunk + 1), 0.0) {}
+
+  template <class Term>
+  double operator()(std::int64_t n, Term term) {
+    const std::int64_t chunks = (n + kChunk - 1) / kChunk;
+    double* partial = partial_.data();
+#pragma omp parallel for schedule(static) if (chunks > 1)
+    for (std::int64_t c = 0; c < chunks; ++c) {
+      const std::int64_t end = std::min(n, (c + 1) * kChunk);
+      double s = 0;
+      for (std::int64_t i = c * kChunk; i < end; ++i) s += term(i);
+      partial[c] = s;
+    }
+    double total = 0;
+    for (std::int64_t c = 0; c < chunks; ++c) total += partial[c];
+    return total;
+  }
+
+ private:
+  std::vector<double> partial_;
+};
+
+// Lengths, angles and curvature of one metric.
+struct MetricState {
+  std::vector<double> l, theta, K;
+  void allocate(const Topology& t) {
+    l.assign(static_cast<std::size_t>(t.num_edges), 0.0);
+    theta.assign(3 * static_cast<std::size_t>(t.num_faces), 0.0);
+    K.assign(static_cast<std::size_t>(t.num_vertices), 0.0);
+  }
+  void swap(MetricState& o) {
+    l.swap(o.l);
+    theta.swap(o.theta);
+    K.swap(o.K);
+  }
+};
+
+enum class Validity { Ok, OutOfRange, BadLength, TriangleInequality };
+
+// Evaluates lengths, angles and curvature at u; reports the first problem (the outputs are then
+// partial but finite).
+Validity evaluate(const Topology& t, const ConformalStructure& s, std::span<const double> u, MetricState& m) {
+  const Index nv = t.num_vertices, ne = t.num_edges;
+  const bool hyperbolic_radii = s.geometry == Geometry::Hyperbolic && s.epsilon > 0;
+  int out_of_range = 0;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin) reduction(max : out_of_range)
+  for (Index v = 0; v < nv; ++v) {
+    const double x = u[v];
+    bool ok = std::isfinite(x) && x <= kMaxU;
+    if (ok && hyperbolic_radii) ok = 1 - s.epsilon * std::exp(2 * x) >= kMinHyperbolicGap;
+    if (!ok) out_of_range = 1;
+  }
+  if (out_of_range) return Validity::OutOfRange;
+  if (edge_lengths(t, s, u, m.l) != kInvalid) return Validity::BadLength;
+  const double max_length =
+      s.geometry == Geometry::Hyperbolic ? kMaxHyperbolicLength : std::numeric_limits<double>::max();
+  int bad_length = 0;
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin) reduction(max : bad_length)
+  for (Index e = 0; e < ne; ++e)
+    if (!(m.l[e] >= kMinLength && m.l[e] <= max_length)) bad_length = 1;
+  if (bad_length) return Validity::BadLength;
+  const AngleReport angles = corner_angles(t, s.geometry, m.l, m.theta);
+  vertex_curvature(t, m.theta, m.K);
+  return angles.violations > 0 ? Validity::TriangleInequality : Validity::Ok;
+}
+
+// max |K̄ − K| over the masked vertices; +∞ if any of them is not finite.
+double max_error(std::span<const double> K, std::span<const double> K_target,
+                 const std::vector<std::uint8_t>& mask) {
+  const auto n = static_cast<Index>(K.size());
+  double e = 0;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin) reduction(max : e)
+  for (Index v = 0; v < n; ++v) {
+    if (!mask[v]) continue;
+    const double d = std::abs(K_target[v] - K[v]);
+    e = std::isfinite(d) ? std::max(e, d) : std::numeric_limits<double>::infinity();
+  }
+  return e;
+}
+
+std::string format_double(const char* format, double x) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, x);
+  return buffer;
+}
+
+// Breadth-first graph distances from `source` over the edges of the mesh (−1: unreached).
+void graph_distances(const Topology& t, Index source, std::vector<Index>& distance,
+                     std::vector<Index>& queue) {
+  std::fill(distance.begin(), distance.end(), -1);
+  queue.clear();
+  distance[source] = 0;
+  queue.push_back(source);
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const Index v = queue[head];
+    for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i) {
+      const Index c = t.vertex_corners[i];
+      for (const Index w : {t.corner_vertex[next_corner(c)], t.corner_vertex[prev_corner(c)]}) {
+        if (distance[w] >= 0) continue;
+        distance[w] = distance[v] + 1;
+        queue.push_back(w);
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+class FlowSolver {
+ public:
+  FlowSolver(const Topology& t, const ConformalStructure& s, std::span<const double> u0, const Target& target,
+             const FlowOptions& options, FlowResult& result)
+      : t_(t), s_(s), target_(target), options_(options), r_(result), sum_(t.num_vertices) {
+    u_.assign(u0.begin(), u0.end());
+  }
+
+  void run();
+  void finish();
+
+ private:
+  // Setup.
+  void classify_vertices();
+  void choose_spherical_gauge(Index component);
+  // Iterations.
+  bool newton_step();
+  bool gradient_step();
+  bool compute_direction();
+  bool project_moebius();
+  bool gram_solve();
+  bool line_search();
+  bool energy_difference(double t, double& dE);
+  void remove_gauge_mean(std::span<double> step);
+  void accept(double step_length, double dE);
+  // Circle / LoopTotals coupling.
+  void setup_coupling();
+  void loop_edge_derivatives();
+  void target_derivative(std::span<const double> x, std::span<double> dK);
+  void apply_boundary_operator(std::span<const double> w, std::span<double> out);
+  bool gmres(double relative_tolerance, int max_iterations);
+  bool coupled_direction(std::span<const double> g);
+  void fail(Status status, std::string message) {
+    r_.status = status;
+    r_.message = std::move(message);
+  }
+  double seconds() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  static std::string validity_text(Validity v) {
+    switch (v) {
+      case Validity::OutOfRange:
+        return "u left its admissible range";
+      case Validity::BadLength:
+        return "an edge length is not a positive finite number in range";
+      case Validity::TriangleInequality:
+        return "a triangle violates the triangle inequality";
+      case Validity::Ok:
+        break;
+    }
+    return "ok";
+  }
+
+  const Topology& t_;
+  const ConformalStructure& s_;
+  const Target& target_;
+  const FlowOptions& options_;
+  FlowResult& r_;
+  Clock::time_point start_ = Clock::now();
+  ChunkedSum sum_;
+
+  // Vertex classes (#V flags) and components.
+  std::vector<std::uint8_t> condition_;        // has a curvature condition
+  std::vector<std::uint8_t> unknown_;          // moves in the Newton system
+  std::vector<std::uint8_t> pinned_;           // gauge-pinned (a condition vertex that is not an unknown)
+  std::vector<Index> vertex_component_;        // kInvalid for vertices used by no face
+  std::vector<std::uint8_t> gauge_component_;  // E: Σu of the component is held
+  std::vector<double> component_sum_;
+  std::vector<Index> component_count_;
+  // Circle / LoopTotals targets: K̄ of the loop vertices depends on the lengths; the Newton
+  // system is J = ∂K/∂u − ∂K̄/∂u (see coupled_direction()). Per boundary position p (the CSR
+  // order of Topology::boundary_vertices): its vertex's unknown (or kInvalid), its outgoing edge
+  // and ∂l/∂u of that edge at its two ends.
+  bool coupled_ = false;
+  bool residual_merit_ = false;  // S or coupled: the line search uses ½‖K̄ − K‖²
+  std::vector<Index> position_unknown_;
+  std::vector<double> position_dl_du_, position_dl_, position_dK_;
+  std::vector<double> full_;            // #V scratch
+  std::vector<double> K_target_trial_;  // #V: effective target of the trial lengths
+  // Restarted GMRES on the boundary system (dimension: the number of boundary positions).
+  std::vector<double> gm_basis_, gm_hessenberg_, gm_cos_, gm_sin_, gm_residual_, gm_y_, gm_b_, gm_w_, gm_v_;
+  int gmres_failures_ = 0;
+  bool spherical_gauge_ = false;
+  std::vector<Index> spherical_pins_;
+  std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
+  std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
+  std::vector<double> gram_, coefficient_, rhs_projected_;
+
+  // State.
+  std::vector<double> u_, u_trial_, u_quad_;
+  MetricState cur_, trial_, quad_;
+  std::vector<double> K_target_;  // effective target of the current lengths
+  std::vector<double> step_;      // #V: search direction (0 where u is held)
+  std::vector<double> grad_;      // #V: K̄ − K on condition vertices (mean-free on E gauge components)
+  double error_ = 0;
+  double energy_ = 0;
+  int iteration_ = 0;
+
+  // Newton.
+  detail::HessianPattern pattern_;
+  detail::SymmetricSolver solver_;
+  std::vector<double> blocks_, rhs_, x_, x2_, tmp_;
+  double slope_ = 0;  // derivative of the merit function along step_ at t = 0
+  double shift_ = 0;  // μ of the last factorization
+
+  // Counters for the notes.
+  int shifted_ = 0, gradient_fallbacks_ = 0, noise_accepts_ = 0, damped_ = 0, projection_skipped_ = 0;
+  double largest_shift_ = 0;
+  std::vector<double> area_;
+};
+
+void FlowSolver::classify_vertices() {
+  const Index nv = t_.num_vertices, nc = t_.num_components;
+  condition_.assign(static_cast<std::size_t>(nv), 0);
+  pinned_.assign(static_cast<std::size_t>(nv), 0);
+  vertex_component_.assign(static_cast<std::size_t>(nv), kInvalid);
+  std::vector<std::uint8_t> has_fixed(static_cast<std::size_t>(nc), 0),
+      has_boundary(static_cast<std::size_t>(nc), 0);
+  std::vector<std::int64_t> chi(static_cast<std::size_t>(nc), 0);
+  for (Index v = 0; v < nv; ++v) {
+    if (t_.valence(v) == 0) continue;
+    const Index c = t_.face_component[corner_face(t_.vertex_corners[t_.vertex_corner_offsets[v]])];
+    vertex_component_[v] = c;
+    const bool fixed = !target_.fixed_u.empty() && target_.fixed_u[v] != 0;
+    condition_[v] = fixed ? 0 : 1;
+    if (fixed) has_fixed[c] = 1;
+    if (t_.is_boundary_vertex(v)) has_boundary[c] = 1;
+    ++chi[c];
+  }
+  for (Index e = 0; e < t_.num_edges; ++e) --chi[t_.face_component[corner_face(t_.edge_corners[2 * e])]];
+  for (Index f = 0; f < t_.num_faces; ++f) ++chi[t_.face_component[f]];
+
+  gauge_component_.assign(static_cast<std::size_t>(nc), 0);
+  component_sum_.assign(static_cast<std::size_t>(nc), 0.0);
+  component_count_.assign(static_cast<std::size_t>(nc), 0);
+  for (Index v = 0; v < nv; ++v)
+    if (condition_[v]) ++component_count_[vertex_component_[v]];
+
+  const Geometry g = s_.geometry;
+  if (g == Geometry::Euclidean) {
+    for (Index c = 0; c < nc; ++c) gauge_component_[c] = !has_fixed[c] && component_count_[c] > 0;
+    if (options_.method == Method::Newton) {
+      std::vector<std::uint8_t> done(static_cast<std::size_t>(nc), 0);
+      for (Index v = 0; v < nv; ++v) {
+        const Index c = vertex_component_[v];
+        if (!condition_[v] || !gauge_component_[c] || done[c]) continue;
+        pinned_[v] = 1;
+        done[c] = 1;
+      }
+    }
+  } else if (g == Geometry::Spherical && options_.method == Method::Newton) {
+    // The round sphere: closed, genus 0, no held u, K̄ = 0 at every vertex.
+    std::vector<std::uint8_t> all_zero(static_cast<std::size_t>(nc), 1);
+    for (Index v = 0; v < nv; ++v)
+      if (vertex_component_[v] != kInvalid && target_.K[v] != 0) all_zero[vertex_component_[v]] = 0;
+    for (Index c = 0; c < nc; ++c)
+      if (!has_fixed[c] && !has_boundary[c] && chi[c] == 2 && all_zero[c] && component_count_[c] >= 4)
+        choose_spherical_gauge(c);
+  }
+
+  unknown_.assign(static_cast<std::size_t>(nv), 0);
+  for (Index v = 0; v < nv; ++v) unknown_[v] = condition_[v] && !pinned_[v];
+}
+
+void FlowSolver::choose_spherical_gauge(Index component) {
+  const Index nv = t_.num_vertices;
+  Index v0 = kInvalid;
+  for (Index v = 0; v < nv && v0 == kInvalid; ++v)
+    if (vertex_component_[v] == component) v0 = v;
+  std::vector<Index> d0(static_cast<std::size_t>(nv)), d1(static_cast<std::size_t>(nv)), queue;
+  graph_distances(t_, v0, d0, queue);
+  Index diameter = 0;
+  for (Index v = 0; v < nv; ++v) diameter = std::max(diameter, d0[v]);
+  // A quarter turn on the sphere is about half the graph diameter.
+  const double quarter = 0.5 * diameter;
+  Index v1 = kInvalid;
+  double best = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < nv; ++v) {
+    if (d0[v] < 0 || v == v0) continue;
+    const double score = std::abs(d0[v] - quarter);
+    if (score < best) {
+      best = score;
+      v1 = v;
+    }
+  }
+  graph_distances(t_, v1, d1, queue);
+  Index v2 = kInvalid;
+  best = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < nv; ++v) {
+    if (d0[v] < 0 || v == v0 || v == v1) continue;
+    const double score = std::abs(d0[v] - quarter) + std::abs(d1[v] - quarter);
+    if (score < best) {
+      best = score;
+      v2 = v;
+    }
+  }
+  if (v1 == kInvalid || v2 == kInvalid) return;
+  for (const Index v : {v0, v1, v2}) {
+    pinned_[v] = 1;
+    spherical_pins_.push_back(v);
+  }
+  spherical_gauge_ = true;
+}
+
+void FlowSolver::remove_gauge_mean(std::span<double> step) {
+  const Index nv = t_.num_vertices, nc = t_.num_components;
+  bool any = false;
+  for (Index c = 0; c < nc; ++c) {
+    any = any || gauge_component_[c];
+    component_sum_[c] = 0;
+  }
+  if (!any) return;
+  if (nc == 1) {
+    component_sum_[0] = sum_(nv, [&](std::int64_t v) { return condition_[v] ? step[v] : 0.0; });
+  } else {
+    for (Index v = 0; v < nv; ++v)
+      if (condition_[v]) component_sum_[vertex_component_[v]] += step[v];
+  }
+  for (Index c = 0; c < nc; ++c)
+    component_sum_[c] = gauge_component_[c] ? component_sum_[c] / component_count_[c] : 0;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v)
+    if (condition_[v]) step[v] -= component_sum_[vertex_component_[v]];
+}
+
+// Energy change ∫_0^t (K(u + sδ) − K̄)·δ ds by quadrature, trial_ holding the metric at u + tδ;
+// false when an interior node is not an admissible metric.
+bool FlowSolver::energy_difference(double t, double& dE) {
+  const Index nv = t_.num_vertices;
+  auto slope_at = [&](const std::vector<double>& K) {
+    return sum_(nv, [&](std::int64_t v) { return condition_[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
+  };
+  dE = 0;
+  for (int q = 0; q < kQuadratureNodes; ++q) {
+    const double s = t * kQuadratureNode[q];
+    double f = 0;
+    if (q == 0) {
+      f = slope_at(cur_.K);
+    } else if (q == kQuadratureNodes - 1) {
+      f = slope_at(trial_.K);
+    } else {
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+      for (Index v = 0; v < nv; ++v) u_quad_[v] = u_[v] + s * step_[v];
+      if (evaluate(t_, s_, u_quad_, quad_) != Validity::Ok) return false;
+      f = slope_at(quad_.K);
+    }
+    dE += kQuadratureWeight[q] * f;
+  }
+  dE *= t;
+  return std::isfinite(dE);
+}
+
+// The sphere gauge. At a solution, ∂K/∂u has the infinitesimal Möbius transformations as its
+// null space; with the pins P (fixed in the system) and the unknowns R, a basis is w_p =
+// (−H_RR⁻¹ H_Rp, e_p) for p ∈ P, three solves with the factorization at hand. The right-hand
+// side g = K̄ − K lies in the range of ∂K/∂u, i.e. is orthogonal to these, in exact arithmetic; the
+// computed curvatures satisfy this only up to rounding, and Newton would push that remainder
+// (which grows with the mesh size) onto the pinned vertices. So g is projected orthogonally onto
+// the complement of span{w_p} (the analogue of removing the mean in E) into rhs_projected_.
+// False when a solve fails or the Gram matrix is not positive definite.
+bool FlowSolver::project_moebius() {
+  const Index n = pattern_.num_unknowns;
+  const std::size_t k = spherical_pins_.size();
+  for (std::size_t a = 0; a < k; ++a) {
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (Index j = 0; j < n; ++j) tmp_[j] = 0;
+    for (const auto& [e, j] : pin_edges_[a]) tmp_[j] = -detail::hessian_edge_entry(t_, blocks_, e);
+    if (!solver_.solve(tmp_, moebius_[a])) return false;
+  }
+  // Gram matrix G_ab = w_a·w_b and c_a = w_a·g (the pin entries of w are e_p).
+  for (std::size_t a = 0; a < k; ++a) {
+    const std::vector<double>& wa = moebius_[a];
+    for (std::size_t b = 0; b <= a; ++b) {
+      const std::vector<double>& wb = moebius_[b];
+      gram_[a * k + b] = sum_(n, [&](std::int64_t j) { return wa[j] * wb[j]; }) + (a == b ? 1.0 : 0.0);
+    }
+    coefficient_[a] = sum_(n, [&](std::int64_t j) { return wa[j] * rhs_[j]; }) + grad_[spherical_pins_[a]];
+  }
+  // Dense Cholesky of G (lower triangle, in place) and the solve G α = c.
+  for (std::size_t a = 0; a < k; ++a) {
+    for (std::size_t b = 0; b <= a; ++b) {
+      double x = gram_[a * k + b];
+      for (std::size_t m = 0; m < b; ++m) x -= gram_[a * k + m] * gram_[b * k + m];
+      if (a == b) {
+        if (!std::isfinite(x) || x <= 0) return false;
+        gram_[a * k + a] = std::sqrt(x);
+      } else {
+        gram_[a * k + b] = x / gram_[b * k + b];
+      }
+    }
+  }
+  if (!gram_solve()) return false;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) {
+    double x = rhs_[j];
+    for (std::size_t a = 0; a < k; ++a) x -= coefficient_[a] * moebius_[a][j];
+    rhs_projected_[j] = x;
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Circle / LoopTotals coupling. On a loop with vertices v_p, outgoing edges e_p (lengths l_p),
+// length L and total T, the target is K̄(v_p) = T·m_p/L with m_p = ½(l_{p−1} + l_p), so
+//     dK̄(v_p) = T/L · (½(dl_{p−1} + dl_p) − m_p·dL/L),   dl_p = ∂l_p/∂u · du,   dL = Σ dl_p.
+// D = ∂K̄/∂u lives on the boundary positions B only, so J = H − E_B D_BB E_Bᵀ and Newton's
+// J δ = g becomes, with y = H⁻¹g and w = D_BB E_Bᵀ δ (one value per boundary position),
+//     (I − D_BB E_Bᵀ H⁻¹ E_B) w = D_BB E_Bᵀ y,     δ = y + H⁻¹ E_B w,
+// a system of the size of the boundary, solved by restarted GMRES whose operator costs one solve
+// with the factorization at hand. (Holding K̄ fixed within a step instead converges linearly at
+// best, and oscillates for surfaces with several holes.)
+
+constexpr int kGmresRestart = 40;
+constexpr int kGmresMaxIterations = 400;
+
+void FlowSolver::setup_coupling() {
+  const auto positions = static_cast<std::size_t>(t_.num_boundary_edges());
+  if (positions == 0) return;
+  coupled_ = true;
+  position_unknown_.assign(positions, kInvalid);
+  bool any_unknown = false;
+  for (std::size_t p = 0; p < positions; ++p) {
+    position_unknown_[p] = pattern_.vertex_unknown[t_.boundary_vertices[p]];
+    any_unknown = any_unknown || position_unknown_[p] != kInvalid;
+  }
+  if (!any_unknown) {
+    coupled_ = false;
+    return;
+  }
+  position_dl_du_.assign(2 * positions, 0.0);
+  position_dl_.assign(positions, 0.0);
+  position_dK_.assign(positions, 0.0);
+  full_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
+  K_target_trial_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
+  const std::size_t m = kGmresRestart;
+  gm_basis_.assign((m + 1) * positions, 0.0);
+  gm_hessenberg_.assign((m + 1) * m, 0.0);
+  gm_cos_.assign(m, 0.0);
+  gm_sin_.assign(m, 0.0);
+  gm_residual_.assign(m + 1, 0.0);
+  gm_y_.assign(m, 0.0);
+  gm_b_.assign(positions, 0.0);
+  gm_w_.assign(positions, 0.0);
+  gm_v_.assign(positions, 0.0);
+}
+
+// ∂l/∂u of each loop's outgoing edges at the current u (the derivative of the unified length
+// formula of metric.h: F(l) = Q/D with F = l², sinh²(l/2) or sin²(l/2)).
+void FlowSolver::loop_edge_derivatives() {
+  const double sigma =
+      s_.geometry == Geometry::Euclidean ? 0.0 : (s_.geometry == Geometry::Hyperbolic ? 1.0 : -1.0);
+  const double eps = s_.epsilon;
+  const Index positions = t_.num_boundary_edges();
+  for (Index p = 0; p < positions; ++p) {
+    const Index e = t_.corner_edge[t_.boundary_corners[p]];
+    const Index a = t_.boundary_vertices[p];
+    const Index b = t_.edge_vertices[2 * e] == a ? t_.edge_vertices[2 * e + 1] : t_.edge_vertices[2 * e];
+    const double ua = u_[a], ub = u_[b], eta = s_.eta[e], l = cur_.l[e];
+    const double xa = std::exp(2 * ua), xb = std::exp(2 * ub), xab = std::exp(ua + ub);
+    const double q = 2 * eta * xab + eps * xa + eps * xb;
+    const double da = 1 - sigma * eps * xa, db = 1 - sigma * eps * xb;
+    const double ratio = q / (da * db);
+    const double dratio_a = (2 * eta * xab + 2 * eps * xa) / (da * db) + ratio * (2 * sigma * eps * xa / da);
+    const double dratio_b = (2 * eta * xab + 2 * eps * xb) / (da * db) + ratio * (2 * sigma * eps * xb / db);
+    const double dF = s_.geometry == Geometry::Euclidean
+                          ? 2 * l
+                          : (s_.geometry == Geometry::Hyperbolic ? std::sinh(l) / 2 : std::sin(l) / 2);
+    position_dl_du_[2 * p] = dratio_a / dF;
+    position_dl_du_[2 * p + 1] = dratio_b / dF;
+  }
+}
+
+// dK[p] = (∂K̄/∂u · x) at the vertex of boundary position p, for x given per vertex (#V).
+void FlowSolver::target_derivative(std::span<const double> x, std::span<double> dK) {
+  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
+    const Index begin = t_.boundary_offsets[loop], end = t_.boundary_offsets[loop + 1];
+    double L = 0, dL = 0;
+    for (Index p = begin; p < end; ++p) {
+      const Index next = p + 1 < end ? p + 1 : begin;
+      const double dl = position_dl_du_[2 * p] * x[t_.boundary_vertices[p]] +
+                        position_dl_du_[2 * p + 1] * x[t_.boundary_vertices[next]];
+      position_dl_[p] = dl;
+      L += cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+      dL += dl;
+    }
+    const double T = target_.loop_total[loop];
+    for (Index p = begin; p < end; ++p) {
+      const Index before = p > begin ? p - 1 : end - 1;
+      const double m = 0.5 * (cur_.l[t_.corner_edge[t_.boundary_corners[before]]] +
+                              cur_.l[t_.corner_edge[t_.boundary_corners[p]]]);
+      const double dm = 0.5 * (position_dl_[before] + position_dl_[p]);
+      dK[p] = T / L * (dm - m * dL / L);
+    }
+  }
+}
+
+// out = (I − D_BB E_Bᵀ H⁻¹ E_B) w on the boundary positions (positions whose vertex is not an
+// unknown are identity rows with no coupling).
+void FlowSolver::apply_boundary_operator(std::span<const double> w, std::span<double> out) {
+  const Index n = pattern_.num_unknowns;
+  const auto positions = static_cast<Index>(position_unknown_.size());
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) tmp_[j] = 0;
+  for (Index p = 0; p < positions; ++p)
+    if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] = w[p];
+  if (!solver_.solve(tmp_, x2_)) {
+    std::fill(out.begin(), out.end(), std::numeric_limits<double>::quiet_NaN());
+    return;
+  }
+  for (Index p = 0; p < positions; ++p) {
+    const Index j = position_unknown_[p];
+    full_[t_.boundary_vertices[p]] = j != kInvalid ? x2_[j] : 0.0;
+  }
+  target_derivative(full_, position_dK_);
+  for (Index p = 0; p < positions; ++p)
+    out[p] = w[p] - (position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0);
+}
+
+// Restarted GMRES (modified Gram–Schmidt, Givens rotations) for the boundary system, from w = 0:
+// solves for gm_w_ with right-hand side gm_b_. Serial and in a fixed order. False when the
+// relative residual is not reached or a value is not finite.
+bool FlowSolver::gmres(double relative_tolerance, int max_iterations) {
+  const auto P = static_cast<std::size_t>(position_unknown_.size());
+  const std::size_t m = kGmresRestart;
+  auto dot = [&](const double* a, const double* b) {
+    double s = 0;
+    for (std::size_t i = 0; i < P; ++i) s += a[i] * b[i];
+    return s;
+  };
+  std::fill(gm_w_.begin(), gm_w_.end(), 0.0);
+  const double b_norm = std::sqrt(dot(gm_b_.data(), gm_b_.data()));
+  if (!std::isfinite(b_norm)) return false;
+  if (b_norm == 0) return true;
+  const double target = relative_tolerance * b_norm;
+  int iterations = 0;
+  while (iterations < max_iterations) {
+    // r = b − A w into the first basis vector.
+    double* v0 = gm_basis_.data();
+    apply_boundary_operator(gm_w_, {v0, P});
+    for (std::size_t i = 0; i < P; ++i) v0[i] = gm_b_[i] - v0[i];
+    const double beta = std::sqrt(dot(v0, v0));
+    if (!std::isfinite(beta)) return false;
+    if (beta <= target) break;
+    for (std::size_t i = 0; i < P; ++i) v0[i] /= beta;
+    std::fill(gm_residual_.begin(), gm_residual_.end(), 0.0);
+    gm_residual_[0] = beta;
+    std::size_t k = 0;
+    double residual = beta;
+    for (; k < m && iterations < max_iterations; ++k) {
+      ++iterations;
+      double* vk = gm_basis_.data() + k * P;
+      double* vn = gm_basis_.data() + (k + 1) * P;
+      apply_boundary_operator({vk, P}, {vn, P});
+      double* h = gm_hessenberg_.data() + k * (m + 1);  // column k
+      for (std::size_t i = 0; i <= k; ++i) {
+        const double* vi = gm_basis_.data() + i * P;
+        h[i] = dot(vn, vi);
+        for (std::size_t r = 0; r < P; ++r) vn[r] -= h[i] * vi[r];
+      }
+      h[k + 1] = std::sqrt(dot(vn, vn));
+      if (!std::isfinite(h[k + 1])) return false;
+      if (h[k + 1] > 0)
+        for (std::size_t r = 0; r < P; ++r) vn[r] /= h[k + 1];
+      for (std::size_t i = 0; i < k; ++i) {
+        const double a = gm_cos_[i] * h[i] + gm_sin_[i] * h[i + 1];
+        h[i + 1] = -gm_sin_[i] * h[i] + gm_cos_[i] * h[i + 1];
+        h[i] = a;
+      }
+      const double rho = std::hypot(h[k], h[k + 1]);
+      if (!(rho > 0)) return false;
+      gm_cos_[k] = h[k] / rho;
+      gm_sin_[k] = h[k + 1] / rho;
+      h[k] = rho;
+      h[k + 1] = 0;
+      gm_residual_[k + 1] = -gm_sin_[k] * gm_residual_[k];
+      gm_residual_[k] *= gm_cos_[k];
+      residual = std::abs(gm_residual_[k + 1]);
+      if (residual <= target) {
+        ++k;
+        break;
+      }
+    }
+    // w += V y with H y = residual (upper triangular, k columns).
+    for (std::size_t i = k; i-- > 0;) {
+      double x = gm_residual_[i];
+      for (std::size_t j = i + 1; j < k; ++j) x -= gm_hessenberg_[j * (m + 1) + i] * gm_y_[j];
+      gm_y_[i] = x / gm_hessenberg_[i * (m + 1) + i];
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+      const double* vi = gm_basis_.data() + i * P;
+      for (std::size_t r = 0; r < P; ++r) gm_w_[r] += gm_y_[i] * vi[r];
+    }
+    if (residual <= target) break;
+  }
+  for (double x : gm_w_)
+    if (!std::isfinite(x)) return false;
+  // The true residual decides.
+  apply_boundary_operator(gm_w_, gm_v_);
+  double r2 = 0;
+  for (std::size_t i = 0; i < P; ++i) r2 += (gm_b_[i] - gm_v_[i]) * (gm_b_[i] - gm_v_[i]);
+  return std::isfinite(r2) && std::sqrt(r2) <= 10 * target;
+}
+
+// Turns x_ = H⁻¹ g (the step with K̄ held) into the Newton step of K − K̄(l(u)) = 0 and sets
+// slope_ = d/dt ½‖K̄ − K‖² along it. Leaves x_ and slope_ for the held target when GMRES fails
+// (and returns false).
+bool FlowSolver::coupled_direction(std::span<const double> g) {
+  const Index n = pattern_.num_unknowns;
+  const auto positions = static_cast<Index>(position_unknown_.size());
+  loop_edge_derivatives();
+  // b = D_BB E_Bᵀ y.
+  for (Index p = 0; p < positions; ++p) {
+    const Index j = position_unknown_[p];
+    full_[t_.boundary_vertices[p]] = j != kInvalid ? x_[j] : 0.0;
+  }
+  target_derivative(full_, position_dK_);
+  for (Index p = 0; p < positions; ++p) gm_b_[p] = position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0;
+  // Inexact Newton: the boundary system to a relative accuracy that tightens with the error.
+  const double forcing = std::clamp(0.01 * error_, 1e-13, 1e-3);
+  bool ok = gmres(forcing, kGmresMaxIterations);
+  if (ok) {
+    // δ = y + H⁻¹ E_B w.
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (Index j = 0; j < n; ++j) tmp_[j] = 0;
+    for (Index p = 0; p < positions; ++p)
+      if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] = gm_w_[p];
+    ok = solver_.solve(tmp_, x2_);
+  }
+  // J δ = (g + E_B w − μ δ) − D δ, where (H + μI) δ = g + E_B w. For the held-target step y,
+  // w = 0.
+  if (ok) {
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (Index j = 0; j < n; ++j) x_[j] += x2_[j];
+  } else {
+    std::fill(gm_w_.begin(), gm_w_.end(), 0.0);
+  }
+  for (Index p = 0; p < positions; ++p) {
+    const Index j = position_unknown_[p];
+    full_[t_.boundary_vertices[p]] = j != kInvalid ? x_[j] : 0.0;
+  }
+  target_derivative(full_, position_dK_);
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) tmp_[j] = g[j] - shift_ * x_[j];
+  for (Index p = 0; p < positions; ++p) {
+    const Index j = position_unknown_[p];
+    if (j != kInvalid) tmp_[j] += gm_w_[p] - position_dK_[p];
+  }
+  slope_ = -sum_(n, [&](std::int64_t j) { return g[j] * tmp_[j]; });
+  return ok;
+}
+
+// Solves G α = coefficient_ in place with the Cholesky factor of the Gram matrix in gram_.
+bool FlowSolver::gram_solve() {
+  const std::size_t k = spherical_pins_.size();
+  for (std::size_t a = 0; a < k; ++a) {
+    double x = coefficient_[a];
+    for (std::size_t m = 0; m < a; ++m) x -= gram_[a * k + m] * coefficient_[m];
+    coefficient_[a] = x / gram_[a * k + a];
+  }
+  for (std::size_t a = k; a-- > 0;) {
+    double x = coefficient_[a];
+    for (std::size_t m = a + 1; m < k; ++m) x -= gram_[m * k + a] * coefficient_[m];
+    coefficient_[a] = x / gram_[a * k + a];
+  }
+  return std::all_of(coefficient_.begin(), coefficient_.end(), [](double x) { return std::isfinite(x); });
+}
+
+// Newton direction into step_ (with the fallbacks of the design notes); sets slope_.
+bool FlowSolver::compute_direction() {
+  const Index nv = t_.num_vertices;
+  const Index n = pattern_.num_unknowns;
+
+  angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+  const std::span<double> values = solver_.values();
+  assemble_hessian(t_, pattern_, blocks_, values);
+  // The right-hand side K̄ − K. On an E gauge component its mean is removed: it is zero in exact
+  // arithmetic (Gauss–Bonnet), but the computed curvatures sum to 2πχ only up to rounding, and
+  // that remainder must not be pushed onto the pinned vertex.
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) grad_[v] = condition_[v] ? K_target_[v] - cur_.K[v] : 0.0;
+  remove_gauge_mean(grad_);
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) rhs_[j] = grad_[pattern_.unknown_vertex[j]];
+
+  double max_diagonal = 0;
+  for (Index j = 0; j < n; ++j)
+    max_diagonal = std::max(max_diagonal, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
+  if (!std::isfinite(max_diagonal) || max_diagonal <= 0) max_diagonal = 1;
+  shift_ = 0;
+  detail::FactorOutcome outcome = solver_.factorize(0);
+  if (outcome == detail::FactorOutcome::NotPositiveDefinite || outcome == detail::FactorOutcome::Failed) {
+    double mu = kFirstShift * max_diagonal;
+    for (int k = 0; k < kMaxShifts; ++k, mu *= kShiftGrowth) {
+      outcome = solver_.factorize(mu);
+      if (outcome == detail::FactorOutcome::Ok) {
+        shift_ = mu;
+        ++shifted_;
+        largest_shift_ = std::max(largest_shift_, mu / max_diagonal);
+        break;
+      }
+      if (outcome == detail::FactorOutcome::OutOfMemory) break;
+    }
+  }
+  if (outcome == detail::FactorOutcome::OutOfMemory) {
+    fail(Status::OutOfMemory,
+         "out of memory in the sparse Cholesky factorization at Newton step " + std::to_string(iteration_));
+    return false;
+  }
+
+  bool ok = outcome == detail::FactorOutcome::Ok;
+  if (ok && residual_merit_) {
+    // Solve with the Möbius-projected right-hand side when the sphere gauge is active; use the
+    // plain one when the projection is unavailable or does not give a descent direction.
+    // d/dt ½‖g‖² = −gᵀ H δ with H δ = b − μ δ for the right-hand side b that was solved.
+    auto merit_slope = [&](const std::vector<double>& b) {
+      const double gb = sum_(n, [&](std::int64_t j) { return rhs_[j] * b[j]; });
+      const double gx = sum_(n, [&](std::int64_t j) { return rhs_[j] * x_[j]; });
+      return -(gb - shift_ * gx);
+    };
+    bool done = false;
+    if (spherical_gauge_ && project_moebius() && solver_.solve(rhs_projected_, x_)) {
+      slope_ = merit_slope(rhs_projected_);
+      done = std::isfinite(slope_) && slope_ < 0;
+      if (!done) ++projection_skipped_;
+    }
+    if (!done) {
+      ok = solver_.solve(rhs_, x_);
+      if (ok) slope_ = merit_slope(rhs_);
+    }
+  } else if (ok) {
+    ok = solver_.solve(rhs_, x_);
+  }
+  // Circle / LoopTotals: correct the step for the dependence of K̄ on the lengths.
+  if (ok && coupled_ && !coupled_direction(rhs_)) ++gmres_failures_;
+  if (ok) {
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+    for (Index v = 0; v < nv; ++v) step_[v] = 0;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (Index j = 0; j < n; ++j) step_[pattern_.unknown_vertex[j]] = x_[j];
+    remove_gauge_mean(step_);  // a constant does not change J·δ (E), nor ∂E/∂δ
+    if (!residual_merit_) slope_ = -sum_(nv, [&](std::int64_t v) { return grad_[v] * step_[v]; });
+    ok = std::isfinite(slope_) && slope_ < 0;
+  }
+  if (ok) return true;
+
+  // Fallback: the Ricci flow direction K̄ − K (E, H: the negative gradient of E), or with a
+  // residual merit the negative gradient H(K̄ − K) of ½‖K̄ − K‖² (K̄ held).
+  ++gradient_fallbacks_;
+  shift_ = 0;
+  if (residual_merit_) {
+    detail::multiply_hessian(pattern_, values, rhs_, tmp_);
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+    for (Index v = 0; v < nv; ++v) step_[v] = 0;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (Index j = 0; j < n; ++j) step_[pattern_.unknown_vertex[j]] = tmp_[j];
+    slope_ = -sum_(n, [&](std::int64_t j) { return tmp_[j] * tmp_[j]; });
+    if (coupled_) {
+      // d/dt ½‖g‖² = −gᵀ(H − ∂K̄/∂u)·δ for δ = H g.
+      detail::multiply_hessian(pattern_, values, tmp_, x_);
+      target_derivative(step_, position_dK_);
+      const Index positions = static_cast<Index>(position_unknown_.size());
+      for (Index q = 0; q < positions; ++q)
+        if (position_unknown_[q] != kInvalid) x_[position_unknown_[q]] -= position_dK_[q];
+      slope_ = -sum_(n, [&](std::int64_t j) { return rhs_[j] * x_[j]; });
+    }
+  } else {
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+    for (Index v = 0; v < nv; ++v) step_[v] = grad_[v];
+    slope_ = -sum_(nv, [&](std::int64_t v) { return grad_[v] * grad_[v]; });
+  }
+  if (!(std::isfinite(slope_) && slope_ < 0)) {
+    fail(Status::LineSearchFailed, "no descent direction at Newton step " + std::to_string(iteration_) +
+                                       " (the gradient vanishes on the free vertices)");
+    return false;
+  }
+  return true;
+}
+
+bool FlowSolver::line_search() {
+  const Index nv = t_.num_vertices;
+  const Index n = pattern_.num_unknowns;
+  const bool spherical = residual_merit_;
+  // Rounding levels: each computed K_i carries an error of a few ulps of its angle sum, so
+  // Σ (K − K̄)·δ (energy slope) is resolved only to about ε·Σ|δ_i|·(4π + |K̄_i|), and ½‖K̄ − K‖²
+  // (the residual merit) to about ε·Σ|K̄_i − K_i|·(4π + |K̄_i|).
+  const double merit0 = spherical ? 0.5 * sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; }) : 0;
+  const double noise = 64 * kEps * sum_(nv, [&](std::int64_t v) {
+                         if (!condition_[v]) return 0.0;
+                         const double scale = 4 * kPi + std::abs(K_target_[v]);
+                         return (spherical ? std::abs(K_target_[v] - cur_.K[v]) : std::abs(step_[v])) * scale;
+                       });
+  // Below the rounding level the merit function cannot rank trial points; a step is then taken
+  // if it lowers the maximal curvature error, and only a few halvings are tried.
+  const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
+  const double min_step = rounding_level ? 1.0 / 16 : kMinStep;
+  Validity last = Validity::Ok;
+  for (double t = 1; t >= min_step; t *= 0.5) {
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+    for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + t * step_[v];
+    last = evaluate(t_, s_, u_trial_, trial_);
+    if (last != Validity::Ok) continue;
+    // The residual merit of a coupled target uses the target of the trial lengths.
+    if (coupled_) effective_target(t_, target_, trial_.l, K_target_trial_);
+    const std::vector<double>& trial_target = coupled_ ? K_target_trial_ : K_target_;
+    const double trial_error = max_error(trial_.K, trial_target, condition_);
+    if (!std::isfinite(trial_error)) continue;
+    double dE = 0;
+    bool accepted = false;
+    if (spherical) {
+      const double merit = 0.5 * sum_(n, [&](std::int64_t j) {
+                             const Index v = pattern_.unknown_vertex[j];
+                             const double d = trial_target[v] - trial_.K[v];
+                             return d * d;
+                           });
+      accepted = !rounding_level && merit <= merit0 + kArmijo * t * slope_;
+      if (!accepted && std::abs(merit - merit0) <= noise && trial_error < error_) {
+        accepted = true;
+        ++noise_accepts_;
+      }
+      // The energy is recorded only: a bad quadrature node does not veto the step.
+      if (accepted && !energy_difference(t, dE)) dE = 0;
+    } else {
+      if (!energy_difference(t, dE)) {
+        last = Validity::BadLength;
+        continue;
+      }
+      accepted = !rounding_level && dE <= kArmijo * t * slope_;
+      if (!accepted && std::abs(dE) <= t * noise && trial_error < error_) {
+        accepted = true;
+        ++noise_accepts_;
+      }
+    }
+    if (!accepted) continue;
+    if (t < 1) ++damped_;
+    accept(t, dE);
+    return true;
+  }
+  if (rounding_level) {
+    fail(Status::LineSearchFailed, "Newton step " + std::to_string(iteration_) +
+                                       " stalled at max |K̄ − K| = " + format_double("%.3g", error_) +
+                                       ", the rounding level of the curvatures of this mesh: the tolerance " +
+                                       format_double("%.3g", options_.tolerance) +
+                                       " is below what double precision resolves here");
+    return false;
+  }
+  fail(Status::LineSearchFailed,
+       "the line search found no acceptable step at Newton step " + std::to_string(iteration_) +
+           (last != Validity::Ok ? " (the last trial was rejected: " + validity_text(last) + ")"
+                                 : " (the merit function did not decrease enough)"));
+  return false;
+}
+
+void FlowSolver::accept(double step_length, double dE) {
+  u_.swap(u_trial_);
+  cur_.swap(trial_);
+  effective_target(t_, target_, cur_.l, K_target_);
+  error_ = max_error(cur_.K, K_target_, condition_);
+  energy_ += dE;
+  IterationRecord record;
+  record.iteration = iteration_;
+  record.max_error = error_;
+  record.energy = energy_;
+  record.step = step_length;
+  record.seconds = seconds();
+  r_.history.push_back(record);
+  if (options_.on_iteration) options_.on_iteration(record);
+}
+
+bool FlowSolver::newton_step() {
+  return compute_direction() && line_search();
+}
+
+bool FlowSolver::gradient_step() {
+  const Index nv = t_.num_vertices;
+  const double eps = options_.gradient_step;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) step_[v] = condition_[v] ? eps * (K_target_[v] - cur_.K[v]) : 0.0;
+  remove_gauge_mean(step_);
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + step_[v];
+  const Validity validity = evaluate(t_, s_, u_trial_, trial_);
+  if (validity != Validity::Ok) {
+    fail(validity == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
+         "gradient descent step " + std::to_string(iteration_) + " with step size " +
+             format_double("%g", eps) + " left the admissible metrics: " + validity_text(validity) +
+             " (a smaller gradient_step may help; the paper uses at most 0.05)");
+    return false;
+  }
+  // Trapezoidal energy change (the flow takes small steps; no extra curvature evaluations).
+  const double dE =
+      0.5 * sum_(nv, [&](std::int64_t v) {
+        return condition_[v] ? ((cur_.K[v] - K_target_[v]) + (trial_.K[v] - K_target_[v])) * step_[v] : 0.0;
+      });
+  accept(eps, std::isfinite(dE) ? dE : 0.0);
+  return true;
+}
+
+void FlowSolver::run() {
+  const Index nv = t_.num_vertices, nf = t_.num_faces;
+  const bool newton = options_.method == Method::Newton;
+  classify_vertices();
+
+  u_trial_.assign(static_cast<std::size_t>(nv), 0.0);
+  step_.assign(static_cast<std::size_t>(nv), 0.0);
+  grad_.assign(static_cast<std::size_t>(nv), 0.0);
+  K_target_.assign(static_cast<std::size_t>(nv), 0.0);
+  cur_.allocate(t_);
+  trial_.allocate(t_);
+  if (newton) {
+    u_quad_.assign(static_cast<std::size_t>(nv), 0.0);
+    quad_.allocate(t_);
+  }
+  r_.history.reserve(static_cast<std::size_t>(std::min(options_.max_iterations, 1 << 16)));
+
+  const Validity start = evaluate(t_, s_, u_, cur_);
+  if (start == Validity::OutOfRange) {
+    fail(Status::InvalidArgument,
+         "the starting u is outside the admissible range (finite, at most " + format_double("%g", kMaxU) +
+             (s_.geometry == Geometry::Hyperbolic && s_.epsilon > 0 ? ", and below 0 for hyperbolic radii)"
+                                                                    : ")"));
+    r_.u.clear();
+    return;
+  }
+  effective_target(t_, target_, cur_.l, K_target_);
+  error_ = max_error(cur_.K, K_target_, condition_);
+  if (start != Validity::Ok) {
+    fail(start == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
+         "the starting metric is not admissible: " + validity_text(start));
+    return;
+  }
+
+  if (newton) {
+    pattern_ = detail::build_hessian_pattern(t_, unknown_);
+    const Index n = pattern_.num_unknowns;
+    blocks_.assign(9 * static_cast<std::size_t>(nf), 0.0);
+    rhs_.assign(static_cast<std::size_t>(n), 0.0);
+    x_.assign(static_cast<std::size_t>(n), 0.0);
+    tmp_.assign(static_cast<std::size_t>(n), 0.0);
+    x2_.assign(static_cast<std::size_t>(n), 0.0);
+    if (spherical_gauge_) {
+      const std::size_t k = spherical_pins_.size();
+      pin_edges_.resize(k);
+      for (std::size_t a = 0; a < k; ++a) {
+        const Index p = spherical_pins_[a];
+        for (Index i = t_.vertex_corner_offsets[p]; i < t_.vertex_corner_offsets[p + 1]; ++i) {
+          const Index c = t_.vertex_corners[i];
+          for (const Index other : {next_corner(c), prev_corner(c)}) {
+            // The edge from p to the vertex of `other` is opposite the third corner of the face.
+            const Index third = 3 * corner_face(c) + (3 - corner_slot(c) - corner_slot(other));
+            const Index j = pattern_.vertex_unknown[t_.corner_vertex[other]];
+            if (j != kInvalid) pin_edges_[a].emplace_back(t_.corner_edge[third], j);
+          }
+        }
+        std::sort(pin_edges_[a].begin(), pin_edges_[a].end());
+        pin_edges_[a].erase(std::unique(pin_edges_[a].begin(), pin_edges_[a].end()), pin_edges_[a].end());
+      }
+      moebius_.assign(k, std::vector<double>(static_cast<std::size_t>(n), 0.0));
+      gram_.assign(k * k, 0.0);
+      coefficient_.assign(k, 0.0);
+      rhs_projected_.assign(static_cast<std::size_t>(n), 0.0);
+    }
+    if (t_.num_boundary_loops() > 0 &&
+        (target_.boundary == BoundaryMode::Circle || target_.boundary == BoundaryMode::LoopTotals) &&
+        target_.loop_total.size() == static_cast<std::size_t>(t_.num_boundary_loops()))
+      setup_coupling();
+    residual_merit_ = s_.geometry == Geometry::Spherical || coupled_;
+    const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
+                                                                       : detail::FactorKind::PositiveDefinite;
+    const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind);
+    if (analysis != detail::FactorOutcome::Ok) {
+      fail(analysis == detail::FactorOutcome::OutOfMemory ? Status::OutOfMemory : Status::NumericalFailure,
+           "the symbolic analysis of the " + std::to_string(n) + "×" + std::to_string(n) +
+               " Newton system failed");
+      return;
+    }
+  }
+
+  while (true) {
+    if (error_ < options_.tolerance) {
+      r_.status = Status::Ok;
+      r_.message = "converged";
+      return;
+    }
+    if (!std::isfinite(error_)) {
+      fail(Status::NumericalFailure,
+           "the curvature error is not finite at iteration " + std::to_string(iteration_));
+      return;
+    }
+    if (newton && spherical_gauge_ && max_error(cur_.K, K_target_, unknown_) < 0.01 * options_.tolerance) {
+      fail(Status::NotConverged,
+           "Newton converged on the free vertices but not at the three vertices pinned for the Möbius gauge "
+           "of the sphere (their starting u is not reachable by a Möbius transformation of the solution)");
+      return;
+    }
+    if (iteration_ >= options_.max_iterations) {
+      fail(Status::NotConverged, "the iteration limit " + std::to_string(options_.max_iterations) +
+                                     " was reached with max |K̄ − K| = " + format_double("%.3g", error_) +
+                                     " above the tolerance " + format_double("%.3g", options_.tolerance));
+      return;
+    }
+    ++iteration_;
+    if (!(newton ? newton_step() : gradient_step())) return;
+  }
+}
+
+void FlowSolver::finish() {
+  const Geometry g = s_.geometry;
+  r_.iterations = static_cast<int>(r_.history.size());
+  if (r_.status == Status::InvalidArgument || r_.status == Status::OutOfMemory) {
+    r_.u.clear();
+  } else {
+    r_.u = u_;
+    r_.l = cur_.l;
+    r_.K = cur_.K;
+    r_.K_target = K_target_;
+    r_.max_curvature_error = error_;
+    area_.assign(static_cast<std::size_t>(t_.num_faces), 0.0);
+    face_areas(t_, g, cur_.l, cur_.theta, area_);
+    r_.gauss_bonnet_error = std::abs(gauss_bonnet_defect(t_, g, cur_.K, area_));
+  }
+  if (spherical_gauge_) {
+    r_.notes.push_back(
+        "spherical gauge: the round-sphere target is unique only up to Möbius transformations; "
+        "vertices " +
+        std::to_string(spherical_pins_[0]) + ", " + std::to_string(spherical_pins_[1]) + " and " +
+        std::to_string(spherical_pins_[2]) + " kept their starting u");
+  }
+  if (gmres_failures_ > 0)
+    r_.notes.push_back("the boundary system of the length-dependent target did not converge in " +
+                       std::to_string(gmres_failures_) + " step(s); the step with the target held was used");
+  if (projection_skipped_ > 0)
+    r_.notes.push_back("the Möbius projection of the right-hand side gave no descent direction in " +
+                       std::to_string(projection_skipped_) +
+                       " step(s); the plain Newton step was used there");
+  if (shifted_ > 0)
+    r_.notes.push_back("the Newton matrix was not " +
+                       std::string(g == Geometry::Spherical ? "factorizable" : "positive definite") + " in " +
+                       std::to_string(shifted_) +
+                       " step(s); the shifted matrix H + μI was used (largest μ = " +
+                       format_double("%.1e", largest_shift_) + " × the largest diagonal entry)");
+  if (gradient_fallbacks_ > 0)
+    r_.notes.push_back("the Newton direction was unusable in " + std::to_string(gradient_fallbacks_) +
+                       " step(s); the " +
+                       std::string(residual_merit_ ? "residual gradient" : "Ricci flow") +
+                       " direction was used instead");
+  if (damped_ > 0)
+    r_.notes.push_back("the line search shortened " + std::to_string(damped_) + " Newton step(s)");
+  if (noise_accepts_ > 0)
+    r_.notes.push_back(
+        std::to_string(noise_accepts_) +
+        " step(s) were accepted because the curvature error decreased while the energy change was "
+        "below rounding");
+  r_.seconds = seconds();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+bool FlowOptions::is_valid(std::string* why) const {
+  auto bad = [&](const char* text) {
+    if (why) *why = text;
+    return false;
+  };
+  if (method != Method::Newton && method != Method::GradientDescent)
+    return bad("method must be Newton or GradientDescent");
+  if (!std::isfinite(tolerance) || tolerance <= 0) return bad("tolerance must be a positive finite number");
+  if (max_iterations < 0) return bad("max_iterations must be non-negative");
+  if (!std::isfinite(gradient_step) || gradient_step <= 0)
+    return bad("gradient_step must be a positive finite number (the paper uses at most 0.05)");
+  if (threads < 0) return bad("threads must be non-negative (0 keeps the current OpenMP setting)");
+  return true;
+}
+
+std::string FlowResult::brief_report() const {
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer,
+                "%s: %s, %d iteration%s, max |K̄ − K| %.3g, Gauss–Bonnet error %.3g, %.3f s",
+                std::string(status_name(status)).c_str(), std::string(geometry_name(geometry)).c_str(),
+                iterations, iterations == 1 ? "" : "s", max_curvature_error, gauss_bonnet_error, seconds);
+  return buffer;
+}
+
+FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
+                      std::span<const double> u0, const Target& target, const FlowOptions& options) {
+  const auto start = Clock::now();
+  FlowResult r;
+  r.geometry = structure.geometry;
+  auto reject = [&](Status status, std::string message) {
+    r.status = status;
+    r.message = std::move(message);
+    r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return r;
+  };
+  if (std::string why; !options.is_valid(&why))
+    return reject(Status::InvalidArgument, "invalid flow options: " + why);
+  const Index nv = topology.num_vertices;
+  if (topology.num_faces <= 0) return reject(Status::InvalidArgument, "the mesh has no faces");
+  if (structure.geometry != Geometry::Euclidean && structure.geometry != Geometry::Hyperbolic &&
+      structure.geometry != Geometry::Spherical)
+    return reject(Status::InvalidArgument, "the conformal structure has an unknown geometry");
+  if (structure.eta.size() != static_cast<std::size_t>(topology.num_edges))
+    return reject(Status::InvalidArgument,
+                  "the conformal structure has " + std::to_string(structure.eta.size()) +
+                      " edge weights, but the mesh has " + std::to_string(topology.num_edges) + " edges");
+  if (!std::isfinite(structure.epsilon) || structure.epsilon < 0)
+    return reject(Status::InvalidArgument, "the conformal structure's ε must be finite and non-negative");
+  for (std::size_t e = 0; e < structure.eta.size(); ++e)
+    if (!std::isfinite(structure.eta[e]))
+      return reject(Status::InvalidArgument,
+                    "the edge weight η of edge " + std::to_string(e) + " is not finite");
+  if (u0.size() != static_cast<std::size_t>(nv))
+    return reject(Status::InvalidArgument, "u0 has " + std::to_string(u0.size()) +
+                                               " values, but the mesh has " + std::to_string(nv) +
+                                               " vertices");
+  for (Index v = 0; v < nv; ++v)
+    if (!std::isfinite(u0[v]))
+      return reject(Status::InvalidArgument, "u0 of vertex " + std::to_string(v) + " is not finite");
+  if (target.K.size() != static_cast<std::size_t>(nv) ||
+      (!target.fixed_u.empty() && target.fixed_u.size() != static_cast<std::size_t>(nv)))
+    return reject(Status::InvalidArgument, "the target has " + std::to_string(target.K.size()) +
+                                               " curvatures and " + std::to_string(target.fixed_u.size()) +
+                                               " fixed_u flags, but the mesh has " + std::to_string(nv) +
+                                               " vertices");
+  const TargetCheck check = check_target(topology, structure, target);
+  if (check.status != Status::Ok)
+    return reject(
+        check.status == Status::InfeasibleTarget ? Status::InfeasibleTarget : Status::InvalidArgument,
+        check.message);
+
+  ThreadScope threads(options.threads, topology.num_faces);
+  FlowSolver solver(topology, structure, u0, target, options, r);
+  solver.run();
+  solver.finish();
+  return r;
+}
+
+}  // namespace ricci

@@ -102,7 +102,8 @@ struct FlowOptions {
   int max_iterations = 200;
   /// Gradient descent: u += step · (K̄ − K) (the paper's ε; at most 0.05 there).
   double gradient_step = 0.05;
-  /// OpenMP threads for the kernels; 0 keeps the current setting.
+  /// OpenMP threads for the kernels; 0 keeps the current setting (but solves meshes under 20 000
+  /// faces on one thread, where forking costs more than the work). Results do not depend on it.
   int threads = 0;
   /// Called after every iteration (for progress output; the library never prints).
   std::function<void(const struct IterationRecord&)> on_iteration;
@@ -128,6 +129,7 @@ struct FlowResult {
   std::vector<double> l;         ///< #E
   std::vector<double> K;         ///< #V
   std::vector<double> K_target;  ///< #V: the final target (boundary modes derive it from lengths)
+  Geometry geometry = Geometry::Euclidean;  ///< the background geometry that was solved in
   int iterations = 0;
   double max_curvature_error = 0;
   double gauss_bonnet_error = 0;  ///< |Σ K + λ Σ A − 2πχ|

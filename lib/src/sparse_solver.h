@@ -1,0 +1,67 @@
+// ricci (internal) — a sparse symmetric factorization with a fixed pattern, for the Newton steps
+// of solve_flow(). Wraps CHOLMOD (64-bit integer interface) so that no other file includes it.
+//
+// Usage: analyze() once with the pattern of the upper triangle (compressed columns, rows sorted
+// within each column); then, every iteration, write the numeric values into values(), call
+// factorize() (optionally of A + shift·I) and solve(). The symbolic analysis (fill-reducing
+// ordering, elimination tree, supernodes) is computed once and reused by every factorize(). After
+// the first factorize() and solve(), further calls reuse every buffer of this object (CHOLMOD
+// itself still takes short-lived workspace inside its supernodal factorization).
+//
+// Two kinds: PositiveDefinite (supernodal LLᵀ; fails with NotPositiveDefinite when a pivot is not
+// positive) and Indefinite (simplicial LDLᵀ without pivoting, for matrices whose leading minors
+// are nonzero; fails with NotPositiveDefinite only on a zero or non-finite pivot).
+//
+// The library never prints: CHOLMOD's own messages are switched off. Not thread-safe; call from
+// outside OpenMP regions (CHOLMOD and the BLAS may use threads of their own).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+namespace ricci::detail {
+
+enum class FactorKind { PositiveDefinite, Indefinite };
+
+enum class FactorOutcome {
+  Ok,
+  NotPositiveDefinite,  ///< LLᵀ met a non-positive pivot, or LDLᵀ a zero / non-finite one
+  OutOfMemory,
+  Failed,  ///< any other CHOLMOD error (invalid input, integer overflow, …)
+};
+
+class SymmetricSolver {
+ public:
+  SymmetricSolver();
+  ~SymmetricSolver();
+  SymmetricSolver(const SymmetricSolver&) = delete;
+  SymmetricSolver& operator=(const SymmetricSolver&) = delete;
+
+  /// Symbolic analysis of the n×n symmetric matrix whose upper triangle has the pattern
+  /// col_ptr (n+1) / row (col_ptr[n]) with rows sorted increasingly in each column.
+  FactorOutcome analyze(std::int64_t n, std::span<const std::int64_t> col_ptr,
+                        std::span<const std::int64_t> row, FactorKind kind);
+
+  /// The numeric values of the upper triangle, in the order of `row` (write before factorize()).
+  std::span<double> values();
+
+  /// Numeric factorization of A + shift·I with the analysis of analyze().
+  FactorOutcome factorize(double shift = 0);
+
+  /// Solves (A + shift·I) x = b with the last successful factorization. b and x have n entries
+  /// and may not alias. Returns false on a CHOLMOD error or a non-finite result.
+  bool solve(std::span<const double> b, std::span<double> x);
+
+  /// CHOLMOD's rough reciprocal condition estimate of the last factorization (min/max of the
+  /// diagonal of the factor); 0 before any.
+  double rcond() const;
+  /// Nonzeros of the factor L after the first factorization (0 before).
+  double factor_nonzeros() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ricci::detail

@@ -1,0 +1,577 @@
+// Flow solvers: Newton and gradient descent in E, H and S with every scheme; targets with held
+// vertices and derived boundary curvature; quadratic convergence; the gauges; invariance under
+// vertex permutation and scaling; thread invariance; validation and the failure paths.
+#include <doctest/doctest.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <random>
+#include <string>
+
+#include "ricci/flow.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+
+using namespace ricci;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+const Scheme kSchemes[] = {Scheme::CirclePacking, Scheme::InversiveDistance, Scheme::Yamabe};
+
+struct Problem {
+  std::string name;
+  Mesh mesh;
+  Topology topology;
+  InitialMetric metric;
+  Target target;
+};
+
+Problem make_problem(const std::string& name, const Mesh& input, Geometry g,
+                     Scheme scheme = Scheme::CirclePacking, BoundaryMode mode = BoundaryMode::Circle) {
+  Problem p;
+  p.name = name;
+  const ValidateResult v = validate_mesh(input);
+  REQUIRE(v.status == Status::Ok);
+  p.mesh = v.mesh;
+  p.topology = v.topology;
+  InitialMetricOptions o;
+  o.geometry = g;
+  o.scheme = scheme;
+  p.metric = initial_metric(p.mesh, p.topology, o);
+  REQUIRE_MESSAGE(p.metric.status == Status::Ok, p.metric.message);
+  p.target = uniform_target(p.topology, mode);
+  return p;
+}
+
+// The closed surfaces of the convergence tests: the paper's scheme and the natural geometry.
+std::vector<Problem> closed_problems(Scheme scheme = Scheme::CirclePacking) {
+  using namespace ricci_shapes;
+  std::vector<Problem> out;
+  out.push_back(make_problem("torus", torus(24, 12, 2.0, 0.8), Geometry::Euclidean, scheme));
+  out.push_back(make_problem("genus-2 pretzel", pretzel(2, 4), Geometry::Hyperbolic, scheme));
+  out.push_back(make_problem("genus-3 pretzel", pretzel(3, 4), Geometry::Hyperbolic, scheme));
+  out.push_back(make_problem("icosphere", icosphere(3), Geometry::Spherical, scheme));
+  return out;
+}
+
+FlowResult solve(const Problem& p, const FlowOptions& o = {}) {
+  return solve_flow(p.topology, p.metric.structure, p.metric.u, p.target, o);
+}
+
+bool all_finite(const std::vector<double>& x) {
+  return std::all_of(x.begin(), x.end(), [](double v) { return std::isfinite(v); });
+}
+
+double max_abs_difference(const std::vector<double>& a, const std::vector<double>& b) {
+  REQUIRE(a.size() == b.size());
+  double d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, std::abs(a[i] - b[i]));
+  return d;
+}
+
+double sum(const std::vector<double>& x) {
+  double s = 0;
+  for (double v : x) s += v;
+  return s;
+}
+
+// Checks that the outputs of a result describe one consistent metric: sizes, finiteness, l and
+// K recomputed from u, and the reported error recomputed from K and K_target.
+void check_consistent(const Problem& p, const FlowResult& r) {
+  const Topology& t = p.topology;
+  REQUIRE(r.u.size() == static_cast<std::size_t>(t.num_vertices));
+  REQUIRE(r.l.size() == static_cast<std::size_t>(t.num_edges));
+  REQUIRE(r.K.size() == static_cast<std::size_t>(t.num_vertices));
+  REQUIRE(r.K_target.size() == static_cast<std::size_t>(t.num_vertices));
+  CHECK(all_finite(r.u));
+  CHECK(all_finite(r.l));
+  CHECK(all_finite(r.K));
+  CHECK(all_finite(r.K_target));
+  CHECK(std::isfinite(r.max_curvature_error));
+  CHECK(std::isfinite(r.gauss_bonnet_error));
+  std::vector<double> l(t.num_edges), theta(3 * t.num_faces), K(t.num_vertices);
+  CHECK(edge_lengths(t, p.metric.structure, r.u, l) == kInvalid);
+  CHECK(l == r.l);
+  corner_angles(t, p.metric.structure.geometry, l, theta);
+  vertex_curvature(t, theta, K);
+  CHECK(K == r.K);
+  double error = 0;
+  for (Index v = 0; v < t.num_vertices; ++v) {
+    const bool held = !p.target.fixed_u.empty() && p.target.fixed_u[v];
+    if (!held) error = std::max(error, std::abs(r.K_target[v] - r.K[v]));
+  }
+  CHECK(error == r.max_curvature_error);
+  CHECK(static_cast<int>(r.history.size()) == r.iterations);
+  for (const IterationRecord& h : r.history) {
+    CHECK(std::isfinite(h.max_error));
+    CHECK(std::isfinite(h.energy));
+    CHECK(h.step > 0);
+    CHECK(h.seconds >= 0);
+  }
+  if (!r.history.empty()) CHECK(r.history.back().max_error == r.max_curvature_error);
+}
+
+// Vertex i of `permuted` is vertex map[i] of `original` (positions are unique and copied exactly).
+std::vector<Index> vertex_map(const Mesh& original, const Mesh& permuted) {
+  std::map<std::array<double, 3>, Index> index;
+  for (Index v = 0; v < original.num_vertices(); ++v)
+    index[{original.positions[3 * v], original.positions[3 * v + 1], original.positions[3 * v + 2]}] = v;
+  std::vector<Index> map(permuted.num_vertices(), kInvalid);
+  for (Index v = 0; v < permuted.num_vertices(); ++v) {
+    const auto it =
+        index.find({permuted.positions[3 * v], permuted.positions[3 * v + 1], permuted.positions[3 * v + 2]});
+    REQUIRE(it != index.end());
+    map[v] = it->second;
+  }
+  return map;
+}
+
+}  // namespace
+
+TEST_CASE(
+    "flow: Newton converges with circle packing on a torus (E) and pretzels of genus 2 and 3 (H) and a "
+    "sphere (S)") {
+  for (const Problem& p : closed_problems()) {
+    INFO(p.name);
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    CHECK(r.status == Status::Ok);
+    CHECK(r.max_curvature_error < 1e-10);
+    CHECK(r.iterations >= 1);
+    CHECK(r.iterations <= 10);
+    CHECK(r.gauss_bonnet_error < 1e-9);
+    check_consistent(p, r);
+    for (double k : r.K_target) CHECK(k == 0);
+    CHECK(r.geometry == p.metric.structure.geometry);
+    CHECK(r.brief_report().find("ok: " + std::string(geometry_name(r.geometry))) == 0);
+    // Newton converges quadratically: the last step gains more than the square of the one before.
+    if (r.history.size() >= 2) {
+      const double before = r.history[r.history.size() - 2].max_error;
+      CHECK(r.history.back().max_error < std::max(100 * before * before, 1e-12));
+    }
+  }
+}
+
+TEST_CASE("flow: the E gauge holds Σu at its start; the S gauge keeps three pinned vertices at their start") {
+  const std::vector<Problem> problems = closed_problems();
+  const Problem& torus = problems[0];
+  const FlowResult e = solve(torus);
+  REQUIRE(e.status == Status::Ok);
+  CHECK(std::abs(sum(e.u) - sum(torus.metric.u)) < 1e-9);
+  CHECK(e.notes.empty());
+
+  const Problem& sphere = problems[3];
+  const FlowResult s = solve(sphere);
+  REQUIRE(s.status == Status::Ok);
+  REQUIRE(s.notes.size() >= 1);
+  CHECK(s.notes[0].find("Möbius") != std::string::npos);
+  Index kept = 0;
+  for (Index v = 0; v < sphere.topology.num_vertices; ++v) kept += s.u[v] == sphere.metric.u[v] ? 1 : 0;
+  CHECK(kept == 3);
+  // Every vertex, pinned or not, meets its curvature condition.
+  for (Index v = 0; v < sphere.topology.num_vertices; ++v) CHECK(std::abs(s.K[v]) < 1e-10);
+}
+
+TEST_CASE("flow: Newton converges on a disk whose boundary u is held and with circular boundaries") {
+  using namespace ricci_shapes;
+  {
+    const Problem p =
+        make_problem("disk", disk(8), Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::FixedLengths);
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    check_consistent(p, r);
+    CHECK(r.iterations <= 6);
+    Index held = 0;
+    for (Index v = 0; v < p.topology.num_vertices; ++v) {
+      if (p.topology.is_boundary_vertex(v)) {
+        ++held;
+        CHECK(r.u[v] == p.metric.u[v]);
+      } else {
+        CHECK(std::abs(r.K[v]) < 1e-10);
+      }
+    }
+    CHECK(held == p.topology.num_boundary_edges());
+  }
+  // Circle targets depend on the lengths; Newton includes that dependence and converges
+  // quadratically (holding K̄ within a step would take 20–110 steps here, or oscillate).
+  for (const auto& [name, mesh] :
+       {std::pair<const char*, Mesh>{"disk", disk(6)},
+        {"annulus", annulus(4, 24)},
+        {"sphere with 3 holes", remove_vertex_stars(icosphere(3), {0, 5, 9})},
+        {"sphere with 6 holes", remove_vertex_stars(icosphere(3), {0, 1, 2, 3, 4, 5})}}) {
+    INFO(name);
+    const Problem p =
+        make_problem(name, mesh, Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::Circle);
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.iterations <= 8);
+    check_consistent(p, r);
+    // The boundary target follows the final lengths: each loop's total, spread by length.
+    const Topology& t = p.topology;
+    for (Index loop = 0; loop < t.num_boundary_loops(); ++loop) {
+      double total = 0;
+      for (Index j = t.boundary_offsets[loop]; j < t.boundary_offsets[loop + 1]; ++j)
+        total += r.K_target[t.boundary_vertices[j]];
+      CHECK(std::abs(total - p.target.loop_total[loop]) < 1e-9);
+    }
+  }
+}
+
+TEST_CASE("flow: loop totals with a single cone converge on a disk (E) and a holed torus (H)") {
+  using namespace ricci_shapes;
+  {
+    // Gauss–Bonnet on a disk: the boundary takes π, the centre vertex the other π.
+    Problem p =
+        make_problem("disk", disk(6), Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::LoopTotals);
+    p.target = single_vertex_target(p.topology, 0, BoundaryMode::LoopTotals);
+    p.target.loop_total = {kPi};
+    p.target.K[0] = kPi;
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.iterations <= 8);
+    check_consistent(p, r);
+    CHECK(std::abs(r.K[0] - kPi) < 1e-10);
+  }
+  {
+    Problem p = make_problem("torus with a hole", remove_vertex_stars(torus(12, 6, 2.0, 0.8), {0}),
+                             Geometry::Hyperbolic, Scheme::CirclePacking, BoundaryMode::LoopTotals);
+    p.target.loop_total = {1.0};  // H: Σ K̄ = 1 > 2πχ = −2π
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.iterations <= 8);
+    check_consistent(p, r);
+  }
+}
+
+TEST_CASE("flow: reaching 1e-12 takes at most two more Newton steps than 1e-10") {
+  for (const Problem& p : closed_problems()) {
+    INFO(p.name);
+    FlowOptions o;
+    o.tolerance = 1e-10;
+    const FlowResult coarse = solve(p, o);
+    o.tolerance = 1e-12;
+    const FlowResult fine = solve(p, o);
+    REQUIRE(coarse.status == Status::Ok);
+    REQUIRE(fine.status == Status::Ok);
+    CHECK(fine.max_curvature_error < 1e-12);
+    CHECK(fine.iterations <= coarse.iterations + 2);
+  }
+}
+
+TEST_CASE("flow: gradient descent (the paper's step 3.1) and Newton reach the same metric") {
+  using namespace ricci_shapes;
+  // (E only: in H the flow needs thousands of steps even on the smallest pretzel; gradient descent
+  // in H and S is exercised by the thread-invariance test.)
+  const Problem problems[] = {
+      make_problem("torus", torus(12, 6, 2.0, 0.8), Geometry::Euclidean),
+      make_problem("disk", disk(4), Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::FixedLengths)};
+  for (const Problem& p : problems) {
+    INFO(p.name);
+    const FlowResult newton = solve(p);
+    REQUIRE(newton.status == Status::Ok);
+    FlowOptions o;
+    o.method = Method::GradientDescent;
+    o.tolerance = 1e-8;
+    o.max_iterations = 20000;
+    const FlowResult gd = solve(p, o);
+    INFO(gd.brief_report() << " — " << gd.message);
+    REQUIRE(gd.status == Status::Ok);
+    check_consistent(p, gd);
+    CHECK(gd.iterations > newton.iterations);
+    for (const IterationRecord& h : gd.history) CHECK(h.step == o.gradient_step);
+    // Both hold Σu at its start in E (or the boundary u), so the same u, not only up to a constant.
+    CHECK(max_abs_difference(gd.u, newton.u) < 1e-6);
+    // The energy decreases along the flow.
+    for (std::size_t i = 1; i < gd.history.size(); ++i)
+      CHECK(gd.history[i].energy <= gd.history[i - 1].energy + 1e-15);
+    // (Gradient descent records the energy by the trapezoidal rule, Newton by quadrature.)
+    CHECK(std::abs(gd.history.back().energy - newton.history.back().energy) < 1e-4);
+  }
+}
+
+TEST_CASE("flow: one gradient descent step is u + ε(K̄ − K) with the mean of the update removed in E") {
+  const Problem p = make_problem("torus", ricci_shapes::torus(9, 6, 2.0, 0.8), Geometry::Euclidean);
+  FlowOptions o;
+  o.method = Method::GradientDescent;
+  o.gradient_step = 0.03;
+  o.max_iterations = 1;
+  const FlowResult r = solve(p, o);
+  CHECK(r.status == Status::NotConverged);
+  REQUIRE(r.iterations == 1);
+  const Topology& t = p.topology;
+  std::vector<double> l(t.num_edges), theta(3 * t.num_faces), K(t.num_vertices);
+  edge_lengths(t, p.metric.structure, p.metric.u, l);
+  corner_angles(t, Geometry::Euclidean, l, theta);
+  vertex_curvature(t, theta, K);
+  std::vector<double> update(t.num_vertices);
+  double mean = 0;
+  for (Index v = 0; v < t.num_vertices; ++v) mean += (update[v] = 0.03 * (0 - K[v])) / t.num_vertices;
+  for (Index v = 0; v < t.num_vertices; ++v)
+    CHECK(std::abs(r.u[v] - (p.metric.u[v] + update[v] - mean)) < 1e-15);
+}
+
+TEST_CASE("flow: the euclidean result is invariant under vertex permutation") {
+  const Problem p = make_problem("torus", ricci_shapes::torus(16, 8, 2.0, 0.7), Geometry::Euclidean);
+  const FlowResult r = solve(p);
+  REQUIRE(r.status == Status::Ok);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    CAPTURE(seed);
+    std::mt19937_64 rng(seed);
+    const Problem q =
+        make_problem("permuted torus", ricci_shapes::permute_vertices(p.mesh, rng), Geometry::Euclidean);
+    const FlowResult s = solve(q);
+    REQUIRE(s.status == Status::Ok);
+    const std::vector<Index> map = vertex_map(p.mesh, q.mesh);
+    double worst = 0;
+    for (Index v = 0; v < q.topology.num_vertices; ++v)
+      worst = std::max(worst, std::abs(s.u[v] - r.u[map[v]]));
+    CHECK(worst < 1e-9);
+  }
+}
+
+TEST_CASE("flow: the euclidean result is invariant under global scaling (u shifts by log scale)") {
+  const Problem p = make_problem("torus", ricci_shapes::torus(16, 8, 2.0, 0.7), Geometry::Euclidean);
+  const FlowResult r = solve(p);
+  REQUIRE(r.status == Status::Ok);
+  for (double scale : {0.01, 3.7, 250.0}) {
+    CAPTURE(scale);
+    Mesh scaled = p.mesh;
+    for (double& x : scaled.positions) x *= scale;
+    const Problem q = make_problem("scaled torus", scaled, Geometry::Euclidean);
+    const FlowResult s = solve(q);
+    REQUIRE(s.status == Status::Ok);
+    CHECK(s.iterations == r.iterations);
+    double worst_u = 0, worst_l = 0;
+    for (Index v = 0; v < p.topology.num_vertices; ++v)
+      worst_u = std::max(worst_u, std::abs(s.u[v] - r.u[v] - std::log(scale)));
+    for (Index e = 0; e < p.topology.num_edges; ++e)
+      worst_l = std::max(worst_l, std::abs(s.l[e] / (scale * r.l[e]) - 1));
+    CHECK(worst_u < 1e-9);
+    CHECK(worst_l < 1e-9);
+  }
+}
+
+TEST_CASE("flow: results are bitwise identical for 1 and 2 threads") {
+  const int saved = omp_get_max_threads();
+  std::vector<Problem> problems = closed_problems();
+  problems.push_back(make_problem("disk", ricci_shapes::disk(6), Geometry::Euclidean));
+  for (const Problem& p : problems) {
+    for (Method method : {Method::Newton, Method::GradientDescent}) {
+      INFO(p.name << (method == Method::Newton ? " newton" : " gradient descent"));
+      FlowOptions o;
+      o.method = method;
+      if (method == Method::GradientDescent) o.max_iterations = 20;
+      o.threads = 1;
+      const FlowResult one = solve(p, o);
+      CHECK(omp_get_max_threads() == saved);  // restored
+      o.threads = 2;
+      const FlowResult two = solve(p, o);
+      CHECK(omp_get_max_threads() == saved);
+      CHECK(one.status == two.status);
+      CHECK(one.iterations == two.iterations);
+      CHECK(one.u == two.u);
+      CHECK(one.l == two.l);
+      CHECK(one.K == two.K);
+      CHECK(one.K_target == two.K_target);
+      CHECK(one.gauss_bonnet_error == two.gauss_bonnet_error);
+      REQUIRE(one.history.size() == two.history.size());
+      for (std::size_t i = 0; i < one.history.size(); ++i) {
+        CHECK(one.history[i].max_error == two.history[i].max_error);
+        CHECK(one.history[i].energy == two.history[i].energy);
+        CHECK(one.history[i].step == two.history[i].step);
+      }
+    }
+  }
+}
+
+TEST_CASE("flow: every scheme converges in E and H and S on a small closed mesh") {
+  for (Scheme scheme : kSchemes) {
+    for (const Problem& p : closed_problems(scheme)) {
+      if (p.name == "genus-3 pretzel") continue;
+      INFO(p.name << " " << scheme_name(scheme));
+      const FlowResult r = solve(p);
+      INFO(r.brief_report() << " — " << r.message);
+      CHECK(r.status == Status::Ok);
+      CHECK(r.max_curvature_error < 1e-10);
+      CHECK(r.iterations <= 12);
+      check_consistent(p, r);
+    }
+  }
+}
+
+TEST_CASE("flow: an infeasible target returns InfeasibleTarget and no metric") {
+  for (const Problem& p : closed_problems()) {
+    INFO(p.name);
+    Target target = p.target;
+    // E: Σ K̄ must equal 2πχ; H: exceed it; S: stay below it. Put 2πχ ± 1 at vertex 0.
+    const double chi = static_cast<double>(p.topology.euler_characteristic());
+    switch (p.metric.structure.geometry) {
+      case Geometry::Euclidean:
+        target.K[0] = 0.5;
+        break;
+      case Geometry::Hyperbolic:
+        target.K[0] = 2 * kPi * chi - 1;
+        break;
+      case Geometry::Spherical:
+        target.K[0] = 2 * kPi * chi + 1 - 2 * kPi;
+        target.K[1] = 2 * kPi - 1e-3;
+        break;
+    }
+    const FlowResult r = solve_flow(p.topology, p.metric.structure, p.metric.u, target);
+    CHECK(r.status == Status::InfeasibleTarget);
+    CHECK(!r.message.empty());
+    CHECK(r.u.empty());
+    CHECK(r.iterations == 0);
+    CHECK(r.brief_report().find("infeasible_target") == 0);
+  }
+  // A cone angle that is not positive.
+  const Problem p = closed_problems()[0];
+  Target target = p.target;
+  target.K[0] = 2 * kPi;
+  target.K[1] = -2 * kPi;
+  CHECK(solve_flow(p.topology, p.metric.structure, p.metric.u, target).status == Status::InfeasibleTarget);
+}
+
+TEST_CASE("flow: NotConverged and LineSearchFailed return the last finite iterate") {
+  const Problem p = closed_problems()[1];  // genus 2, H
+  {
+    FlowOptions o;
+    o.max_iterations = 0;
+    const FlowResult r = solve(p, o);
+    CHECK(r.status == Status::NotConverged);
+    CHECK(r.iterations == 0);
+    CHECK(r.u == p.metric.u);
+    check_consistent(p, r);
+  }
+  {
+    FlowOptions o;
+    o.max_iterations = 2;
+    const FlowResult r = solve(p, o);
+    CHECK(r.status == Status::NotConverged);
+    CHECK(r.iterations == 2);
+    CHECK(r.message.find("iteration limit") != std::string::npos);
+    check_consistent(p, r);
+    CHECK(r.max_curvature_error < r.history[0].max_error);
+  }
+  {
+    // Below the rounding level of the curvatures no step can be ranked: the solve stops.
+    FlowOptions o;
+    o.tolerance = 1e-300;
+    const FlowResult r = solve(p, o);
+    INFO(r.message);
+    CHECK(r.status == Status::LineSearchFailed);
+    CHECK(r.message.find("rounding") != std::string::npos);
+    CHECK(r.max_curvature_error < 1e-12);
+    check_consistent(p, r);
+  }
+  {
+    // Vertex scaling cannot open the centre of a disk to a cone angle of 2π + 9 without breaking
+    // triangles: the line search rejects every trial that violates a triangle inequality.
+    Problem q = make_problem("disk", ricci_shapes::disk(5), Geometry::Euclidean, Scheme::Yamabe,
+                             BoundaryMode::FixedLengths);
+    q.target.K[0] = -9;
+    const FlowResult r = solve(q);
+    INFO(r.brief_report() << " — " << r.message);
+    CHECK(r.status == Status::LineSearchFailed);
+    CHECK(r.message.find("triangle") != std::string::npos);
+    check_consistent(q, r);
+  }
+}
+
+TEST_CASE("flow: options and inputs are validated before any iteration") {
+  std::string why;
+  CHECK(FlowOptions{}.is_valid(&why));
+  auto invalid = [](auto change) {
+    FlowOptions o;
+    change(o);
+    std::string text;
+    const bool ok = o.is_valid(&text);
+    CHECK(!text.empty());
+    return !ok;
+  };
+  CHECK(invalid([](FlowOptions& o) { o.tolerance = 0; }));
+  CHECK(invalid([](FlowOptions& o) { o.tolerance = std::nan(""); }));
+  CHECK(invalid([](FlowOptions& o) { o.max_iterations = -1; }));
+  CHECK(invalid([](FlowOptions& o) { o.gradient_step = 0; }));
+  CHECK(invalid([](FlowOptions& o) { o.gradient_step = INFINITY; }));
+  CHECK(invalid([](FlowOptions& o) { o.threads = -2; }));
+  CHECK(invalid([](FlowOptions& o) { o.method = static_cast<Method>(7); }));
+  FlowOptions large_step;
+  large_step.gradient_step = 0.5;  // above the paper's 0.05, but allowed
+  CHECK(large_step.is_valid(nullptr));
+
+  const Problem p = closed_problems()[1];
+  FlowOptions bad;
+  bad.tolerance = -1;
+  FlowResult r = solve(p, bad);
+  CHECK(r.status == Status::InvalidArgument);
+  CHECK(r.message.find("tolerance") != std::string::npos);
+  CHECK(r.u.empty());
+
+  std::vector<double> u = p.metric.u;
+  u.pop_back();
+  CHECK(solve_flow(p.topology, p.metric.structure, u, p.target).status == Status::InvalidArgument);
+  u = p.metric.u;
+  u[3] = std::nan("");
+  CHECK(solve_flow(p.topology, p.metric.structure, u, p.target).status == Status::InvalidArgument);
+  u = p.metric.u;
+  u[3] = 0.1;  // a hyperbolic radius tanh(γ/2) must be below 1: u < 0
+  r = solve_flow(p.topology, p.metric.structure, u, p.target);
+  CHECK(r.status == Status::InvalidArgument);
+  CHECK(r.u.empty());
+  ConformalStructure s = p.metric.structure;
+  s.eta.pop_back();
+  CHECK(solve_flow(p.topology, s, p.metric.u, p.target).status == Status::InvalidArgument);
+  Target t = p.target;
+  t.K.push_back(0);
+  CHECK(solve_flow(p.topology, p.metric.structure, p.metric.u, t).status == Status::InvalidArgument);
+  t = p.target;
+  t.fixed_u.assign(3, 1);
+  CHECK(solve_flow(p.topology, p.metric.structure, p.metric.u, t).status == Status::InvalidArgument);
+
+  FlowResult not_run;
+  CHECK(not_run.status == Status::NotRun);
+  CHECK(not_run.brief_report().find("not_run") == 0);
+}
+
+TEST_CASE("flow: a starting metric that violates a triangle inequality is reported and not iterated") {
+  Problem p = make_problem("disk", ricci_shapes::disk(3), Geometry::Euclidean, Scheme::Yamabe,
+                           BoundaryMode::FixedLengths);
+  std::vector<double> u = p.metric.u;
+  u[0] = -8;  // shrinks every edge at the centre: the opposite rim edges become too long
+  const FlowResult r = solve_flow(p.topology, p.metric.structure, u, p.target);
+  CHECK(r.status == Status::TriangleInequality);
+  CHECK(r.iterations == 0);
+  CHECK(r.u == u);
+  CHECK(all_finite(r.K));
+  CHECK(all_finite(r.l));
+}
+
+TEST_CASE("flow: on_iteration sees every history record as it is made") {
+  const Problem p = closed_problems()[1];
+  std::vector<IterationRecord> seen;
+  FlowOptions o;
+  o.on_iteration = [&](const IterationRecord& record) { seen.push_back(record); };
+  const FlowResult r = solve(p, o);
+  REQUIRE(r.status == Status::Ok);
+  REQUIRE(seen.size() == r.history.size());
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    CHECK(seen[i].iteration == static_cast<int>(i) + 1);
+    CHECK(seen[i].max_error == r.history[i].max_error);
+    CHECK(seen[i].energy == r.history[i].energy);
+    if (i > 0) CHECK(seen[i].seconds >= seen[i - 1].seconds);
+  }
+  CHECK(r.seconds >= seen.back().seconds);
+  // The energy decreases along Newton steps in H (convex energy).
+  for (std::size_t i = 1; i < seen.size(); ++i) CHECK(seen[i].energy <= seen[i - 1].energy);
+}
