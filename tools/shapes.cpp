@@ -528,6 +528,12 @@ Mesh flip_random_edges(const Mesh& mesh, std::mt19937_64& rng, double fraction) 
     const Vec3 pa = position(out, a), pb = position(out, b), pc = position(out, c), pd = position(out, d);
     if (!(twice_area(pc, pa, pd) > 1e-3 * longest_edge_sq(pc, pa, pd))) continue;
     if (!(twice_area(pd, pb, pc) > 1e-3 * longest_edge_sq(pd, pb, pc))) continue;
+    // No fold: both new triangles face the same side as the two old ones (the quad is convex
+    // seen along their summed normal).
+    const Vec3 n_old_1 = cross(sub(pb, pa), sub(pc, pa)), n_old_2 = cross(sub(pa, pb), sub(pd, pb));
+    const Vec3 n_old = {n_old_1[0] + n_old_2[0], n_old_1[1] + n_old_2[1], n_old_1[2] + n_old_2[2]};
+    if (!(dot(cross(sub(pa, pc), sub(pd, pc)), n_old) > 0)) continue;
+    if (!(dot(cross(sub(pb, pd), sub(pc, pd)), n_old) > 0)) continue;
     // The quad a, d, b, c (counter-clockwise) gets the diagonal c–d: (c, a, d) and (d, b, c).
     F[3 * f1] = c, F[3 * f1 + 1] = a, F[3 * f1 + 2] = d;
     F[3 * f2] = d, F[3 * f2 + 1] = b, F[3 * f2 + 2] = c;

@@ -103,7 +103,8 @@ Mesh split_random_faces(const Mesh& mesh, std::mt19937_64& rng, double fraction 
 /// Flips about `fraction` of the interior edges, visited in random order. An edge is flipped
 /// only if the result stays valid: the new edge does not exist yet (no duplicate edge or face, so
 /// the mesh stays manifold) and both new triangles are well away from degenerate (twice the area
-/// above 1e-3 × the longest edge squared). Orientation is kept. Texture coordinates are dropped.
+/// above 1e-3 × the longest edge squared) and neither folds over (each new normal points to the
+/// side of the sum of the two old normals). Orientation is kept. Texture coordinates are dropped.
 /// Precondition: 0 ≤ fraction ≤ 1.
 Mesh flip_random_edges(const Mesh& mesh, std::mt19937_64& rng, double fraction = 0.25);
 
