@@ -34,7 +34,8 @@ using ricci::Mesh;
 Mesh icosphere(int subdivisions);
 
 /// Torus of revolution about the z axis (genus 1): major radius R, tube radius r, an
-/// n_major × n_minor grid of quads, each split into two triangles along alternating diagonals.
+/// n_major × n_minor grid of quads, each split into two triangles along the same diagonal (every
+/// vertex has valence 6).
 /// #V = n_major·n_minor, #F = 2·n_major·n_minor.
 /// Preconditions: n_major ≥ 3, n_minor ≥ 3, 0 < r < R.
 Mesh torus(int n_major, int n_minor, double R, double r);
@@ -58,7 +59,7 @@ Mesh pretzel(int genus, int cells_per_unit);
 Mesh disk(int rings);
 
 /// Annulus (two boundary loops) between radii 0.5 and 1: `rings` layers of `segments` quads, each
-/// split into two triangles along alternating diagonals, lifted slightly off the plane like
+/// split into two triangles along the same diagonal, lifted slightly off the plane like
 /// disk(). Normals point up; the outer loop runs counter-clockwise, the inner one clockwise.
 /// #V = (rings+1)·segments, #F = 2·rings·segments. Preconditions: rings ≥ 1, segments ≥ 3.
 Mesh annulus(int rings, int segments);
