@@ -143,15 +143,28 @@ const char* yes_no(bool b) {
   return b ? "yes" : "no";
 }
 
-/// The repair record for polygons split by the reader (the reader reports only counts).
-std::optional<ricci::Repair> triangulation_repair(const ricci::ReadResult& read) {
-  if (read.polygons_triangulated <= 0) return std::nullopt;
-  ricci::Repair r{ricci::RepairKind::PolygonsTriangulated, read.polygons_triangulated, {}};
-  r.message = "triangulated " + std::to_string(read.polygons_triangulated) +
-              (read.polygons_triangulated == 1 ? " polygon" : " polygons") +
-              " with more than three sides into triangle fans";
-  return r;
+}  // namespace
+
+ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptions& options) {
+  if (!mesh.empty()) {
+    ricci::LoadOptions lo;
+    lo.validate = options;
+    return ricci::load_mesh(mesh, lo);
+  }
+  ricci::ReadOptions ro;
+  ro.format = FileFormat::Obj;
+  const std::string name = embedded_default_name();
+  return ricci::validate_read(ricci::read_mesh_from_memory(embedded_default_mesh(), name, ro), name, options);
 }
+
+Json repairs_json(const std::vector<ricci::Repair>& repairs) {
+  Json out = Json::array();
+  for (const ricci::Repair& rep : repairs)
+    out.push_back(Json{{"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
+  return out;
+}
+
+namespace {
 
 // ---- info -----------------------------------------------------------------------------------
 
@@ -204,38 +217,24 @@ std::string genus_undefined_reason(const ricci::MeshDiagnostics& d) {
 
 InfoReport make_info_report(const InfoOptions& options) {
   InfoReport r;
-  ricci::ReadResult read;
-  if (options.mesh.empty()) {
-    r.file = embedded_default_name();
-    r.embedded = true;
-    ricci::ReadOptions ro;
-    ro.format = FileFormat::Obj;
-    read = ricci::read_mesh_from_memory(embedded_default_mesh(), r.file, ro);
-  } else {
-    r.file = options.mesh;
-    read = ricci::read_mesh(options.mesh);
-  }
-  r.format = format_name(read.format);
-  r.status = read.status;
-  r.message = read.message;
-  r.line = read.line;
-  r.element = read.element;
-  r.element_index = read.element_index;
-  if (read.status != Status::Ok) return r;
-
-  if (auto t = triangulation_repair(read)) r.repairs.push_back(*t);
-  const ricci::MeshDiagnostics raw = ricci::diagnose(read.mesh);
+  r.embedded = options.mesh.empty();
+  r.file = r.embedded ? std::string(embedded_default_name()) : options.mesh;
   ricci::ValidateOptions vo;
   vo.keep_largest_component = options.largest_component;
   vo.repair_orientation = !options.no_repair_orientation;
-  const ricci::ValidateResult validated = ricci::validate_mesh(read.mesh, vo);
-  r.repairs.insert(r.repairs.end(), validated.repairs.begin(), validated.repairs.end());
-  r.status = validated.status;
-  r.message = validated.status == Status::Ok ? std::string("ok") : validated.message;
-  r.line = -1;
-  r.element = validated.element;
-  r.element_index = validated.element_index;
+  const ricci::LoadResult loaded = load_input(options.mesh, vo);
+  const ricci::ReadResult& read = loaded.read;
+  r.format = format_name(read.format);
+  r.status = loaded.status;
+  r.message = loaded.status == Status::Ok ? std::string("ok") : loaded.message;
+  r.line = loaded.line;
+  r.element = loaded.element;
+  r.element_index = loaded.element_index;
+  if (read.status != Status::Ok) return r;
 
+  r.repairs = loaded.repairs;
+  const ricci::MeshDiagnostics raw = ricci::diagnose(read.mesh);
+  const ricci::ValidateResult& validated = loaded.validated;
   r.have_mesh = true;
   r.have_angles = raw.faces > 0;
   r.vertices_listed = raw.vertices_listed;
@@ -321,12 +320,7 @@ Json info_json(const InfoReport& r) {
   real("min_angle_deg", r.min_angle_deg);
   real("max_angle_deg", r.max_angle_deg);
   real("obtuse_fraction", r.obtuse_fraction);
-  Json repairs = Json::array();
-  for (const ricci::Repair& rep : r.repairs) {
-    repairs.push_back(Json{
-        {"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
-  }
-  j["repairs"] = std::move(repairs);
+  j["repairs"] = repairs_json(r.repairs);
   return j;
 }
 
@@ -436,9 +430,8 @@ int run_info(const InfoOptions& options) {
     std::cout << info_json(report).dump(2) << '\n';
   else
     print_info_text(report, std::cout);
-  // Read errors name the file already; validation errors do not.
-  if (report.status != Status::Ok)
-    print_error(report.have_mesh ? report.file + ": " + report.message : report.message);
+  if (report.status != Status::Ok) print_error(report.message);  // names the file
+
   return finish_stdout(exit_code(report.status));
 }
 
@@ -454,26 +447,26 @@ int run_convert(const ConvertOptions& options) {
     return kExitUsage;
   }
 
-  ricci::ReadResult read = ricci::read_mesh(options.input);
-  if (read.status != Status::Ok) {
-    print_error(read.message);
-    return exit_code(read.status);
-  }
-  if (auto t = triangulation_repair(read)) print_note(options.quiet, t->message);
-
-  ricci::ValidateResult validated;
-  const ricci::Mesh* mesh = &read.mesh;
+  // Validated through the library's load path, or written exactly as read.
+  ricci::ValidateOptions vo;
+  vo.keep_largest_component = options.largest_component;
+  ricci::LoadResult loaded;
   if (options.validate) {
-    ricci::ValidateOptions vo;
-    vo.keep_largest_component = options.largest_component;
-    validated = ricci::validate_mesh(read.mesh, vo);
-    if (validated.status != Status::Ok) {
-      print_error(options.input + ": " + validated.message);
-      return exit_code(validated.status);
-    }
-    for (const ricci::Repair& rep : validated.repairs) print_note(options.quiet, rep.message);
-    mesh = &validated.mesh;
+    loaded = load_input(options.input, vo);
+  } else {
+    loaded.read = ricci::read_mesh(options.input);
+    loaded.status = loaded.read.status;
+    loaded.message = loaded.read.message;
   }
+  if (loaded.status != Status::Ok) {
+    print_error(loaded.message);
+    return exit_code(loaded.status);
+  }
+  if (!options.validate && loaded.read.polygons_triangulated > 0)
+    print_note(options.quiet, "fan-triangulated " + std::to_string(loaded.read.polygons_triangulated) +
+                                  " polygons with more than 3 sides");
+  for (const ricci::Repair& rep : loaded.repairs) print_note(options.quiet, rep.message);
+  const ricci::Mesh* mesh = options.validate ? &loaded.validated.mesh : &loaded.read.mesh;
 
   ricci::WriteOptions wo;
   wo.format = *format;

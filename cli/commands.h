@@ -17,10 +17,13 @@
 //   8  infeasible target curvature: infeasible_target (Gauss–Bonnet or admissibility violated)
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "ricci/status.h"
+#include "ricci/validate.h"
 
 namespace CLI {
 class App;
@@ -92,6 +95,14 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o);
 void print_note(bool quiet, const std::string& message);
 /// "ricci: error: MESSAGE" on stderr.
 void print_error(const std::string& message);
+
+/// Reads MESH — or the embedded default mesh when MESH is empty — and validates it through the
+/// library's load path (ricci::validate_read): messages name the file, repairs include the
+/// reader's triangulation, and faces named by errors are the file's polygons.
+ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptions& options);
+
+/// The `repairs` array of the JSON reports.
+nlohmann::ordered_json repairs_json(const std::vector<ricci::Repair>& repairs);
 /// Flushes stdout and returns `code`, or kExitOutputFailure if stdout could not be written.
 int finish_stdout(int code);
 

@@ -336,12 +336,7 @@ Json flow_json(const FlowReport& r) {
   }
   j["history"] = std::move(history);
   j["notes"] = r.notes;
-  Json repairs = Json::array();
-  for (const ricci::Repair& rep : r.repairs) {
-    repairs.push_back(Json{
-        {"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
-  }
-  j["repairs"] = std::move(repairs);
+  j["repairs"] = repairs_json(r.repairs);
   return j;
 }
 
@@ -519,34 +514,13 @@ int run_flow(const FlowCommandOptions& options) {
     print_note(options.quiet, std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
   ricci::ValidateOptions vo;
   vo.keep_largest_component = options.largest_component;
-  ricci::ValidateResult validated;
-  if (r.embedded) {
-    ricci::ReadOptions ro;
-    ro.format = ricci::FileFormat::Obj;
-    const ricci::ReadResult read = ricci::read_mesh_from_memory(embedded_default_mesh(), r.file, ro);
-    if (read.status != Status::Ok) {
-      fail(r, read.status, read.message);
-      return finish(options, r, start);
-    }
-    validated = ricci::validate_mesh(read.mesh, vo);
-  } else {
-    ricci::LoadOptions lo;
-    lo.validate = vo;
-    ricci::LoadResult loaded = ricci::load_mesh(options.mesh, lo);
-    if (loaded.status != Status::Ok) {
-      // Read errors name the file already; validation errors do not.
-      const bool read_failed = loaded.read.status != Status::Ok;
-      fail(r, loaded.status, read_failed ? loaded.message : options.mesh + ": " + loaded.message);
-      return finish(options, r, start);
-    }
-    r.repairs = loaded.repairs;
-    validated = std::move(loaded.validated);
-  }
-  if (validated.status != Status::Ok) {
-    fail(r, validated.status, r.file + ": " + validated.message);
+  ricci::LoadResult loaded = load_input(r.embedded ? std::string() : options.mesh, vo);
+  if (loaded.status != Status::Ok) {
+    fail(r, loaded.status, loaded.message);  // names the file
     return finish(options, r, start);
   }
-  if (r.embedded) r.repairs = validated.repairs;
+  r.repairs = loaded.repairs;
+  const ricci::ValidateResult validated = std::move(loaded.validated);
   for (const ricci::Repair& rep : r.repairs) print_note(options.quiet, rep.message);
 
   const ricci::Topology& topo = validated.topology;
