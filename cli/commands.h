@@ -84,6 +84,7 @@ struct FlowCommandOptions {
   bool json = false;                       ///< summary as one JSON object on stdout
   bool quiet = false;                      ///< no progress or notes on stderr
   bool largest_component = false;          ///< keep the largest component instead of failing
+  bool no_angle_relax = false;             ///< circle packing: Step 2's angles exactly
 };
 int run_flow(const FlowCommandOptions& options);
 

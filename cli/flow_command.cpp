@@ -282,6 +282,7 @@ struct FlowReport {
   bool have_metric = false;
   double length_scale = 1;
   Index clamped_high = 0, clamped_low = 0;
+  Index cycles_relaxed = 0, edges_relaxed = 0;
   // Flow.
   bool have_flow = false;
   ricci::FlowResult flow;
@@ -319,6 +320,8 @@ Json flow_json(const FlowReport& r) {
   j["edges_clamped"] = packing ? Json(std::int64_t{r.clamped_high} + r.clamped_low) : Json(nullptr);
   j["edges_clamped_high"] = packing ? Json(r.clamped_high) : Json(nullptr);
   j["edges_clamped_low"] = packing ? Json(r.clamped_low) : Json(nullptr);
+  j["edges_relaxed"] = packing ? Json(r.edges_relaxed) : Json(nullptr);
+  j["cycles_relaxed"] = packing ? Json(r.cycles_relaxed) : Json(nullptr);
   const ricci::FlowResult& f = r.flow;
   j["iterations"] = r.have_flow ? Json(f.iterations) : Json(nullptr);
   j["max_curvature_error"] = r.have_flow ? real(f.max_curvature_error) : Json(nullptr);
@@ -557,6 +560,7 @@ int run_flow(const FlowCommandOptions& options) {
   ricci::InitialMetricOptions mo;
   mo.geometry = *r.geometry;
   mo.scheme = *scheme;
+  mo.relax_angles = !options.no_angle_relax;
   const ricci::InitialMetric metric = ricci::initial_metric(validated.mesh, topo, mo);
   if (metric.status != Status::Ok) {
     fail(r, metric.status, r.file + ": initial metric: " + metric.message);
@@ -566,10 +570,21 @@ int run_flow(const FlowCommandOptions& options) {
   r.length_scale = metric.length_scale;
   r.clamped_high = metric.edges_clamped_high;
   r.clamped_low = metric.edges_clamped_low;
+  r.cycles_relaxed = metric.cycles_relaxed;
+  r.edges_relaxed = metric.edges_relaxed;
   if (*scheme == Scheme::CirclePacking && metric.edges_clamped_high + metric.edges_clamped_low > 0) {
     const std::string note = "circle packing: " + std::to_string(metric.edges_clamped_high) +
                              " edge angles clamped to pi/2 and " + std::to_string(metric.edges_clamped_low) +
                              " to 0 (the packing metric only approximates the mesh's lengths there)";
+    r.notes.push_back(note);
+    print_note(options.quiet, note);
+  }
+
+  if (metric.edges_relaxed > 0) {
+    const std::string note = "circle packing: lowered the angles of " + std::to_string(metric.edges_relaxed) +
+                             " edges on " + std::to_string(metric.cycles_relaxed) +
+                             " separating 3- or 4-cycles where Step 2's angles make zero curvature inside them "
+                             "infeasible (--no-angle-relax keeps them)";
     r.notes.push_back(note);
     print_note(options.quiet, note);
   }
@@ -720,6 +735,10 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
                   "after validation). Written atomically and only when the flow converged; never "
                   "replaces the input. Default: none (no file).")
       ->type_name("OUT");
+  cmd->add_flag("--no-angle-relax", o.no_angle_relax,
+                "Circle packing: keep Step 2's intersection angles exactly, even on separating 3- and "
+                "4-cycles where they make zero curvature infeasible. Default: off (such cycles get "
+                "smaller angles; the summary reports how many edges).");
   cmd->add_flag("--json", o.json,
                 "Print one JSON summary object on stdout (status, settings, iterations, errors, "
                 "history, notes) instead of the summary line. Default: off.");

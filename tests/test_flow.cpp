@@ -575,3 +575,106 @@ TEST_CASE("flow: on_iteration sees every history record as it is made") {
   // The energy decreases along Newton steps in H (convex energy).
   for (std::size_t i = 1; i < seen.size(); ++i) CHECK(seen[i].energy <= seen[i - 1].energy);
 }
+
+TEST_CASE("flow: a disk maps to a rectangle — four corners of curvature π/2, straight sides elsewhere") {
+  using namespace ricci_shapes;
+  const Problem base =
+      make_problem("disk", disk(8), Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::Free);
+  const Topology& t = base.topology;
+  REQUIRE(t.num_boundary_loops() == 1);
+  const Index begin = t.boundary_offsets[0], n = t.boundary_offsets[1] - begin;
+  REQUIRE(n >= 8);
+  for (const Index shift : {Index{0}, n / 8}) {
+    CAPTURE(shift);
+    // Corners a quarter of the loop apart (by vertex count), starting at `shift`.
+    std::vector<Index> corners;
+    for (int k = 0; k < 4; ++k) corners.push_back(begin + (shift + k * n / 4) % n);
+    Problem p = base;
+    for (Index v = 0; v < t.num_vertices; ++v) p.target.K[v] = 0;
+    for (Index c : corners) p.target.K[t.boundary_vertices[c]] = kPi / 2;
+    REQUIRE(check_target(t, p.metric.structure, p.target).status == Status::Ok);
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    check_consistent(p, r);
+    CHECK(r.max_curvature_error < 1e-10);
+    CHECK(r.iterations <= 10);
+    // Boundary turning angles: π/2 at the corners, 0 elsewhere. A closed polygon with four right
+    // turns and straight sides is a rectangle: opposite sides have equal length.
+    std::array<double, 4> side{};
+    for (int k = 0; k < 4; ++k) {
+      const Index from = corners[k] - begin, to = corners[(k + 1) % 4] - begin;
+      for (Index j = from; j != to; j = (j + 1) % n)
+        side[k] += r.l[t.corner_edge[t.boundary_corners[begin + j]]];
+    }
+    CHECK(std::abs(side[0] - side[2]) < 1e-9 * (side[0] + side[2]));
+    CHECK(std::abs(side[1] - side[3]) < 1e-9 * (side[1] + side[3]));
+    for (Index j = begin; j < begin + n; ++j) {
+      const Index v = t.boundary_vertices[j];
+      const bool corner = std::find(corners.begin(), corners.end(), j) != corners.end();
+      CHECK(std::abs(r.K[v] - (corner ? kPi / 2 : 0.0)) < 1e-10);
+    }
+  }
+}
+
+TEST_CASE("flow: valence-3 vertices in obtuse triangles — infeasible with Step 2's angles, solved after relaxing") {
+  using namespace ricci_shapes;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    CAPTURE(seed);
+    std::mt19937_64 rng(seed);
+    // Splitting split faces again makes valence-3 vertices inside thin, obtuse triangles.
+    const ValidateResult v =
+        validate_mesh(split_random_faces(split_random_faces(torus(16, 8, 2.0, 0.8), rng, 0.3), rng, 0.3));
+    REQUIRE(v.status == Status::Ok);
+    const Target target = uniform_target(v.topology, BoundaryMode::Free);
+    InitialMetricOptions strict;
+    strict.relax_angles = false;
+    const InitialMetric step2 = initial_metric(v.mesh, v.topology, strict);
+    REQUIRE(step2.status == Status::Ok);
+    const FlowResult infeasible = solve_flow(v.topology, step2.structure, step2.u, target);
+    CHECK(infeasible.status == Status::InfeasibleTarget);
+    CHECK(infeasible.message.find("Theorem 4") != std::string::npos);
+    CHECK(infeasible.u.empty());
+
+    const InitialMetric relaxed = initial_metric(v.mesh, v.topology, {});
+    REQUIRE(relaxed.status == Status::Ok);
+    CHECK(relaxed.edges_relaxed > 0);
+    const FlowResult r = solve_flow(v.topology, relaxed.structure, relaxed.u, target);
+    INFO(r.brief_report() << " — " << r.message);
+    CHECK(r.status == Status::Ok);
+    CHECK(r.max_curvature_error < 1e-10);
+    CHECK(r.iterations <= 15);
+  }
+}
+
+TEST_CASE("flow: the spherical continuation converges where the direct Newton solve stalls") {
+  using namespace ricci_shapes;
+  int rescued = 0;
+  for (std::uint64_t seed : {2, 4}) {
+    CAPTURE(seed);
+    std::mt19937_64 rng(seed);
+    Mesh m = icosphere(3);
+    for (std::size_t i = 0; i < m.positions.size(); i += 3) {  // an elongated, flattened ellipsoid
+      m.positions[i] *= 3.0;
+      m.positions[i + 1] *= 0.5;
+    }
+    m = flip_random_edges(split_random_faces(m, rng, 0.3), rng, 0.3);
+    const Problem p = make_problem("ellipsoid", m, Geometry::Spherical);
+    FlowOptions direct;
+    direct.spherical_continuation = false;
+    const FlowResult d = solve(p, direct);
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    check_consistent(p, r);
+    CHECK(r.iterations <= FlowOptions{}.max_iterations);
+    if (d.status != Status::Ok) {
+      ++rescued;
+      REQUIRE(!r.notes.empty());
+      CHECK(r.notes.front().find("continuation") != std::string::npos);
+    }
+    // Every history record is numbered in order across the stages.
+    for (std::size_t i = 0; i < r.history.size(); ++i) CHECK(r.history[i].iteration == static_cast<int>(i) + 1);
+  }
+  CHECK(rescued > 0);  // the direct solve stalls on at least one of them: the path is exercised
+}

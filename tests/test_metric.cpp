@@ -3,9 +3,14 @@
 #include <doctest/doctest.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <random>
+#include <set>
+#include <span>
 
 #include "ricci/metric.h"
 #include "ricci/validate.h"
@@ -259,5 +264,149 @@ TEST_CASE("metric: a violated triangle inequality is reported, never NaN") {
     CHECK(e.angles.first_violation == 0);
     for (double th : e.theta) CHECK(std::isfinite(th));
     for (double k : e.K) CHECK(std::isfinite(k));
+  }
+}
+
+namespace {
+
+// Independent enumeration for the tests: every cycle of 3 or 4 edges that is not a face (3) or
+// the outline of two faces sharing a diagonal (4), as edge lists, by brute force over vertex sets.
+struct Cycles {
+  std::vector<std::array<Index, 3>> three;
+  std::vector<std::array<Index, 4>> four;
+};
+Cycles separating_cycles(const Topology& t) {
+  std::map<std::pair<Index, Index>, Index> edge;
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    edge[{std::min(a, b), std::max(a, b)}] = e;
+  }
+  std::set<std::array<Index, 3>> faces;
+  for (Index f = 0; f < t.num_faces; ++f) {
+    std::array<Index, 3> v = {t.corner_vertex[3 * f], t.corner_vertex[3 * f + 1], t.corner_vertex[3 * f + 2]};
+    std::sort(v.begin(), v.end());
+    faces.insert(v);
+  }
+  auto find = [&](Index a, Index b) {
+    const auto it = edge.find({std::min(a, b), std::max(a, b)});
+    return it == edge.end() ? kInvalid : it->second;
+  };
+  auto is_face = [&](Index a, Index b, Index c) {
+    std::array<Index, 3> v = {a, b, c};
+    std::sort(v.begin(), v.end());
+    return faces.count(v) > 0;
+  };
+  Cycles out;
+  const Index n = t.num_vertices;
+  for (Index a = 0; a < n; ++a)
+    for (Index b = a + 1; b < n; ++b) {
+      if (find(a, b) == kInvalid) continue;
+      for (Index c = b + 1; c < n; ++c)
+        if (find(b, c) != kInvalid && find(a, c) != kInvalid && !is_face(a, b, c))
+          out.three.push_back({find(a, b), find(b, c), find(a, c)});
+    }
+  // 4-cycles a-b-c-d-a with a the smallest vertex and b < d.
+  for (Index a = 0; a < n; ++a)
+    for (Index b = a + 1; b < n; ++b)
+      for (Index d = b + 1; d < n; ++d) {
+        if (find(a, b) == kInvalid || find(a, d) == kInvalid) continue;
+        for (Index c = a + 1; c < n; ++c) {
+          if (c == b || c == d || find(b, c) == kInvalid || find(c, d) == kInvalid) continue;
+          const bool two_faces = (is_face(a, b, c) && is_face(a, c, d)) || (is_face(a, b, d) && is_face(b, c, d));
+          if (!two_faces) out.four.push_back({find(a, b), find(b, c), find(c, d), find(a, d)});
+        }
+      }
+  return out;
+}
+
+double angle_sum(const std::vector<double>& eta, std::span<const Index> edges) {
+  double s = 0;
+  for (Index e : edges) s += std::acos(eta[e]);
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("metric: relaxing the angles clears every separating 3- and 4-cycle and only lowers angles") {
+  using namespace ricci_shapes;
+  struct Case {
+    std::string name;
+    Mesh mesh;
+    bool all_right_angles;  // set every Φ to π/2 instead of Step 2's angles
+  };
+  std::vector<Case> cases;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    std::mt19937_64 rng(seed);
+    // Splitting split faces again makes valence-3 vertices inside thin, obtuse triangles.
+    cases.push_back({"torus with twice split faces, seed " + std::to_string(seed),
+                     split_random_faces(split_random_faces(torus(16, 8, 2.0, 0.8), rng, 0.3), rng, 0.3), false});
+    cases.push_back({"icosphere with twice split faces, seed " + std::to_string(seed),
+                     split_random_faces(split_random_faces(icosphere(2), rng, 0.3), rng, 0.3), false});
+  }
+  // The octahedron: every vertex link is a 4-cycle; with right angles everywhere each violates.
+  Mesh octahedron;
+  octahedron.positions = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};
+  octahedron.faces = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
+  cases.push_back({"octahedron, all angles π/2", octahedron, true});
+  cases.push_back({"torus with split faces, all angles π/2",
+                   [] {
+                     std::mt19937_64 rng(7);
+                     return split_random_faces(torus(12, 8, 2.0, 0.8), rng, 0.3);
+                   }(),
+                   true});
+
+  for (const Case& c : cases) {
+    CAPTURE(c.name);
+    const auto v = validate_mesh(c.mesh);
+    REQUIRE(v.status == Status::Ok);
+    const Topology& t = v.topology;
+    InitialMetricOptions o;
+    o.relax_angles = false;
+    const InitialMetric m = initial_metric(v.mesh, t, o);
+    REQUIRE(m.status == Status::Ok);
+    std::vector<double> before = m.structure.eta;
+    if (c.all_right_angles) std::fill(before.begin(), before.end(), 0.0);
+    const Cycles cycles = separating_cycles(t);
+    Index violating = 0;
+    for (const auto& k : cycles.three) violating += angle_sum(before, k) > 5 * kPi / 6 ? 1 : 0;
+    for (const auto& k : cycles.four) violating += angle_sum(before, k) > 11 * kPi / 6 ? 1 : 0;
+    CHECK(violating > 0);  // the case exercises the relaxation
+
+    std::vector<double> after = before;
+    const AngleRelaxation r = relax_intersection_angles(t, after);
+    CHECK(r.cycles3 + r.cycles4 >= 1);
+    Index changed = 0;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      CHECK(after[e] >= before[e]);  // η = cos Φ rises: Φ never grows
+      CHECK(after[e] <= 1);
+      changed += after[e] != before[e] ? 1 : 0;
+    }
+    CHECK(changed == r.edges);
+    for (const auto& k : cycles.three) CHECK(angle_sum(after, k) <= 5 * kPi / 6 + 1e-12);
+    for (const auto& k : cycles.four) CHECK(angle_sum(after, k) <= 11 * kPi / 6 + 1e-12);
+    // Only edges of violating cycles move.
+    std::set<Index> on_violating;
+    for (const auto& k : cycles.three)
+      if (angle_sum(before, k) > 5 * kPi / 6) on_violating.insert(k.begin(), k.end());
+    for (Index e = 0; e < t.num_edges; ++e)
+      if (after[e] != before[e] && !on_violating.count(e)) {
+        bool on_four = false;
+        for (const auto& k : cycles.four)
+          on_four = on_four || (std::find(k.begin(), k.end(), e) != k.end() && angle_sum(before, k) > 11 * kPi / 6 - 1e-9);
+        CHECK(on_four);
+      }
+    // A second pass finds nothing to do.
+    std::vector<double> again = after;
+    const AngleRelaxation r2 = relax_intersection_angles(t, again);
+    CHECK(r2.cycles3 + r2.cycles4 == 0);
+    CHECK(again == after);
+    // initial_metric reports what the relaxation did.
+    if (!c.all_right_angles) {
+      InitialMetricOptions relaxed;
+      const InitialMetric mr = initial_metric(v.mesh, t, relaxed);
+      CHECK(mr.edges_relaxed == r.edges);
+      CHECK(mr.cycles_relaxed == r.cycles3 + r.cycles4);
+      CHECK(mr.structure.eta == after);
+    }
   }
 }

@@ -1224,6 +1224,100 @@ std::string FlowResult::brief_report() const {
   return buffer;
 }
 
+namespace {
+
+// S safeguard (see the top of this file): the direct Newton solve gets this many steps before
+// the continuation takes over.
+constexpr int kDirectSphericalIterations = 40;
+
+// Continuation for S: the targets K̄(s) = K̄ + (1 − s)(K₀ − K̄), K₀ the curvature at u0, from
+// s = 0 (solved by u0) to s = 1, each solved by Newton from the previous solution. The step in s
+// doubles after a success (up to ½) and halves after a failure (down to 2⁻¹²). Intermediate
+// targets are solved to max(tol, 10⁻⁸), the last one to tol. `failed` is the direct attempt.
+FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s, std::span<const double> u0,
+                                  const Target& target, const FlowOptions& options, FlowResult failed,
+                                  Clock::time_point start) {
+  const Index nv = t.num_vertices;
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges)), theta(3 * static_cast<std::size_t>(t.num_faces)),
+      K0(static_cast<std::size_t>(nv));
+  if (edge_lengths(t, s, u0, l) != kInvalid || corner_angles(t, s.geometry, l, theta).violations > 0) return failed;
+  vertex_curvature(t, theta, K0);
+
+  const std::string direct = failed.message;
+  FlowResult best = std::move(failed);
+  std::vector<IterationRecord> history = best.history;
+  int used = best.iterations;
+  int stages = 0;
+  std::vector<double> u(u0.begin(), u0.end());
+  Target stage_target = target;
+  double done = 0, ds = 0.25;
+  constexpr double kMinContinuationStep = 1.0 / 4096;
+  FlowResult last;
+  while (true) {
+    const double next = std::min(1.0, done + ds);
+    for (Index v = 0; v < nv; ++v) {
+      const bool held = !target.fixed_u.empty() && target.fixed_u[v];
+      stage_target.K[v] = held ? target.K[v] : target.K[v] + (1 - next) * (K0[v] - target.K[v]);
+    }
+    FlowOptions stage = options;
+    stage.spherical_continuation = false;
+    stage.tolerance = next < 1 ? std::max(options.tolerance, 1e-8) : options.tolerance;
+    stage.max_iterations = std::min(30, options.max_iterations - used);
+    const int offset = used;
+    const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+    if (options.on_iteration)
+      stage.on_iteration = [&options, offset, elapsed](const IterationRecord& record) {
+        IterationRecord shifted = record;
+        shifted.iteration += offset;
+        shifted.seconds += elapsed;
+        options.on_iteration(shifted);
+      };
+    last = FlowResult{};
+    last.geometry = s.geometry;
+    {
+      FlowSolver solver(t, s, u, stage_target, stage, last);
+      solver.run();
+      solver.finish();
+    }
+    ++stages;
+    used += last.iterations;
+    for (IterationRecord record : last.history) {
+      record.iteration += offset;
+      record.seconds += elapsed;
+      history.push_back(record);
+    }
+    if (last.status == Status::Ok) {
+      u = last.u;
+      done = next;
+      if (done >= 1) break;
+      ds = std::min(0.5, 2 * ds);
+    } else {
+      if (last.status == Status::OutOfMemory) break;
+      ds /= 2;
+      if (ds < kMinContinuationStep) break;
+    }
+    if (used >= options.max_iterations) break;
+  }
+  FlowResult r = std::move(last);
+  r.history = std::move(history);
+  r.iterations = used;
+  r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const std::string what = "the direct Newton solve stopped (" + direct + "); a continuation from the starting "
+                           "curvature solved " + std::to_string(stages) + " intermediate target(s)";
+  if (r.status == Status::Ok && done >= 1) {
+    r.notes.insert(r.notes.begin(), what + " and converged");
+  } else {
+    if (r.status == Status::Ok) r.status = Status::NotConverged;
+    r.message = "the spherical solve did not converge: " + what + " and reached only " +
+                format_double("%.4g", done) + " of the way to the target (last stage: " + r.message + ")";
+    r.notes.insert(r.notes.begin(), what);
+    if (used >= options.max_iterations) r.status = Status::NotConverged;
+  }
+  return r;
+}
+
+}  // namespace
+
 FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
                       std::span<const double> u0, const Target& target, const FlowOptions& options) {
   const auto start = Clock::now();
@@ -1272,10 +1366,21 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
         check.message);
 
   ThreadScope threads(options.threads, topology.num_faces);
-  FlowSolver solver(topology, structure, u0, target, options, r);
-  solver.run();
-  solver.finish();
-  return r;
+  const bool coupled = !topology.is_closed() && (target.boundary == BoundaryMode::Circle ||
+                                                 target.boundary == BoundaryMode::LoopTotals);
+  const bool homotopy = options.method == Method::Newton && options.spherical_continuation &&
+                        structure.geometry == Geometry::Spherical && !coupled;
+  FlowOptions direct = options;
+  if (homotopy) direct.max_iterations = std::min(options.max_iterations, kDirectSphericalIterations);
+  {
+    FlowSolver solver(topology, structure, u0, target, direct, r);
+    solver.run();
+    solver.finish();
+  }
+  const bool retry = r.status == Status::NotConverged || r.status == Status::LineSearchFailed ||
+                     r.status == Status::TriangleInequality || r.status == Status::NumericalFailure;
+  if (!homotopy || !retry || r.iterations >= options.max_iterations) return r;
+  return spherical_continuation(topology, structure, u0, target, options, std::move(r), start);
 }
 
 }  // namespace ricci

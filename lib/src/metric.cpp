@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
+#include <vector>
+#include <cstdint>
 
 namespace ricci {
 
@@ -211,8 +214,118 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     }
     s.eta[e] = eta;
   }
+  if (options.scheme == Scheme::CirclePacking && options.relax_angles) {
+    const AngleRelaxation relaxed = relax_intersection_angles(t, s.eta);
+    r.cycles_relaxed = relaxed.cycles3 + relaxed.cycles4;
+    r.edges_relaxed = relaxed.edges;
+  }
   r.status = Status::Ok;
   r.message = "ok";
+  return r;
+}
+
+AngleRelaxation relax_intersection_angles(const Topology& t, std::span<double> eta) {
+  AngleRelaxation r;
+  const Index nv = t.num_vertices, ne = t.num_edges;
+  if (eta.size() != static_cast<std::size_t>(ne)) return r;
+  auto angle = [&](Index e) { return eta[e] >= 0 && eta[e] <= 1 ? std::acos(eta[e]) : -1.0; };
+  // Sorted neighbour lists (CSR) with the edge to each neighbour.
+  std::vector<Index> offsets(static_cast<std::size_t>(nv) + 1, 0);
+  for (Index e = 0; e < ne; ++e) {
+    ++offsets[t.edge_vertices[2 * e] + 1];
+    ++offsets[t.edge_vertices[2 * e + 1] + 1];
+  }
+  for (Index v = 0; v < nv; ++v) offsets[v + 1] += offsets[v];
+  std::vector<std::pair<Index, Index>> nbr(static_cast<std::size_t>(2 * ne));
+  {
+    std::vector<Index> fill(offsets.begin(), offsets.end() - 1);
+    for (Index e = 0; e < ne; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      nbr[fill[a]++] = {b, e};
+      nbr[fill[b]++] = {a, e};
+    }
+    for (Index v = 0; v < nv; ++v) std::sort(nbr.begin() + offsets[v], nbr.begin() + offsets[v + 1]);
+  }
+  auto find_edge = [&](Index a, Index b) {
+    const auto first = nbr.begin() + offsets[a], last = nbr.begin() + offsets[a + 1];
+    const auto it = std::lower_bound(first, last, std::pair<Index, Index>{b, Index{-1}});
+    return it != last && it->first == b ? it->second : kInvalid;
+  };
+  // The vertex opposite edge e in its k-th face (kInvalid on the boundary side).
+  auto apex = [&](Index e, int k) {
+    const Index c = t.edge_corners[2 * e + k];
+    return c == kInvalid ? kInvalid : t.corner_vertex[c];
+  };
+  std::vector<std::uint8_t> changed(static_cast<std::size_t>(ne), 0);
+  auto scale_cycle = [&](const Index* edges, int k, double sum, double goal) {
+    const double factor = goal / sum;
+    for (int i = 0; i < k; ++i) {
+      const double lowered = std::cos(angle(edges[i]) * factor);
+      if (lowered != eta[edges[i]]) changed[edges[i]] = 1;
+      eta[edges[i]] = lowered;
+    }
+  };
+
+  // 3-cycles a < b < c that are not faces.
+  constexpr double kTrigger3 = 5 * kPi / 6, kGoal3 = 2 * kPi / 3;
+  for (Index a = 0; a < nv; ++a) {
+    for (Index i = offsets[a]; i < offsets[a + 1]; ++i) {
+      const auto [b, eab] = nbr[i];
+      if (b <= a) continue;
+      for (Index j = i + 1; j < offsets[a + 1]; ++j) {
+        const auto [c, eac] = nbr[j];
+        const Index ebc = find_edge(b, c);
+        if (ebc == kInvalid) continue;
+        if (apex(eab, 0) == c || apex(eab, 1) == c) continue;  // the face (a, b, c)
+        const Index edges[3] = {eab, ebc, eac};
+        double sum = 0;
+        bool known = true;
+        for (Index e : edges) {
+          const double phi = angle(e);
+          known = known && phi >= 0;
+          sum += phi;
+        }
+        if (!known || !(sum > kTrigger3)) continue;
+        scale_cycle(edges, 3, sum, kGoal3);
+        ++r.cycles3;
+      }
+    }
+  }
+
+  // 4-cycles a-b-c-d with a the smallest vertex and b < d, every edge with Φ > π/3 (otherwise
+  // the sum cannot exceed the trigger), that are not the outline of two faces.
+  constexpr double kTrigger4 = 11 * kPi / 6, kGoal4 = 7 * kPi / 4, kEdgeMin4 = kTrigger4 - 3 * kPi / 2;
+  auto steep = [&](Index e) { return angle(e) > kEdgeMin4; };
+  for (Index a = 0; a < nv; ++a) {
+    for (Index i = offsets[a]; i < offsets[a + 1]; ++i) {
+      const auto [b, eab] = nbr[i];
+      if (b <= a || !steep(eab)) continue;
+      for (Index j = i + 1; j < offsets[a + 1]; ++j) {
+        const auto [d, ead] = nbr[j];
+        if (d <= a || !steep(ead)) continue;
+        for (Index k = offsets[b]; k < offsets[b + 1]; ++k) {
+          const auto [c, ebc] = nbr[k];
+          if (c <= a || c == d || !steep(ebc)) continue;
+          const Index ecd = find_edge(c, d);
+          if (ecd == kInvalid || !steep(ecd)) continue;
+          const Index eac = find_edge(a, c), ebd = find_edge(b, d);
+          auto two_faces = [&](Index diagonal, Index p, Index q) {
+            if (diagonal == kInvalid) return false;
+            const Index x = apex(diagonal, 0), y = apex(diagonal, 1);
+            return (x == p && y == q) || (x == q && y == p);
+          };
+          if (two_faces(eac, b, d) || two_faces(ebd, a, c)) continue;
+          const Index edges[4] = {eab, ebc, ecd, ead};
+          double sum = 0;
+          for (Index e : edges) sum += angle(e);
+          if (!(sum > kTrigger4)) continue;
+          scale_cycle(edges, 4, sum, kGoal4);
+          ++r.cycles4;
+        }
+      }
+    }
+  }
+  for (Index e = 0; e < ne; ++e) r.edges += changed[e];
   return r;
 }
 

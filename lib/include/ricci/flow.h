@@ -105,6 +105,10 @@ struct FlowOptions {
   /// OpenMP threads for the kernels; 0 keeps the current setting (but solves meshes under 20 000
   /// faces on one thread, where forking costs more than the work). Results do not depend on it.
   int threads = 0;
+  /// S (Newton, targets that do not depend on the lengths): when the direct solve from u0 has not
+  /// converged after 40 steps (or stops earlier), continue from the curvature at u0 to the target
+  /// through intermediate targets, each solved from the previous solution. Noted in the result.
+  bool spherical_continuation = true;
   /// Called after every iteration (for progress output; the library never prints).
   std::function<void(const struct IterationRecord&)> on_iteration;
 

@@ -69,6 +69,9 @@ struct InitialMetricOptions {
   /// default: 1 in E; in S the scale making the total area 4π; in H the scale making the total
   /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
   double length_scale = 0;
+  /// Circle packing: after Step 2, lower Φ on the separating 3- and 4-cycles that would make
+  /// curvature 0 inside them infeasible (relax_intersection_angles()). Off: Step 2 exactly.
+  bool relax_angles = true;
 
   bool is_valid(std::string* why) const;
 };
@@ -85,10 +88,31 @@ struct InitialMetric {
   double length_scale = 1;      ///< the scale that was applied
   Index edges_clamped_high = 0; ///< circle packing: Φ clamped to π/2 (cos Φ < 0)
   Index edges_clamped_low = 0;  ///< circle packing: Φ clamped to 0 (circles did not meet)
+  Index cycles_relaxed = 0;     ///< circle packing: 3- and 4-cycles whose Φ were lowered
+  Index edges_relaxed = 0;      ///< circle packing: edges whose Φ was lowered
 };
 
+/// What relax_intersection_angles() changed.
+struct AngleRelaxation {
+  Index cycles3 = 0;  ///< 3-cycles (not faces) whose angles were lowered
+  Index cycles4 = 0;  ///< 4-cycles (not the outline of two faces) whose angles were lowered
+  Index edges = 0;    ///< distinct edges whose Φ changed
+};
+
+/// Thurston's conditions for a circle pattern with Φ ∈ [0, π/2] and zero curvature inside a
+/// disk bounded by a cycle of k edges (the paper's Theorem 4 for I = the vertices inside):
+/// Σ (π − Φ) > 2π over the cycle, i.e. Σ Φ < π for a 3-cycle and Σ Φ < 2π for a 4-cycle (longer
+/// cycles always pass). Step 2 breaks them where the mesh has valence-3 or valence-4 vertices in
+/// triangles with obtuse or right angles (the link of such a vertex is such a cycle). This lowers
+/// Φ on every 3-cycle that is not a face with Σ Φ > 5π/6 (scaled so that Σ Φ = 2π/3) and on every
+/// 4-cycle that is not the outline of two faces with Σ Φ > 11π/6 (scaled to 7π/4), in a fixed
+/// order; lowering Φ never breaks a condition that held. eta holds η = cos Φ per edge (#E, values
+/// in [0, 1]; edges outside are left alone). Deterministic; linear in the mesh for bounded valence.
+AngleRelaxation relax_intersection_angles(const Topology& topology, std::span<double> eta);
+
 /// Step 2 of the paper for circle packing: radii γ_i^{jk} = (l_ki + l_ij − l_jk)/2 per face,
-/// averaged per vertex; Φ_ij from the cosine law of the geometry, clamped to [0, π/2]. For
+/// averaged per vertex; Φ_ij from the cosine law of the geometry, clamped to [0, π/2], then (with
+/// options.relax_angles) relaxed on separating 3- and 4-cycles, see relax_intersection_angles(). For
 /// inversive distance the same radii with I_ij chosen so that u reproduces l0 exactly; for
 /// Yamabe u = 0 and η reproducing l0.
 InitialMetric initial_metric(const Mesh& mesh, const Topology& topology, const InitialMetricOptions& options = {});
