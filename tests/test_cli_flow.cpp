@@ -9,10 +9,13 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "ricci/io.h"
+#include "shapes.h"
 #include "support.h"
 
 namespace {
@@ -348,6 +351,31 @@ TEST_CASE("cli flow: an infeasible target exits 8 and writes nothing") {
   CHECK(e.j["status"] == "infeasible_target");
   CHECK(e.j["geometry"] == "euclidean");
   CHECK(directory_entries(dir.path()) == std::vector<std::string>{"cones.txt"});
+}
+
+TEST_CASE("cli flow: separating cycles get relaxed angles by default; --no-angle-relax keeps Step 2's") {
+  // A torus whose split faces are split again has valence-3 vertices in thin, obtuse triangles,
+  // where Step 2's angles violate Theorem 4 for uniformization.
+  TempDir dir;
+  std::mt19937_64 rng(3);
+  const ricci::Mesh mesh = ricci_shapes::split_random_faces(
+      ricci_shapes::split_random_faces(ricci_shapes::torus(16, 8, 2.0, 0.8), rng, 0.3), rng, 0.3);
+  const path input = dir / "torus.obj";
+  REQUIRE(ricci::write_mesh(input.string(), mesh).status == ricci::Status::Ok);
+  const FlowRun relaxed = run_flow({input.string()});
+  check_converged(relaxed);
+  REQUIRE(relaxed.j["edges_relaxed"].is_number_integer());
+  CHECK(relaxed.j["edges_relaxed"].get<int>() > 0);
+  CHECK(relaxed.j["cycles_relaxed"].get<int>() > 0);
+  bool noted = false;
+  for (const auto& note : relaxed.j["notes"]) noted = noted || note.get<std::string>().find("lowered the angles") != std::string::npos;
+  CHECK(noted);
+
+  const FlowRun strict = run_flow({input.string(), "--no-angle-relax"});
+  CHECK(strict.r.exit_code == 8);
+  CHECK(strict.j["status"] == "infeasible_target");
+  CHECK(strict.j["edges_relaxed"] == 0);
+  CHECK(strict.r.err.find("Theorem 4") != std::string::npos);
 }
 
 TEST_CASE("cli flow: target files that cannot be read exit 3 or 4") {
