@@ -85,11 +85,25 @@ struct FlowCommandOptions {
   bool quiet = false;                      ///< no progress or notes on stderr
   bool largest_component = false;          ///< keep the largest component instead of failing
   bool no_angle_relax = false;             ///< circle packing: Step 2's angles exactly
+  bool no_circle_normalization = false;    ///< circle domains: K̄ ∝ length exactly
 };
 int run_flow(const FlowCommandOptions& options);
 
 /// Registers the `flow` subcommand (its options bound to `o`) on `app`.
 CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o);
+
+/// `ricci cut [MESH] -o CUT`: cuts the surface into a disk with a canonical polygon (cut_command.cpp).
+struct CutCommandOptions {
+  std::string mesh;                ///< input path; empty: the embedded default mesh
+  std::string output;              ///< -o CUT (the disk; sides/loops go to CUT.loops.obj); empty: none
+  std::int64_t base_vertex = -1;   ///< --base-vertex; -1: from the seed
+  std::uint64_t seed = 0;          ///< --seed
+  bool json = false;               ///< summary as one JSON object on stdout
+  bool quiet = false;              ///< no notes on stderr
+  bool largest_component = false;  ///< keep the largest component instead of failing
+};
+int run_cut(const CutCommandOptions& options);
+CLI::App* add_cut_command(CLI::App& app, CutCommandOptions& o);
 
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.

@@ -486,6 +486,7 @@ int run_flow(const FlowCommandOptions& options) {
                           : (*method == Method::Newton ? ricci::FlowOptions{}.max_iterations : kGradientMaxIterations);
   fo.gradient_step = options.step;
   fo.threads = options.threads;
+  fo.normalize_circle_domains = !options.no_circle_normalization;
   r.max_iterations = fo.max_iterations;
   if (options.max_iterations < 0) return usage("--max-iter must be positive");
   if (!fo.is_valid(&why)) return usage(why);
@@ -739,6 +740,10 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
                 "Circle packing: keep Step 2's intersection angles exactly, even on separating 3- and "
                 "4-cycles where they make zero curvature infeasible. Default: off (such cycles get "
                 "smaller angles; the summary reports how many edges).");
+  cmd->add_flag("--no-circle-normalization", o.no_circle_normalization,
+                "Circle boundaries of genus-0 surfaces in E: solve the target proportional to length "
+                "exactly instead of fixing the Moebius normalization of the circle domain (which "
+                "adds two small zero-sum modes to the outer loop's target). Default: off.");
   cmd->add_flag("--json", o.json,
                 "Print one JSON summary object on stdout (status, settings, iterations, errors, "
                 "history, notes) instead of the summary line. Default: off.");

@@ -678,3 +678,122 @@ TEST_CASE("flow: the spherical continuation converges where the direct Newton so
   }
   CHECK(rescued > 0);  // the direct solve stalls on at least one of them: the path is exercised
 }
+
+TEST_CASE("flow: circle domains are Möbius-normalized — few Newton steps, loop totals kept, small modes") {
+  using namespace ricci_shapes;
+  // A disk bent into a saddle: its map to the unit disk is far from the identity.
+  Mesh bent = disk(20);
+  for (std::size_t i = 0; i < bent.positions.size(); i += 3) {
+    const double x = bent.positions[i], y = bent.positions[i + 1];
+    bent.positions[i + 2] = 0.6 * (x * x - 0.5 * y * y) + 0.3 * x;
+  }
+  for (const auto& [name, mesh] : {std::pair<const char*, Mesh>{"bent disk", bent},
+                                   {"annulus", annulus(6, 32)},
+                                   {"sphere with 3 holes", remove_vertex_stars(icosphere(3), {0, 5, 9})}}) {
+    CAPTURE(name);
+    const Problem p = make_problem(name, mesh, Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::Circle);
+    const Topology& t = p.topology;
+    const FlowResult r = solve(p);
+    INFO(r.brief_report() << " — " << r.message);
+    REQUIRE(r.status == Status::Ok);
+    check_consistent(p, r);
+    CHECK(r.iterations <= 6);
+    bool noted = false;
+    for (const std::string& n : r.notes) noted = noted || n.find("Möbius normalization") != std::string::npos;
+    CHECK(noted);
+    // Every loop keeps its total; the inner loops are exactly proportional to length; the outer
+    // loop deviates from it by a small zero-sum amount.
+    for (Index loop = 0; loop < t.num_boundary_loops(); ++loop) {
+      double total = 0, length = 0, worst = 0;
+      for (Index j = t.boundary_offsets[loop]; j < t.boundary_offsets[loop + 1]; ++j) {
+        total += r.K_target[t.boundary_vertices[j]];
+        length += r.l[t.corner_edge[t.boundary_corners[j]]];
+      }
+      CHECK(std::abs(total - p.target.loop_total[loop]) < 1e-9);
+      const Index b = t.boundary_offsets[loop], e = t.boundary_offsets[loop + 1];
+      for (Index j = b; j < e; ++j) {
+        const double m = 0.5 * (r.l[t.corner_edge[t.boundary_corners[j]]] +
+                                r.l[t.corner_edge[t.boundary_corners[j > b ? j - 1 : e - 1]]]);
+        const double proportional = p.target.loop_total[loop] * m / length;
+        worst = std::max(worst, std::abs(r.K_target[t.boundary_vertices[j]] - proportional) / std::abs(proportional));
+      }
+      if (p.target.loop_total[loop] > 0) {
+        CHECK(worst < 0.02);
+      } else {
+        CHECK(worst < 1e-12);
+      }
+    }
+  }
+  // Without the normalization the same bent disk converges, slowly, to the target proportional
+  // to length exactly.
+  const Problem p = make_problem("bent disk", bent, Geometry::Euclidean, Scheme::CirclePacking, BoundaryMode::Circle);
+  FlowOptions exact;
+  exact.normalize_circle_domains = false;
+  const FlowResult slow = solve(p, exact);
+  INFO(slow.brief_report() << " — " << slow.message);
+  REQUIRE(slow.status == Status::Ok);
+  CHECK(slow.iterations > 10);
+  const Topology& t = p.topology;
+  double length = 0;
+  for (Index j = 0; j < t.num_boundary_edges(); ++j) length += slow.l[t.corner_edge[t.boundary_corners[j]]];
+  const Index n = t.num_boundary_edges();
+  for (Index j = 0; j < n; ++j) {
+    const double m = 0.5 * (slow.l[t.corner_edge[t.boundary_corners[j]]] +
+                            slow.l[t.corner_edge[t.boundary_corners[j > 0 ? j - 1 : n - 1]]]);
+    CHECK(std::abs(slow.K_target[t.boundary_vertices[j]] - 2 * kPi * m / length) < 1e-12);
+  }
+}
+
+TEST_CASE("flow: an ear on a boundary loop with a negative or zero target is infeasible, named") {
+  using namespace ricci_shapes;
+  // An annulus with one extra triangle glued onto an inner boundary edge makes an ear: a boundary
+  // vertex in a single triangle, whose curvature π − θ is always positive.
+  const ValidateResult base = validate_mesh(annulus(3, 16));
+  REQUIRE(base.status == Status::Ok);
+  Mesh m = base.mesh;
+  const Topology& bt = base.topology;
+  Index inner = kInvalid;
+  for (Index loop = 0; loop < bt.num_boundary_loops(); ++loop)
+    if (inner == kInvalid || bt.boundary_offsets[loop + 1] - bt.boundary_offsets[loop] <
+                                 bt.boundary_offsets[inner + 1] - bt.boundary_offsets[inner])
+      inner = loop;
+  const Index j = bt.boundary_offsets[inner];
+  const Index a = bt.boundary_vertices[j], b = bt.boundary_vertices[j + 1];
+  // The ear's apex: the midpoint of a and b pushed towards the hole's centre (the origin).
+  const Index apex = m.num_vertices();
+  for (int k = 0; k < 3; ++k) m.positions.push_back(0.4 * (m.positions[3 * a + k] + m.positions[3 * b + k]));
+  // The boundary runs a → b with the surface on the left, so the new face is (b, a, apex).
+  m.faces.insert(m.faces.end(), {b, a, apex});
+  const ValidateResult v = validate_mesh(m);
+  REQUIRE(v.status == Status::Ok);
+  InitialMetricOptions o;
+  const InitialMetric im = initial_metric(v.mesh, v.topology, o);
+  REQUIRE(im.status == Status::Ok);
+  for (const BoundaryMode mode : {BoundaryMode::Circle, BoundaryMode::Free}) {
+    CAPTURE(static_cast<int>(mode));
+    Target target = uniform_target(v.topology, mode);  // Free: K̄ = 0 on the boundary
+    if (mode == BoundaryMode::Circle) {
+      // The ear's loop is the inner circle (−2π), the other the outer one (+2π).
+      const Topology& t = v.topology;
+      for (Index loop = 0; loop < t.num_boundary_loops(); ++loop) {
+        bool has_apex = false;
+        for (Index k = t.boundary_offsets[loop]; k < t.boundary_offsets[loop + 1]; ++k)
+          has_apex = has_apex || t.boundary_vertices[k] == apex;
+        target.loop_total[loop] = has_apex ? -2 * kPi : 2 * kPi;
+      }
+    }
+    const TargetCheck c = check_target(v.topology, im.structure, target);
+    CHECK(c.status == Status::InfeasibleTarget);
+    CHECK(c.element == Element::Vertex);
+    CHECK(c.element_index == apex);
+    CHECK(c.message.find("single triangle") != std::string::npos);
+    const FlowResult r = solve_flow(v.topology, im.structure, im.u, target);
+    CHECK(r.status == Status::InfeasibleTarget);
+    CHECK(r.u.empty());
+    if (mode == BoundaryMode::Free) {
+      target.K[apex] = 0.5;  // a positive target at the ear passes this check
+      const TargetCheck positive = check_target(v.topology, im.structure, target);
+      CHECK(positive.message.find("single triangle") == std::string::npos);
+    }
+  }
+}

@@ -275,6 +275,9 @@ class FlowSolver {
   void apply_boundary_operator(std::span<const double> w, std::span<double> out);
   bool gmres(double relative_tolerance, int max_iterations);
   bool coupled_direction(std::span<const double> g);
+  void setup_moebius_modes();
+  bool moebius_direction();
+  void add_modes(double alpha, double beta, std::span<double> K_target) const;
   void fail(Status status, std::string message) {
     r_.status = status;
     r_.message = std::move(message);
@@ -323,6 +326,17 @@ class FlowSolver {
   // Restarted GMRES on the boundary system (dimension: the number of boundary positions).
   std::vector<double> gm_basis_, gm_hessenberg_, gm_cos_, gm_sin_, gm_residual_, gm_y_, gm_b_, gm_w_, gm_v_;
   int gmres_failures_ = 0;
+  // Circle domains (E, genus 0, Circle targets, Newton): the Möbius normalization, see
+  // setup_moebius_modes(). Modes and normalization rows per vertex (#V, zero off the outer loop),
+  // their coefficients, the update of the current step and the value of the trial point.
+  bool moebius_modes_ = false;
+  std::vector<Index> mode_vertices_;
+  std::vector<double> mode_a_, mode_b_, norm_c_, norm_s_;
+  double norm_c0_ = 0, norm_s0_ = 0;
+  double alpha_ = 0, beta_ = 0, d_alpha_ = 0, d_beta_ = 0, alpha_trial_ = 0, beta_trial_ = 0;
+  double largest_mode_ = 0;  // max over the run of max |α a + β b| / (T·m/L)
+  int mode_failures_ = 0;
+  std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
   bool spherical_gauge_ = false;
   std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
@@ -792,6 +806,134 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   return ok;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Circle domains. The conformal maps of a genus-0 surface onto a circle domain form a family: the
+// Möbius transformations of the outer disk (three parameters, one of them a rotation that leaves
+// u alone). The discrete target "curvature proportional to length on each loop" is invariant
+// under them only up to the discretization, so ∂K/∂u − ∂K̄/∂u is nearly singular along two
+// directions and its exact solution is decided by discretization effects: on fine meshes it is a
+// strongly distorted member of the family, reached only after hundreds of damped Newton steps.
+// Instead the family is normalized explicitly: along the outer loop, with θ_p the angular
+// position of vertex p (2π × arc length from the loop start / loop length, at the start), two
+// normalization rows n_c = w_p (cos θ_p − C), n_s = w_p (sin θ_p − S) (w the half lengths of the
+// boundary edges at p at the start, C, S their weighted means) hold n·u at its start, and two
+// zero-sum modes a_p = cos θ_p − c̄, b_p = sin θ_p − s̄ enter the outer loop's target as
+// K̄_p + α a_p + β b_p, α and β two extra unknowns. Newton solves the bordered system
+//     J δ − a Δα − b Δβ = g,   n·δ = 0,
+// as δ = y + Δα z_a + Δβ z_b with y = J⁻¹g, z = J⁻¹a, J⁻¹b (three solves of the coupled system) and
+// a 2×2 system for (Δα, Δβ). The loop total is unchanged (the modes sum to zero); the result's
+// K_target contains the modes, and the notes give their size relative to the proportional target.
+void FlowSolver::setup_moebius_modes() {
+  Index outer = kInvalid;
+  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop)
+    if (target_.loop_total[loop] > 0 && (outer == kInvalid || target_.loop_total[loop] > target_.loop_total[outer]))
+      outer = loop;
+  if (outer == kInvalid) return;
+  const Index begin = t_.boundary_offsets[outer], end = t_.boundary_offsets[outer + 1];
+  const Index count = end - begin;
+  if (count < 4) return;
+  const auto nv = static_cast<std::size_t>(t_.num_vertices);
+  mode_a_.assign(nv, 0.0);
+  mode_b_.assign(nv, 0.0);
+  norm_c_.assign(nv, 0.0);
+  norm_s_.assign(nv, 0.0);
+  double L = 0;
+  for (Index p = begin; p < end; ++p) L += cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+  if (!(L > 0)) return;
+  std::vector<double> theta(static_cast<std::size_t>(count)), w(static_cast<std::size_t>(count));
+  double arc = 0;
+  for (Index p = begin; p < end; ++p) {
+    const double out = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+    const double in = cur_.l[t_.corner_edge[t_.boundary_corners[p > begin ? p - 1 : end - 1]]];
+    theta[p - begin] = 2 * std::numbers::pi * arc / L;
+    w[p - begin] = 0.5 * (in + out);
+    arc += out;
+  }
+  double mean_c = 0, mean_s = 0, wc = 0, ws = 0, wsum = 0;
+  for (Index i = 0; i < count; ++i) {
+    mean_c += std::cos(theta[i]);
+    mean_s += std::sin(theta[i]);
+    wc += w[i] * std::cos(theta[i]);
+    ws += w[i] * std::sin(theta[i]);
+    wsum += w[i];
+  }
+  mean_c /= count;
+  mean_s /= count;
+  wc /= wsum;
+  ws /= wsum;
+  for (Index i = 0; i < count; ++i) {
+    const Index v = t_.boundary_vertices[begin + i];
+    if (!condition_[v]) return;  // every vertex of a Circle loop has a curvature condition
+    mode_vertices_.push_back(v);
+    mode_a_[v] = std::cos(theta[i]) - mean_c;
+    mode_b_[v] = std::sin(theta[i]) - mean_s;
+    norm_c_[v] = w[i] * (std::cos(theta[i]) - wc);
+    norm_s_[v] = w[i] * (std::sin(theta[i]) - ws);
+  }
+  norm_c0_ = norm_s0_ = 0;
+  for (Index v : mode_vertices_) {
+    norm_c0_ += norm_c_[v] * u_[v];
+    norm_s0_ += norm_s_[v] * u_[v];
+  }
+  const auto n = static_cast<std::size_t>(pattern_.num_unknowns);
+  y_.assign(n, 0.0);
+  z_a_.assign(n, 0.0);
+  z_b_.assign(n, 0.0);
+  mode_rhs_.assign(n, 0.0);
+  mode_full_.assign(nv, 0.0);
+  moebius_modes_ = true;
+}
+
+void FlowSolver::add_modes(double alpha, double beta, std::span<double> K_target) const {
+  for (const Index v : mode_vertices_) K_target[v] += alpha * mode_a_[v] + beta * mode_b_[v];
+}
+
+// Turns x_ = J⁻¹ g into the step of the bordered system (see setup_moebius_modes()) and sets
+// d_alpha_, d_beta_ and slope_. False (x_ unchanged, no mode update) when a solve fails or the
+// 2×2 system is singular.
+bool FlowSolver::moebius_direction() {
+  const Index n = pattern_.num_unknowns;
+  std::copy(x_.begin(), x_.end(), y_.begin());
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<double>& mode = k == 0 ? mode_a_ : mode_b_;
+    std::vector<double>& z = k == 0 ? z_a_ : z_b_;
+    std::copy(mode.begin(), mode.end(), mode_full_.begin());
+    remove_gauge_mean(mode_full_);
+    for (Index j = 0; j < n; ++j) mode_rhs_[j] = mode_full_[pattern_.unknown_vertex[j]];
+    if (!solver_.solve(mode_rhs_, x_) || !coupled_direction(mode_rhs_)) {
+      std::copy(y_.begin(), y_.end(), x_.begin());
+      return false;
+    }
+    std::copy(x_.begin(), x_.end(), z.begin());
+  }
+  // n·δ = n·u_start − n·u (zero up to rounding drift): the vertices' steps are x_ on the unknowns
+  // and 0 elsewhere, and the mean removal that follows does not change n·δ (n sums to zero).
+  auto dot = [&](const std::vector<double>& row, const std::vector<double>& x) {
+    double sum = 0;
+    for (Index j = 0; j < n; ++j) sum += row[pattern_.unknown_vertex[j]] * x[j];
+    return sum;
+  };
+  double nu_c = 0, nu_s = 0;
+  for (const Index v : mode_vertices_) {
+    nu_c += norm_c_[v] * u_[v];
+    nu_s += norm_s_[v] * u_[v];
+  }
+  const double r_c = (norm_c0_ - nu_c) - dot(norm_c_, y_), r_s = (norm_s0_ - nu_s) - dot(norm_s_, y_);
+  const double m00 = dot(norm_c_, z_a_), m01 = dot(norm_c_, z_b_), m10 = dot(norm_s_, z_a_), m11 = dot(norm_s_, z_b_);
+  const double det = m00 * m11 - m01 * m10;
+  const double scale = std::max({std::abs(m00 * m11), std::abs(m01 * m10), 1e-300});
+  if (!std::isfinite(det) || std::abs(det) <= 1e-12 * scale) {
+    std::copy(y_.begin(), y_.end(), x_.begin());
+    return false;
+  }
+  d_alpha_ = (r_c * m11 - m01 * r_s) / det;
+  d_beta_ = (m00 * r_s - m10 * r_c) / det;
+  for (Index j = 0; j < n; ++j) x_[j] = y_[j] + d_alpha_ * z_a_[j] + d_beta_ * z_b_[j];
+  // d/dt ½‖g‖² for the exact bordered step: −‖g‖² (J δ − a Δα − b Δβ = g).
+  slope_ = -sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; });
+  return std::isfinite(d_alpha_) && std::isfinite(d_beta_);
+}
+
 // Solves G α = coefficient_ in place with the Cholesky factor of the Gram matrix in gram_.
 bool FlowSolver::gram_solve() {
   const std::size_t k = spherical_pins_.size();
@@ -874,7 +1016,14 @@ bool FlowSolver::compute_direction() {
     ok = solver_.solve(rhs_, x_);
   }
   // Circle / LoopTotals: correct the step for the dependence of K̄ on the lengths.
-  if (ok && coupled_ && !coupled_direction(rhs_)) ++gmres_failures_;
+  d_alpha_ = d_beta_ = 0;
+  if (ok && coupled_) {
+    if (!coupled_direction(rhs_)) {
+      ++gmres_failures_;
+    } else if (moebius_modes_ && !moebius_direction()) {
+      ++mode_failures_;
+    }
+  }
   if (ok) {
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
     for (Index v = 0; v < nv; ++v) step_[v] = 0;
@@ -943,7 +1092,14 @@ bool FlowSolver::line_search() {
     last = evaluate(t_, s_, u_trial_, trial_);
     if (last != Validity::Ok) continue;
     // The residual merit of a coupled target uses the target of the trial lengths.
-    if (coupled_) effective_target(t_, target_, trial_.l, K_target_trial_);
+    if (coupled_) {
+      effective_target(t_, target_, trial_.l, K_target_trial_);
+      if (moebius_modes_) {
+        alpha_trial_ = alpha_ + t * d_alpha_;
+        beta_trial_ = beta_ + t * d_beta_;
+        add_modes(alpha_trial_, beta_trial_, K_target_trial_);
+      }
+    }
     const std::vector<double>& trial_target = coupled_ ? K_target_trial_ : K_target_;
     const double trial_error = max_error(trial_.K, trial_target, condition_);
     if (!std::isfinite(trial_error)) continue;
@@ -997,6 +1153,18 @@ void FlowSolver::accept(double step_length, double dE) {
   u_.swap(u_trial_);
   cur_.swap(trial_);
   effective_target(t_, target_, cur_.l, K_target_);
+  if (moebius_modes_) {
+    alpha_ = alpha_trial_;
+    beta_ = beta_trial_;
+    add_modes(alpha_, beta_, K_target_);
+    double relative = 0;
+    for (std::size_t i = 0; i < mode_vertices_.size(); ++i) {
+      const Index v = mode_vertices_[i];
+      const double base = K_target_[v] - alpha_ * mode_a_[v] - beta_ * mode_b_[v];
+      if (base != 0) relative = std::max(relative, std::abs(alpha_ * mode_a_[v] + beta_ * mode_b_[v]) / std::abs(base));
+    }
+    largest_mode_ = relative;
+  }
   error_ = max_error(cur_.K, K_target_, condition_);
   energy_ += dE;
   IterationRecord record;
@@ -1106,6 +1274,9 @@ void FlowSolver::run() {
         (target_.boundary == BoundaryMode::Circle || target_.boundary == BoundaryMode::LoopTotals) &&
         target_.loop_total.size() == static_cast<std::size_t>(t_.num_boundary_loops()))
       setup_coupling();
+    if (coupled_ && options_.normalize_circle_domains && target_.boundary == BoundaryMode::Circle &&
+        s_.geometry == Geometry::Euclidean && t_.num_components == 1 && t_.genus() == 0)
+      setup_moebius_modes();
     residual_merit_ = s_.geometry == Geometry::Spherical || coupled_;
     const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                        : detail::FactorKind::PositiveDefinite;
@@ -1188,6 +1359,12 @@ void FlowSolver::finish() {
                        " direction was used instead");
   if (damped_ > 0)
     r_.notes.push_back("the line search shortened " + std::to_string(damped_) + " Newton step(s)");
+  if (moebius_modes_)
+    r_.notes.push_back(
+        "circle domain: the Möbius normalization (the first Fourier modes of u along the outer loop held at their "
+        "start) moved the outer loop's target curvature by at most " + format_double("%.3g", largest_mode_) +
+        " of its value proportional to length" +
+        (mode_failures_ > 0 ? "; " + std::to_string(mode_failures_) + " step(s) without it (singular 2×2 system)" : ""));
   if (noise_accepts_ > 0)
     r_.notes.push_back(
         std::to_string(noise_accepts_) +

@@ -56,7 +56,9 @@
 // Gauss–Bonnet, Σ K̄ + λ·area = 2πχ with area > 0, with the tolerance τ = 1e-9·(1 + |2πχ|):
 // E: |Σ K̄ − 2πχ| ≤ τ; H: Σ K̄ − 2πχ > τ; S: 2πχ − Σ K̄ > τ (an area lost in rounding is no area).
 // Cone angles: K̄ < 2π inside, K̄ < π on the boundary, and a loop total below π·(its vertex
-// count) (all geometries). Checks never reject a target that some metric realises.
+// count) (all geometries). A boundary vertex in a single triangle (an ear) has an angle below π,
+// so its target must be positive (for a loop total: the total must be). Checks never reject a
+// target that some metric realises.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -496,6 +498,27 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
                               std::to_string(i) + " leaves no positive angles: with " +
                               std::to_string(loop_size(t, i)) + " vertices it must be below " +
                               fmt(kPi * loop_size(t, i)));
+
+  // --- Ears: a boundary vertex in a single triangle has an angle below π, so its curvature
+  // π − θ is positive whatever the metric (every scheme and geometry).
+  for (Index i = 0; i < loops; ++i) {
+    for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j) {
+      const Index v = t.boundary_vertices[j];
+      if (t.valence(v) != 1 || is_fixed(v)) continue;
+      const bool derived = with_totals;
+      if (derived ? target.loop_total[i] > 0 : target.K[v] > 0) continue;
+      const std::string given =
+          derived ? "the " + std::string(boundary_mode_name(target.boundary)) + " target spreads boundary loop " +
+                        std::to_string(i) + "'s total " + fmt(target.loop_total[i]) +
+                        " by length and so gives it a curvature ≤ 0"
+                  : "the target gives it " + fmt(target.K[v]);
+      return make_check(Status::InfeasibleTarget,
+                        "boundary vertex " + std::to_string(v) + " lies in a single triangle (an ear of boundary loop " +
+                            std::to_string(i) + "): its angle is below π, so its curvature π − θ is positive, but " +
+                            given + " (remove or split the ear triangle, or give it a positive target)",
+                        Element::Vertex, v);
+    }
+  }
 
   // --- Theorem 4 (see the top of this file): circle packing in E and H only.
   if (structure.scheme != Scheme::CirclePacking || g == Geometry::Spherical) {

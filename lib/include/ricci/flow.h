@@ -109,6 +109,12 @@ struct FlowOptions {
   /// converged after 40 steps (or stops earlier), continue from the curvature at u0 to the target
   /// through intermediate targets, each solved from the previous solution. Noted in the result.
   bool spherical_continuation = true;
+  /// Circle targets on genus-0 surfaces in E (Newton): fix the Möbius normalization of the circle
+  /// domain explicitly — the first Fourier modes of u along the outer loop keep their starting
+  /// values, and the outer loop's target gets two zero-sum modes (cos θ, sin θ) whose size the
+  /// notes report. Off: the target proportional to length exactly (nearly Möbius invariant, so
+  /// fine meshes converge slowly to a strongly distorted map).
+  bool normalize_circle_domains = true;
   /// Called after every iteration (for progress output; the library never prints).
   std::function<void(const struct IterationRecord&)> on_iteration;
 
