@@ -647,36 +647,54 @@ TEST_CASE("flow: valence-3 vertices in obtuse triangles — infeasible with Step
   }
 }
 
-TEST_CASE("flow: the spherical continuation converges where the direct Newton solve stalls") {
+TEST_CASE("flow: S safeguards — a planar start for the round sphere, a continuation for other targets") {
   using namespace ricci_shapes;
-  int rescued = 0;
-  for (std::uint64_t seed : {2, 4}) {
-    CAPTURE(seed);
+  auto ellipsoid = [](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     Mesh m = icosphere(3);
-    for (std::size_t i = 0; i < m.positions.size(); i += 3) {  // an elongated, flattened ellipsoid
+    for (std::size_t i = 0; i < m.positions.size(); i += 3) {  // elongated and flattened
       m.positions[i] *= 3.0;
       m.positions[i + 1] *= 0.5;
     }
-    m = flip_random_edges(split_random_faces(m, rng, 0.3), rng, 0.3);
-    const Problem p = make_problem("ellipsoid", m, Geometry::Spherical);
-    FlowOptions direct;
-    direct.spherical_continuation = false;
-    const FlowResult d = solve(p, direct);
+    return flip_random_edges(split_random_faces(m, rng, 0.3), rng, 0.3);
+  };
+  FlowOptions plain;
+  plain.spherical_safeguards = false;
+  int rescued_round = 0, rescued_cones = 0;
+  for (std::uint64_t seed : {2, 4}) {
+    CAPTURE(seed);
+    const Problem p = make_problem("ellipsoid", ellipsoid(seed), Geometry::Spherical);
+    // The round sphere.
+    const FlowResult d = solve(p, plain);
     const FlowResult r = solve(p);
     INFO(r.brief_report() << " — " << r.message);
     REQUIRE(r.status == Status::Ok);
     check_consistent(p, r);
-    CHECK(r.iterations <= FlowOptions{}.max_iterations);
-    if (d.status != Status::Ok) {
-      ++rescued;
-      REQUIRE(!r.notes.empty());
-      CHECK(r.notes.front().find("continuation") != std::string::npos);
+    CHECK(r.iterations <= 10);
+    bool planar = false;
+    for (const std::string& n : r.notes) planar = planar || n.find("stereographic image of a planar") != std::string::npos;
+    CHECK(planar);
+    rescued_round += d.status != Status::Ok ? 1 : 0;
+    // Cone targets (no Möbius freedom): curvature 0.05 at every 25th vertex, 0 elsewhere.
+    Problem q = p;
+    for (Index v = 0; v < q.topology.num_vertices; ++v) q.target.K[v] = v % 25 == 0 ? 0.05 : 0.0;
+    const FlowResult dc = solve(q, plain);
+    const FlowResult rc = solve(q);
+    INFO(rc.brief_report() << " — " << rc.message);
+    REQUIRE(rc.status == Status::Ok);
+    check_consistent(q, rc);
+    CHECK(rc.iterations <= FlowOptions{}.max_iterations);
+    if (dc.status != Status::Ok) {
+      ++rescued_cones;
+      REQUIRE(!rc.notes.empty());
+      CHECK(rc.notes.front().find("continuation") != std::string::npos);
     }
-    // Every history record is numbered in order across the stages.
-    for (std::size_t i = 0; i < r.history.size(); ++i) CHECK(r.history[i].iteration == static_cast<int>(i) + 1);
+    // History records are numbered in order across the stages.
+    for (std::size_t i = 0; i < rc.history.size(); ++i) CHECK(rc.history[i].iteration == static_cast<int>(i) + 1);
   }
-  CHECK(rescued > 0);  // the direct solve stalls on at least one of them: the path is exercised
+  // Newton from Step 2's radii alone stalls on these surfaces: both safeguards are exercised.
+  CHECK(rescued_round > 0);
+  CHECK(rescued_cones > 0);
 }
 
 TEST_CASE("flow: circle domains are Möbius-normalized — few Newton steps, loop totals kept, small modes") {

@@ -1407,6 +1407,214 @@ namespace {
 // the continuation takes over.
 constexpr int kDirectSphericalIterations = 40;
 
+const std::string& prefix_of_direct() {
+  static const std::string prefix = "the direct Newton solve";
+  return prefix;
+}
+
+// A starting point for the round-sphere target (S, genus 0, K̄ = 0) from a planar problem, which
+// is convex. Intersection angles and inversive distances are Möbius invariant, so stereographic
+// projection from the centre of a vertex v's circle turns a spherical pattern into a planar one
+// with the same weights on the mesh without v, whose boundary circles (v's neighbours) cross the
+// image of v's circle. That boundary condition is approximated by "boundary centres on a
+// circle": the disk (the mesh minus the star of v) is solved in E with a circle boundary (convex,
+// Möbius-normalized, a few Newton steps), laid out face by face, scaled so that the outer circle
+// bounds a cap of the area share of v's star, and mapped back by inverse stereographic projection,
+// circle by circle; v's radius is fitted to its neighbours. Returns an empty vector when a step
+// is not possible (another scheme, a degenerate layout, …).
+std::vector<double> spherical_start_from_plane(const Topology& t, const ConformalStructure& s,
+                                               std::span<const double> u0, const FlowOptions& options) {
+  const Index nv = t.num_vertices, ne = t.num_edges, nf = t.num_faces;
+  if (s.scheme == Scheme::Yamabe || s.geometry != Geometry::Spherical || nv < 5) return {};
+  std::vector<double> l(static_cast<std::size_t>(ne)), theta(3 * static_cast<std::size_t>(nf)),
+      area(static_cast<std::size_t>(nf));
+  if (edge_lengths(t, s, u0, l) != kInvalid || corner_angles(t, s.geometry, l, theta).violations > 0) return {};
+  face_areas(t, s.geometry, l, theta, area);
+  // v: the vertex of largest valence (the smallest index among ties) among those whose neighbours
+  // all have valence ≥ 4, so that no vertex of the disk's boundary lies in a single triangle.
+  Index v = kInvalid;
+  for (Index i = 0; i < nv; ++i) {
+    if (t.valence(i) == 0 || (v != kInvalid && t.valence(i) <= t.valence(v))) continue;
+    bool ears = false;
+    for (Index k = t.vertex_corner_offsets[i]; k < t.vertex_corner_offsets[i + 1] && !ears; ++k)
+      ears = t.valence(t.corner_vertex[next_corner(t.vertex_corners[k])]) < 4;
+    if (!ears) v = i;
+  }
+  if (v == kInvalid) return {};
+  // The disk: every face without v, vertices renumbered without v.
+  std::vector<Index> to_sub(static_cast<std::size_t>(nv), kInvalid), to_full;
+  for (Index i = 0; i < nv; ++i)
+    if (i != v && t.valence(i) > 0) {
+      to_sub[i] = static_cast<Index>(to_full.size());
+      to_full.push_back(i);
+    }
+  std::vector<Index> faces;
+  std::vector<Index> face_full;
+  double star_area = 0, total_area = 0;
+  for (Index f = 0; f < nf; ++f) {
+    total_area += area[f];
+    const Index a = t.corner_vertex[3 * f], b = t.corner_vertex[3 * f + 1], c = t.corner_vertex[3 * f + 2];
+    if (a == v || b == v || c == v) {
+      star_area += area[f];
+      continue;
+    }
+    faces.insert(faces.end(), {to_sub[a], to_sub[b], to_sub[c]});
+    face_full.push_back(f);
+  }
+  const auto n_sub = static_cast<Index>(to_full.size());
+  TopologyResult sub = build_topology(faces, n_sub);
+  if (sub.status != Status::Ok || sub.topology.num_boundary_loops() != 1 || sub.topology.euler_characteristic() != 1)
+    return {};
+  const Topology& d = sub.topology;
+  // The same weights on the disk's edges (a disk edge is the full edge of the same face slot).
+  ConformalStructure plane;
+  plane.geometry = Geometry::Euclidean;
+  plane.scheme = s.scheme;
+  plane.epsilon = s.epsilon;
+  plane.eta.assign(static_cast<std::size_t>(d.num_edges), 0.0);
+  std::vector<double> disk_l(static_cast<std::size_t>(d.num_edges), 0.0);
+  for (Index g = 0; g < d.num_faces; ++g)
+    for (Index k = 0; k < 3; ++k) {
+      plane.eta[d.corner_edge[3 * g + k]] = s.eta[t.corner_edge[3 * face_full[g] + k]];
+      disk_l[d.corner_edge[3 * g + k]] = l[t.corner_edge[3 * face_full[g] + k]];
+    }
+  // Start: the paper's Step 2 radii from the spherical lengths (small triangles are nearly flat).
+  std::vector<double> u_disk(static_cast<std::size_t>(n_sub), 0.0);
+  for (Index i = 0; i < n_sub; ++i) {
+    double sum = 0;
+    const Index b = d.vertex_corner_offsets[i], e = d.vertex_corner_offsets[i + 1];
+    for (Index k = b; k < e; ++k) {
+      const Index c = d.vertex_corners[k];
+      sum += (disk_l[d.corner_edge[next_corner(c)]] + disk_l[d.corner_edge[prev_corner(c)]] - disk_l[d.corner_edge[c]]) / 2;
+    }
+    if (!(sum > 0) || e == b) return {};
+    u_disk[i] = std::log(sum / (e - b));
+  }
+  const Target circle = uniform_target(d, BoundaryMode::Circle);
+  FlowOptions plane_options;
+  plane_options.tolerance = 1e-8;  // a start: the spherical Newton solve does the rest
+  plane_options.max_iterations = 40;
+  plane_options.threads = options.threads;
+  const FlowResult flat = solve_flow(d, plane, u_disk, circle, plane_options);
+  if (flat.u.empty() || !(flat.max_curvature_error < 1e-4)) return {};
+
+  // Layout, breadth first over faces from face 0.
+  std::vector<double> x(2 * static_cast<std::size_t>(n_sub), 0.0);
+  std::vector<std::uint8_t> placed(static_cast<std::size_t>(n_sub), 0), done(static_cast<std::size_t>(d.num_faces), 0);
+  auto length = [&](Index corner) { return flat.l[d.corner_edge[corner]]; };
+  {
+    const Index a = d.corner_vertex[0], b = d.corner_vertex[1], c = d.corner_vertex[2];
+    const double lab = length(2), lbc = length(0), lca = length(1);
+    x[2 * a] = 0, x[2 * a + 1] = 0;
+    x[2 * b] = lab, x[2 * b + 1] = 0;
+    const double along = (lca * lca - lbc * lbc + lab * lab) / (2 * lab);
+    x[2 * c] = along;
+    x[2 * c + 1] = std::sqrt(std::max(0.0, lca * lca - along * along));
+    placed[a] = placed[b] = placed[c] = 1;
+    done[0] = 1;
+  }
+  std::vector<Index> queue = {0};
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const Index f = queue[head];
+    for (Index k = 0; k < 3; ++k) {
+      const Index across = d.opposite[3 * f + k];
+      if (across == kInvalid || done[corner_face(across)]) continue;
+      const Index g = corner_face(across);
+      // In g, the corner `across` is opposite the shared edge; its vertex w lies to the left of
+      // p → q with p = vertex(next), q = vertex(prev) (faces are counter-clockwise).
+      const Index w = d.corner_vertex[across], p = d.corner_vertex[next_corner(across)],
+                  q = d.corner_vertex[prev_corner(across)];
+      const double dp = length(prev_corner(across)), dq = length(next_corner(across));
+      const double ex = x[2 * q] - x[2 * p], ey = x[2 * q + 1] - x[2 * p + 1];
+      const double pq = std::hypot(ex, ey);
+      if (!(pq > 0)) return {};
+      const double along = (dp * dp - dq * dq + pq * pq) / (2 * pq);
+      const double height = std::sqrt(std::max(0.0, dp * dp - along * along));
+      if (!placed[w]) {
+        x[2 * w] = x[2 * p] + (along * ex - height * ey) / pq;
+        x[2 * w + 1] = x[2 * p + 1] + (along * ey + height * ex) / pq;
+        placed[w] = 1;
+      }
+      done[g] = 1;
+      queue.push_back(g);
+    }
+  }
+  for (Index i = 0; i < n_sub; ++i)
+    if (!placed[i]) return {};
+  // The boundary circle → the unit circle, scaled so that it bounds a cap of v's area share:
+  // 1 − cos ψ = 2·share, and the circle at polar angle ψ from the north pole projects to radius
+  // cot(ψ/2).
+  double cx = 0, cy = 0;
+  const Index nb = d.num_boundary_edges();
+  for (Index j = 0; j < nb; ++j) {
+    cx += x[2 * d.boundary_vertices[j]];
+    cy += x[2 * d.boundary_vertices[j] + 1];
+  }
+  cx /= nb;
+  cy /= nb;
+  double R = 0;
+  for (Index j = 0; j < nb; ++j)
+    R += std::hypot(x[2 * d.boundary_vertices[j]] - cx, x[2 * d.boundary_vertices[j] + 1] - cy);
+  R /= nb;
+  const double share = std::clamp(star_area / total_area, 1e-6, 0.25);
+  const double cos_psi = 1 - 2 * share;
+  const double lambda = std::sqrt(1 - cos_psi * cos_psi) / (1 - cos_psi);
+  const double scale = lambda / R;
+  auto lift = [](double px, double py, double out[3]) {
+    const double q = px * px + py * py;
+    out[0] = 2 * px / (q + 1);
+    out[1] = 2 * py / (q + 1);
+    out[2] = (q - 1) / (q + 1);
+  };
+  std::vector<double> u(static_cast<std::size_t>(nv), 0.0), centre(3 * static_cast<std::size_t>(nv), 0.0), rho(static_cast<std::size_t>(nv), 0.0);
+  for (Index i = 0; i < n_sub; ++i) {
+    const double zx = (x[2 * i] - cx) * scale, zy = (x[2 * i + 1] - cy) * scale;
+    const double r = std::exp(flat.u[i]) * scale;
+    const double norm = std::hypot(zx, zy);
+    const double dx = norm > 0 ? zx / norm : 1.0, dy = norm > 0 ? zy / norm : 0.0;
+    double a[3], b[3];
+    lift((norm - r) * dx, (norm - r) * dy, a);
+    lift((norm + r) * dx, (norm + r) * dy, b);
+    // Half the angle between the two points, by atan2 (acos loses small circles).
+    const double cx3 = a[1] * b[2] - a[2] * b[1], cy3 = a[2] * b[0] - a[0] * b[2], cz3 = a[0] * b[1] - a[1] * b[0];
+    const double radius =
+        0.5 * std::atan2(std::sqrt(cx3 * cx3 + cy3 * cy3 + cz3 * cz3), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+    if (!(radius > 0 && radius < std::numbers::pi / 2)) return {};
+    const Index full = to_full[i];
+    rho[full] = radius;
+    const double mx = a[0] + b[0], my = a[1] + b[1], mz = a[2] + b[2], mn = std::sqrt(mx * mx + my * my + mz * mz);
+    if (!(mn > 0)) return {};
+    centre[3 * full] = mx / mn;
+    centre[3 * full + 1] = my / mn;
+    centre[3 * full + 2] = mz / mn;
+    u[full] = std::log(std::tan(radius / 2));
+  }
+  // v at the north pole; its radius from each neighbour j by the spherical cosine law
+  // cos d_j = cos ρ_v cos ρ_j − sin ρ_v sin ρ_j η_vj, averaged.
+  double sum = 0;
+  int count = 0;
+  for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+    const Index c = t.vertex_corners[k];
+    const Index j = t.corner_vertex[next_corner(c)];
+    const double eta = s.eta[t.corner_edge[prev_corner(c)]];  // the edge from v to j
+    const double A = std::cos(rho[j]), B = std::sin(rho[j]) * eta, C = centre[3 * j + 2];
+    const double h = std::hypot(A, B);
+    if (!(h > 0) || std::abs(C) > h) continue;
+    const double value = std::acos(C / h) - std::atan2(B, A);
+    if (value > 0 && value < std::numbers::pi) {
+      sum += value;
+      ++count;
+    }
+  }
+  if (count == 0) return {};
+  u[v] = std::log(std::tan(sum / count / 2));
+  for (Index i = 0; i < nv; ++i)
+    if (t.valence(i) > 0 && !std::isfinite(u[i])) return {};
+  for (Index i = 0; i < nv; ++i)
+    if (t.valence(i) == 0) u[i] = u0[i];
+  return u;
+}
+
 // Continuation for S: the targets K̄(s) = K̄ + (1 − s)(K₀ − K̄), K₀ the curvature at u0, from
 // s = 0 (solved by u0) to s = 1, each solved by Newton from the previous solution. The step in s
 // doubles after a success (up to ½) and halves after a failure (down to 2⁻¹²). Intermediate
@@ -1437,7 +1645,7 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
       stage_target.K[v] = held ? target.K[v] : target.K[v] + (1 - next) * (K0[v] - target.K[v]);
     }
     FlowOptions stage = options;
-    stage.spherical_continuation = false;
+    stage.spherical_safeguards = false;
     stage.tolerance = next < 1 ? std::max(options.tolerance, 1e-8) : options.tolerance;
     stage.max_iterations = std::min(30, options.max_iterations - used);
     const int offset = used;
@@ -1545,19 +1753,51 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
   ThreadScope threads(options.threads, topology.num_faces);
   const bool coupled = !topology.is_closed() && (target.boundary == BoundaryMode::Circle ||
                                                  target.boundary == BoundaryMode::LoopTotals);
-  const bool homotopy = options.method == Method::Newton && options.spherical_continuation &&
+  const bool homotopy = options.method == Method::Newton && options.spherical_safeguards &&
                         structure.geometry == Geometry::Spherical && !coupled;
+  // The round sphere (closed, genus 0, K̄ = 0): start from the stereographic image of a planar
+  // circle-domain solution, which is close to a solution; Step 2's radii are for a surface that
+  // is usually far from round.
+  bool round = homotopy && topology.is_closed() && topology.num_components == 1 &&
+               topology.euler_characteristic() == 2 && target.fixed_u.empty();
+  for (Index v = 0; v < nv && round; ++v) round = target.K[v] == 0;
+  std::vector<double> planar_u;
+  if (round) planar_u = spherical_start_from_plane(topology, structure, u0, options);
+  const std::span<const double> first_u = planar_u.empty() ? u0 : std::span<const double>(planar_u);
+  const std::string first_name = planar_u.empty() ? "the direct Newton solve"
+                                                  : "Newton from the stereographic image of a planar circle-domain "
+                                                    "solution";
   FlowOptions direct = options;
   if (homotopy) direct.max_iterations = std::min(options.max_iterations, kDirectSphericalIterations);
+  // Times count from the call, the planar start included.
+  const double before = std::chrono::duration<double>(Clock::now() - start).count();
+  if (options.on_iteration && before > 0)
+    direct.on_iteration = [&options, before](const IterationRecord& record) {
+      IterationRecord shifted = record;
+      shifted.seconds += before;
+      options.on_iteration(shifted);
+    };
   {
-    FlowSolver solver(topology, structure, u0, target, direct, r);
+    FlowSolver solver(topology, structure, first_u, target, direct, r);
     solver.run();
     solver.finish();
   }
+  for (IterationRecord& record : r.history) record.seconds += before;
+  r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (!planar_u.empty() && r.status == Status::Ok)
+    r.notes.insert(r.notes.begin(), "started from the stereographic image of a planar circle-domain solution");
   const bool retry = r.status == Status::NotConverged || r.status == Status::LineSearchFailed ||
                      r.status == Status::TriangleInequality || r.status == Status::NumericalFailure;
   if (!homotopy || !retry || r.iterations >= options.max_iterations) return r;
-  return spherical_continuation(topology, structure, u0, target, options, std::move(r), start);
+  // Otherwise: a continuation from the starting curvature of the same start.
+  FlowResult c = spherical_continuation(topology, structure, first_u, target, options, std::move(r), start);
+  if (!c.notes.empty()) {
+    const std::string prefix = "the direct Newton solve";
+    if (c.notes.front().rfind(prefix, 0) == 0) c.notes.front().replace(0, prefix.size(), first_name);
+  }
+  if (c.status != Status::Ok && c.message.find(prefix_of_direct()) != std::string::npos)
+    c.message.replace(c.message.find(prefix_of_direct()), prefix_of_direct().size(), first_name);
+  return c;
 }
 
 }  // namespace ricci

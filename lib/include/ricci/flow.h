@@ -105,10 +105,14 @@ struct FlowOptions {
   /// OpenMP threads for the kernels; 0 keeps the current setting (but solves meshes under 20 000
   /// faces on one thread, where forking costs more than the work). Results do not depend on it.
   int threads = 0;
-  /// S (Newton, targets that do not depend on the lengths): when the direct solve from u0 has not
-  /// converged after 40 steps (or stops earlier), continue from the curvature at u0 to the target
-  /// through intermediate targets, each solved from the previous solution. Noted in the result.
-  bool spherical_continuation = true;
+  /// S is not convex; Newton's safeguards there (targets that do not depend on the lengths):
+  /// the round sphere (closed genus 0, K̄ = 0) starts from the stereographic image of a planar
+  /// circle-domain solution instead of u0 (the three vertices pinned for the Möbius gauge keep
+  /// that start's values); when Newton has not converged after 40 steps (or stops earlier), a
+  /// continuation walks the target from the curvature at the start to K̄ through intermediate
+  /// targets, each solved from the previous solution. Both are noted in the result. Off: Newton
+  /// from u0 only.
+  bool spherical_safeguards = true;
   /// Circle targets on genus-0 surfaces in E (Newton): fix the Möbius normalization of the circle
   /// domain explicitly — the first Fourier modes of u along the outer loop keep their starting
   /// values, and the outer loop's target gets two zero-sum modes (cos θ, sin θ) whose size the
