@@ -530,7 +530,7 @@ Expected natural_settings(std::int64_t genus, std::int64_t loops) {
 }
 }  // namespace
 
-TEST_CASE("cli flow: the shared real meshes converge with auto settings or stop with a named status") {
+TEST_CASE("cli flow: the shared real meshes converge with auto settings or are named infeasible") {
   const path meshes = ricci_test::shared_meshes_dir();
   if (meshes.empty()) {
     MESSAGE("shared meshes folder absent; skipping");
@@ -556,16 +556,17 @@ TEST_CASE("cli flow: the shared real meshes converge with auto settings or stop 
       REQUIRE(f.j.is_object());
       CHECK(f.j["geometry"] == e.geometry);
       CHECK(f.j["boundary"] == e.boundary);
-      if (std::string(e.geometry) != "spherical" && f.r.exit_code != 8) {
-        // E and H are convex: circle packing with K̄ = 0 is admissible once the separating 3- and
-        // 4-cycles have their angles relaxed, and circle domains are Möbius-normalized. Only a
-        // named infeasibility (exit 8, e.g. an ear on an inner loop) may stop them.
+      if (f.r.exit_code != 8) {
+        // Every mesh converges — E and H are convex once the separating 3- and 4-cycles have their
+        // angles relaxed and circle domains are Möbius-normalized; S has its safeguards — unless
+        // the target is named infeasible before any iteration (exit 8, e.g. an ear on an inner
+        // loop).
         check_converged(f);
         hyperbolic += std::string(e.geometry) == "hyperbolic" ? 1 : 0;
       } else if (f.r.exit_code != 0) {
-        // Not converged: a named flow status (exit 7) or an infeasible target (exit 8), with a
-        // message, finite numbers and no output — never a crash or a NaN.
-        CHECK((f.r.exit_code == 8 || (f.r.exit_code == 7 && std::string(e.geometry) == "spherical")));
+        // An infeasible target (exit 8), with a message, finite numbers and no output — never a
+        // crash or a NaN.
+        CHECK(f.r.exit_code == 8);
         CHECK(f.j["status"] != "converged");
         CHECK(!f.j.value("message", std::string()).empty());
         if (f.j["max_curvature_error"].is_number()) CHECK(std::isfinite(f.j["max_curvature_error"].get<double>()));

@@ -63,6 +63,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -253,6 +254,9 @@ class FlowSolver {
 
   void run();
   void finish();
+  /// Pins for the Möbius gauge of the round sphere instead of the graph-distance choice (three
+  /// distinct vertices; ignored unless valid).
+  void set_sphere_pins(const std::array<Index, 3>& pins) { pin_hint_ = pins; }
 
  private:
   // Setup.
@@ -338,6 +342,7 @@ class FlowSolver {
   int mode_failures_ = 0;
   std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
   bool spherical_gauge_ = false;
+  std::array<Index, 3> pin_hint_ = {kInvalid, kInvalid, kInvalid};
   std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
   std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
@@ -421,6 +426,18 @@ void FlowSolver::classify_vertices() {
 
 void FlowSolver::choose_spherical_gauge(Index component) {
   const Index nv = t_.num_vertices;
+  {
+    const auto [a, b, c] = pin_hint_;
+    auto usable = [&](Index v) { return v >= 0 && v < nv && vertex_component_[v] == component && condition_[v]; };
+    if (usable(a) && usable(b) && usable(c) && a != b && b != c && a != c) {
+      for (const Index v : pin_hint_) {
+        pinned_[v] = 1;
+        spherical_pins_.push_back(v);
+      }
+      spherical_gauge_ = true;
+      return;
+    }
+  }
   Index v0 = kInvalid;
   for (Index v = 0; v < nv && v0 == kInvalid; ++v)
     if (vertex_component_[v] == component) v0 = v;
@@ -1423,7 +1440,8 @@ const std::string& prefix_of_direct() {
 // circle by circle; v's radius is fitted to its neighbours. Returns an empty vector when a step
 // is not possible (another scheme, a degenerate layout, …).
 std::vector<double> spherical_start_from_plane(const Topology& t, const ConformalStructure& s,
-                                               std::span<const double> u0, const FlowOptions& options) {
+                                               std::span<const double> u0, const FlowOptions& options,
+                                               std::array<Index, 3>* pins = nullptr) {
   const Index nv = t.num_vertices, ne = t.num_edges, nf = t.num_faces;
   if (s.scheme == Scheme::Yamabe || s.geometry != Geometry::Spherical || nv < 5) return {};
   std::vector<double> l(static_cast<std::size_t>(ne)), theta(3 * static_cast<std::size_t>(nf)),
@@ -1612,6 +1630,18 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
     if (t.valence(i) > 0 && !std::isfinite(u[i])) return {};
   for (Index i = 0; i < nv; ++i)
     if (t.valence(i) == 0) u[i] = u0[i];
+  // Pins for the Möbius gauge: v at the north pole and the vertices whose circle centres are
+  // nearest to (1, 0, 0) and (0, 1, 0) — three nearly orthogonal directions, so that the three
+  // pinned radii fix the Möbius transformation well.
+  if (pins) {
+    Index px = kInvalid, py = kInvalid;
+    for (Index i = 0; i < nv; ++i) {
+      if (i == v || t.valence(i) == 0) continue;
+      if (px == kInvalid || centre[3 * i] > centre[3 * px]) px = i;
+      if (py == kInvalid || centre[3 * i + 1] > centre[3 * py + 1]) py = i;
+    }
+    *pins = {v, px, py};
+  }
   return u;
 }
 
@@ -1762,7 +1792,8 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
                topology.euler_characteristic() == 2 && target.fixed_u.empty();
   for (Index v = 0; v < nv && round; ++v) round = target.K[v] == 0;
   std::vector<double> planar_u;
-  if (round) planar_u = spherical_start_from_plane(topology, structure, u0, options);
+  std::array<Index, 3> pins = {kInvalid, kInvalid, kInvalid};
+  if (round) planar_u = spherical_start_from_plane(topology, structure, u0, options, &pins);
   const std::span<const double> first_u = planar_u.empty() ? u0 : std::span<const double>(planar_u);
   const std::string first_name = planar_u.empty() ? "the direct Newton solve"
                                                   : "Newton from the stereographic image of a planar circle-domain "
@@ -1779,6 +1810,7 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
     };
   {
     FlowSolver solver(topology, structure, first_u, target, direct, r);
+    if (!planar_u.empty()) solver.set_sphere_pins(pins);
     solver.run();
     solver.finish();
   }
