@@ -1496,18 +1496,9 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
       plane.eta[d.corner_edge[3 * g + k]] = s.eta[t.corner_edge[3 * face_full[g] + k]];
       disk_l[d.corner_edge[3 * g + k]] = l[t.corner_edge[3 * face_full[g] + k]];
     }
-  // Start: the paper's Step 2 radii from the spherical lengths (small triangles are nearly flat).
+  // Start: the spherical radii as euclidean ones (small triangles are nearly flat), γ = 2 atan e^u.
   std::vector<double> u_disk(static_cast<std::size_t>(n_sub), 0.0);
-  for (Index i = 0; i < n_sub; ++i) {
-    double sum = 0;
-    const Index b = d.vertex_corner_offsets[i], e = d.vertex_corner_offsets[i + 1];
-    for (Index k = b; k < e; ++k) {
-      const Index c = d.vertex_corners[k];
-      sum += (disk_l[d.corner_edge[next_corner(c)]] + disk_l[d.corner_edge[prev_corner(c)]] - disk_l[d.corner_edge[c]]) / 2;
-    }
-    if (!(sum > 0) || e == b) return {};
-    u_disk[i] = std::log(sum / (e - b));
-  }
+  for (Index i = 0; i < n_sub; ++i) u_disk[i] = std::log(2 * std::atan(std::exp(u0[to_full[i]])));
   const Target circle = uniform_target(d, BoundaryMode::Circle);
   FlowOptions plane_options;
   plane_options.tolerance = 1e-8;  // a start: the spherical Newton solve does the rest
