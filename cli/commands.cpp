@@ -499,6 +499,8 @@ int run(int argc, const char* const* argv) {
   CLI::App* info_cmd = add_info_command(app, info);
   CLI::App* convert_cmd = add_convert_command(app, convert);
   CLI::App* flow_cmd = add_flow_command(app, flow);
+  CutCommandOptions cut;
+  CLI::App* cut_cmd = add_cut_command(app, cut);
 
   try {
     app.parse(argc, argv);
@@ -514,6 +516,7 @@ int run(int argc, const char* const* argv) {
   if (info_cmd->parsed()) return run_info(info);
   if (convert_cmd->parsed()) return run_convert(convert);
   if (flow_cmd->parsed()) return run_flow(flow);
+  if (cut_cmd->parsed()) return run_cut(cut);
   print_error("no subcommand given");
   return kExitUsage;
 }

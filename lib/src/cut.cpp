@@ -1,0 +1,1565 @@
+// ricci — cutting a surface open: tree–cotree cut graph, cut-and-paste canonicalisation of the
+// polygon schema realised on the mesh (with exact local refinement when no edge path exists),
+// arcs to the boundary loops, labelled sides and an independent intersection check. See cut.h.
+//
+// Vocabulary used below:
+//   S      the (refined) surface: faces, positions, topology; starts as the input mesh.
+//   cut    flags on S's interior edges: the cut graph C.
+//   node   flags on S's vertices: the polygon corners N (every vertex of C ∪ ∂S whose degree
+//          there is not 2 is a node; the base and the ends of cut paths are nodes too).
+//   R      the disk (with holes while boundary loops are detached): S cut open along C. Its
+//          faces are S's faces (same indices and corners) over cut-vertex copies.
+//   Ŝ      S with every boundary loop collapsed to one point B_i. The polygon schema is read in
+//          Ŝ: a run of boundary sides between two cut sides is one corner of class B_i.
+#include "ricci/cut.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <random>
+#include <unordered_map>
+#include <utility>
+
+namespace ricci {
+
+bool CutOptions::is_valid(std::string* why) const {
+  auto fail = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (base_vertex < -1) return fail("base_vertex must be -1 (automatic) or a vertex index");
+  if (max_moves < 0) return fail("max_moves must be >= 0");
+  for (double w : edge_weights)
+    if (!std::isfinite(w) || w < 0) return fail("edge_weights must be finite and >= 0");
+  return true;
+}
+
+std::string CutResult::brief_report() const {
+  char buf[256];
+  std::snprintf(
+      buf, sizeof buf,
+      "cut: %s, genus %d, %d boundary loops, %d sides, canonical %s, %d added vertices, %d moves, %.3f s",
+      status == Status::Ok ? "ok" : std::string(status_name(status)).c_str(), static_cast<int>(genus),
+      static_cast<int>(boundary_loops), static_cast<int>(num_sides()), canonical ? "yes" : "no",
+      static_cast<int>(num_refined_vertices()), static_cast<int>(moves), seconds);
+  return buf;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Pair = std::pair<Index, Index>;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---- the refined surface ----------------------------------------------------------------------
+
+struct Surface {
+  const Mesh* input = nullptr;
+  Index n_input = 0;
+  bool has_pos = false;
+  double mean_length = 1;  ///< mean edge length of the input (1 without positions)
+  std::vector<double> pos;
+  std::vector<Index> faces;
+  std::vector<Index> face_origin;
+  std::vector<Index> rec_face;
+  std::vector<double> rec_bary;
+  std::vector<Index> vertex_loop;  ///< input boundary loop of a vertex, -1 if interior
+  Topology topo;
+
+  Index nv() const { return topo.num_vertices; }
+  double length(Index u, Index v) const {
+    if (!has_pos) return 1.0;
+    const double dx = pos[3 * u] - pos[3 * v], dy = pos[3 * u + 1] - pos[3 * v + 1],
+                 dz = pos[3 * u + 2] - pos[3 * v + 2];
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
+  }
+  /// Class of a vertex in Ŝ.
+  Index cls(Index v) const { return vertex_loop[v] >= 0 ? nv() + vertex_loop[v] : v; }
+};
+
+/// The edge joining u and v, or kInvalid.
+Index find_edge(const Topology& t, Index u, Index v) {
+  for (Index k = t.vertex_corner_offsets[u]; k < t.vertex_corner_offsets[u + 1]; ++k) {
+    const Index c = t.vertex_corners[k];
+    if (t.corner_vertex[next_corner(c)] == v) return t.corner_edge[prev_corner(c)];
+    if (t.corner_vertex[prev_corner(c)] == v) return t.corner_edge[next_corner(c)];
+  }
+  return kInvalid;
+}
+
+/// Input-vertex weights of surface vertex v (up to three (vertex, weight) pairs).
+void vertex_weights(const Surface& S, Index v, std::array<Index, 3>& ov, std::array<double, 3>& w) {
+  if (v < S.n_input) {
+    ov = {v, kInvalid, kInvalid};
+    w = {1, 0, 0};
+    return;
+  }
+  const Index k = v - S.n_input, f = S.rec_face[k];
+  for (int i = 0; i < 3; ++i) {
+    ov[i] = S.input->faces[3 * f + i];
+    w[i] = S.rec_bary[3 * k + i];
+  }
+}
+
+/// Barycentric coordinates in input face O of the average of `verts`. False if a vertex does not
+/// lie in the closure of O (an internal error).
+bool average_in_face(const Surface& S, Index O, std::span<const Index> verts, std::array<double, 3>& bary) {
+  bary = {0, 0, 0};
+  const double share = 1.0 / static_cast<double>(verts.size());
+  for (Index v : verts) {
+    std::array<Index, 3> ov;
+    std::array<double, 3> w;
+    vertex_weights(S, v, ov, w);
+    for (int i = 0; i < 3; ++i) {
+      if (ov[i] == kInvalid || w[i] == 0) continue;
+      int slot = -1;
+      for (int j = 0; j < 3; ++j)
+        if (S.input->faces[3 * O + j] == ov[i]) slot = j;
+      if (slot < 0) return false;
+      bary[slot] += share * w[i];
+    }
+  }
+  return true;
+}
+
+Index add_vertex(Surface& S, Index O, const std::array<double, 3>& bary) {
+  const Index id = S.n_input + static_cast<Index>(S.rec_face.size());
+  S.rec_face.push_back(O);
+  for (double b : bary) S.rec_bary.push_back(b);
+  if (S.has_pos) {
+    for (int d = 0; d < 3; ++d) {
+      double x = 0;
+      for (int j = 0; j < 3; ++j) x += bary[j] * S.input->positions[3 * S.input->faces[3 * O + j] + d];
+      S.pos.push_back(x);
+    }
+  }
+  S.vertex_loop.push_back(-1);
+  return id;
+}
+
+// ---- cut state, disk, polygon -----------------------------------------------------------------
+
+struct State {
+  std::vector<char> cut;   ///< #E
+  std::vector<char> node;  ///< #V
+};
+
+struct Disk {
+  std::vector<Index> faces;
+  std::vector<Index> to_surface;
+  Topology topo;
+  bool ok = false;
+};
+
+Disk build_disk(const Surface& S, const std::vector<char>& cut) {
+  const Topology& t = S.topo;
+  Disk R;
+  R.faces.assign(S.faces.size(), kInvalid);
+  for (Index v = 0; v < t.num_vertices; ++v) {
+    const Index o0 = t.vertex_corner_offsets[v], m = t.valence(v);
+    if (m == 0) continue;
+    const bool bnd = t.is_boundary_vertex(v);
+    auto corner = [&](Index j) { return t.vertex_corners[o0 + ((j % m) + m) % m]; };
+    // edge between fan corners j-1 and j
+    auto cut_before = [&](Index j) { return cut[t.corner_edge[next_corner(corner(j - 1))]] != 0; };
+    Index j0 = 0;
+    if (!bnd) {
+      for (Index j = 0; j < m; ++j)
+        if (cut_before(j)) {
+          j0 = j;
+          break;
+        }
+    }
+    Index copy = kInvalid;
+    for (Index k = 0; k < m; ++k) {
+      const Index j = j0 + k;
+      if (k == 0 || cut_before(j)) {
+        copy = static_cast<Index>(R.to_surface.size());
+        R.to_surface.push_back(v);
+      }
+      R.faces[corner(j)] = copy;
+    }
+  }
+  TopologyResult tr = build_topology(R.faces, static_cast<Index>(R.to_surface.size()));
+  R.ok = tr.status == Status::Ok;
+  R.topo = std::move(tr.topology);
+  return R;
+}
+
+struct Polygon {
+  bool ok = false;
+  std::string why;
+  std::vector<Index> loop;        ///< R vertices of the outer loop, starting at a corner
+  std::vector<Index> side_begin;  ///< position in loop
+  std::vector<Index> side_len;    ///< edges
+  std::vector<char> side_cut;
+  std::vector<Index> side_partner;
+  std::vector<Index> side_loop;  ///< input boundary loop of a boundary side, else -1
+  std::vector<Index> holes;      ///< R boundary loops without cut edges (other than the outer)
+  // The word in Ŝ: tokens are the cut sides in order; corner t lies before token t.
+  std::vector<Index> tok_side;
+  std::vector<Index> tok_letter;
+  std::vector<int> tok_sign;
+  std::vector<Index> corner_class;
+  std::vector<std::vector<Index>> corner_anchor;
+  Index num_letters = 0;
+
+  Index m() const { return static_cast<Index>(loop.size()); }
+  Index at(Index p) const { return loop[static_cast<std::size_t>(p % m())]; }
+  Index ntok() const { return static_cast<Index>(tok_side.size()); }
+};
+
+std::uint64_t key(Index u, Index v) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) | static_cast<std::uint32_t>(v);
+}
+
+/// Reads the disk's outer boundary as sides and as the word in Ŝ. `outer_hint`: a surface
+/// vertex on the loop to read when no loop carries a cut edge (genus 0 with boundary).
+Polygon read_polygon(const Surface& S, const State& st, const Disk& R, Index outer_hint) {
+  Polygon P;
+  const Topology& rt = R.topo;
+  Index outer = kInvalid, with_cut = 0;
+  for (Index L = 0; L < rt.num_boundary_loops(); ++L) {
+    bool has_cut = false, has_hint = false;
+    for (Index k = rt.boundary_offsets[L]; k < rt.boundary_offsets[L + 1]; ++k) {
+      if (st.cut[S.topo.corner_edge[rt.boundary_corners[k]]]) has_cut = true;
+      if (R.to_surface[rt.boundary_vertices[k]] == outer_hint) has_hint = true;
+    }
+    if (has_cut) {
+      ++with_cut;
+      outer = L;
+    } else if (has_hint && outer == kInvalid) {
+      outer = L;
+    }
+  }
+  if (with_cut > 1) {
+    P.why = "several boundary loops of the disk carry cut edges";
+    return P;
+  }
+  if (with_cut == 0) {
+    // Take the hinted loop (outer may already be it).
+    outer = kInvalid;
+    for (Index L = 0; L < rt.num_boundary_loops() && outer == kInvalid; ++L)
+      for (Index k = rt.boundary_offsets[L]; k < rt.boundary_offsets[L + 1]; ++k)
+        if (R.to_surface[rt.boundary_vertices[k]] == outer_hint) outer = L;
+  }
+  if (outer == kInvalid) {
+    P.why = "the disk has no outer boundary loop";
+    return P;
+  }
+  for (Index L = 0; L < rt.num_boundary_loops(); ++L)
+    if (L != outer) P.holes.push_back(L);
+  const Index b0 = rt.boundary_offsets[outer], b1 = rt.boundary_offsets[outer + 1], m = b1 - b0;
+  Index first = kInvalid;
+  for (Index k = 0; k < m && first == kInvalid; ++k)
+    if (st.node[R.to_surface[rt.boundary_vertices[b0 + k]]]) first = k;
+  if (first == kInvalid) {
+    P.why = "the disk boundary has no corner";
+    return P;
+  }
+  std::vector<Index> edge(static_cast<std::size_t>(m));
+  P.loop.resize(static_cast<std::size_t>(m));
+  for (Index k = 0; k < m; ++k) {
+    P.loop[k] = rt.boundary_vertices[b0 + (first + k) % m];
+    edge[k] = S.topo.corner_edge[rt.boundary_corners[b0 + (first + k) % m]];
+  }
+  // Sides.
+  for (Index k = 0; k < m;) {
+    Index len = 1;
+    while (k + len < m && !st.node[R.to_surface[P.loop[k + len]]]) ++len;
+    P.side_begin.push_back(k);
+    P.side_len.push_back(len);
+    const bool is_cut = st.cut[edge[k]] != 0;
+    P.side_cut.push_back(is_cut);
+    P.side_loop.push_back(is_cut ? -1 : S.vertex_loop[R.to_surface[P.loop[k]]]);
+    for (Index i = 1; i < len; ++i)
+      if ((st.cut[edge[k + i]] != 0) != is_cut) {
+        P.why = "a side mixes cut and boundary edges";
+        return P;
+      }
+    k += len;
+  }
+  const Index ns = static_cast<Index>(P.side_begin.size());
+  std::unordered_map<std::uint64_t, Index> by_first;
+  by_first.reserve(static_cast<std::size_t>(ns) * 2);
+  for (Index s = 0; s < ns; ++s) {
+    if (!P.side_cut[s]) continue;
+    const Index b = P.side_begin[s];
+    by_first[key(R.to_surface[P.at(b)], R.to_surface[P.at(b + 1)])] = s;
+  }
+  P.side_partner.assign(static_cast<std::size_t>(ns), kInvalid);
+  for (Index s = 0; s < ns; ++s) {
+    if (!P.side_cut[s]) continue;
+    const Index e = P.side_begin[s] + P.side_len[s];
+    const auto it = by_first.find(key(R.to_surface[P.at(e)], R.to_surface[P.at(e - 1)]));
+    if (it == by_first.end() || P.side_len[it->second] != P.side_len[s]) {
+      P.why = "a cut side has no partner";
+      return P;
+    }
+    P.side_partner[s] = it->second;
+  }
+  // Tokens and corners of the word in Ŝ.
+  std::vector<Index> letter_of_side(static_cast<std::size_t>(ns), kInvalid);
+  for (Index s = 0; s < ns; ++s) {
+    if (!P.side_cut[s]) continue;
+    P.tok_side.push_back(s);
+    if (letter_of_side[P.side_partner[s]] != kInvalid) {
+      letter_of_side[s] = letter_of_side[P.side_partner[s]];
+      P.tok_sign.push_back(-1);
+    } else {
+      letter_of_side[s] = P.num_letters++;
+      P.tok_sign.push_back(+1);
+    }
+    P.tok_letter.push_back(letter_of_side[s]);
+  }
+  const Index nt = P.ntok();
+  for (Index t = 0; t < nt; ++t) {
+    const Index s = P.tok_side[t];
+    const Index prev = P.tok_side[(t + nt - 1) % nt];
+    // boundary sides strictly between prev and s (cyclically)
+    std::vector<Index> anchors;
+    Index cls = kInvalid;
+    for (Index q = (prev + 1) % ns; q != s; q = (q + 1) % ns) {
+      if (cls == kInvalid) cls = S.nv() + P.side_loop[q];
+      for (Index i = 0; i <= P.side_len[q]; ++i) {
+        const Index u = P.at(P.side_begin[q] + i);
+        if (anchors.empty() || anchors.back() != u) anchors.push_back(u);
+      }
+    }
+    if (cls == kInvalid) {
+      const Index u = P.at(P.side_begin[s]);
+      anchors.push_back(u);
+      cls = S.cls(R.to_surface[u]);
+    }
+    P.corner_class.push_back(cls);
+    P.corner_anchor.push_back(std::move(anchors));
+  }
+  P.ok = true;
+  return P;
+}
+
+/// Surface vertices of side s, in order.
+std::vector<Index> side_surface_vertices(const Polygon& P, const Disk& R, Index s) {
+  std::vector<Index> out;
+  for (Index i = 0; i <= P.side_len[s]; ++i) out.push_back(R.to_surface[P.at(P.side_begin[s] + i)]);
+  return out;
+}
+
+Pair side_first_edge(const Polygon& P, const Disk& R, Index s) {
+  return {R.to_surface[P.at(P.side_begin[s])], R.to_surface[P.at(P.side_begin[s] + 1)]};
+}
+
+Index side_with_first_edge(const Polygon& P, const Disk& R, Pair e) {
+  for (Index s = 0; s < static_cast<Index>(P.side_begin.size()); ++s)
+    if (side_first_edge(P, R, s) == e) return s;
+  return kInvalid;
+}
+
+Index token_of_side(const Polygon& P, Index s) {
+  for (Index t = 0; t < P.ntok(); ++t)
+    if (P.tok_side[t] == s) return t;
+  return kInvalid;
+}
+
+std::vector<Pair> cut_pairs(const Surface& S, const State& st) {
+  std::vector<Pair> out;
+  for (Index e = 0; e < S.topo.num_edges; ++e)
+    if (st.cut[e]) out.push_back({S.topo.edge_vertices[2 * e], S.topo.edge_vertices[2 * e + 1]});
+  return out;
+}
+
+/// Cut degree of every vertex.
+std::vector<Index> cut_degree(const Surface& S, const State& st) {
+  std::vector<Index> deg(static_cast<std::size_t>(S.nv()), 0);
+  for (Index e = 0; e < S.topo.num_edges; ++e)
+    if (st.cut[e]) {
+      ++deg[S.topo.edge_vertices[2 * e]];
+      ++deg[S.topo.edge_vertices[2 * e + 1]];
+    }
+  return deg;
+}
+
+/// Drops nodes that left the cut graph (interior vertices with no cut edge, boundary vertices
+/// with no cut edge). `keep` stays a node.
+void cleanup_nodes(const Surface& S, State& st, Index keep) {
+  const std::vector<Index> deg = cut_degree(S, st);
+  for (Index v = 0; v < S.nv(); ++v)
+    if (st.node[v] && deg[v] == 0 && v != keep) st.node[v] = 0;
+}
+
+// ---- paths inside the disk, and refinement ------------------------------------------------------
+
+struct PathSearch {
+  double cost = kInf;        ///< weighted length (with the refinement penalty)
+  Index virtual_points = 0;  ///< points a refinement would add
+  std::vector<Index> path;   ///< surface vertices
+  bool refined = false;
+  bool ok = false;
+  std::string why;
+};
+
+/// Refines S: every face in `fan_faces` gets a vertex at its centroid (and is fan-triangulated
+/// from it), every edge in `split_corners` (given by a corner opposite it; both its faces must be
+/// in fan_faces) gets a vertex at its midpoint. Returns the new vertex of each face / edge.
+bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<Index>& split_corners,
+            std::vector<Index>& centroid, std::vector<Index>& mid, std::string* why) {
+  centroid.clear();
+  mid.clear();
+  std::unordered_map<Index, Index> mid_of_edge;  // surface edge -> midpoint vertex
+  for (Index c : split_corners) {
+    const Index f = corner_face(c);
+    const std::array<Index, 2> ev = {S.faces[next_corner(c)], S.faces[prev_corner(c)]};
+    std::array<double, 3> bary;
+    if (!average_in_face(S, S.face_origin[f], ev, bary)) {
+      *why = "refinement: an edge is outside its input face";
+      return false;
+    }
+    mid.push_back(add_vertex(S, S.face_origin[f], bary));
+    mid_of_edge[S.topo.corner_edge[c]] = mid.back();
+  }
+  for (Index f : fan_faces) {
+    const std::array<Index, 3> fv = {S.faces[3 * f], S.faces[3 * f + 1], S.faces[3 * f + 2]};
+    std::array<double, 3> bary;
+    if (!average_in_face(S, S.face_origin[f], fv, bary)) {
+      *why = "refinement: a vertex is outside its input face";
+      return false;
+    }
+    centroid.push_back(add_vertex(S, S.face_origin[f], bary));
+  }
+  for (std::size_t i = 0; i < fan_faces.size(); ++i) {
+    const Index f = fan_faces[i];
+    std::vector<Index> poly;
+    for (int k = 0; k < 3; ++k) {
+      poly.push_back(S.faces[3 * f + k]);
+      const Index e = S.topo.corner_edge[3 * f + (k + 2) % 3];  // the edge from corner k to corner k+1
+      const auto it = mid_of_edge.find(e);
+      if (it != mid_of_edge.end()) poly.push_back(it->second);
+    }
+    const Index origin = S.face_origin[f];
+    for (std::size_t j = 0; j < poly.size(); ++j) {
+      const std::array<Index, 3> tri = {poly[j], poly[(j + 1) % poly.size()], centroid[i]};
+      if (j == 0) {
+        for (int k = 0; k < 3; ++k) S.faces[3 * f + k] = tri[k];
+      } else {
+        S.faces.insert(S.faces.end(), tri.begin(), tri.end());
+        S.face_origin.push_back(origin);
+      }
+    }
+  }
+  TopologyResult tr = build_topology(S.faces, S.n_input + static_cast<Index>(S.rec_face.size()));
+  if (tr.status != Status::Ok) {
+    *why = "refinement produced an invalid surface: " + tr.message;
+    return false;
+  }
+  S.topo = std::move(tr.topology);
+  return true;
+}
+
+/// Hop distance of every vertex of R from R's boundary. Paths pay more near the boundary, so they
+/// keep away from the cut and do not leave one-face-wide corridors for later moves.
+std::vector<Index> boundary_hops(const Disk& R) {
+  const Topology& rt = R.topo;
+  std::vector<Index> hops(static_cast<std::size_t>(rt.num_vertices), kInvalid);
+  std::vector<Index> queue;
+  for (Index v = 0; v < rt.num_vertices; ++v)
+    if (rt.is_boundary_vertex(v)) {
+      hops[v] = 0;
+      queue.push_back(v);
+    }
+  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
+    const Index u = queue[qi];
+    for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
+      const Index w = R.faces[next_corner(rt.vertex_corners[k])];
+      if (hops[w] == kInvalid) {
+        hops[w] = hops[u] + 1;
+        queue.push_back(w);
+      }
+    }
+  }
+  return hops;
+}
+
+/// A path inside the disk R from one of `sources` to a vertex with target[v] set (R vertices),
+/// touching R's boundary only at its ends. First the shortest edge path; only when none exists,
+/// the shortest path in the graph extended by face centroids and edge midpoints (each extra
+/// point costs a penalty, so as few faces as possible are refined), after which S is refined
+/// exactly there (which invalidates R).
+PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& sources,
+                     const std::vector<char>& target, bool dry_run = false,
+                     const std::vector<Index>* hops_in = nullptr, double bound = kInf) {
+  PathSearch out;
+  const Topology& rt = R.topo;
+  const Index n = rt.num_vertices, nf = rt.num_faces;
+  std::vector<char> is_source(static_cast<std::size_t>(n), 0);
+  for (Index a : sources) is_source[a] = 1;
+  auto vpos = [&](Index u, int d) { return S.pos[3 * R.to_surface[u] + d]; };
+  auto node_point = [&](Index node, std::array<double, 3>& p) {
+    p = {0, 0, 0};
+    if (!S.has_pos) return;
+    if (node < n) {
+      for (int d = 0; d < 3; ++d) p[d] = vpos(node, d);
+    } else if (node < n + nf) {
+      const Index f = node - n;
+      for (int k = 0; k < 3; ++k)
+        for (int d = 0; d < 3; ++d) p[d] += vpos(R.faces[3 * f + k], d) / 3;
+    } else {
+      const Index e = node - n - nf;
+      const Index c = rt.edge_corners[2 * e];
+      for (int d = 0; d < 3; ++d)
+        p[d] = 0.5 * (vpos(R.faces[next_corner(c)], d) + vpos(R.faces[prev_corner(c)], d));
+    }
+  };
+  const double penalty = 20 * S.mean_length;
+  std::vector<Index> own_hops;
+  if (!hops_in) {
+    own_hops = boundary_hops(R);
+    hops_in = &own_hops;
+  }
+  const std::vector<Index>& hops = *hops_in;
+  // Virtual points (centroids, midpoints) sit half a hop further in than their vertices.
+  auto factor = [&](Index w) {
+    double h = 0;
+    if (w < n) {
+      h = hops[w];
+      if (h <= 0) return 1.0;
+    } else if (w < n + nf) {
+      for (int k = 0; k < 3; ++k) h = std::max(h, static_cast<double>(hops[R.faces[3 * (w - n) + k]]));
+      h += 0.5;
+    } else {
+      const Index c = rt.edge_corners[2 * (w - n - nf)];
+      h = 0.5 + std::max(hops[R.faces[next_corner(c)]], hops[R.faces[prev_corner(c)]]);
+    }
+    return 1.0 + 30.0 / (h * h);
+  };
+  // An edge path needs an interior edge from some source and into some target.
+  auto has_free_edge = [&](Index u, bool to_target) {
+    for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
+      const Index c = rt.vertex_corners[k];
+      for (int side = 0; side < 2; ++side) {
+        const Index ec = side == 0 ? prev_corner(c) : next_corner(c);
+        const Index w = R.faces[side == 0 ? next_corner(c) : prev_corner(c)];
+        if (rt.opposite[ec] == kInvalid) continue;
+        if (!rt.is_boundary_vertex(w) || (to_target ? is_source[w] : target[w] != 0)) return true;
+      }
+    }
+    return false;
+  };
+  bool edge_possible = false;
+  for (Index a : sources) edge_possible |= has_free_edge(a, false);
+  if (edge_possible) {
+    bool into = false;
+    for (Index v = 0; v < n && !into; ++v)
+      if (target[v] && !is_source[v]) into = has_free_edge(v, true);
+    edge_possible = into;
+  }
+  for (int phase = edge_possible ? 0 : 1; phase < 2; ++phase) {
+    const bool extended = phase == 1;
+    const Index total = extended ? n + nf + rt.num_edges : n;
+    std::vector<double> dist(static_cast<std::size_t>(total), kInf);
+    std::vector<Index> prev(static_cast<std::size_t>(total), kInvalid);
+    using Item = std::pair<double, Index>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+    for (Index a : sources) {
+      dist[a] = 0;
+      pq.push({0.0, a});
+    }
+    Index found = kInvalid;
+    std::array<double, 3> pu, pw;
+    auto relax = [&](Index u, Index w, double d) {
+      double len = 1;
+      if (S.has_pos) {
+        node_point(w, pw);
+        len = std::sqrt((pu[0] - pw[0]) * (pu[0] - pw[0]) + (pu[1] - pw[1]) * (pu[1] - pw[1]) +
+                        (pu[2] - pw[2]) * (pu[2] - pw[2]));
+      }
+      const double nd = d + len * factor(w) + (w >= n ? penalty : 0);
+      if (nd < dist[w]) {
+        dist[w] = nd;
+        prev[w] = u;
+        pq.push({nd, w});
+      }
+    };
+    auto vertex_ok = [&](Index w) { return !is_source[w] && (target[w] || !rt.is_boundary_vertex(w)); };
+    // Only faces touching the boundary get virtual points: a face whose corners are all
+    // interior is crossed through its corners just as well (this keeps the search small).
+    auto touches_boundary = [&](Index f) {
+      return hops[R.faces[3 * f]] == 0 || hops[R.faces[3 * f + 1]] == 0 || hops[R.faces[3 * f + 2]] == 0;
+    };
+    while (!pq.empty()) {
+      const auto [d, u] = pq.top();
+      pq.pop();
+      if (d > dist[u]) continue;
+      if (d > bound) break;
+      if (S.has_pos) node_point(u, pu);
+      if (u < n) {
+        if (target[u] && !is_source[u]) {
+          found = u;
+          break;
+        }
+        if (!is_source[u] && rt.is_boundary_vertex(u)) continue;
+        for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
+          const Index c = rt.vertex_corners[k];
+          if (rt.opposite[prev_corner(c)] != kInvalid && vertex_ok(R.faces[next_corner(c)]))
+            relax(u, R.faces[next_corner(c)], d);
+          if (rt.opposite[next_corner(c)] != kInvalid && vertex_ok(R.faces[prev_corner(c)]))
+            relax(u, R.faces[prev_corner(c)], d);
+          if (extended && touches_boundary(corner_face(c))) relax(u, n + corner_face(c), d);
+        }
+      } else if (u < n + nf) {
+        const Index f = u - n;
+        for (int k = 0; k < 3; ++k) {
+          const Index c = 3 * f + k;
+          if (vertex_ok(R.faces[c])) relax(u, R.faces[c], d);
+          if (rt.opposite[c] != kInvalid && touches_boundary(corner_face(rt.opposite[c])))
+            relax(u, n + nf + rt.corner_edge[c], d);
+        }
+      } else {
+        const Index e = u - n - nf;
+        relax(u, n + corner_face(rt.edge_corners[2 * e]), d);
+        relax(u, n + corner_face(rt.edge_corners[2 * e + 1]), d);
+      }
+    }
+    if (found == kInvalid) continue;
+    std::vector<Index> nodes;
+    for (Index v = found; v != kInvalid; v = prev[v]) nodes.push_back(v);
+    std::reverse(nodes.begin(), nodes.end());
+    out.cost = dist[found];
+    for (Index v : nodes) out.virtual_points += v >= n ? 1 : 0;
+    if (dry_run) {
+      out.ok = true;
+      return out;
+    }
+    if (!extended) {
+      for (Index v : nodes) out.path.push_back(R.to_surface[v]);
+      out.ok = true;
+      return out;
+    }
+    std::vector<Index> fan_faces, split_corners;
+    for (Index v : nodes) {
+      if (v >= n && v < n + nf) fan_faces.push_back(v - n);
+      if (v >= n + nf) split_corners.push_back(rt.edge_corners[2 * (v - n - nf)]);
+    }
+    std::vector<Index> centroid, mid;
+    if (!refine(S, fan_faces, split_corners, centroid, mid, &out.why)) return out;
+    std::size_t fi = 0, ei = 0;
+    for (Index v : nodes) {
+      if (v < n)
+        out.path.push_back(R.to_surface[v]);
+      else if (v < n + nf)
+        out.path.push_back(centroid[fi++]);
+      else
+        out.path.push_back(mid[ei++]);
+    }
+    out.refined = true;
+    out.ok = true;
+    return out;
+  }
+  out.why = "no path inside the disk";
+  return out;
+}
+
+/// Sets the cut flags from vertex pairs (after a refinement renumbered the edges).
+bool set_cut(const Surface& S, State& st, const std::vector<Pair>& pairs, bool value) {
+  for (const auto& [u, v] : pairs) {
+    const Index e = find_edge(S.topo, u, v);
+    if (e == kInvalid) return false;
+    st.cut[e] = value ? 1 : 0;
+  }
+  return true;
+}
+
+std::vector<Pair> path_pairs(const std::vector<Index>& path) {
+  std::vector<Pair> out;
+  for (std::size_t i = 0; i + 1 < path.size(); ++i) out.push_back({path[i], path[i + 1]});
+  return out;
+}
+
+// ---- the driver state ---------------------------------------------------------------------------
+
+struct Cutter {
+  Surface S;
+  State st;
+  Disk R;
+  Polygon P;
+  Index base = kInvalid;  ///< class P of the polygon schema (an interior vertex), or the arcs' origin
+  Index outer_hint = kInvalid;
+  Index moves = 0, refinements = 0;
+  std::string error;  ///< internal failure
+
+  std::vector<Index> hops;  ///< boundary_hops(R)
+
+  bool rebuild() {
+    R = build_disk(S, st.cut);
+    if (!R.ok) {
+      error = "the cut surface is not a manifold";
+      return false;
+    }
+    hops = boundary_hops(R);
+    P = read_polygon(S, st, R, outer_hint);
+    if (!P.ok) {
+      error = P.why;
+      return false;
+    }
+    if (R.topo.num_components != 1) {
+      error = "the cut surface is not connected";
+      return false;
+    }
+    if (R.topo.euler_characteristic() != 1 - static_cast<std::int64_t>(P.holes.size())) {
+      error = "the cut surface is not a disk with holes";
+      return false;
+    }
+    return true;
+  }
+
+  /// Cut along a path from `sources` to `targets` (R vertices) and un-cut the edges `glue`
+  /// (surface vertex pairs). On failure the state is restored and false returned.
+  bool cut_paste(const std::vector<Index>& sources, const std::vector<Index>& targets,
+                 const std::vector<Pair>& glue, std::vector<Index>* path_out, std::string* why) {
+    const Surface S_saved = S;
+    const State st_saved = st;
+    std::vector<char> is_target(static_cast<std::size_t>(R.topo.num_vertices), 0);
+    for (Index t : targets) is_target[t] = 1;
+    const std::vector<Pair> before = cut_pairs(S, st);
+    PathSearch ps = find_path(S, R, sources, is_target, false, &hops);
+    auto restore = [&](const std::string& m) {
+      S = S_saved;
+      st = st_saved;
+      *why = m;
+      rebuild();
+      return false;
+    };
+    if (!ps.ok) return restore(ps.why);
+    if (ps.refined) {
+      ++refinements;
+      st.cut.assign(static_cast<std::size_t>(S.topo.num_edges), 0);
+      st.node.resize(static_cast<std::size_t>(S.nv()), 0);
+      if (!set_cut(S, st, before, true)) return restore("refinement lost a cut edge");
+    }
+    if (!set_cut(S, st, glue, false)) return restore("a reglued side is not an edge path");
+    if (!set_cut(S, st, path_pairs(ps.path), true)) return restore("a cut path is not an edge path");
+    st.node[ps.path.front()] = 1;
+    st.node[ps.path.back()] = 1;
+    cleanup_nodes(S, st, base);
+    ++moves;
+    if (!rebuild()) return restore("move broke the disk: " + error);
+    if (path_out) *path_out = ps.path;
+    return true;
+  }
+
+  std::vector<Pair> side_pairs(Index s) const { return path_pairs(side_surface_vertices(P, R, s)); }
+
+  /// Removes a spur branch (cancellation x x^-1).
+  bool cancel(Index token, std::string* why) {
+    const Surface S_saved = S;
+    const State st_saved = st;
+    set_cut(S, st, side_pairs(P.tok_side[token]), false);
+    cleanup_nodes(S, st, base);
+    if (!rebuild()) {
+      S = S_saved;
+      st = st_saved;
+      *why = "cancellation broke the disk: " + error;
+      rebuild();
+      return false;
+    }
+    return true;
+  }
+};
+
+/// Number of disjoint commutator blocks u v u^-1 v^-1 found by a greedy cyclic scan, and the
+/// per-token flags.
+Index commutator_blocks(const Polygon& P, std::vector<char>& done) {
+  const Index n = P.ntok();
+  done.assign(static_cast<std::size_t>(n), 0);
+  Index blocks = 0;
+  if (n < 4) return 0;
+  std::vector<Index> count(static_cast<std::size_t>(P.num_letters), 0);
+  for (Index t = 0; t < n; ++t) ++count[P.tok_letter[t]];
+  for (Index t = 0; t < n; ++t) {
+    const Index i0 = t, i1 = (t + 1) % n, i2 = (t + 2) % n, i3 = (t + 3) % n;
+    if (done[i0] || done[i1] || done[i2] || done[i3]) continue;
+    const Index u = P.tok_letter[i0], v = P.tok_letter[i1];
+    if (u == v || P.tok_letter[i2] != u || P.tok_letter[i3] != v) continue;
+    if (P.tok_sign[i2] != -P.tok_sign[i0] || P.tok_sign[i3] != -P.tok_sign[i1]) continue;
+    done[i0] = done[i1] = done[i2] = done[i3] = 1;
+    ++blocks;
+  }
+  return blocks;
+}
+
+/// Rotation r such that the whole word is commutator blocks starting at token r, or -1.
+Index canonical_rotation(const Polygon& P) {
+  const Index n = P.ntok();
+  if (n == 0 || n % 4 != 0) return -1;
+  for (Index r = 0; r < n; ++r) {
+    bool ok = true;
+    std::vector<char> seen(static_cast<std::size_t>(P.num_letters), 0);
+    for (Index k = 0; k < n && ok; k += 4) {
+      const Index i0 = (r + k) % n, i1 = (r + k + 1) % n, i2 = (r + k + 2) % n, i3 = (r + k + 3) % n;
+      const Index u = P.tok_letter[i0], v = P.tok_letter[i1];
+      ok = u != v && !seen[u] && !seen[v] && P.tok_letter[i2] == u && P.tok_letter[i3] == v &&
+           P.tok_sign[i2] == -P.tok_sign[i0] && P.tok_sign[i3] == -P.tok_sign[i1];
+      if (ok) seen[u] = seen[v] = 1;
+    }
+    if (ok) return r;
+  }
+  return -1;
+}
+
+// ---- tree–cotree ---------------------------------------------------------------------------------
+
+struct UnionFind {
+  std::vector<Index> p;
+  explicit UnionFind(Index n) : p(static_cast<std::size_t>(n)) { std::iota(p.begin(), p.end(), 0); }
+  Index find(Index x) {
+    while (p[x] != x) x = p[x] = p[p[x]];
+    return x;
+  }
+  bool unite(Index a, Index b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return false;
+    if (a < b) std::swap(a, b);
+    p[a] = b;
+    return true;
+  }
+};
+
+/// Tree–cotree on Ŝ; sets st.cut to the pruned cut graph and returns the Ŝ distances.
+bool tree_cotree(Surface& S, State& st, Index root, std::span<const double> weights, Index genus,
+                 std::vector<double>& dhat, std::string* why) {
+  const Topology& t = S.topo;
+  const Index V = t.num_vertices, E = t.num_edges, F = t.num_faces;
+  const Index N = V + t.num_boundary_loops();
+  auto w = [&](Index e) {
+    return weights.empty() ? S.length(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) : weights[e];
+  };
+  auto interior = [&](Index e) { return t.edge_corners[2 * e + 1] != kInvalid; };
+  // Ŝ adjacency (CSR) over interior edges that are not self-loops.
+  std::vector<Index> off(static_cast<std::size_t>(N) + 1, 0);
+  for (Index e = 0; e < E; ++e) {
+    if (!interior(e)) continue;
+    const Index a = S.cls(t.edge_vertices[2 * e]), b = S.cls(t.edge_vertices[2 * e + 1]);
+    if (a == b) continue;
+    ++off[a + 1];
+    ++off[b + 1];
+  }
+  for (Index i = 0; i < N; ++i) off[i + 1] += off[i];
+  std::vector<Index> adj(static_cast<std::size_t>(off[N])), fill(off.begin(), off.end() - 1);
+  for (Index e = 0; e < E; ++e) {
+    if (!interior(e)) continue;
+    const Index a = S.cls(t.edge_vertices[2 * e]), b = S.cls(t.edge_vertices[2 * e + 1]);
+    if (a == b) continue;
+    adj[fill[a]++] = e;
+    adj[fill[b]++] = e;
+  }
+  dhat.assign(static_cast<std::size_t>(N), kInf);
+  std::vector<Index> parent_edge(static_cast<std::size_t>(N), kInvalid);
+  using Item = std::pair<double, Index>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  const Index r = S.cls(root);
+  dhat[r] = 0;
+  pq.push({0.0, r});
+  while (!pq.empty()) {
+    const auto [d, u] = pq.top();
+    pq.pop();
+    if (d > dhat[u]) continue;
+    for (Index k = off[u]; k < off[u + 1]; ++k) {
+      const Index e = adj[k];
+      const Index a = S.cls(t.edge_vertices[2 * e]), b = S.cls(t.edge_vertices[2 * e + 1]);
+      const Index x = a == u ? b : a;
+      const double nd = d + w(e);
+      if (nd < dhat[x] || (nd == dhat[x] && parent_edge[x] != kInvalid && e < parent_edge[x] && x != r)) {
+        if (nd < dhat[x]) pq.push({nd, x});
+        dhat[x] = nd;
+        parent_edge[x] = e;
+      }
+    }
+  }
+  std::vector<char> in_tree(static_cast<std::size_t>(E), 0);
+  for (Index x = 0; x < N; ++x)
+    if (parent_edge[x] != kInvalid) in_tree[parent_edge[x]] = 1;
+  // Dual tree by descending loop length.
+  std::vector<Index> cand;
+  std::vector<double> len(static_cast<std::size_t>(E), 0);
+  for (Index e = 0; e < E; ++e) {
+    if (!interior(e) || in_tree[e]) continue;
+    cand.push_back(e);
+    len[e] = dhat[S.cls(t.edge_vertices[2 * e])] + w(e) + dhat[S.cls(t.edge_vertices[2 * e + 1])];
+  }
+  std::sort(cand.begin(), cand.end(),
+            [&](Index a, Index b) { return len[a] > len[b] || (len[a] == len[b] && a < b); });
+  UnionFind uf(F);
+  std::vector<char> cut(static_cast<std::size_t>(E), 0);
+  Index leftover = 0;
+  for (Index e : cand) {
+    const Index f0 = corner_face(t.edge_corners[2 * e]), f1 = corner_face(t.edge_corners[2 * e + 1]);
+    if (!uf.unite(f0, f1)) {
+      cut[e] = 1;
+      ++leftover;
+    }
+  }
+  if (leftover != 2 * genus) {
+    *why = "tree-cotree left " + std::to_string(leftover) + " edges for genus " + std::to_string(genus);
+    return false;
+  }
+  for (Index e = 0; e < E; ++e)
+    if (in_tree[e]) cut[e] = 1;
+  // Prune leaves of the cut graph in Ŝ.
+  std::vector<Index> deg(static_cast<std::size_t>(N), 0);
+  for (Index e = 0; e < E; ++e)
+    if (cut[e]) {
+      ++deg[S.cls(t.edge_vertices[2 * e])];
+      ++deg[S.cls(t.edge_vertices[2 * e + 1])];
+    }
+  std::vector<Index> stack;
+  for (Index x = 0; x < N; ++x)
+    if (deg[x] == 1) stack.push_back(x);
+  while (!stack.empty()) {
+    const Index x = stack.back();
+    stack.pop_back();
+    if (deg[x] != 1) continue;
+    for (Index k = off[x]; k < off[x + 1]; ++k) {
+      const Index e = adj[k];
+      if (!cut[e]) continue;
+      cut[e] = 0;
+      const Index a = S.cls(t.edge_vertices[2 * e]), b = S.cls(t.edge_vertices[2 * e + 1]);
+      const Index y = a == x ? b : a;
+      --deg[x];
+      if (--deg[y] == 1) stack.push_back(y);
+      break;
+    }
+  }
+  st.cut = std::move(cut);
+  return true;
+}
+
+std::string label(const std::string& name, int orientation) {
+  return orientation < 0 ? name + "^-1" : name;
+}
+
+}  // namespace
+
+// ---- intersection numbers -------------------------------------------------------------------------
+
+int intersection_number(const Topology& t, std::span<const Index> a, std::span<const Index> b) {
+  if (a.size() < 3 || b.size() < 2 || a.front() != a.back() || b.front() != b.back()) return 0;
+  const std::size_t m = a.size() - 1;
+  std::unordered_map<std::uint64_t, int> omega;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Index v = a[k], out = a[k + 1], in = a[(k + m - 1) % m];
+    if (v < 0 || v >= t.num_vertices || t.is_boundary_vertex(v)) return 0;
+    const Index o0 = t.vertex_corner_offsets[v], n = t.valence(v);
+    // ccw neighbour sequence: vertex(next(c_j))
+    Index jo = kInvalid, ji = kInvalid;
+    for (Index j = 0; j < n; ++j) {
+      const Index z = t.corner_vertex[next_corner(t.vertex_corners[o0 + j])];
+      if (z == out) jo = j;
+      if (z == in) ji = j;
+    }
+    if (jo == kInvalid || ji == kInvalid) return 0;
+    for (Index j = (jo + 1) % n; j != ji; j = (j + 1) % n) {
+      const Index z = t.corner_vertex[next_corner(t.vertex_corners[o0 + j])];
+      omega[key(v, z)] += 1;
+      omega[key(z, v)] -= 1;
+    }
+  }
+  int sum = 0;
+  for (std::size_t k = 0; k + 1 < b.size(); ++k) {
+    const auto it = omega.find(key(b[k], b[k + 1]));
+    if (it != omega.end()) sum += it->second;
+  }
+  return sum;
+}
+
+// ---- the driver -----------------------------------------------------------------------------------
+
+CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& options) {
+  const Clock::time_point start = Clock::now();
+  CutResult r;
+  std::string why;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = m;
+    r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return r;
+  };
+  if (!options.is_valid(&why)) return fail(Status::InvalidArgument, "cut options: " + why);
+  const Index V = topo.num_vertices;
+  if (static_cast<std::size_t>(topo.num_faces) * 3 != mesh.faces.size() || V <= 0)
+    return fail(Status::InvalidArgument, "cut: the topology does not match the mesh's faces");
+  if (!mesh.positions.empty() && mesh.positions.size() != static_cast<std::size_t>(V) * 3)
+    return fail(Status::InvalidArgument, "cut: positions must be #V x 3 or empty");
+  if (!options.edge_weights.empty() &&
+      options.edge_weights.size() != static_cast<std::size_t>(topo.num_edges))
+    return fail(Status::InvalidArgument, "cut: edge_weights must have one value per edge (" +
+                                             std::to_string(topo.num_edges) + "), got " +
+                                             std::to_string(options.edge_weights.size()));
+  if (topo.num_components != 1)
+    return fail(Status::MultipleComponents, "cut: the surface has several components");
+  for (Index v = 0; v < V; ++v)
+    if (topo.valence(v) == 0)
+      return fail(Status::InvalidArgument, "cut: vertex " + std::to_string(v) + " is used by no face");
+  if (options.base_vertex >= V)
+    return fail(Status::InvalidArgument, "cut: base vertex " + std::to_string(options.base_vertex) +
+                                             " is out of range (the mesh has " + std::to_string(V) +
+                                             " vertices)");
+  Index x = options.base_vertex;
+  if (x < 0) {
+    if (options.seed == 0) {
+      x = 0;
+    } else {
+      std::mt19937_64 rng(options.seed);
+      x = static_cast<Index>(rng() % static_cast<std::uint64_t>(V));
+    }
+  }
+  r.requested_base_vertex = x;
+  const Index g = static_cast<Index>(topo.genus());
+  const Index b = topo.num_boundary_loops();
+  r.genus = g;
+  r.boundary_loops = b;
+  r.num_input_vertices = V;
+
+  Cutter C;
+  Surface& S = C.S;
+  S.input = &mesh;
+  S.n_input = V;
+  S.has_pos = !mesh.positions.empty();
+  S.pos = mesh.positions;
+  S.faces = mesh.faces;
+  S.face_origin.resize(static_cast<std::size_t>(topo.num_faces));
+  std::iota(S.face_origin.begin(), S.face_origin.end(), 0);
+  S.vertex_loop.assign(static_cast<std::size_t>(V), -1);
+  for (Index L = 0; L < b; ++L)
+    for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
+      S.vertex_loop[topo.boundary_vertices[k]] = L;
+  S.topo = topo;
+  if (S.has_pos && topo.num_edges > 0) {
+    double sum = 0;
+    for (Index e = 0; e < topo.num_edges; ++e)
+      sum += S.length(topo.edge_vertices[2 * e], topo.edge_vertices[2 * e + 1]);
+    S.mean_length = sum > 0 ? sum / topo.num_edges : 1;
+  }
+  C.st.cut.assign(static_cast<std::size_t>(topo.num_edges), 0);
+  C.st.node.assign(static_cast<std::size_t>(V), 0);
+  const Index max_moves = options.max_moves > 0 ? options.max_moves : 64 + 40 * g;
+
+  // Names of the final word, filled per case.
+  std::vector<Pair> arc_first;  // first directed edge of arc i (to loop arc_loop[i])
+  std::vector<Index> arc_loop;
+  Pair anchor_edge{kInvalid, kInvalid};  // first directed edge of the side the word starts with
+  Index rotation_token = kInvalid;
+  bool word_canonical = false;
+  std::string reason;
+
+  auto internal = [&](const std::string& m) {
+    return fail(Status::NumericalFailure, "cut: internal error: " + m);
+  };
+
+  if (g == 0 && b == 0) {
+    // Closed genus 0: a slit along two edges x–y–z (one edge would not open: its two sides
+    // would join the same two vertices), each the shortest available.
+    auto shortest = [&](Index from, Index avoid, Index* to) {
+      Index best = kInvalid;
+      double best_len = kInf;
+      for (Index k = topo.vertex_corner_offsets[from]; k < topo.vertex_corner_offsets[from + 1]; ++k) {
+        const Index c = topo.vertex_corners[k];
+        const Index e = topo.corner_edge[prev_corner(c)];
+        const Index z = topo.corner_vertex[next_corner(c)];
+        if (z == avoid) continue;
+        const double l = options.edge_weights.empty() ? S.length(from, z) : options.edge_weights[e];
+        if (l < best_len || (l == best_len && e < best)) {
+          best_len = l;
+          best = e;
+          *to = z;
+        }
+      }
+      return best;
+    };
+    Index other = kInvalid, third = kInvalid;
+    C.st.cut[shortest(x, kInvalid, &other)] = 1;
+    C.st.cut[shortest(other, x, &third)] = 1;
+    C.st.node[x] = 1;
+    C.st.node[third] = 1;
+    C.base = x;
+    if (!C.rebuild()) return internal(C.error);
+    anchor_edge = {x, other};
+    word_canonical = true;
+  } else if (g == 0) {
+    // Genus 0 with boundary: arcs from the boundary loop nearest to the base.
+    Index w0 = x;
+    if (S.vertex_loop[x] < 0) {
+      // nearest boundary vertex by Dijkstra on the surface
+      std::vector<double> d(static_cast<std::size_t>(V), kInf);
+      using Item = std::pair<double, Index>;
+      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+      d[x] = 0;
+      pq.push({0.0, x});
+      w0 = kInvalid;
+      while (!pq.empty()) {
+        const auto [dd, u] = pq.top();
+        pq.pop();
+        if (dd > d[u]) continue;
+        if (S.vertex_loop[u] >= 0) {
+          w0 = u;
+          break;
+        }
+        for (Index k = topo.vertex_corner_offsets[u]; k < topo.vertex_corner_offsets[u + 1]; ++k) {
+          const Index c = topo.vertex_corners[k];
+          const Index z = topo.corner_vertex[next_corner(c)];
+          const double l = options.edge_weights.empty()
+                               ? S.length(u, z)
+                               : options.edge_weights[topo.corner_edge[prev_corner(c)]];
+          if (dd + l < d[z]) {
+            d[z] = dd + l;
+            pq.push({d[z], z});
+          }
+        }
+      }
+      if (w0 == kInvalid) return internal("no boundary vertex reachable");
+    }
+    C.st.node[w0] = 1;
+    C.base = w0;
+    C.outer_hint = w0;
+    x = w0;
+    // the boundary edge leaving w0 along its loop
+    const Index L = S.vertex_loop[w0];
+    for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
+      if (topo.boundary_vertices[k] == w0) {
+        const Index nk = k + 1 < topo.boundary_offsets[L + 1] ? k + 1 : topo.boundary_offsets[L];
+        anchor_edge = {w0, topo.boundary_vertices[nk]};
+      }
+    if (!C.rebuild()) return internal(C.error);
+    word_canonical = true;
+  } else {
+    std::vector<double> dhat;
+    if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &why)) return internal(why);
+    const std::vector<Index> deg = cut_degree(S, C.st);
+    Index P = kInvalid;
+    for (Index v = 0; v < V; ++v) {
+      if (deg[v] == 0) continue;
+      if (S.vertex_loop[v] >= 0 || deg[v] != 2) C.st.node[v] = 1;
+      if (S.vertex_loop[v] < 0 && (P == kInvalid || dhat[v] < dhat[P])) P = v;
+    }
+    if (P == kInvalid) {
+      // Every cut vertex lies on the boundary: the loops cannot be based at an interior point.
+      reason = "the cut graph has no interior vertex to base the loops at";
+      for (Index v = 0; v < V; ++v)
+        if (deg[v] > 0) {
+          P = v;
+          break;
+        }
+    }
+    C.st.node[P] = 1;
+    C.base = P;
+    x = P;
+    if (!C.rebuild()) return internal(C.error);
+
+    if (!options.canonicalize) reason = "canonicalisation was not requested";
+    bool stop = !options.canonicalize || !reason.empty();
+    Index guard = 0;
+    while (!stop) {
+      if (++guard > 4 * max_moves + 16 || C.moves >= max_moves) {
+        reason = "move limit reached";
+        break;
+      }
+      const Polygon& Pg = C.P;
+      const Index n = Pg.ntok();
+      // (A) cancel x x^-1
+      Index cancel = kInvalid;
+      for (Index t = 0; t < n && n > 2; ++t) {
+        const Index u = (t + 1) % n;
+        if (Pg.tok_letter[t] == Pg.tok_letter[u] && Pg.tok_sign[t] == -Pg.tok_sign[u]) {
+          cancel = t;
+          break;
+        }
+      }
+      if (cancel != kInvalid) {
+        if (!C.cancel(cancel, &why)) {
+          reason = why;
+          break;
+        }
+        if (!C.st.node[C.base]) {
+          reason = "the base vertex left the cut graph";
+          break;
+        }
+        continue;
+      }
+      // (B) one vertex class: among the corners of another class next to a base corner, the
+      // move whose path is cheapest (fewest refined points, then shortest).
+      double best = kInf;
+      auto path_cost = [&](Index alpha, Index beta) {
+        std::vector<char> is_target(static_cast<std::size_t>(C.R.topo.num_vertices), 0);
+        for (Index v : Pg.corner_anchor[beta]) is_target[v] = 1;
+        return find_path(S, C.R, Pg.corner_anchor[alpha], is_target, /*dry_run=*/true, &C.hops, best).cost;
+      };
+      // Candidates are tried in order of a cheap proxy (the length of the sides the path
+      // replaces), so that the first bound is tight and later searches stop early.
+      constexpr Index kCandidates = 12;
+      auto tok_len = [&](Index t) { return Pg.side_len[Pg.tok_side[t]]; };
+      struct Candidate {
+        Index proxy, t, ja, tb;
+        bool after;
+      };
+      std::vector<Candidate> cands;
+      Index bad = kInvalid, evaluated = 0;
+      bool glue_after = true, any_other = false;
+      for (Index t = 0; t < n; ++t) {
+        if (Pg.corner_class[t] == C.base) continue;
+        any_other = true;
+        for (int side = 0; side < 2; ++side) {
+          const bool after = side == 0;
+          if (Pg.corner_class[after ? (t + n - 1) % n : (t + 1) % n] != C.base) continue;
+          cands.push_back({tok_len((t + n - 1) % n) + tok_len(t), t, kInvalid, kInvalid, after});
+          break;  // both variants use the same path
+        }
+      }
+      std::stable_sort(cands.begin(), cands.end(),
+                       [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
+      for (const Candidate& cd : cands) {
+        if (evaluated++ >= kCandidates) break;
+        const double cost = path_cost((cd.t + n - 1) % n, (cd.t + 1) % n);
+        if (cost < best) {
+          best = cost;
+          bad = cd.t;
+          glue_after = cd.after;
+        }
+      }
+      if (bad == kInvalid && any_other) {
+        reason = "no corner of another class is next to a base corner";
+        break;
+      }
+      if (bad != kInvalid) {
+        // corner `bad` lies between token bad-1 (b) and token bad (a)
+        const Index alpha = (bad + n - 1) % n, beta = (bad + 1) % n;
+        const Index glue_tok = glue_after ? bad : (bad + n - 1) % n;
+        const std::vector<Pair> glue = C.side_pairs(Pg.tok_side[glue_tok]);
+        const std::vector<Index> src = Pg.corner_anchor[alpha], dst = Pg.corner_anchor[beta];
+        if (!C.cut_paste(src, dst, glue, nullptr, &why)) {
+          reason = "cut-and-paste failed: " + why;
+          break;
+        }
+        continue;
+      }
+      // (C) commutators: among linked pairs a…b…a^-1…b^-1 of letters not yet in a commutator,
+      // the one whose first path is cheapest.
+      std::vector<char> done;
+      const Index blocks = commutator_blocks(Pg, done);
+      if (4 * blocks == n) break;  // canonical
+      auto partner_token = [&](Index t) {
+        for (Index q = 0; q < n; ++q)
+          if (q != t && Pg.tok_letter[q] == Pg.tok_letter[t]) return q;
+        return kInvalid;
+      };
+      Index i0 = kInvalid, j0 = kInvalid, tb = kInvalid;
+      best = kInf;
+      evaluated = 0;
+      cands.clear();
+      Index total = 0;
+      for (Index t = 0; t < n; ++t) total += tok_len(t);
+      for (Index ta = 0; ta < n; ++ta) {
+        if (done[ta]) continue;
+        const Index ja = partner_token(ta);
+        Index arc = 0;
+        for (Index k = 0; (ta + k) % n != (ja + 1) % n; ++k) arc += tok_len((ta + k) % n);
+        for (Index k = 1; (ta + k) % n != ja; ++k) {
+          const Index t = (ta + k) % n;
+          if (done[t]) continue;
+          const Index other = partner_token(t);
+          if ((other - ta + n) % n < (ja - ta + n) % n) continue;  // not linked
+          cands.push_back({std::min(arc, total - arc), ta, ja, t, false});
+          break;  // the path does not depend on b
+        }
+      }
+      std::stable_sort(cands.begin(), cands.end(),
+                       [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
+      for (const Candidate& cd : cands) {
+        if (evaluated++ >= kCandidates) break;
+        const double cost = path_cost(cd.t, (cd.ja + 1) % n);
+        if (cost < best) {
+          best = cost;
+          i0 = cd.t;
+          j0 = cd.ja;
+          tb = cd.tb;
+        }
+      }
+      if (j0 == kInvalid || tb == kInvalid) {
+        reason = "no linked pair of letters";
+        break;
+      }
+      // Move 1: from the corner before a to the corner after a^-1, reglue along b.
+      const Pair a_inv_first = side_first_edge(Pg, C.R, Pg.tok_side[j0]);
+      const std::vector<Pair> glue_b = C.side_pairs(Pg.tok_side[tb]);
+      std::vector<Index> path;
+      {
+        const std::vector<Index> src = Pg.corner_anchor[i0], dst = Pg.corner_anchor[(j0 + 1) % n];
+        if (!C.cut_paste(src, dst, glue_b, &path, &why)) {
+          reason = "cut-and-paste failed: " + why;
+          break;
+        }
+      }
+      // Move 2: from the corner after a^-1 to the corner after c, reglue along a.
+      {
+        const Polygon& P1 = C.P;
+        const Index sa = side_with_first_edge(P1, C.R, a_inv_first);
+        const Index sc = side_with_first_edge(P1, C.R, Pair{path[0], path[1]});
+        const Index ta = sa == kInvalid ? kInvalid : token_of_side(P1, sa);
+        const Index tc = sc == kInvalid ? kInvalid : token_of_side(P1, sc);
+        if (ta == kInvalid || tc == kInvalid) {
+          reason = "lost track of a side after a move";
+          break;
+        }
+        const Index n1 = P1.ntok();
+        const std::vector<Pair> glue_a = C.side_pairs(P1.tok_side[ta]);
+        const std::vector<Index> src = P1.corner_anchor[(ta + 1) % n1], dst = P1.corner_anchor[(tc + 1) % n1];
+        if (!C.cut_paste(src, dst, glue_a, nullptr, &why)) {
+          reason = "cut-and-paste failed: " + why;
+          break;
+        }
+      }
+      std::vector<char> done2;
+      if (commutator_blocks(C.P, done2) <= blocks) {
+        reason = "a commutator move did not make progress";
+        break;
+      }
+    }
+    x = C.base;
+    rotation_token = canonical_rotation(C.P);
+    word_canonical = rotation_token >= 0 && 4 * g == C.P.ntok();
+    if (!word_canonical && reason.empty()) reason = "the polygon word is not canonical";
+    const Index anchor_tok = word_canonical ? rotation_token : 0;
+    anchor_edge = side_first_edge(C.P, C.R, C.P.tok_side[anchor_tok]);
+  }
+
+  // Arcs to every hole.
+  while (!C.P.holes.empty()) {
+    const Polygon& Pg = C.P;
+    const Index s0 = side_with_first_edge(Pg, C.R, anchor_edge);
+    if (s0 == kInvalid) return internal("lost the anchor side");
+    // The hole with the smallest input loop.
+    Index best_hole = kInvalid, best_loop = kInvalid;
+    for (Index h : Pg.holes) {
+      const Index L = S.vertex_loop[C.R.to_surface[C.R.topo.boundary_vertices[C.R.topo.boundary_offsets[h]]]];
+      if (best_loop == kInvalid || L < best_loop) {
+        best_loop = L;
+        best_hole = h;
+      }
+    }
+    std::vector<Index> targets;
+    for (Index k = C.R.topo.boundary_offsets[best_hole]; k < C.R.topo.boundary_offsets[best_hole + 1]; ++k)
+      targets.push_back(C.R.topo.boundary_vertices[k]);
+    std::vector<Index> path;
+    const std::vector<Index> src = {Pg.at(Pg.side_begin[s0])};
+    if (!C.cut_paste(src, targets, {}, &path, &why))
+      return internal("arc to boundary loop " + std::to_string(best_loop) + ": " + why);
+    arc_first.push_back({path[0], path[1]});
+    arc_loop.push_back(best_loop);
+  }
+
+  // ---- outputs ----
+  const Polygon& Pg = C.P;
+  const Disk& R = C.R;
+  if (R.topo.num_boundary_loops() != 1 || R.topo.euler_characteristic() != 1 || R.topo.num_components != 1)
+    return internal("the result is not a disk");
+  r.base_vertex = x;
+  r.moves = C.moves;
+  r.refinements = C.refinements;
+  r.surface_positions = S.pos;
+  r.surface_faces = S.faces;
+  r.surface_face_to_input = S.face_origin;
+  r.refined_vertex_face = S.rec_face;
+  r.refined_vertex_bary = S.rec_bary;
+  for (Index f : S.rec_face)
+    for (int k = 0; k < 3; ++k) r.refined_vertex_corners.push_back(mesh.faces[3 * f + k]);
+  r.cut_faces = R.faces;
+  r.cut_to_surface = R.to_surface;
+
+  const Index ns = static_cast<Index>(Pg.side_begin.size());
+  Index s_start = side_with_first_edge(Pg, R, anchor_edge);
+  if (s_start == kInvalid) s_start = 0;
+  // Side names.
+  std::vector<std::string> name(static_cast<std::size_t>(ns));
+  std::vector<std::string> letter_name(static_cast<std::size_t>(Pg.num_letters));
+  std::vector<int> letter_dir(static_cast<std::size_t>(Pg.num_letters), 0);  // token sign of the + occurrence
+  std::vector<SideKind> letter_kind(static_cast<std::size_t>(Pg.num_letters), SideKind::Loop);
+  std::vector<Index> letter_loop(static_cast<std::size_t>(Pg.num_letters), kInvalid);
+  std::vector<Index> letter_order;
+  for (std::size_t i = 0; i < arc_first.size(); ++i) {
+    const Index s = side_with_first_edge(Pg, R, arc_first[i]);
+    if (s == kInvalid) return internal("lost an arc");
+    const Index t = token_of_side(Pg, s);
+    const Index L = Pg.tok_letter[t];
+    letter_name[L] = "t" + std::to_string(arc_loop[i] + 1);
+    letter_dir[L] = Pg.tok_sign[t];
+    letter_kind[L] = SideKind::Arc;
+    letter_loop[L] = arc_loop[i];
+  }
+  if (g == 0 && b == 0) {
+    letter_name[Pg.tok_letter[0]] = "s1";
+    letter_kind[Pg.tok_letter[0]] = SideKind::Slit;
+    const Index t = token_of_side(Pg, s_start);
+    letter_dir[Pg.tok_letter[0]] = Pg.tok_sign[t];
+  }
+  Index next_x = 1, handle = 1;
+  // Walk sides from s_start; name loop letters in order.
+  for (Index k = 0; k < ns; ++k) {
+    const Index s = (s_start + k) % ns;
+    if (!Pg.side_cut[s]) continue;
+    const Index t = token_of_side(Pg, s);
+    const Index L = Pg.tok_letter[t];
+    if (!letter_name[L].empty()) continue;
+    if (word_canonical && g > 0) {
+      // in a commutator block u v u^-1 v^-1 starting at this token
+      const Index n = Pg.ntok();
+      const Index v = Pg.tok_letter[(t + 1) % n];
+      letter_name[L] = "a" + std::to_string(handle);
+      letter_dir[L] = Pg.tok_sign[t];
+      letter_name[v] = "b" + std::to_string(handle);
+      letter_dir[v] = Pg.tok_sign[(t + 1) % n];
+      letter_order.push_back(L);
+      letter_order.push_back(v);
+      ++handle;
+    } else {
+      letter_name[L] = "x" + std::to_string(next_x++);
+      letter_dir[L] = Pg.tok_sign[t];
+      letter_order.push_back(L);
+    }
+  }
+  for (Index L = 0; L < Pg.num_letters; ++L)
+    if (letter_kind[L] != SideKind::Loop) letter_order.push_back(L);
+  std::vector<Index> gen_of_letter(static_cast<std::size_t>(Pg.num_letters), kInvalid);
+  for (std::size_t i = 0; i < letter_order.size(); ++i)
+    gen_of_letter[letter_order[i]] = static_cast<Index>(i);
+
+  // Sides in order from s_start.
+  std::vector<Index> new_index(static_cast<std::size_t>(ns));
+  for (Index k = 0; k < ns; ++k) new_index[(s_start + k) % ns] = k;
+  r.side_offsets.push_back(0);
+  std::vector<std::string> words;
+  for (Index k = 0; k < ns; ++k) {
+    const Index s = (s_start + k) % ns;
+    for (Index i = 0; i <= Pg.side_len[s]; ++i) r.side_vertices.push_back(Pg.at(Pg.side_begin[s] + i));
+    r.side_offsets.push_back(static_cast<Index>(r.side_vertices.size()));
+    if (!Pg.side_cut[s]) {
+      r.side_kind.push_back(SideKind::Boundary);
+      r.side_generator.push_back(kInvalid);
+      r.side_orientation.push_back(0);
+      r.side_partner.push_back(kInvalid);
+      r.side_boundary_loop.push_back(Pg.side_loop[s]);
+      r.side_label.push_back("∂" + std::to_string(Pg.side_loop[s] + 1));
+    } else {
+      const Index t = token_of_side(Pg, s);
+      const Index L = Pg.tok_letter[t];
+      const int o = Pg.tok_sign[t] == letter_dir[L] ? +1 : -1;
+      r.side_kind.push_back(letter_kind[L]);
+      r.side_generator.push_back(gen_of_letter[L]);
+      r.side_orientation.push_back(o);
+      r.side_partner.push_back(new_index[Pg.side_partner[s]]);
+      r.side_boundary_loop.push_back(letter_loop[L]);
+      r.side_label.push_back(label(letter_name[L], o));
+    }
+    words.push_back(r.side_label.back());
+  }
+  for (std::size_t i = 0; i < words.size(); ++i) r.word += (i ? " " : "") + words[i];
+  // Generators: the + occurrence's surface vertices.
+  r.generator_offsets.push_back(0);
+  for (Index L : letter_order) {
+    Index side = kInvalid;
+    for (Index k = 0; k < ns && side == kInvalid; ++k)
+      if (r.side_generator[k] == gen_of_letter[L] && r.side_orientation[k] == +1) side = k;
+    for (Index i = r.side_offsets[side]; i < r.side_offsets[side + 1]; ++i)
+      r.generator_vertices.push_back(R.to_surface[r.side_vertices[i]]);
+    r.generator_offsets.push_back(static_cast<Index>(r.generator_vertices.size()));
+    r.generator_kind.push_back(letter_kind[L]);
+    r.generator_name.push_back(letter_name[L]);
+    r.generator_boundary_loop.push_back(letter_loop[L]);
+  }
+  // Independent check of the loops' intersection numbers.
+  if (g > 0 && word_canonical) {
+    const Index n2 = 2 * g;
+    r.intersection.assign(static_cast<std::size_t>(n2 * n2), 0);
+    bool ok = true;
+    for (Index i = 0; i < n2; ++i)
+      for (Index j = 0; j < n2; ++j) {
+        const std::span<const Index> gi(
+            r.generator_vertices.data() + r.generator_offsets[i],
+            static_cast<std::size_t>(r.generator_offsets[i + 1] - r.generator_offsets[i]));
+        const std::span<const Index> gj(
+            r.generator_vertices.data() + r.generator_offsets[j],
+            static_cast<std::size_t>(r.generator_offsets[j + 1] - r.generator_offsets[j]));
+        const int val = i == j ? 0 : intersection_number(S.topo, gi, gj);
+        r.intersection[static_cast<std::size_t>(i * n2 + j)] = val;
+        // loops are ordered a1 b1 a2 b2 …: a_k = 2k, b_k = 2k+1
+        const int expect = (i / 2 == j / 2 && i != j) ? (i % 2 == 0 ? +1 : -1) : 0;
+        if (val != expect) ok = false;
+      }
+    if (!ok) {
+      word_canonical = false;
+      reason = "the intersection numbers of the loops are not canonical";
+    }
+  }
+  r.canonical = word_canonical && reason.empty();
+  r.reason = r.canonical ? std::string() : reason;
+  r.status = Status::Ok;
+  r.message = "cut into a disk with " + std::to_string(r.num_sides()) + " sides";
+  r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return r;
+}
+
+std::vector<double> cut_vertex_data(const CutResult& cut, std::span<const double> data, int dims) {
+  if (dims <= 0) return {};
+  const std::size_t d = static_cast<std::size_t>(dims);
+  const Index n_surface = cut.num_input_vertices + cut.num_refined_vertices();
+  std::vector<double> per_surface;
+  std::span<const double> src;
+  if (data.size() == static_cast<std::size_t>(n_surface) * d) {
+    src = data;
+  } else if (data.size() == static_cast<std::size_t>(cut.num_input_vertices) * d) {
+    per_surface.assign(data.begin(), data.end());
+    per_surface.resize(static_cast<std::size_t>(n_surface) * d, 0);
+    for (Index k = 0; k < cut.num_refined_vertices(); ++k) {
+      const std::size_t v = static_cast<std::size_t>(cut.num_input_vertices + k);
+      for (int j = 0; j < 3; ++j) {
+        const std::size_t w = static_cast<std::size_t>(cut.refined_vertex_corners[3 * k + j]);
+        for (std::size_t q = 0; q < d; ++q)
+          per_surface[v * d + q] += cut.refined_vertex_bary[3 * k + j] * data[w * d + q];
+      }
+    }
+    src = per_surface;
+  } else {
+    return {};
+  }
+  std::vector<double> out(static_cast<std::size_t>(cut.num_cut_vertices()) * d);
+  for (Index v = 0; v < cut.num_cut_vertices(); ++v)
+    for (std::size_t k = 0; k < d; ++k)
+      out[v * d + k] = src[static_cast<std::size_t>(cut.cut_to_surface[v]) * d + k];
+  return out;
+}
+
+Mesh cut_disk_mesh(const CutResult& cut) {
+  Mesh m;
+  m.faces = cut.cut_faces;
+  if (!cut.surface_positions.empty()) {
+    m.positions.resize(static_cast<std::size_t>(cut.num_cut_vertices()) * 3);
+    for (Index v = 0; v < cut.num_cut_vertices(); ++v)
+      for (int d = 0; d < 3; ++d)
+        m.positions[3 * v + d] = cut.surface_positions[3 * cut.cut_to_surface[v] + d];
+  }
+  return m;
+}
+
+Mesh surface_with_cut_uvs(const CutResult& cut, std::span<const double> uv) {
+  Mesh m;
+  if (uv.size() != static_cast<std::size_t>(cut.num_cut_vertices()) * 2) return m;
+  m.positions = cut.surface_positions;
+  m.faces = cut.surface_faces;
+  m.texcoords.assign(uv.begin(), uv.end());
+  m.corner_texcoords = cut.cut_faces;
+  return m;
+}
+
+}  // namespace ricci
