@@ -5,6 +5,7 @@
 // meshes in ../shared/meshes/{genus1,genus2,genus3plus,boundary} (skipped when absent).
 #include <doctest/doctest.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -101,6 +102,33 @@ void check_cut(const Mesh& mesh, const Topology& topo, const CutResult& r, bool 
       const Index O = r.surface_face_to_input[f];
       CHECK((mesh.faces[3 * O] == v || mesh.faces[3 * O + 1] == v || mesh.faces[3 * O + 2] == v));
     }
+  // The refined faces of each input face tile it: their area vectors add up to the input face's
+  // and each points the same way (so the refinement is a subdivision, not a re-triangulation).
+  if (!mesh.positions.empty()) {
+    auto area_vector = [](const std::vector<double>& x, Index p, Index q, Index s) {
+      const double u[3] = {x[3 * q] - x[3 * p], x[3 * q + 1] - x[3 * p + 1], x[3 * q + 2] - x[3 * p + 2]};
+      const double w[3] = {x[3 * s] - x[3 * p], x[3 * s + 1] - x[3 * p + 1], x[3 * s + 2] - x[3 * p + 2]};
+      return std::array<double, 3>{0.5 * (u[1] * w[2] - u[2] * w[1]), 0.5 * (u[2] * w[0] - u[0] * w[2]),
+                                   0.5 * (u[0] * w[1] - u[1] * w[0])};
+    };
+    std::vector<std::array<double, 3>> covered(static_cast<std::size_t>(topo.num_faces), {0.0, 0.0, 0.0});
+    std::vector<Index> pieces(static_cast<std::size_t>(topo.num_faces), 0);
+    for (Index f = 0; f < st.topology.num_faces; ++f) {
+      const Index O = r.surface_face_to_input[f];
+      const auto piece = area_vector(r.surface_positions, r.surface_faces[3 * f], r.surface_faces[3 * f + 1],
+                                     r.surface_faces[3 * f + 2]);
+      const auto whole = area_vector(mesh.positions, mesh.faces[3 * O], mesh.faces[3 * O + 1], mesh.faces[3 * O + 2]);
+      CHECK(piece[0] * whole[0] + piece[1] * whole[1] + piece[2] * whole[2] > 0);
+      for (int d = 0; d < 3; ++d) covered[O][d] += piece[d];
+      ++pieces[O];
+    }
+    for (Index O = 0; O < topo.num_faces; ++O) {
+      const auto whole = area_vector(mesh.positions, mesh.faces[3 * O], mesh.faces[3 * O + 1], mesh.faces[3 * O + 2]);
+      const double size = std::sqrt(whole[0] * whole[0] + whole[1] * whole[1] + whole[2] * whole[2]);
+      CHECK(pieces[O] >= 1);
+      for (int d = 0; d < 3; ++d) CHECK(std::abs(covered[O][d] - whole[d]) <= 1e-9 * size);
+    }
+  }
   // The cut mesh is one disk.
   const TopologyResult ct = build_topology(r.cut_faces, r.num_cut_vertices());
   REQUIRE(ct.status == Status::Ok);

@@ -31,6 +31,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <span>
@@ -61,6 +62,28 @@ struct Settings {
   int gd_iters = 20000;
   bool gradient = true;
 };
+
+/// The processor's model name (Linux /proc/cpuinfo), or "unknown".
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) {
+      const std::size_t colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+  return "unknown";
+}
+
+std::string compiler_name() {
+#if defined(__clang__)
+  return std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "unknown";
+#endif
+}
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
@@ -306,7 +329,8 @@ int main(int argc, char** argv) {
          "geodesic in H), Newton to max error < 1e-10; gradient descent (step 0.05) to 1e-6, capped at " +
          std::to_string(s.gd_iters) + " iterations / " + fmt("%g", s.gd_seconds) + " s. Hardware threads: " +
          std::to_string(std::thread::hardware_concurrency()) + "; --threads " + std::to_string(s.threads) +
-         (s.quick ? "; --quick" : "") + ".\n\n";
+         (s.quick ? "; --quick" : "") + ".\n\n" + "Machine: " + cpu_model() + "; compiler: " + compiler_name() +
+         ".\n\n";
   doc += table_header();
   std::cout << doc << std::flush;
   for (const Input& in : inputs) {
