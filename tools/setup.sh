@@ -12,6 +12,8 @@ packages=(
   doctest-dev             # doctest: the test framework
   libcli11-dev            # CLI11: command-line parsing
   nlohmann-json3-dev      # nlohmann-json: JSON reports
+  pkg-config              # finds cairo
+  libcairo2-dev           # cairo: PNG and SVG pictures
 )
 
 missing=()

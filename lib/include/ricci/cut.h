@@ -120,7 +120,8 @@ struct CutResult {
   /// For every added vertex v (v ≥ num_input_vertices), record k = v − num_input_vertices:
   /// the input face refined_vertex_face[k] and barycentric coordinates refined_vertex_bary[3k..3k+2]
   /// with respect to that face's corners 0, 1, 2. In E the vertex is the barycentric combination;
-  /// H and S layouts interpolate in Klein / gnomonic coordinates of the face.
+  /// In H and S the point is Σ β_k X_k of the corners' points X_k on the hyperboloid / unit
+  /// sphere, rescaled onto it (see refined_edge_lengths() in layout.h).
   std::vector<Index> refined_vertex_face;
   std::vector<double> refined_vertex_bary;
   /// The input vertices at that face's corners 0, 1, 2 (#added×3), so records are self-contained.

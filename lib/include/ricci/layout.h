@@ -1,0 +1,231 @@
+// ricci — layouts: a discrete metric (edge lengths) turned into positions in the plane (E), the
+// Poincaré disk (H) or on the unit sphere (S); the metric carried to a refined (cut) surface; and
+// the comparison of two layouts up to the isometries of their geometry.
+//
+//   RefinedMetric rm = refined_edge_lengths(cut, topology, g, flow.l);   // lengths on the refined surface
+//   TopologyResult disk = build_topology(cut.cut_faces, cut.num_cut_vertices());
+//   std::vector<double> ld = disk_edge_lengths(cut, rm.surface, rm.l, disk.topology);
+//   Layout lay = layout_disk(disk.topology, g, ld);            // E, H (or S) — a disk
+//   Layout sph = layout_sphere(topology, flow.l);               // S — a closed genus-0 surface
+//   LayoutAlignment a = align_layouts(g, lay.positions, other.positions);
+//
+// Positions (Layout::positions, #V×dims, row-major):
+//   E  dims 2  the plane
+//   H  dims 2  the Poincaré disk |z| < 1 (curvature −1); geodesics are arcs orthogonal to |z| = 1
+//   S  dims 3  unit vectors (the unit sphere, curvature +1)
+//
+// Propagation (the paper's Section 5 Step 4). The seed face is placed first (corner 0 at the
+// origin / north pole, its edge to corner 1 along +x), then faces are taken breadth-first through a
+// queue over the dual graph: every face that shares an edge with a face already taken gets its
+// third vertex placed, when that vertex has no position yet, as an intersection of the two
+// geodesic circles about the edge's placed ends (radii: the face's two other edge lengths; on the
+// left of the edge, since faces are counter-clockwise). The intersection is solved in closed form:
+//   E  the angle at the edge's first end from the three side lengths (half-angle formula, the
+//      placed edge measured from the positions), then a polar step;
+//   H  a Möbius map z ↦ (z − p)/(1 − p̄ z) moves the first end p to 0, a rotation puts the second
+//      end on the positive real axis; there the circle about 0 of radius r is the euclidean circle
+//      |z| = tanh(r/2) and the point on it at the hyperbolic angle found as in E (hyperbolic
+//      half-angle formula; Möbius maps are conformal) is the intersection; the inverse maps take
+//      it back;
+//   S  directly on the unit sphere: the point at great-circle distance r from P in the tangent
+//      direction turned by the spherical angle from the direction towards Q.
+// The default seed is a central face: the face minimising max(d(f, a), d(f, b)) for the two ends
+// a, b of a double-sweep breadth-first diameter of the dual graph (a cheap approximation of the
+// face of least eccentricity), so the propagation depth — along which rounding and the metric's
+// residual curvature accumulate — is about half the dual diameter.
+//
+// Errors. max_edge_length_error is max over edges |d(x_i, x_j) − l_ij| / l_ij with d the distance
+// of the geometry (euclidean; hyperbolic 2 asinh(|z−w| / √((1−|z|²)(1−|w|²))); great circle
+// atan2(|x×y|, x·y)). A flipped face is one whose geodesic triangle is negatively oriented:
+// E: signed area < 0; H: signed area of the triangle in Klein coordinates 2z/(1+|z|²) (where
+// geodesics are straight) < 0; S: det(x_i, x_j, x_k) < 0.
+//
+// Normalisation (LayoutOptions::normalize):
+//   E  the rigid motion of the propagation: seed corner 0 at the origin, seed edge 0→1 on +x;
+//      with unit_box, then a translation and uniform scale putting the bounding box in [0,1]²
+//      with its lower-left corner at the origin (Layout::scale holds the factor; the edge-length
+//      error is measured before scaling, relative errors do not depend on it).
+//   H  the hyperboloid centre of mass moved to 0: with X_i the hyperboloid points of the vertices
+//      and w_i their areas (a third of the incident faces' hyperbolic areas), C = Σ w_i X_i is
+//      normalised to the hyperboloid and the disk automorphism taking it to 0 is applied (Lorentz
+//      maps are linear, so afterwards Σ w_i X_i points at the origin exactly); then the rotation
+//      putting the seed face's corner-0 vertex on the positive real axis (corner 1 if corner 0 is
+//      at 0). An isometry: lengths are unchanged. Then the propagation runs a second time in this
+//      final frame, from the seed face's normalised position, and the map is re-fitted; repeated
+//      (at most 4 times) until the fitted map moves the centre by less than 1e-6: Poincaré coordinates resolve hyperbolic distance only to
+//      ~2^-52 / (1 − |z|²), so no vertex should be computed farther out than it ends up.
+//   S  Möbius centring (Baden, Crane, Kazhdan 2018, "Möbius registration"): with fixed weights
+//      w_i (vertex areas of the metric), Newton iterations c = −J⁻¹ μ on the centre of mass
+//      μ = Σ w_i x_i / Σ w_i, J = 2 Σ w_i (I − x_i x_iᵀ) / Σ w_i, each applying the Möbius map
+//      x ↦ (1 − |c|²)(x + c)/|x + c|² + c (|c| capped at 0.5), until |μ| < 1e-14 or 100 steps;
+//      then the rotation putting the seed's corner-0 vertex at +z and corner 1 in the half-plane
+//      y = 0, x > 0. Möbius maps are conformal, NOT isometries: the centred positions no longer
+//      have the metric's edge lengths. max_edge_length_error is measured on the isometric layout
+//      before centring, and mobius_length_change reports the largest relative change of an edge's
+//      great-circle length made by the centring. Set sphere_mobius = false for the isometric
+//      layout (only the rotation is applied).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ricci/cut.h"
+#include "ricci/metric.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+// ---------------------------------------------------------------------------------------------
+// The metric on the refined surface of a cut.
+
+struct RefinedMetric {
+  /// Ok; InvalidArgument (cut not Ok, sizes, records inconsistent with `input`);
+  /// DegenerateFace (a length not a positive finite number: element Edge); TriangleInequality
+  /// (an input face that holds added vertices violates it: element Face); NumericalFailure (an
+  /// added vertex's record names vertices that are not corners of a face it lies in).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+  /// build_topology(cut.surface_faces, cut.num_input_vertices + cut.num_refined_vertices()).
+  Topology surface;
+  /// #E': the length of every edge of `surface`, in the geometry given.
+  std::vector<double> l;
+  Index edges_copied = 0;    ///< edges of the input, copied bit for bit
+  Index edges_computed = 0;  ///< sub-edges measured inside an input face
+};
+
+/// Exact edge lengths on the refined surface of a cut (cut.h) for a metric given by its lengths
+/// on the input mesh (`input_lengths`, #E of `input`, in background geometry `g`).
+///
+/// An edge of the refined surface that is an edge of the input keeps its length bit for bit.
+/// Every other edge lies inside one input face O (the face of one of its refined faces); O is laid
+/// out in its geometry, corner 0 at the base point, corner 1 along the first axis:
+///   E  the plane: P_k ∈ R²; a point with barycentric coordinates β is Σ β_k P_k;
+///   H  the hyperboloid {t² − x² − y² = 1, t > 0}: X_k; the point is Σ β_k X_k rescaled onto the
+///      hyperboloid, i.e. the affine combination Σ β_k t_k K_k / Σ β_k t_k of the corners' Klein
+///      coordinates K_k = (x_k, y_k)/t_k (affine in the Klein chart with weights β_k t_k);
+///   S  the unit sphere: X_k; the point is Σ β_k X_k / |Σ β_k X_k|, i.e. the affine combination
+///      with weights β_k z_k of the corners in the gnomonic chart centred at the north pole
+///      (corner 0), K_k = (x_k, y_k)/z_k.
+/// Linear maps of the hyperboloid / sphere are exactly the isometries, so this rule does not depend
+/// on where O is placed. Points lie inside the geodesic triangle (its cone over the corners is
+/// convex), sub-edges are geodesics inside the face; a point with β_k = 0 lies on the opposite
+/// edge and only that edge's ends enter, so both faces of a split edge agree, and β = (½, ½, 0)
+/// is the geodesic midpoint. Sub-edge lengths: euclidean distance; H 2 asinh(½ √⟨X−Y, X−Y⟩);
+/// S atan2(|X×Y|, X·Y). Added vertices recorded on a neighbouring input face (edge points) are
+/// re-expressed through the shared corners.
+RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, Geometry g,
+                                   std::span<const double> input_lengths);
+
+/// Lengths per edge of the cut disk (build_topology(cut.cut_faces, cut.num_cut_vertices())):
+/// the length of the surface edge in the same face slot (corner c of cut_faces ↔ corner c of
+/// surface_faces). `surface` is RefinedMetric::surface, `surface_lengths` its lengths. Empty on a
+/// size mismatch.
+std::vector<double> disk_edge_lengths(const CutResult& cut, const Topology& surface,
+                                      std::span<const double> surface_lengths, const Topology& disk);
+
+// ---------------------------------------------------------------------------------------------
+// Layouts.
+
+struct LayoutOptions {
+  /// Seed face; -1 picks a central face (see the top of this header).
+  Index seed_face = -1;
+  /// Apply the normalisation of the geometry (see the top of this header).
+  bool normalize = true;
+  /// E only: scale and translate the layout into the unit box [0,1]² after normalising.
+  bool unit_box = false;
+  /// S only: with normalize, Möbius-centre the sphere layout (not an isometry); false: rotation only.
+  bool sphere_mobius = true;
+
+  bool is_valid(std::string* why) const;
+};
+
+struct Layout {
+  /// Ok: positions are valid (flips are reported, not an error). InvalidArgument: sizes, options,
+  /// or a mesh that is not a disk (layout_disk) / not a closed genus-0 surface (layout_sphere);
+  /// DegenerateFace: a length is not a positive finite number (element Edge); TriangleInequality:
+  /// a face violates it (or, in S, has perimeter ≥ 2π) (element Face). Otherwise positions empty.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+
+  Geometry geometry = Geometry::Euclidean;
+  int dims = 0;                   ///< 2 (E, H) or 3 (S)
+  std::vector<double> positions;  ///< #V×dims (see the top of this header)
+  Index seed_face = -1;           ///< the seed face used
+  Index depth = 0;                ///< breadth-first depth of the last face from the seed
+
+  /// Max over edges of |d(x_i, x_j) − l_ij| / l_ij (S with Möbius centring: before centring).
+  double max_edge_length_error = 0;
+  Index worst_edge = kInvalid;
+  /// Max over edges of the relative length change that rounding the two ends' coordinates to
+  /// double could cause alone (E: 2^-53·√2·(|x_i| + |x_j|) / l_ij; H: 2^-52·√2·Σ 1/(1 − |z|²) / l_ij,
+  /// the Poincaré metric's growth; S: 2^-52·√3 / l_ij). No layout stored in these coordinates can be
+  /// more accurate; H layouts that reach far from the origin (long, thin cut polygons) or have very
+  /// short edges there are limited by it.
+  double rounding_floor = 0;
+  /// Faces whose geodesic triangle is negatively oriented in the final positions.
+  Index flipped_faces = 0;
+  Index first_flipped_face = kInvalid;
+  /// Vertices used by no face (placed at the origin / north pole).
+  Index unplaced_vertices = 0;
+
+  double scale = 1;                  ///< E with unit_box: the factor applied
+  double mobius_length_change = 0;   ///< S with Möbius centring: max relative change of an edge
+  double centre_of_mass = 0;         ///< S: |μ| after normalising; H: |z| of the centre of mass
+  int normalization_iterations = 0;  ///< S: Möbius centring steps
+  /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
+  int propagation_passes = 0;
+  double seconds = 0;
+
+  /// One line: status, geometry, seed, edge error, flips, time.
+  std::string brief_report() const;
+};
+
+/// Lays out a topological disk (connected, one boundary loop, χ = 1; e.g. the cut disk with
+/// disk_edge_lengths()) in geometry g (E: plane, H: Poincaré disk, S: unit sphere) from edge
+/// lengths `l` (#E). Deterministic; linear time.
+Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, const LayoutOptions& options = {});
+
+/// Lays out a closed genus-0 surface (connected, χ = 2, no boundary) with a spherical metric `l`
+/// (#E) on the unit sphere — no cut is needed: the last faces close up by themselves.
+Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options = {});
+
+// ---------------------------------------------------------------------------------------------
+// Comparing layouts.
+
+struct LayoutAlignment {
+  /// Ok; InvalidArgument (sizes differ or do not match the geometry's dims, no points, a point
+  /// outside the disk in H or not a unit vector in S).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// Max / root-mean-square distance (of the geometry) between a_i and M(b_i) after alignment.
+  double max_deviation = 0;
+  double rms_deviation = 0;
+  /// The fitted map M taking b onto a:
+  ///   E  x ↦ R(angle) x + t  (translation = t, angle)
+  ///   H  z ↦ e^{i angle} (z − z0) / (1 − z̄0 z)  (z0 = translation)
+  ///   S  x ↦ R x (rotation, 3×3 row-major)
+  double angle = 0;
+  double translation[2] = {0, 0};
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+};
+
+/// Fits the isometry of geometry g that takes layout b onto layout a (same vertices, #V×dims
+/// each) and measures what is left. E: orientation-preserving Procrustes in closed form (centroids
+/// and the angle atan2(Σ b'×a', Σ b'·a')). S: Kabsch (SVD of Σ b_i a_iᵀ, determinant fixed to +1).
+/// H: both point sets moved by the disk automorphisms taking their hyperboloid centroids Σ X_i to
+/// 0, then the rotation about 0 by the Procrustes angle of the moved points. This closed form uses
+/// every point and is exact for point sets that differ by an isometry (Lorentz maps are linear, so
+/// centroids are equivariant); no iterative refinement is done.
+LayoutAlignment align_layouts(Geometry g, std::span<const double> a, std::span<const double> b);
+
+/// align_layouts(g, a, b).max_deviation, or +∞ when the alignment fails.
+double layout_alignment_error(Geometry g, std::span<const double> a, std::span<const double> b);
+
+}  // namespace ricci

@@ -1,0 +1,850 @@
+// Layouts of discrete metrics in E, H and S; the metric on a cut's refined surface; alignment of
+// layouts up to isometries. See layout.h for the algorithms and conventions.
+#include "ricci/layout.h"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace ricci {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Cx = std::complex<double>;
+using V3 = std::array<double, 3>;
+constexpr double kPi = std::numbers::pi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string num(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// ---- small vector helpers ------------------------------------------------------------------
+
+V3 sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+V3 cross(const V3& a, const V3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(const V3& a) { return std::sqrt(dot(a, a)); }
+V3 scaled(const V3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+V3 normalized(const V3& a) {
+  const double n = norm(a);
+  return n > 0 ? scaled(a, 1 / n) : V3{0, 0, 1};
+}
+
+/// f of the half-angle formula: identity (E), sinh (H), sin (S).
+double side_function(Geometry g, double x) {
+  switch (g) {
+    case Geometry::Hyperbolic: return std::sinh(x);
+    case Geometry::Spherical: return std::sin(x);
+    default: return x;
+  }
+}
+
+/// Angle between sides b and c of a triangle whose third side (opposite the angle) is a, by the
+/// half-angle formula; differences clamped at 0 so that rounding never produces NaN.
+double angle_from_lengths(Geometry g, double a, double b, double c) {
+  const double s = (a + b + c) / 2;
+  const double fs = side_function(g, s);
+  const double fa = side_function(g, std::max(0.0, s - a));
+  const double fb = side_function(g, std::max(0.0, s - b));
+  const double fc = side_function(g, std::max(0.0, s - c));
+  return 2 * std::atan2(std::sqrt(std::max(0.0, fb * fc)), std::sqrt(std::max(0.0, fs * fa)));
+}
+
+/// Great-circle distance of two unit vectors.
+double sphere_distance(const V3& x, const V3& y) { return std::atan2(norm(cross(x, y)), dot(x, y)); }
+
+/// Hyperbolic distance in the Poincaré disk; +∞ for points on or outside the unit circle.
+double disk_distance(Cx z, Cx w) {
+  const double az = std::abs(z), aw = std::abs(w);
+  const double dz = (1 - az) * (1 + az), dw = (1 - aw) * (1 + aw);
+  if (!(dz > 0 && dw > 0)) return kInf;
+  return 2 * std::asinh(std::abs(z - w) / std::sqrt(dz * dw));
+}
+
+/// z ↦ (z − p)/(1 − p̄ z), the disk automorphism taking p to 0, and its inverse.
+Cx to_origin(Cx p, Cx z) { return (z - p) / (1.0 - std::conj(p) * z); }
+Cx from_origin(Cx p, Cx z) { return (z + p) / (1.0 + std::conj(p) * z); }
+
+/// Hyperboloid point (t, x, y) of a Poincaré disk point.
+V3 hyperboloid(Cx z) {
+  const double r2 = std::norm(z);
+  const double d = (1 - std::abs(z)) * (1 + std::abs(z));
+  return {(1 + r2) / d, 2 * z.real() / d, 2 * z.imag() / d};
+}
+
+/// Poincaré disk point of a future-timelike vector (t, x, y) (rescaled onto the hyperboloid).
+Cx poincare(const V3& X) {
+  const double n2 = X[0] * X[0] - X[1] * X[1] - X[2] * X[2];
+  const double n = std::sqrt(std::max(n2, 0.0));
+  const double t = X[0] + n;
+  return t > 0 ? Cx(X[1], X[2]) / t : Cx(0, 0);
+}
+
+// ---- positions of one layout ---------------------------------------------------------------
+
+struct Positions {
+  Geometry g = Geometry::Euclidean;
+  int dims = 2;
+  std::vector<double>& x;
+
+  Cx z(Index v) const { return {x[2 * v], x[2 * v + 1]}; }
+  void set(Index v, Cx w) {
+    x[2 * v] = w.real();
+    x[2 * v + 1] = w.imag();
+  }
+  V3 p(Index v) const { return {x[3 * v], x[3 * v + 1], x[3 * v + 2]}; }
+  void set(Index v, const V3& w) {
+    for (int d = 0; d < 3; ++d) x[3 * v + d] = w[d];
+  }
+  bool finite(Index v) const {
+    for (int d = 0; d < dims; ++d)
+      if (!std::isfinite(x[dims * v + d])) return false;
+    return g != Geometry::Hyperbolic || std::abs(z(v)) < 1;
+  }
+  double distance(Index a, Index b) const {
+    switch (g) {
+      case Geometry::Euclidean: return std::abs(z(a) - z(b));
+      case Geometry::Hyperbolic: return disk_distance(z(a), z(b));
+      default: return sphere_distance(p(a), p(b));
+    }
+  }
+  /// Sign of the orientation of the geodesic triangle (a, b, c).
+  double orientation(Index a, Index b, Index c) const {
+    if (g == Geometry::Spherical) return dot(p(a), cross(p(b), p(c)));
+    Cx A = z(a), B = z(b), Cc = z(c);
+    if (g == Geometry::Hyperbolic) {
+      auto klein = [](Cx w) { return 2.0 * w / (1.0 + std::norm(w)); };
+      A = klein(A);
+      B = klein(B);
+      Cc = klein(Cc);
+    }
+    const Cx u = B - A, w = Cc - A;
+    return u.real() * w.imag() - u.imag() * w.real();
+  }
+  /// Places x so that d(p, x) = rp, d(q, x) = rq, x on the left of p → q.
+  void place(Index v, Index pv, Index qv, double rp, double rq) {
+    switch (g) {
+      case Geometry::Euclidean: {
+        const Cx P = z(pv), d = z(qv) - P;
+        const double s = std::abs(d);
+        const double th = angle_from_lengths(g, rq, s, rp);
+        set(v, P + std::polar(rp, std::arg(d) + th));
+        break;
+      }
+      case Geometry::Hyperbolic: {
+        const Cx P = z(pv);
+        const Cx w = to_origin(P, z(qv));
+        const double aw = std::abs(w);
+        const double s = aw < 1 ? 2 * std::atanh(aw) : kInf;
+        const double th = angle_from_lengths(g, rq, std::min(s, 1e300), rp);
+        const Cx local = std::polar(std::tanh(rp / 2), std::arg(w) + th);
+        set(v, from_origin(P, local));
+        break;
+      }
+      default: {
+        const V3 P = p(pv), Q = p(qv);
+        const V3 n = cross(P, Q);
+        const double s = std::atan2(norm(n), dot(P, Q));
+        const V3 U = normalized(cross(n, P));  // tangent at P towards Q
+        const V3 W = cross(P, U);
+        const double th = angle_from_lengths(g, rq, s, rp);
+        const double c = std::cos(th), sn = std::sin(th), cr = std::cos(rp), sr = std::sin(rp);
+        V3 X;
+        for (int d = 0; d < 3; ++d) X[d] = cr * P[d] + sr * (c * U[d] + sn * W[d]);
+        set(v, normalized(X));
+        break;
+      }
+    }
+  }
+  /// The seed face: corner 0 at the base point, corner 0 → 1 along +x.
+  void place_seed(Index v0, Index v1, Index v2, double l0, double l1, double l2) {
+    const double th = angle_from_lengths(g, l0, l1, l2);
+    switch (g) {
+      case Geometry::Euclidean:
+        set(v0, Cx(0, 0));
+        set(v1, Cx(l2, 0));
+        set(v2, std::polar(l1, th));
+        break;
+      case Geometry::Hyperbolic:
+        set(v0, Cx(0, 0));
+        set(v1, Cx(std::tanh(l2 / 2), 0));
+        set(v2, std::polar(std::tanh(l1 / 2), th));
+        break;
+      default:
+        set(v0, V3{0, 0, 1});
+        set(v1, V3{std::sin(l2), 0, std::cos(l2)});
+        set(v2, V3{std::sin(l1) * std::cos(th), std::sin(l1) * std::sin(th), std::cos(l1)});
+        break;
+    }
+  }
+};
+
+// ---- validation ----------------------------------------------------------------------------
+
+template <class R>
+bool check_lengths(const Topology& t, Geometry g, std::span<const double> l, R& r) {
+  if (l.size() != static_cast<std::size_t>(t.num_edges)) {
+    r.status = Status::InvalidArgument;
+    r.message = "expected " + std::to_string(t.num_edges) + " edge lengths, got " + std::to_string(l.size());
+    return false;
+  }
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const bool bad = !(std::isfinite(l[e]) && l[e] > 0) || (g == Geometry::Spherical && !(l[e] < kPi));
+    if (!bad) continue;
+    r.status = Status::DegenerateFace;
+    r.element = Element::Edge;
+    r.element_index = e;
+    r.message = "edge " + std::to_string(e) + " (vertices " + std::to_string(t.edge_vertices[2 * e]) + "–" +
+                std::to_string(t.edge_vertices[2 * e + 1]) + ") has length " + num(l[e]) +
+                (g == Geometry::Spherical ? ", not in (0, π)" : ", not a positive finite number");
+    return false;
+  }
+  return true;
+}
+
+/// Angles and areas; false (with the first face named) on a triangle-inequality violation.
+template <class R>
+bool angles_and_areas(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& theta,
+                      std::vector<double>& area, R& r) {
+  theta.assign(static_cast<std::size_t>(t.num_corners()), 0.0);
+  area.assign(static_cast<std::size_t>(t.num_faces), 0.0);
+  const AngleReport rep = corner_angles(t, g, l, theta);
+  if (rep.violations > 0) {
+    const Index f = rep.first_violation;
+    r.status = Status::TriangleInequality;
+    r.element = Element::Face;
+    r.element_index = f;
+    r.message = "face " + std::to_string(f) + " (vertices " + std::to_string(t.corner_vertex[3 * f]) + ", " +
+                std::to_string(t.corner_vertex[3 * f + 1]) + ", " + std::to_string(t.corner_vertex[3 * f + 2]) +
+                ") with lengths " + num(l[t.corner_edge[3 * f]]) + ", " + num(l[t.corner_edge[3 * f + 1]]) + ", " +
+                num(l[t.corner_edge[3 * f + 2]]) + " violates the triangle inequality" +
+                (g == Geometry::Spherical ? " (or has perimeter ≥ 2π)" : "") + "; " +
+                std::to_string(rep.violations) + " faces do";
+    return false;
+  }
+  face_areas(t, g, l, theta, area);
+  return true;
+}
+
+// ---- seed ----------------------------------------------------------------------------------
+
+/// Breadth-first distances over the dual graph from face s; returns the farthest face (smallest
+/// index among the farthest).
+Index dual_bfs(const Topology& t, Index s, std::vector<Index>& dist) {
+  dist.assign(static_cast<std::size_t>(t.num_faces), -1);
+  std::vector<Index> queue;
+  queue.reserve(static_cast<std::size_t>(t.num_faces));
+  dist[s] = 0;
+  queue.push_back(s);
+  Index far = s;
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const Index f = queue[h];
+    if (dist[f] > dist[far] || (dist[f] == dist[far] && f < far)) far = f;
+    for (int k = 0; k < 3; ++k) {
+      const Index o = t.opposite[3 * f + k];
+      if (o == kInvalid || dist[corner_face(o)] >= 0) continue;
+      dist[corner_face(o)] = dist[f] + 1;
+      queue.push_back(corner_face(o));
+    }
+  }
+  return far;
+}
+
+Index central_face(const Topology& t) {
+  std::vector<Index> da, db;
+  const Index a = dual_bfs(t, dual_bfs(t, 0, da), da);
+  const Index b = dual_bfs(t, a, da);
+  dual_bfs(t, b, db);
+  Index best = 0;
+  auto key = [&](Index f) { return std::pair<Index, Index>(std::max(da[f], db[f]), da[f] + db[f]); };
+  for (Index f = 1; f < t.num_faces; ++f)
+    if (da[f] >= 0 && key(f) < key(best)) best = f;
+  return best;
+}
+
+// ---- normalisations ------------------------------------------------------------------------
+
+std::vector<double> vertex_weights(const Topology& t, const std::vector<double>& area) {
+  std::vector<double> w(static_cast<std::size_t>(t.num_vertices), 0.0);
+  for (Index v = 0; v < t.num_vertices; ++v)
+    for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i)
+      w[v] += area[corner_face(t.vertex_corners[i])] / 3;
+  return w;
+}
+
+/// Centre of the hyperboloid centre of mass (Poincaré point) of weighted disk points.
+Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w) {
+  V3 C{0, 0, 0};
+  for (Index v = 0; v < nv; ++v) {
+    const V3 X = hyperboloid(P.z(v));
+    const double wv = w ? (*w)[v] : 1.0;
+    for (int d = 0; d < 3; ++d) C[d] += wv * X[d];
+  }
+  return poincare(C);
+}
+
+/// Returns the hyperbolic distance the centre of mass was moved by.
+double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, Layout& out) {
+  const Index nv = t.num_vertices;
+  const Cx c = hyperbolic_centre(P, nv, &w);
+  for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
+  Cx ref = P.z(t.corner_vertex[3 * seed]);
+  if (std::abs(ref) < 1e-12) ref = P.z(t.corner_vertex[3 * seed + 1]);
+  if (std::abs(ref) > 0) {
+    const Cx rot = std::conj(ref) / std::abs(ref);
+    for (Index v = 0; v < nv; ++v) P.set(v, rot * P.z(v));
+  }
+  out.centre_of_mass = std::abs(hyperbolic_centre(P, nv, &w));
+  return 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
+}
+
+void normalize_spherical(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, bool mobius,
+                         Layout& out) {
+  const Index nv = t.num_vertices;
+  double wsum = 0;
+  for (Index v = 0; v < nv; ++v) wsum += w[v];
+  if (!(wsum > 0)) wsum = 1;
+  auto centre = [&] {
+    V3 mu{0, 0, 0};
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 3; ++d) mu[d] += w[v] * P.x[3 * v + d];
+    return scaled(mu, 1 / wsum);
+  };
+  if (mobius) {
+    const std::vector<double> before = P.x;
+    int it = 0;
+    for (; it < 100; ++it) {
+      const V3 mu = centre();
+      if (norm(mu) < 1e-14) break;
+      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+      for (Index v = 0; v < nv; ++v) {
+        const Eigen::Vector3d x(P.x[3 * v], P.x[3 * v + 1], P.x[3 * v + 2]);
+        J += w[v] * (Eigen::Matrix3d::Identity() - x * x.transpose());
+      }
+      J *= 2 / wsum;
+      const Eigen::Vector3d step = -J.ldlt().solve(Eigen::Vector3d(mu[0], mu[1], mu[2]));
+      V3 c{step[0], step[1], step[2]};
+      if (!std::isfinite(norm(c))) break;
+      if (norm(c) > 0.5) c = scaled(c, 0.5 / norm(c));
+      const double c2 = dot(c, c);
+      for (Index v = 0; v < nv; ++v) {
+        V3 x = P.p(v);
+        const V3 y{x[0] + c[0], x[1] + c[1], x[2] + c[2]};
+        const double d2 = dot(y, y);
+        if (!(d2 > 0)) continue;
+        for (int d = 0; d < 3; ++d) x[d] = (1 - c2) * y[d] / d2 + c[d];
+        P.set(v, normalized(x));
+      }
+    }
+    out.normalization_iterations = it;
+    std::vector<double> old = before;
+    Positions Q{Geometry::Spherical, 3, old};
+    double change = 0;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double d0 = Q.distance(a, b), d1 = P.distance(a, b);
+      if (d0 > 0) change = std::max(change, std::abs(d1 - d0) / d0);
+    }
+    out.mobius_length_change = change;
+  }
+  // Rotation: seed corner 0 → +z, corner 1 into the half-plane y = 0, x > 0.
+  const V3 a = P.p(t.corner_vertex[3 * seed]), b = P.p(t.corner_vertex[3 * seed + 1]);
+  V3 e1 = sub(b, scaled(a, dot(a, b)));
+  if (norm(e1) < 1e-300) e1 = std::abs(a[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0};
+  e1 = normalized(sub(e1, scaled(a, dot(a, e1))));
+  const V3 e2 = cross(a, e1);
+  for (Index v = 0; v < nv; ++v) {
+    const V3 x = P.p(v);
+    P.set(v, V3{dot(e1, x), dot(e2, x), dot(a, x)});
+  }
+  out.centre_of_mass = norm(centre());
+}
+
+// ---- the propagation -----------------------------------------------------------------------
+
+Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
+                  Clock::time_point start) {
+  Layout out;
+  out.geometry = g;
+  out.dims = g == Geometry::Spherical ? 3 : 2;
+  std::vector<double> theta, area;
+  if (!check_lengths(t, g, l, out)) return out;
+  if (!angles_and_areas(t, g, l, theta, area, out)) return out;
+
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face(t);
+  out.seed_face = seed;
+  std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
+  if (g == Geometry::Spherical)
+    for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
+  Positions P{g, out.dims, x};
+  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0), taken(static_cast<std::size_t>(nf), 0);
+  std::vector<Index> depth(static_cast<std::size_t>(nf), 0);
+  std::vector<Index> queue;
+  queue.reserve(static_cast<std::size_t>(nf));
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
+  // One breadth-first propagation; the seed face's vertices must be placed before.
+  auto propagate = [&]() -> bool {
+    std::fill(placed.begin(), placed.end(), std::uint8_t{0});
+    std::fill(taken.begin(), taken.end(), std::uint8_t{0});
+    placed[s0] = placed[s1] = placed[s2] = 1;
+    taken[seed] = 1;
+    depth[seed] = 0;
+    out.depth = 0;
+    queue.clear();
+    queue.push_back(seed);
+    for (std::size_t h = 0; h < queue.size(); ++h) {
+      const Index f = queue[h];
+      for (int k = 0; k < 3; ++k) {
+        const Index o = t.opposite[3 * f + k];
+        if (o == kInvalid) continue;
+        const Index nb = corner_face(o);
+        if (taken[nb]) continue;
+        taken[nb] = 1;
+        depth[nb] = depth[f] + 1;
+        out.depth = std::max(out.depth, depth[nb]);
+        queue.push_back(nb);
+        const Index v = t.corner_vertex[o];
+        if (placed[v]) continue;
+        const Index pv = t.corner_vertex[next_corner(o)], qv = t.corner_vertex[prev_corner(o)];
+        P.place(v, pv, qv, l[t.corner_edge[prev_corner(o)]], l[t.corner_edge[next_corner(o)]]);
+        placed[v] = 1;
+        if (!P.finite(v)) {
+          out.status = Status::NumericalFailure;
+          out.element = Element::Vertex;
+          out.element_index = v;
+          out.message = "vertex " + std::to_string(v) + " left the range of double precision (" +
+                        std::string(g == Geometry::Hyperbolic ? "at the boundary of the Poincaré disk" : "not finite") +
+                        ") at breadth-first depth " + std::to_string(depth[nb]);
+          return false;
+        }
+      }
+    }
+    return true;
+  };
+  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
+  if (!propagate()) return out;
+  const std::vector<double> w = vertex_weights(t, area);
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    // Second pass in the final frame: the seed face keeps its normalised position and the
+    // propagation runs again there, so no vertex is ever computed farther from the origin than
+    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
+    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    for (int pass = 0; pass < 4; ++pass) {
+      const double moved = normalize_hyperbolic(t, P, w, seed, out);
+      if (!propagate()) return out;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
+
+  // Edge-length error of the isometric layout.
+  auto edge_error = [&](Layout& o) {
+    o.max_edge_length_error = 0;
+    o.worst_edge = kInvalid;
+    o.rounding_floor = 0;
+    constexpr double u = 0x1p-53;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double d = P.distance(a, b);
+      const double err = std::abs(d - l[e]) / l[e];
+      double drift = 0;  // how far rounding the two ends' coordinates can move them, in the geometry
+      if (g == Geometry::Euclidean) {
+        drift = u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
+      } else if (g == Geometry::Hyperbolic) {
+        const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
+        drift = 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+      } else {
+        drift = 2 * u * std::sqrt(3.0);
+      }
+      o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
+      if (!(err <= o.max_edge_length_error)) {
+        o.max_edge_length_error = err;
+        o.worst_edge = e;
+      }
+    }
+  };
+  edge_error(out);
+
+  if (options.normalize) {
+    if (g == Geometry::Hyperbolic) {
+      normalize_hyperbolic(t, P, w, seed, out);
+      edge_error(out);  // an isometry: the error is re-measured on the final positions
+    } else if (g == Geometry::Spherical) {
+      normalize_spherical(t, P, w, seed, options.sphere_mobius, out);
+      if (!options.sphere_mobius) edge_error(out);
+    }
+  }
+  if (g == Geometry::Euclidean && options.unit_box && nv > 0) {
+    double lo[2] = {kInf, kInf}, hi[2] = {-kInf, -kInf};
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 2; ++d) {
+        lo[d] = std::min(lo[d], x[2 * v + d]);
+        hi[d] = std::max(hi[d], x[2 * v + d]);
+      }
+    const double extent = std::max(hi[0] - lo[0], hi[1] - lo[1]);
+    out.scale = extent > 0 ? 1 / extent : 1;
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 2; ++d) x[2 * v + d] = (x[2 * v + d] - lo[d]) * out.scale;
+  }
+  for (Index f = 0; f < nf; ++f) {
+    if (P.orientation(t.corner_vertex[3 * f], t.corner_vertex[3 * f + 1], t.corner_vertex[3 * f + 2]) < 0) {
+      if (out.flipped_faces == 0) out.first_flipped_face = f;
+      ++out.flipped_faces;
+    }
+  }
+  out.positions = std::move(x);
+  out.status = Status::Ok;
+  out.message = "laid out " + std::to_string(nf) + " faces in " + std::string(geometry_name(g)) + " geometry";
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+Layout invalid(const std::string& why, Geometry g) {
+  Layout out;
+  out.geometry = g;
+  out.status = Status::InvalidArgument;
+  out.message = why;
+  return out;
+}
+
+std::string shape(const Topology& t) {
+  return "χ = " + std::to_string(t.euler_characteristic()) + ", " + std::to_string(t.num_boundary_loops()) +
+         " boundary loops, " + std::to_string(t.num_components) + " components";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+bool LayoutOptions::is_valid(std::string* why) const {
+  if (seed_face < -1) {
+    if (why) *why = "seed_face must be -1 (automatic) or a face index, got " + std::to_string(seed_face);
+    return false;
+  }
+  return true;
+}
+
+std::string Layout::brief_report() const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "layout: %s, %s, seed face %d, depth %d, max edge-length error %.3g, %d flipped faces, %.3f s",
+                std::string(status_name(status)).c_str(), std::string(geometry_name(geometry)).c_str(),
+                static_cast<int>(seed_face), static_cast<int>(depth), max_edge_length_error,
+                static_cast<int>(flipped_faces), seconds);
+  return buf;
+}
+
+Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, const LayoutOptions& options) {
+  const Clock::time_point start = Clock::now();
+  std::string why;
+  if (!options.is_valid(&why)) return invalid(why, g);
+  if (disk.num_faces == 0) return invalid("the mesh has no faces", g);
+  if (options.seed_face >= disk.num_faces)
+    return invalid("seed face " + std::to_string(options.seed_face) + " is out of range (" +
+                       std::to_string(disk.num_faces) + " faces)",
+                   g);
+  if (disk.num_components != 1 || disk.num_boundary_loops() != 1 || disk.euler_characteristic() != 1)
+    return invalid("layout_disk needs a topological disk (χ = 1, one boundary loop, connected); got " + shape(disk), g);
+  return run_layout(disk, g, l, options, start);
+}
+
+Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options) {
+  const Clock::time_point start = Clock::now();
+  const Geometry g = Geometry::Spherical;
+  std::string why;
+  if (!options.is_valid(&why)) return invalid(why, g);
+  if (surface.num_faces == 0) return invalid("the mesh has no faces", g);
+  if (options.seed_face >= surface.num_faces)
+    return invalid("seed face " + std::to_string(options.seed_face) + " is out of range (" +
+                       std::to_string(surface.num_faces) + " faces)",
+                   g);
+  if (surface.num_components != 1 || !surface.is_closed() || surface.euler_characteristic() != 2)
+    return invalid("layout_sphere needs a closed genus-0 surface (χ = 2, no boundary, connected); got " + shape(surface),
+                   g);
+  return run_layout(surface, g, l, options, start);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The metric on the refined surface.
+
+RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, Geometry g,
+                                   std::span<const double> input_lengths) {
+  RefinedMetric r;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = m;
+    r.l.clear();
+    return r;
+  };
+  if (cut.status != Status::Ok) return fail(Status::InvalidArgument, "the cut did not succeed: " + cut.message);
+  const Index nin = cut.num_input_vertices, nadd = cut.num_refined_vertices();
+  if (nin != input.num_vertices)
+    return fail(Status::InvalidArgument, "the cut has " + std::to_string(nin) + " input vertices, the topology " +
+                                             std::to_string(input.num_vertices));
+  if (cut.refined_vertex_bary.size() != static_cast<std::size_t>(nadd) * 3 ||
+      cut.refined_vertex_corners.size() != static_cast<std::size_t>(nadd) * 3 ||
+      cut.surface_face_to_input.size() * 3 != cut.surface_faces.size())
+    return fail(Status::InvalidArgument, "the cut's refinement records have inconsistent sizes");
+  if (!check_lengths(input, g, input_lengths, r)) {
+    r.l.clear();
+    return r;
+  }
+  TopologyResult st = build_topology(cut.surface_faces, nin + nadd);
+  if (st.status != Status::Ok)
+    return fail(Status::InvalidArgument, "the cut's refined surface is not a valid mesh: " + st.message);
+  r.surface = std::move(st.topology);
+  const Topology& s = r.surface;
+  for (Index f : cut.surface_face_to_input)
+    if (f < 0 || f >= input.num_faces)
+      return fail(Status::InvalidArgument, "the cut names input face " + std::to_string(f) + ", out of range");
+  for (Index k = 0; k < nadd; ++k)
+    if (cut.refined_vertex_face[k] < 0 || cut.refined_vertex_face[k] >= input.num_faces)
+      return fail(Status::InvalidArgument, "added vertex " + std::to_string(nin + k) + " names input face " +
+                                               std::to_string(cut.refined_vertex_face[k]) + ", out of range");
+  r.l.assign(static_cast<std::size_t>(s.num_edges), 0.0);
+
+  // Per input face: corner frames, computed lazily.
+  std::vector<std::uint8_t> have(static_cast<std::size_t>(input.num_faces), 0);
+  std::vector<std::array<V3, 3>> frame(static_cast<std::size_t>(input.num_faces));
+  auto build_frame = [&](Index O) -> bool {
+    if (have[O]) return true;
+    const double l0 = input_lengths[input.corner_edge[3 * O]], l1 = input_lengths[input.corner_edge[3 * O + 1]],
+                 l2 = input_lengths[input.corner_edge[3 * O + 2]];
+    const double sp = (l0 + l1 + l2) / 2;
+    bool ok = side_function(g, sp - l0) > 0 && side_function(g, sp - l1) > 0 && side_function(g, sp - l2) > 0;
+    if (g == Geometry::Spherical) ok = ok && sp < kPi;
+    if (!ok) {
+      r.status = Status::TriangleInequality;
+      r.element = Element::Face;
+      r.element_index = O;
+      r.message = "input face " + std::to_string(O) + " with lengths " + num(l0) + ", " + num(l1) + ", " + num(l2) +
+                  " violates the triangle inequality" + (g == Geometry::Spherical ? " (or has perimeter ≥ 2π)" : "");
+      return false;
+    }
+    const double th = angle_from_lengths(g, l0, l1, l2);
+    std::array<V3, 3>& F = frame[O];
+    switch (g) {
+      case Geometry::Euclidean:
+        F = {V3{1, 0, 0}, V3{1, l2, 0}, V3{1, l1 * std::cos(th), l1 * std::sin(th)}};
+        break;
+      case Geometry::Hyperbolic:
+        F = {V3{1, 0, 0}, V3{std::cosh(l2), std::sinh(l2), 0},
+             V3{std::cosh(l1), std::sinh(l1) * std::cos(th), std::sinh(l1) * std::sin(th)}};
+        break;
+      default:
+        F = {V3{0, 0, 1}, V3{std::sin(l2), 0, std::cos(l2)},
+             V3{std::sin(l1) * std::cos(th), std::sin(l1) * std::sin(th), std::cos(l1)}};
+        break;
+    }
+    have[O] = 1;
+    return true;
+  };
+  // The point of surface vertex v in the frame of input face O; false if v is not in O.
+  auto point = [&](Index v, Index O, V3& X) -> bool {
+    X = {0, 0, 0};
+    if (v < nin) {
+      for (int j = 0; j < 3; ++j)
+        if (input.corner_vertex[3 * O + j] == v) {
+          X = frame[O][j];
+          return true;
+        }
+      return false;
+    }
+    const Index k = v - nin;
+    for (int i = 0; i < 3; ++i) {
+      const double b = cut.refined_vertex_bary[3 * k + i];
+      if (b == 0) continue;
+      const Index w = cut.refined_vertex_corners[3 * k + i];
+      int slot = -1;
+      for (int j = 0; j < 3; ++j)
+        if (input.corner_vertex[3 * O + j] == w) slot = j;
+      if (slot < 0) return false;
+      for (int d = 0; d < 3; ++d) X[d] += b * frame[O][slot][d];
+    }
+    switch (g) {
+      case Geometry::Euclidean: X = scaled(X, 1 / X[0]); break;  // Σβ = 1 up to rounding
+      case Geometry::Hyperbolic: X = scaled(X, 1 / std::sqrt(X[0] * X[0] - X[1] * X[1] - X[2] * X[2])); break;
+      default: X = normalized(X); break;
+    }
+    return true;
+  };
+
+  for (Index e = 0; e < s.num_edges; ++e) {
+    const Index a = s.edge_vertices[2 * e], b = s.edge_vertices[2 * e + 1];
+    const Index fs = corner_face(s.edge_corners[2 * e]);
+    const Index O = cut.surface_face_to_input[fs];
+    if (a < nin && b < nin) {
+      Index found = kInvalid;
+      for (int j = 0; j < 3; ++j) {
+        const Index c = 3 * O + j;
+        const Index p = input.corner_vertex[next_corner(c)], q = input.corner_vertex[prev_corner(c)];
+        if ((p == a && q == b) || (p == b && q == a)) found = input.corner_edge[c];
+      }
+      if (found != kInvalid) {
+        r.l[e] = input_lengths[found];
+        ++r.edges_copied;
+        continue;
+      }
+    }
+    if (!build_frame(O)) {
+      r.l.clear();
+      return r;
+    }
+    V3 A, B;
+    if (!point(a, O, A) || !point(b, O, B)) {
+      const Index bad = point(a, O, A) ? b : a;
+      return fail(Status::NumericalFailure, "surface vertex " + std::to_string(bad) + " of edge " + std::to_string(e) +
+                                                " is not expressible in input face " + std::to_string(O) +
+                                                " that holds the edge");
+    }
+    double d = 0;
+    switch (g) {
+      case Geometry::Euclidean: d = std::hypot(A[1] - B[1], A[2] - B[2]); break;
+      case Geometry::Hyperbolic: {
+        const double q = (A[1] - B[1]) * (A[1] - B[1]) + (A[2] - B[2]) * (A[2] - B[2]) - (A[0] - B[0]) * (A[0] - B[0]);
+        d = 2 * std::asinh(std::sqrt(std::max(q, 0.0)) / 2);
+        break;
+      }
+      default: d = sphere_distance(A, B); break;
+    }
+    if (!(d > 0) || !std::isfinite(d))
+      return fail(Status::NumericalFailure, "sub-edge " + std::to_string(e) + " of input face " + std::to_string(O) +
+                                                " has length " + num(d));
+    r.l[e] = d;
+    ++r.edges_computed;
+  }
+  r.status = Status::Ok;
+  r.message = "lengths of " + std::to_string(s.num_edges) + " edges (" + std::to_string(r.edges_copied) +
+              " copied, " + std::to_string(r.edges_computed) + " measured inside input faces)";
+  return r;
+}
+
+std::vector<double> disk_edge_lengths(const CutResult& cut, const Topology& surface,
+                                      std::span<const double> surface_lengths, const Topology& disk) {
+  if (surface_lengths.size() != static_cast<std::size_t>(surface.num_edges) ||
+      disk.num_faces != surface.num_faces || cut.cut_faces.size() != static_cast<std::size_t>(disk.num_corners()))
+    return {};
+  std::vector<double> out(static_cast<std::size_t>(disk.num_edges));
+  for (Index e = 0; e < disk.num_edges; ++e) out[e] = surface_lengths[surface.corner_edge[disk.edge_corners[2 * e]]];
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Alignment.
+
+LayoutAlignment align_layouts(Geometry g, std::span<const double> a, std::span<const double> b) {
+  LayoutAlignment r;
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  if (a.size() != b.size() || a.empty() || a.size() % dims != 0) {
+    r.status = Status::InvalidArgument;
+    r.message = "the layouts must have the same non-zero size, a multiple of " + std::to_string(dims) + "; got " +
+                std::to_string(a.size()) + " and " + std::to_string(b.size());
+    return r;
+  }
+  const Index n = static_cast<Index>(a.size() / dims);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a[i]) || !std::isfinite(b[i])) {
+      r.status = Status::InvalidArgument;
+      r.message = "coordinate " + std::to_string(i) + " is not finite";
+      return r;
+    }
+  auto z = [](std::span<const double> x, Index v) { return Cx(x[2 * v], x[2 * v + 1]); };
+  auto p = [](std::span<const double> x, Index v) { return V3{x[3 * v], x[3 * v + 1], x[3 * v + 2]}; };
+  for (Index v = 0; v < n; ++v) {
+    if (g == Geometry::Hyperbolic && !(std::abs(z(a, v)) < 1 && std::abs(z(b, v)) < 1)) {
+      r.status = Status::InvalidArgument;
+      r.message = "point " + std::to_string(v) + " is not inside the Poincaré disk";
+      return r;
+    }
+    if (g == Geometry::Spherical &&
+        !(std::abs(norm(p(a, v)) - 1) < 1e-6 && std::abs(norm(p(b, v)) - 1) < 1e-6)) {
+      r.status = Status::InvalidArgument;
+      r.message = "point " + std::to_string(v) + " is not a unit vector";
+      return r;
+    }
+  }
+  std::vector<double> dev(static_cast<std::size_t>(n));
+  if (g == Geometry::Euclidean) {
+    Cx ca(0, 0), cb(0, 0);
+    for (Index v = 0; v < n; ++v) {
+      ca += z(a, v);
+      cb += z(b, v);
+    }
+    ca /= static_cast<double>(n);
+    cb /= static_cast<double>(n);
+    Cx m(0, 0);
+    for (Index v = 0; v < n; ++v) m += (z(a, v) - ca) * std::conj(z(b, v) - cb);
+    const Cx rot = std::abs(m) > 0 ? m / std::abs(m) : Cx(1, 0);
+    const Cx t = ca - rot * cb;
+    r.angle = std::arg(rot);
+    r.translation[0] = t.real();
+    r.translation[1] = t.imag();
+    for (Index v = 0; v < n; ++v) dev[v] = std::abs(z(a, v) - (rot * z(b, v) + t));
+  } else if (g == Geometry::Hyperbolic) {
+    std::vector<double> aa(a.begin(), a.end()), bb(b.begin(), b.end());
+    Positions A{g, 2, aa}, B{g, 2, bb};
+    const Cx ca = hyperbolic_centre(A, n, nullptr), cb = hyperbolic_centre(B, n, nullptr);
+    Cx m(0, 0);
+    for (Index v = 0; v < n; ++v) m += to_origin(ca, z(a, v)) * std::conj(to_origin(cb, z(b, v)));
+    const Cx rot = std::abs(m) > 0 ? m / std::abs(m) : Cx(1, 0);
+    auto map = [&](Cx w) { return from_origin(ca, rot * to_origin(cb, w)); };
+    // As e^{iψ}(z − z0)/(1 − z̄0 z): z0 is the preimage of 0, the angle from the derivative's phase.
+    const Cx z0 = from_origin(cb, std::conj(rot) * to_origin(ca, Cx(0, 0)));
+    const Cx h = map(Cx(0, 0));  // = e^{iψ}(−z0)
+    const double psi = std::abs(z0) > 1e-300 ? std::arg(-h / z0) : std::arg(map(Cx(0.5, 0)) / 0.5);
+    r.angle = psi;
+    r.translation[0] = z0.real();
+    r.translation[1] = z0.imag();
+    for (Index v = 0; v < n; ++v) dev[v] = disk_distance(z(a, v), map(z(b, v)));
+  } else {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    for (Index v = 0; v < n; ++v) {
+      const V3 x = p(a, v), y = p(b, v);
+      H += Eigen::Vector3d(y[0], y[1], y[2]) * Eigen::Vector3d(x[0], x[1], x[2]).transpose();
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1;
+    const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r.rotation[3 * i + j] = R(i, j);
+    for (Index v = 0; v < n; ++v) {
+      const V3 y = p(b, v);
+      const Eigen::Vector3d Ry = R * Eigen::Vector3d(y[0], y[1], y[2]);
+      dev[v] = sphere_distance(p(a, v), V3{Ry[0], Ry[1], Ry[2]});
+    }
+  }
+  double sq = 0;
+  for (double d : dev) {
+    r.max_deviation = std::max(r.max_deviation, d);
+    sq += d * d;
+  }
+  r.rms_deviation = std::sqrt(sq / n);
+  r.status = Status::Ok;
+  r.message = "aligned " + std::to_string(n) + " points";
+  return r;
+}
+
+double layout_alignment_error(Geometry g, std::span<const double> a, std::span<const double> b) {
+  const LayoutAlignment r = align_layouts(g, a, b);
+  return r.status == Status::Ok ? r.max_deviation : kInf;
+}
+
+}  // namespace ricci

@@ -1,0 +1,509 @@
+// Layouts: every fixture, uniformized (flow to 1e-12 in its natural geometry), cut and laid out,
+// has the metric's edge lengths to < 1e-9 and no flipped face, and layouts from three seeds agree
+// after the fitted isometry to < 1e-9; the metric carried to refined surfaces is exact (copied
+// edges bit for bit, flat at added vertices, curvature kept at input vertices); normalisations
+// hold; alignment recovers known isometries; bad input gives a status naming the element. Shared
+// meshes (../shared/meshes, skipped when absent): figures per mesh.
+#include <doctest/doctest.h>
+
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <string>
+
+#include "ricci/cut.h"
+#include "ricci/flow.h"
+#include "ricci/io.h"
+#include "ricci/layout.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "support.h"
+
+using namespace ricci;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+struct Uniformized {
+  Mesh mesh;
+  Topology topo;
+  Geometry geometry = Geometry::Euclidean;
+  FlowResult flow;
+};
+
+Uniformized uniformize(const Mesh& mesh, const Topology& topo, double tol = 1e-12) {
+  Uniformized u;
+  u.mesh = mesh;
+  u.topo = topo;
+  u.geometry = natural_geometry(topo);
+  InitialMetricOptions o;
+  o.geometry = u.geometry;
+  const InitialMetric m = initial_metric(mesh, topo, o);
+  REQUIRE_MESSAGE(m.status == Status::Ok, m.message);
+  const Target target = uniform_target(topo, natural_boundary_mode(topo, u.geometry));
+  FlowOptions fo;
+  fo.tolerance = tol;
+  u.flow = solve_flow(topo, m.structure, m.u, target, fo);
+  return u;
+}
+
+/// The disk (cut mesh) of a uniformized surface with its edge lengths.
+struct Disk {
+  CutResult cut;
+  RefinedMetric refined;
+  Topology topo;
+  std::vector<double> l;
+};
+
+Disk cut_disk(const Uniformized& u) {
+  Disk d;
+  d.cut = cut_surface(u.mesh, u.topo);
+  REQUIRE_MESSAGE(d.cut.status == Status::Ok, d.cut.message);
+  d.refined = refined_edge_lengths(d.cut, u.topo, u.geometry, u.flow.l);
+  REQUIRE_MESSAGE(d.refined.status == Status::Ok, d.refined.message);
+  const TopologyResult t = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+  REQUIRE(t.status == Status::Ok);
+  d.topo = t.topology;
+  d.l = disk_edge_lengths(d.cut, d.refined.surface, d.refined.l, d.topo);
+  REQUIRE(d.l.size() == static_cast<std::size_t>(d.topo.num_edges));
+  return d;
+}
+
+/// Layout of a uniformized surface from a seed: the sphere directly, everything else cut open.
+Layout lay_out(const Uniformized& u, const Disk* d, Index seed, bool mobius = true) {
+  LayoutOptions o;
+  o.seed_face = seed;
+  o.sphere_mobius = mobius;
+  if (d == nullptr) return layout_sphere(u.topo, u.flow.l, o);
+  return layout_disk(d->topo, u.geometry, d->l, o);
+}
+
+Uniformized load_uniformized(const fs::path& p, double tol = 1e-12) {
+  const LoadResult lr = load_mesh(p.string());
+  REQUIRE_MESSAGE(lr.status == Status::Ok, lr.message);
+  return uniformize(lr.validated.mesh, lr.validated.topology, tol);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Checks a layout of a uniformized surface and its seed independence; returns the worst
+/// alignment error over the extra seeds.
+double check_surface(const Uniformized& u, const Disk* d, double edge_tol, bool expect_no_flips) {
+  const Index nf = d ? d->topo.num_faces : u.topo.num_faces;
+  const Layout base = lay_out(u, d, -1, false);
+  REQUIRE_MESSAGE(base.status == Status::Ok, base.message);
+  // Where double-precision coordinates cannot resolve edge_tol (H: far from the origin), the
+  // layout must reach the rounding floor instead (reported by the caller).
+  edge_tol = std::max(edge_tol, 8 * base.rounding_floor);
+  CHECK(base.max_edge_length_error < edge_tol);
+  if (expect_no_flips) CHECK(base.flipped_faces == 0);
+  CHECK(base.unplaced_vertices == 0);
+  double worst = 0;
+  for (Index seed : {Index{0}, nf / 2, nf - 1}) {
+    CAPTURE(seed);
+    const Layout other = lay_out(u, d, seed, false);
+    REQUIRE(other.status == Status::Ok);
+    CHECK(other.seed_face == seed);
+    CHECK(other.max_edge_length_error < edge_tol);
+    const LayoutAlignment a = align_layouts(u.geometry, base.positions, other.positions);
+    REQUIRE(a.status == Status::Ok);
+    worst = std::max(worst, a.max_deviation);
+    if (u.geometry == Geometry::Hyperbolic) CHECK(other.centre_of_mass < 1e-9);
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("layout: every fixture lays out with the metric's edge lengths, no flips, independent of the seed") {
+  for (const fs::path& p : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
+    INFO(p.filename().string());
+    const auto t0 = std::chrono::steady_clock::now();
+    const Uniformized u = load_uniformized(p);
+    REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
+    CHECK(u.flow.max_curvature_error < 1e-12);
+    const bool sphere = u.topo.is_closed() && u.topo.euler_characteristic() == 2;
+    Disk d;
+    if (!sphere) d = cut_disk(u);
+    const Disk* dp = sphere ? nullptr : &d;
+    const Layout base = lay_out(u, dp, -1);
+    REQUIRE(base.status == Status::Ok);
+    const double seed_error = check_surface(u, dp, 1e-9, true);
+    // The seed-independence error is a distance; what rounding allows is the floor times a length.
+    double lmax = 0;
+    for (double x : (dp ? d.l : u.flow.l)) lmax = std::max(lmax, x);
+    const double seed_tol = std::max(1e-9, 8 * base.rounding_floor * lmax);
+    CHECK(seed_error < seed_tol);
+    MESSAGE(p.filename().string() << " (" << geometry_name(u.geometry) << "): " << base.brief_report()
+                                  << ", rounding floor " << base.rounding_floor << ", seed independence "
+                                  << seed_error << ", total " << seconds_since(t0) << " s");
+    if (base.rounding_floor > 1e-10)
+      MESSAGE(p.filename().string() << ": double-precision Poincaré coordinates cannot resolve 1e-9 here (floor "
+                                    << base.rounding_floor << "); checked against 8× the floor");
+    CHECK(base.flipped_faces == 0);
+    if (sphere) {
+      // Möbius-centred layouts: centred, still unflipped, and seed independent up to a rotation.
+      CHECK(base.centre_of_mass < 1e-12);
+      CHECK(base.mobius_length_change >= 0);
+      const Layout other = lay_out(u, dp, 0);
+      CHECK(layout_alignment_error(u.geometry, base.positions, other.positions) < 1e-9);
+    } else if (u.geometry == Geometry::Hyperbolic) {
+      CHECK(base.centre_of_mass < 1e-9);
+    }
+  }
+}
+
+TEST_CASE("layout: the metric carried to refined surfaces is exact in E, H and S") {
+  using namespace ricci_shapes;
+  Index refined_meshes = 0;
+  for (const Mesh& m : {torus(3, 3, 2.0, 0.8), torus(4, 3, 2.0, 0.7), pretzel(2, 2)}) {
+    const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+    REQUIRE(tr.status == Status::Ok);
+    const Topology& t = tr.topology;
+    const CutResult cut = cut_surface(m, t);
+    REQUIRE(cut.status == Status::Ok);
+    if (cut.num_refined_vertices() == 0) continue;
+    ++refined_meshes;
+    // Any metric will do: the 3D lengths, scaled so that spherical faces are small enough.
+    std::vector<double> l3(static_cast<std::size_t>(t.num_edges));
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      l3[e] = std::hypot(m.positions[3 * a] - m.positions[3 * b], m.positions[3 * a + 1] - m.positions[3 * b + 1],
+                         m.positions[3 * a + 2] - m.positions[3 * b + 2]);
+    }
+    for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+      INFO(geometry_name(g));
+      std::vector<double> l = l3;
+      if (g == Geometry::Spherical)
+        for (double& x : l) x *= 0.3;
+      const RefinedMetric r = refined_edge_lengths(cut, t, g, l);
+      REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+      const Topology& s = r.surface;
+      CHECK(r.edges_copied + r.edges_computed == s.num_edges);
+      CHECK(r.edges_computed > 0);
+      // Input edges keep their lengths bit for bit; split edges add up.
+      Index copied = 0;
+      for (Index e = 0; e < s.num_edges; ++e) {
+        const Index a = s.edge_vertices[2 * e], b = s.edge_vertices[2 * e + 1];
+        if (a >= t.num_vertices || b >= t.num_vertices) continue;
+        for (Index i = t.vertex_corner_offsets[a]; i < t.vertex_corner_offsets[a + 1]; ++i) {
+          const Index c = t.vertex_corners[i];
+          if (t.corner_vertex[next_corner(c)] == b) {
+            CHECK(r.l[e] == l[t.corner_edge[prev_corner(c)]]);
+            ++copied;
+          }
+        }
+      }
+      CHECK(copied == r.edges_copied);
+      // Angles: flat at every added vertex, the input's angle sums at input vertices.
+      std::vector<double> th(static_cast<std::size_t>(s.num_corners())), K(static_cast<std::size_t>(s.num_vertices));
+      REQUIRE(corner_angles(s, g, r.l, th).violations == 0);
+      vertex_curvature(s, th, K);
+      std::vector<double> th0(static_cast<std::size_t>(t.num_corners())), K0(static_cast<std::size_t>(t.num_vertices));
+      REQUIRE(corner_angles(t, g, l, th0).violations == 0);
+      vertex_curvature(t, th0, K0);
+      double flat = 0, kept = 0;
+      for (Index v = 0; v < s.num_vertices; ++v) {
+        if (v >= t.num_vertices)
+          flat = std::max(flat, std::abs(K[v]));
+        else
+          kept = std::max(kept, std::abs(K[v] - K0[v]));
+      }
+      CHECK(flat < 1e-12);
+      CHECK(kept < 1e-12);
+      // Areas add up per input face.
+      std::vector<double> A(static_cast<std::size_t>(s.num_faces)), A0(static_cast<std::size_t>(t.num_faces));
+      face_areas(s, g, r.l, th, A);
+      face_areas(t, g, l, th0, A0);
+      std::vector<double> covered(static_cast<std::size_t>(t.num_faces), 0.0);
+      for (Index f = 0; f < s.num_faces; ++f) covered[cut.surface_face_to_input[f]] += A[f];
+      for (Index f = 0; f < t.num_faces; ++f) CHECK(std::abs(covered[f] - A0[f]) < 1e-12 * std::max(1.0, A0[f]));
+      // Disk lengths: each disk edge has the length of the surface edge in the same face slot.
+      const TopologyResult dt = build_topology(cut.cut_faces, cut.num_cut_vertices());
+      REQUIRE(dt.status == Status::Ok);
+      const std::vector<double> ld = disk_edge_lengths(cut, s, r.l, dt.topology);
+      REQUIRE(ld.size() == static_cast<std::size_t>(dt.topology.num_edges));
+      for (Index c = 0; c < dt.topology.num_corners(); ++c) CHECK(ld[dt.topology.corner_edge[c]] == r.l[s.corner_edge[c]]);
+    }
+  }
+  CHECK(refined_meshes >= 1);
+}
+
+TEST_CASE("layout: the uniformized coarse genus-2 surface, refined by its cut, lays out exactly") {
+  const Mesh m = ricci_shapes::pretzel(2, 2);
+  const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+  REQUIRE(tr.status == Status::Ok);
+  const Uniformized u = uniformize(m, tr.topology);
+  REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
+  const Disk d = cut_disk(u);
+  CHECK(d.cut.num_refined_vertices() > 0);
+  const double seed_error = check_surface(u, &d, 1e-9, true);
+  CHECK(seed_error < 1e-9);
+}
+
+TEST_CASE("layout: normalisations") {
+  const Uniformized u = load_uniformized(ricci_test::fixtures_dir() / "disk.obj");
+  const Disk d = cut_disk(u);
+  LayoutOptions o;
+  o.normalize = true;
+  const Layout plain = layout_disk(d.topo, Geometry::Euclidean, d.l, o);
+  REQUIRE(plain.status == Status::Ok);
+  // E: seed corner 0 at the origin, seed edge on +x.
+  const Index s0 = d.topo.corner_vertex[3 * plain.seed_face], s1 = d.topo.corner_vertex[3 * plain.seed_face + 1];
+  CHECK(plain.positions[2 * s0] == 0);
+  CHECK(plain.positions[2 * s0 + 1] == 0);
+  CHECK(plain.positions[2 * s1] > 0);
+  CHECK(plain.positions[2 * s1 + 1] == 0);
+  o.unit_box = true;
+  const Layout box = layout_disk(d.topo, Geometry::Euclidean, d.l, o);
+  REQUIRE(box.status == Status::Ok);
+  double lo[2] = {1, 1}, hi[2] = {0, 0};
+  for (Index v = 0; v < d.topo.num_vertices; ++v)
+    for (int k = 0; k < 2; ++k) {
+      lo[k] = std::min(lo[k], box.positions[2 * v + k]);
+      hi[k] = std::max(hi[k], box.positions[2 * v + k]);
+    }
+  CHECK(lo[0] == 0);
+  CHECK(lo[1] == 0);
+  CHECK(std::max(hi[0], hi[1]) == doctest::Approx(1).epsilon(1e-15));
+  CHECK(box.max_edge_length_error == plain.max_edge_length_error);
+  double plo[2] = {1e300, 1e300};
+  for (std::size_t i = 0; i < plain.positions.size(); ++i) plo[i % 2] = std::min(plo[i % 2], plain.positions[i]);
+  for (std::size_t i = 0; i < box.positions.size(); ++i)
+    CHECK(std::abs(box.positions[i] - (plain.positions[i] - plo[i % 2]) * box.scale) < 1e-14);
+  // H: the same disk in the hyperbolic plane with the same lengths scaled down: centred.
+  std::vector<double> lh = d.l;
+  for (double& x : lh) x *= 0.05;
+  const Layout h = layout_disk(d.topo, Geometry::Hyperbolic, lh, o);
+  REQUIRE(h.status == Status::Ok);
+  CHECK(h.centre_of_mass < 1e-12);
+  const Index hv = d.topo.corner_vertex[3 * h.seed_face];
+  CHECK(std::abs(h.positions[2 * hv + 1]) < 1e-15);
+  CHECK(h.positions[2 * hv] >= 0);
+  for (Index v = 0; v < d.topo.num_vertices; ++v) CHECK(std::hypot(h.positions[2 * v], h.positions[2 * v + 1]) < 1);
+  // S: isometric (rotation only) vs Möbius-centred.
+  const Uniformized s = load_uniformized(ricci_test::fixtures_dir() / "icosphere.obj");
+  LayoutOptions so;
+  so.sphere_mobius = false;
+  const Layout iso = layout_sphere(s.topo, s.flow.l, so);
+  REQUIRE(iso.status == Status::Ok);
+  CHECK(iso.mobius_length_change == 0);
+  CHECK(iso.max_edge_length_error < 1e-9);
+  const Layout mob = layout_sphere(s.topo, s.flow.l);
+  REQUIRE(mob.status == Status::Ok);
+  CHECK(mob.centre_of_mass < 1e-12);
+  CHECK(mob.normalization_iterations >= 0);
+  CHECK(mob.flipped_faces == 0);
+  for (Index v = 0; v < s.topo.num_vertices; ++v) {
+    const double n = std::hypot(mob.positions[3 * v], mob.positions[3 * v + 1], mob.positions[3 * v + 2]);
+    CHECK(std::abs(n - 1) < 1e-14);
+  }
+  const Index sv = s.topo.corner_vertex[3 * mob.seed_face];
+  CHECK(mob.positions[3 * sv + 2] == doctest::Approx(1).epsilon(1e-14));
+  // A layout far from centred gets centred: push the isometric one by a Möbius map first.
+  MESSAGE("icosphere Möbius centring: " << mob.normalization_iterations << " steps, length change "
+                                        << mob.mobius_length_change);
+}
+
+TEST_CASE("layout: alignment recovers known isometries") {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> U(-1, 1);
+  for (int trial = 0; trial < 5; ++trial) {
+    CAPTURE(trial);
+    const Index n = 50;
+    // E
+    std::vector<double> a(2 * n), b(2 * n);
+    for (double& x : a) x = 3 * U(rng);
+    const double ang = kPi * U(rng), tx = U(rng), ty = U(rng);
+    for (Index v = 0; v < n; ++v) {
+      const double x = a[2 * v], y = a[2 * v + 1];
+      b[2 * v] = std::cos(ang) * x - std::sin(ang) * y + tx;
+      b[2 * v + 1] = std::sin(ang) * x + std::cos(ang) * y + ty;
+    }
+    LayoutAlignment r = align_layouts(Geometry::Euclidean, a, b);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.max_deviation < 1e-13);
+    CHECK(std::abs(std::remainder(r.angle + ang, 2 * kPi)) < 1e-13);
+    b[0] += 1e-3;
+    CHECK(align_layouts(Geometry::Euclidean, a, b).max_deviation > 1e-4);
+    // H
+    using Cx = std::complex<double>;
+    const Cx z0(0.6 * U(rng), 0.6 * U(rng));
+    const Cx rot = std::polar(1.0, kPi * U(rng));
+    for (Index v = 0; v < n; ++v) {
+      Cx z(0.7 * U(rng), 0.7 * U(rng));
+      if (std::abs(z) > 0.9) z *= 0.5;
+      a[2 * v] = z.real();
+      a[2 * v + 1] = z.imag();
+      const Cx w = rot * (z - z0) / (1.0 - std::conj(z0) * z);
+      b[2 * v] = w.real();
+      b[2 * v + 1] = w.imag();
+    }
+    // b = M(a): fit takes b onto a, i.e. M⁻¹; applying it to b gives a; check against a fit of the reverse.
+    r = align_layouts(Geometry::Hyperbolic, b, a);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.max_deviation < 1e-12);
+    CHECK(std::abs(r.translation[0] - z0.real()) < 1e-12);
+    CHECK(std::abs(r.translation[1] - z0.imag()) < 1e-12);
+    CHECK(std::abs(std::remainder(r.angle - std::arg(rot), 2 * kPi)) < 1e-12);
+    // S
+    std::vector<double> p(3 * n), q(3 * n);
+    for (Index v = 0; v < n; ++v) {
+      double x[3] = {U(rng), U(rng), U(rng)};
+      const double nn = std::hypot(x[0], x[1], x[2]);
+      for (int k = 0; k < 3; ++k) p[3 * v + k] = x[k] / nn;
+    }
+    const double ax = U(rng), c = std::cos(ax), s = std::sin(ax);
+    for (Index v = 0; v < n; ++v) {  // rotation about (0, 0, 1) then swap axes (det −1 · −1 = +1)
+      const double x = p[3 * v], y = p[3 * v + 1], z = p[3 * v + 2];
+      q[3 * v] = c * x - s * y;
+      q[3 * v + 1] = z;
+      q[3 * v + 2] = -(s * x + c * y);
+    }
+    r = align_layouts(Geometry::Spherical, p, q);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(r.max_deviation < 1e-13);
+    double det = 0;
+    const double* R = r.rotation;
+    det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) + R[2] * (R[3] * R[7] - R[4] * R[6]);
+    CHECK(det == doctest::Approx(1).epsilon(1e-13));
+  }
+}
+
+TEST_CASE("layout: bad input gives a status naming the element, never NaN") {
+  const Mesh m = ricci_shapes::disk(4);
+  const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges), 0.1);
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    INFO(geometry_name(g));
+    Layout r = layout_disk(t, g, l);
+    REQUIRE(r.status == Status::Ok);
+    if (g == Geometry::Euclidean) {  // equilateral and valence 6 inside: flat only in E
+      CHECK(r.max_edge_length_error < 1e-12);
+      CHECK(r.flipped_faces == 0);
+    }
+    r = layout_disk(t, g, std::span<const double>(l.data(), l.size() - 1));
+    CHECK(r.status == Status::InvalidArgument);
+    CHECK(r.positions.empty());
+    for (double bad : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+      std::vector<double> lb = l;
+      lb[7] = bad;
+      r = layout_disk(t, g, lb);
+      CHECK(r.status == Status::DegenerateFace);
+      CHECK(r.element == Element::Edge);
+      CHECK(r.element_index == 7);
+      CHECK(r.message.find("edge 7") != std::string::npos);
+      CHECK(r.positions.empty());
+    }
+    std::vector<double> lt = l;
+    lt[t.corner_edge[3 * 5]] = 0.25;  // face 5: 0.25 > 0.1 + 0.1
+    r = layout_disk(t, g, lt);
+    CHECK(r.status == Status::TriangleInequality);
+    CHECK(r.element == Element::Face);
+    CHECK(r.message.find("face") != std::string::npos);
+    CHECK(r.positions.empty());
+    LayoutOptions o;
+    o.seed_face = t.num_faces;
+    CHECK(layout_disk(t, g, l, o).status == Status::InvalidArgument);
+    o.seed_face = -2;
+    CHECK(layout_disk(t, g, l, o).status == Status::InvalidArgument);
+  }
+  // Spherical: perimeter ≥ 2π, lengths ≥ π.
+  std::vector<double> ls(static_cast<std::size_t>(t.num_edges), 2.2);
+  Layout r = layout_disk(t, Geometry::Spherical, ls);
+  CHECK(r.status == Status::TriangleInequality);
+  ls.assign(ls.size(), 3.2);
+  CHECK(layout_disk(t, Geometry::Spherical, ls).status == Status::DegenerateFace);
+  // Wrong topology.
+  const Mesh tor = ricci_shapes::torus(8, 6, 2.0, 0.7);
+  const TopologyResult tt = build_topology(tor.faces, tor.num_vertices());
+  REQUIRE(tt.status == Status::Ok);
+  const std::vector<double> lt(static_cast<std::size_t>(tt.topology.num_edges), 0.1);
+  r = layout_disk(tt.topology, Geometry::Euclidean, lt);
+  CHECK(r.status == Status::InvalidArgument);
+  CHECK(r.message.find("disk") != std::string::npos);
+  CHECK(layout_sphere(tt.topology, lt).status == Status::InvalidArgument);
+  CHECK(layout_sphere(t, l).status == Status::InvalidArgument);
+  CHECK(layout_disk(Topology{}, Geometry::Euclidean, {}).status == Status::InvalidArgument);
+  // Refined lengths: wrong sizes, bad values, a cut that did not run.
+  const CutResult cut = cut_surface(tor, tt.topology);
+  REQUIRE(cut.status == Status::Ok);
+  CHECK(refined_edge_lengths(cut, tt.topology, Geometry::Euclidean, std::vector<double>(3, 1.0)).status ==
+        Status::InvalidArgument);
+  std::vector<double> lb = lt;
+  lb[3] = std::numeric_limits<double>::quiet_NaN();
+  const RefinedMetric rb = refined_edge_lengths(cut, tt.topology, Geometry::Euclidean, lb);
+  CHECK(rb.status == Status::DegenerateFace);
+  CHECK(rb.element_index == 3);
+  CHECK(rb.l.empty());
+  CHECK(refined_edge_lengths(CutResult{}, tt.topology, Geometry::Euclidean, lt).status == Status::InvalidArgument);
+  CHECK(refined_edge_lengths(cut, t, Geometry::Euclidean, l).status == Status::InvalidArgument);
+  CHECK(disk_edge_lengths(cut, tt.topology, std::vector<double>(2, 1.0), tt.topology).empty());
+  // Alignment: sizes, points outside the model.
+  const std::vector<double> p2 = {0.1, 0.2, 0.3, 0.4}, p3 = {0.1, 0.2};
+  CHECK(align_layouts(Geometry::Euclidean, p2, p3).status == Status::InvalidArgument);
+  CHECK(std::isinf(layout_alignment_error(Geometry::Euclidean, p2, p3)));
+  CHECK(align_layouts(Geometry::Hyperbolic, p2, std::vector<double>{0.1, 0.2, 1.3, 0.4}).status ==
+        Status::InvalidArgument);
+  CHECK(align_layouts(Geometry::Spherical, std::vector<double>{1, 0, 0}, std::vector<double>{2, 0, 0}).status ==
+        Status::InvalidArgument);
+  CHECK(align_layouts(Geometry::Euclidean, p2, std::vector<double>{0.1, std::nan(""), 0.3, 0.4}).status ==
+        Status::InvalidArgument);
+}
+
+TEST_CASE("layout: shared real meshes (figures per mesh)") {
+  const fs::path root = ricci_test::shared_meshes_dir();
+  if (root.empty()) {
+    MESSAGE("skipped: ../shared/meshes is absent");
+    return;
+  }
+#ifdef NDEBUG
+  const Index max_faces = 20000;  // larger ones (camelhead, rocker-arm, cup) pass too but cost ~10 s
+#else
+  const Index max_faces = 3000;
+#endif
+  for (const char* folder : {"genus0", "genus1", "genus2", "genus3plus", "boundary"}) {
+    for (const fs::path& p : ricci_test::mesh_files(root / folder)) {
+      INFO(p.string());
+      const LoadResult lr = load_mesh(p.string());
+      if (lr.status != Status::Ok || lr.validated.topology.num_faces > max_faces) continue;
+      const auto t0 = std::chrono::steady_clock::now();
+      const Uniformized u = uniformize(lr.validated.mesh, lr.validated.topology);
+      if (u.flow.status != Status::Ok && u.flow.status != Status::NotConverged) {
+        MESSAGE(p.filename().string() << ": flow " << u.flow.brief_report() << " — no layout");
+        continue;
+      }
+      const bool sphere = u.topo.is_closed() && u.topo.euler_characteristic() == 2;
+      Disk d;
+      if (!sphere) d = cut_disk(u);
+      const Disk* dp = sphere ? nullptr : &d;
+      const Layout base = lay_out(u, dp, -1, false);
+      REQUIRE_MESSAGE(base.status == Status::Ok, base.message);
+      const Layout other = lay_out(u, dp, 0, false);
+      REQUIRE(other.status == Status::Ok);
+      const double seed_error = layout_alignment_error(u.geometry, base.positions, other.positions);
+      MESSAGE(p.filename().string() << ": F " << u.topo.num_faces << ", " << geometry_name(u.geometry)
+                                    << ", curvature error " << u.flow.max_curvature_error << ", "
+                                    << base.brief_report() << ", rounding floor " << base.rounding_floor
+                                    << "; seed face 0: edge error "
+                                    << other.max_edge_length_error << ", flips " << other.flipped_faces
+                                    << "; seed independence " << seed_error << "; total " << seconds_since(t0)
+                                    << " s");
+      CHECK(base.unplaced_vertices == 0);
+      CHECK(base.flipped_faces == 0);
+      CHECK(other.flipped_faces == 0);
+      // < 1e-9 wherever double-precision coordinates can hold it (see Layout::rounding_floor).
+      CHECK(base.max_edge_length_error < std::max(1e-9, 8 * base.rounding_floor));
+      CHECK(other.max_edge_length_error < std::max(1e-9, 8 * other.rounding_floor));
+    }
+  }
+}
