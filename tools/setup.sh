@@ -14,6 +14,7 @@ packages=(
   nlohmann-json3-dev      # nlohmann-json: JSON reports
   pkg-config              # finds cairo
   libcairo2-dev           # cairo: PNG and SVG pictures
+  libfontconfig-dev       # fontconfig: fonts for the pictures' text (released at exit)
 )
 
 missing=()

@@ -1,0 +1,234 @@
+// ricci — deck transformations of a laid-out fundamental polygon and the universal cover.
+//
+//   CutResult cut = cut_surface(mesh, topology);                   // canonical, closed, genus g ≥ 1
+//   std::vector<double> uv = …;                                    // #Vc×2 layout per cut vertex
+//   DeckResult deck = fit_deck_transformations(cut, Geometry::Hyperbolic, uv);
+//   CoverResult cover = universal_cover(cut, uv, deck, {.depth = 3});
+//   Mesh tiling = cover_mesh(cut, uv, cover);          std::string svg = cover_svg(cut, uv, cover);
+//
+// Layouts: E (genus 1) in the plane, H (genus ≥ 2) in the Poincaré disk |z| < 1 with the metric
+// 2|dz|/(1 − |z|²) (curvature −1); positions are (x, y) = (Re z, Im z) per cut vertex.
+//
+// ---- Which side maps to which -------------------------------------------------------------
+// The disk boundary reads a1 b1 a1^-1 b1^-1 … ag bg ag^-1 bg^-1 counter-clockwise (disk on the
+// left). For each letter x ∈ {a_i, b_i} let s be the side labelled x (orientation +1) and p its
+// partner x^-1, n vertices each. The deck generator X is the orientation-preserving isometry that
+// maps side s onto side p, reversing its direction:
+//     X(z_s[k]) = z_p[n−1−k],   k = 0 … n−1     (z_s[k]: position of side_vertices of s, k-th)
+// so X carries the polygon P to its neighbour across p (X(P) ∩ P = side p), and X^-1(P) is the
+// neighbour across s. A_i, B_i denote the generators of a_i, b_i.
+//
+// ---- The relation ---------------------------------------------------------------------------
+// Composition M·N means "apply N first". Following the single vertex cycle of the polygon
+// (Poincaré's theorem: corner angles sum to 2π) gives, up to a cyclic rotation,
+//     R = [A_1^-1, B_1] [A_2^-1, B_2] … [A_g^-1, B_g] = 1,   [x, y] = x y x^-1 y^-1.
+// With corners v0 … v(4g−1) (v_j the start of side j), A_i maps v(4i−4) ↦ v(4i−1) and
+// v(4i−3) ↦ v(4i−2), B_i maps v(4i−3) ↦ v(4i) and v(4i−2) ↦ v(4i−1) (indices mod 4g). Applied to
+// v0, R's letters (rightmost first) visit every corner once and return: for g = 2
+// v0 →B2⁻¹ v5 →A2 v6 →B2 v7 →A2⁻¹ v4 →B1⁻¹ v1 →A1 v2 →B1 v3 →A1⁻¹ v0, so R fixes v0, and with the
+// corner angles summing to 2π it is the identity (the other order Π [A_i, B_i] is not).
+// H: relation_error = min ‖R' ∓ I‖ (largest entry modulus) for R' = C R C^-1, C the Möbius map
+// moving v0 to the origin, computed in long double. Conjugating first keeps every partial product
+// a map between tiles around the origin, with small entries; the unconjugated ‖R ∓ I‖ (R itself is
+// reported as `relator`) is dominated by rounding in the partial products, whose norms grow with
+// the polygon's circumradius (≈ 4e-12 at genus 4 for the exact regular 16-gon in double).
+// E: every deck map is additionally fitted as a rigid motion (Procrustes) and relation_error is
+// the largest displacement of a polygon vertex by the rigid-motion product R (translations alone
+// commute, so the translation relation holds exactly; the rigid fit checks the layout).
+//
+// Bad input (sizes, non-finite positions, |z| ≥ 1 in H, a cut that is not canonical, not closed,
+// or of the wrong genus for the geometry) is a status with a message, never NaN or a crash.
+#pragma once
+
+#include <array>
+#include <complex>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ricci/cut.h"
+#include "ricci/mesh.h"
+#include "ricci/metric.h"
+#include "ricci/status.h"
+
+namespace ricci {
+
+// ---- Möbius maps of the Poincaré disk -------------------------------------------------------
+
+/// An orientation-preserving isometry of the Poincaré disk as an SU(1,1) matrix [[a, b], [b̄, ā]]
+/// with |a|² − |b|² = 1, acting by z ↦ (a z + b)/(b̄ z + ā). M and −M are the same map.
+/// Equivalently z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z) with a = e^{iθ/2}/s, b = −e^{iθ/2} z₀/s,
+/// s = √(1 − |z₀|²); z₀ = M^-1(0) is the point sent to the origin.
+struct Moebius {
+  std::complex<double> a{1, 0};
+  std::complex<double> b{0, 0};
+
+  /// z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z); requires |z₀| < 1.
+  static Moebius from_theta_z0(double theta, std::complex<double> z0);
+  /// z ↦ e^{iθ} z.
+  static Moebius rotation(double theta);
+  /// The hyperbolic translation along the real axis by distance d (0 ↦ tanh(d/2)).
+  static Moebius translation_real(double d);
+  /// The map z ↦ (z − p)/(1 − p̄ z) sending p (|p| < 1) to 0.
+  static Moebius to_origin(std::complex<double> p);
+
+  std::complex<double> apply(std::complex<double> z) const;
+  /// 1 − |M(z)|² = (1 − |z|²)/|b̄ z + ā|², exact for |z| near 1 (given 1 − |z|²).
+  double one_minus_abs2_of_image(std::complex<double> z, double one_minus_abs2_z) const;
+  Moebius inverse() const { return {std::conj(a), -b}; }
+  /// Rescales to |a|² − |b|² = 1 (removes rounding drift after many products).
+  Moebius normalized() const;
+  /// θ ∈ (−π, π] and z₀ of the e^{iθ}(z − z₀)/(1 − z̄₀ z) form.
+  double theta() const;
+  std::complex<double> z0() const;
+  /// Translation length 2 arccosh |Re a| of a hyperbolic element (0 when |Re a| ≤ 1).
+  double translation_length() const;
+};
+
+/// Composition: (M * N)(z) = M(N(z)).
+Moebius operator*(const Moebius& m, const Moebius& n);
+
+/// min over the sign of the largest entry modulus of M ∓ N (both taken as SU(1,1) matrices).
+double moebius_difference(const Moebius& m, const Moebius& n);
+/// moebius_difference(M, identity).
+double distance_to_identity(const Moebius& m);
+
+/// Hyperbolic distance d(z, w) = 2 artanh |(z − w)/(1 − w̄ z)| in the disk (curvature −1),
+/// accurate in relative terms for tiny distances and near the unit circle (uses
+/// 1 − x² = (1 − |z|²)(1 − |w|²)/|1 − w̄ z|²). +∞ when |z| ≥ 1 or |w| ≥ 1.
+double hyperbolic_distance(std::complex<double> z, std::complex<double> w);
+
+/// The Möbius map sending z1 ↦ w1 and the geodesic direction z1→z2 to w1→w2 (exact when
+/// d(z1, z2) = d(w1, w2)). Identity when z1 = z2 or w1 = w2.
+Moebius moebius_from_two_points(std::complex<double> z1, std::complex<double> z2,
+                                std::complex<double> w1, std::complex<double> w2);
+
+// ---- Deck transformations -----------------------------------------------------------------
+
+struct DeckOptions {
+  /// Ceres: iteration limit and tolerances of the Levenberg–Marquardt fit (H only).
+  int max_iterations = 100;
+  double function_tolerance = 1e-20;
+  double gradient_tolerance = 1e-20;
+  double parameter_tolerance = 1e-18;
+  /// Fit rounds: each round re-linearises the parametrization M = M_k · N(δ) at the last fit.
+  int rounds = 2;
+
+  bool is_valid(std::string* why) const;
+};
+
+struct DeckGenerator {
+  std::string name;    ///< "a1", "b1", …
+  Index side = -1;     ///< the side labelled `name` (orientation +1)
+  Index partner = -1;  ///< the side labelled name^-1; the map sends `side` onto `partner`
+  Geometry geometry = Geometry::Hyperbolic;
+  /// H: z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z) and the same map as SU(1,1) (a, b); translation_length.
+  double theta = 0;
+  std::complex<double> z0{0, 0};
+  Moebius map;
+  double translation_length = 0;
+  /// E: z ↦ z + t, least squares over all pairs (the mean of the differences); `rotation` is the
+  /// angle of the rigid-motion (Procrustes) fit, ≈ 0 for a flat torus layout.
+  std::array<double, 2> translation{0, 0};
+  double rotation = 0;
+  /// Residuals d(X(z_s[k]), z_p[n−1−k]) over the side's vertex pairs (hyperbolic distance in H,
+  /// euclidean in E): max and root mean square, and the number of pairs n.
+  double residual_max = 0;
+  double residual_rms = 0;
+  Index pairs = 0;
+  /// The maps fitted from single edges (k, k+1) by moebius_from_two_points (E: the translation of
+  /// the edge's two pairs): the largest distance, over edges and over the side's vertices, between
+  /// the images under the single-edge map and under the fitted map. Small when they agree.
+  double single_edge_spread = 0;
+  /// Residuals of the closed-form start (the two-point estimate from the side's end vertices;
+  /// E: the translation of the first pair) before the fit.
+  double initial_residual_max = 0;
+  double initial_residual_rms = 0;
+};
+
+struct DeckResult {
+  /// Ok: generators and relation_error are valid. InvalidArgument: options, buffer sizes, a cut
+  /// that is not Ok / canonical / closed, a geometry that does not match the genus (E: g = 1,
+  /// H: g ≥ 2), |z| ≥ 1 in H (message names the vertex). NonFiniteCoordinate: a position is NaN
+  /// or ∞. NumericalFailure: a side is degenerate (coincident ends) or the fit left the disk.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Geometry geometry = Geometry::Hyperbolic;
+  Index genus = 0;
+  /// In canonical order a1 b1 a2 b2 … ag bg.
+  std::vector<DeckGenerator> generators;
+  /// See the header comment: ‖R ∓ I‖ (H) or the largest vertex displacement by R (E).
+  double relation_error = 0;
+  /// H: the relator R = Π [A_i^-1, B_i] itself (in double, not conjugated).
+  Moebius relator;
+  /// Largest residual_max and single_edge_spread over the generators.
+  double residual_max = 0;
+  double single_edge_spread = 0;
+  int ceres_iterations = 0;
+  double seconds = 0;
+
+  std::string brief_report() const;
+};
+
+/// Fits one deck generator per pair of partner loop sides of a canonical cut of a closed surface
+/// (see the header comment for the direction and the relation). `positions`: #Vc×2 per cut
+/// vertex. E: least-squares translation (closed form); H: two-point estimate, then Ceres
+/// Levenberg–Marquardt over all vertex pairs with residual vectors of length d(X(z), w).
+/// Deterministic.
+DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry,
+                                    std::span<const double> positions, const DeckOptions& options = {});
+
+// ---- Universal cover ----------------------------------------------------------------------
+
+struct CoverOptions {
+  /// H: reduced words in A_i^±1, B_i^±1 up to this length. E: a depth×depth block of translates
+  /// a1^m b1^n (m, n centred on 0).
+  Index depth = 3;
+  /// H: keep (and extend) only elements moving the polygon's reference point (the mean of its
+  /// vertices) into |z| ≤ radius. 1: no limit.
+  double radius = 1;
+  /// H: two words are the same element when the images of the reference point are closer than
+  /// this hyperbolic distance (the group acts freely, so distinct elements move it apart).
+  double dedup_tolerance = 1e-6;
+  /// Stop after this many copies (the result then says truncated).
+  Index max_copies = 20000;
+
+  bool is_valid(std::string* why) const;
+};
+
+struct CoverElement {
+  std::string word;  ///< e.g. "a1 b2^-1"; "" for the identity (E: "a1^2 b1^-1")
+  Index length = 0;  ///< word length (E: |m| + |n|)
+  Moebius map;       ///< H
+  std::array<double, 2> translation{0, 0};  ///< E
+};
+
+struct CoverResult {
+  /// Ok: elements are valid. InvalidArgument: options or a deck result that is not Ok.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Geometry geometry = Geometry::Hyperbolic;
+  /// Distinct group elements, the identity first, then by word length (BFS order).
+  std::vector<CoverElement> elements;
+  Index words_generated = 0;  ///< reduced words tried (before deduplication)
+  bool truncated = false;     ///< max_copies was reached
+};
+
+/// Group elements of the deck group for tiling (see CoverOptions).
+CoverResult universal_cover(const CutResult& cut, std::span<const double> positions,
+                            const DeckResult& deck, const CoverOptions& options = {});
+
+/// The tiling as one mesh: every element's copy of the disk (cut_faces over the copy's own
+/// vertices, positions (x, y, 0)), then vertices on the polygon boundary of different copies that
+/// coincide are merged: within hyperbolic distance `merge_tolerance` (H), or euclidean distance
+/// merge_tolerance × (polygon diameter) (E); the first copy's vertex is kept. Interior vertices
+/// are never merged. Empty mesh when the inputs do not match.
+Mesh cover_mesh(const CutResult& cut, std::span<const double> positions, const CoverResult& cover,
+                double merge_tolerance = 1e-6);
+
+/// The tiling as an SVG document: H the unit circle and every copy's boundary polygon, E the
+/// copies in a box around them; filled with a colour per word length and outlined. Empty string
+/// when the inputs do not match.
+std::string cover_svg(const CutResult& cut, std::span<const double> positions, const CoverResult& cover);
+
+}  // namespace ricci
