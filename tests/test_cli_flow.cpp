@@ -353,6 +353,32 @@ TEST_CASE("cli flow: an infeasible target exits 8 and writes nothing") {
   CHECK(directory_entries(dir.path()) == std::vector<std::string>{"cones.txt"});
 }
 
+TEST_CASE("cli flow: circle domains are Möbius-normalized by default; --no-circle-normalization is exact") {
+  // A bent disk: its map to the unit disk is far from the identity.
+  TempDir dir;
+  ricci::Mesh bent = ricci_shapes::disk(20);
+  for (std::size_t i = 0; i < bent.positions.size(); i += 3) {
+    const double x = bent.positions[i], y = bent.positions[i + 1];
+    bent.positions[i + 2] = 0.6 * (x * x - 0.5 * y * y) + 0.3 * x;
+  }
+  const path input = dir / "bent.obj";
+  REQUIRE(ricci::write_mesh(input.string(), bent).status == ricci::Status::Ok);
+  auto noted = [](const FlowRun& f) {
+    bool found = false;
+    for (const auto& note : f.j["notes"]) found = found || note.get<std::string>().find("Möbius normalization") != std::string::npos;
+    return found;
+  };
+  const FlowRun normalized = run_flow({input.string()});
+  check_converged(normalized);
+  CHECK(normalized.j["boundary"] == "circle");
+  CHECK(noted(normalized));
+  const FlowRun exact = run_flow({input.string(), "--no-circle-normalization"});
+  check_converged(exact);
+  CHECK(!noted(exact));
+  // The exact target is nearly Möbius invariant: Newton needs more (damped) steps.
+  CHECK(exact.j["iterations"].get<int>() > normalized.j["iterations"].get<int>());
+}
+
 TEST_CASE("cli flow: separating cycles get relaxed angles by default; --no-angle-relax keeps Step 2's") {
   // A torus whose split faces are split again has valence-3 vertices in thin, obtuse triangles,
   // where Step 2's angles violate Theorem 4 for uniformization.
