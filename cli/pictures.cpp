@@ -351,6 +351,7 @@ Picture draw(const Drawing& g, int width, int height) {
     auto Y = [&](double y) { return cy - s * y; };
     if (!g.title.empty()) draw_text(cr, 0.5 * w, 22, g.title, 16, true);
     if (g.domain != Domain::Plane) {
+      cairo_new_path(cr);  // the title's text leaves a current point; the circle must not join it
       cairo_arc(cr, X(0), Y(0), s, 0, 2 * kPi);
       set_colour(cr, 0xFFF7F7F7);
       cairo_fill_preserve(cr);
