@@ -17,6 +17,7 @@
 //   8  infeasible target curvature: infeasible_target (Gauss–Bonnet or admissibility violated)
 #pragma once
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -118,6 +119,12 @@ ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptio
 
 /// The `repairs` array of the JSON reports.
 nlohmann::ordered_json repairs_json(const std::vector<ricci::Repair>& repairs);
+/// Best-effort early test that `a` and `b` name the same file (atomic writes check again).
+bool same_file(const std::string& a, const std::string& b);
+/// Appends the shortest round-trip decimal of x.
+void append_number(std::string& out, double x);
+void append_number(std::string& out, std::int64_t x);
+
 /// Flushes stdout and returns `code`, or kExitOutputFailure if stdout could not be written.
 int finish_stdout(int code);
 

@@ -35,21 +35,6 @@ using ricci::Index;
 using ricci::Status;
 namespace fs = std::filesystem;
 
-bool same_path(const std::string& a, const std::string& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec)) return true;
-  const fs::path ca = fs::weakly_canonical(a, ec);
-  if (ec) return false;
-  const fs::path cb = fs::weakly_canonical(b, ec);
-  return !ec && ca == cb;
-}
-
-void append_number(std::string& out, double x) {
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, x);
-  out.append(buf, r.ptr);
-}
-
 /// The companion file with the sides and generators as OBJ polylines.
 std::string loops_file(const ricci::CutResult& r, const std::string& source) {
   std::string s;
@@ -132,9 +117,9 @@ int run_cut(const CutCommandOptions& options) {
                   "-o " + options.output + ": use a mesh extension (.obj, .off or .ply) for the cut mesh",
                   kExitUsage);
     for (const std::string& p : protected_paths)
-      if (same_path(options.output, p) || same_path(loops, p))
+      if (same_file(options.output, p) || same_file(loops, p))
         return fail(Status::OutputIsInput,
-                    "refusing to write " + (same_path(options.output, p) ? options.output : loops) +
+                    "refusing to write " + (same_file(options.output, p) ? options.output : loops) +
                         ": it is the input file " + p + "; nothing was written",
                     kExitOutputFailure);
   }

@@ -222,35 +222,12 @@ bool has_extension(const std::string& path, std::initializer_list<const char*> e
   return false;
 }
 
-/// Best-effort early test that `a` and `b` name the same file (the atomic write checks again).
-bool same_file(const std::string& a, const std::string& b) {
-  std::error_code ec;
-  if (fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec)) return true;
-  const fs::path ca = fs::weakly_canonical(a, ec);
-  if (ec) return false;
-  const fs::path cb = fs::weakly_canonical(b, ec);
-  return !ec && ca == cb;
-}
-
 // ---- formatting -----------------------------------------------------------------------------
 
 std::string sci(double x, const char* fmt = "%.3e") {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, x);
   return buf;
-}
-
-/// Shortest round-trip decimal of x.
-void append_number(std::string& out, double x) {
-  char buf[40];
-  const auto r = std::to_chars(buf, buf + sizeof buf, x);
-  out.append(buf, r.ptr);
-}
-
-void append_number(std::string& out, std::int64_t x) {
-  char buf[24];
-  const auto r = std::to_chars(buf, buf + sizeof buf, x);
-  out.append(buf, r.ptr);
 }
 
 /// A number for JSON, null when it is not finite (JSON has no NaN or infinity).

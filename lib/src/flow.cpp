@@ -67,12 +67,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <string>
 #include <utility>
 
 #include "hessian.h"
+#include "ricci/layout.h"
 #include "sparse_solver.h"
 
 namespace ricci {
@@ -1424,9 +1426,16 @@ namespace {
 // the continuation takes over.
 constexpr int kDirectSphericalIterations = 40;
 
-const std::string& prefix_of_direct() {
-  static const std::string prefix = "the direct Newton solve";
-  return prefix;
+// The caller's progress callback for a stage that starts after `offset` iterations and
+// `elapsed` seconds of the solve (records are renumbered and retimed from the solve's start).
+std::function<void(const IterationRecord&)> shifted_progress(const FlowOptions& options, int offset, double elapsed) {
+  if (!options.on_iteration) return nullptr;
+  return [&options, offset, elapsed](const IterationRecord& record) {
+    IterationRecord shifted = record;
+    shifted.iteration += offset;
+    shifted.seconds += elapsed;
+    options.on_iteration(shifted);
+  };
 }
 
 // A starting point for the round-sphere target (S, genus 0, K̄ = 0) from a planar problem, which
@@ -1507,49 +1516,12 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
   const FlowResult flat = solve_flow(d, plane, u_disk, circle, plane_options);
   if (flat.u.empty() || !(flat.max_curvature_error < 1e-4)) return {};
 
-  // Layout, breadth first over faces from face 0.
-  std::vector<double> x(2 * static_cast<std::size_t>(n_sub), 0.0);
-  std::vector<std::uint8_t> placed(static_cast<std::size_t>(n_sub), 0), done(static_cast<std::size_t>(d.num_faces), 0);
-  auto length = [&](Index corner) { return flat.l[d.corner_edge[corner]]; };
-  {
-    const Index a = d.corner_vertex[0], b = d.corner_vertex[1], c = d.corner_vertex[2];
-    const double lab = length(2), lbc = length(0), lca = length(1);
-    x[2 * a] = 0, x[2 * a + 1] = 0;
-    x[2 * b] = lab, x[2 * b + 1] = 0;
-    const double along = (lca * lca - lbc * lbc + lab * lab) / (2 * lab);
-    x[2 * c] = along;
-    x[2 * c + 1] = std::sqrt(std::max(0.0, lca * lca - along * along));
-    placed[a] = placed[b] = placed[c] = 1;
-    done[0] = 1;
-  }
-  std::vector<Index> queue = {0};
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const Index f = queue[head];
-    for (Index k = 0; k < 3; ++k) {
-      const Index across = d.opposite[3 * f + k];
-      if (across == kInvalid || done[corner_face(across)]) continue;
-      const Index g = corner_face(across);
-      // In g, the corner `across` is opposite the shared edge; its vertex w lies to the left of
-      // p → q with p = vertex(next), q = vertex(prev) (faces are counter-clockwise).
-      const Index w = d.corner_vertex[across], p = d.corner_vertex[next_corner(across)],
-                  q = d.corner_vertex[prev_corner(across)];
-      const double dp = length(prev_corner(across)), dq = length(next_corner(across));
-      const double ex = x[2 * q] - x[2 * p], ey = x[2 * q + 1] - x[2 * p + 1];
-      const double pq = std::hypot(ex, ey);
-      if (!(pq > 0)) return {};
-      const double along = (dp * dp - dq * dq + pq * pq) / (2 * pq);
-      const double height = std::sqrt(std::max(0.0, dp * dp - along * along));
-      if (!placed[w]) {
-        x[2 * w] = x[2 * p] + (along * ex - height * ey) / pq;
-        x[2 * w + 1] = x[2 * p + 1] + (along * ey + height * ex) / pq;
-        placed[w] = 1;
-      }
-      done[g] = 1;
-      queue.push_back(g);
-    }
-  }
-  for (Index i = 0; i < n_sub; ++i)
-    if (!placed[i]) return {};
+  // The planar layout (no normalisation: the circle is fitted below).
+  LayoutOptions plane_layout;
+  plane_layout.normalize = false;
+  const Layout laid = layout_disk(d, Geometry::Euclidean, flat.l, plane_layout);
+  if (laid.status != Status::Ok || laid.unplaced_vertices > 0) return {};
+  const std::vector<double>& x = laid.positions;
   // The boundary circle → the unit circle, scaled so that it bounds a cap of v's area share:
   // 1 − cos ψ = 2·share, and the circle at polar angle ψ from the north pole projects to radius
   // cot(ψ/2).
@@ -1642,7 +1614,7 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
 // targets are solved to max(tol, 10⁻⁸), the last one to tol. `failed` is the direct attempt.
 FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s, std::span<const double> u0,
                                   const Target& target, const FlowOptions& options, FlowResult failed,
-                                  Clock::time_point start) {
+                                  const std::string& attempt, Clock::time_point start) {
   const Index nv = t.num_vertices;
   std::vector<double> l(static_cast<std::size_t>(t.num_edges)), theta(3 * static_cast<std::size_t>(t.num_faces)),
       K0(static_cast<std::size_t>(nv));
@@ -1671,13 +1643,7 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
     stage.max_iterations = std::min(30, options.max_iterations - used);
     const int offset = used;
     const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-    if (options.on_iteration)
-      stage.on_iteration = [&options, offset, elapsed](const IterationRecord& record) {
-        IterationRecord shifted = record;
-        shifted.iteration += offset;
-        shifted.seconds += elapsed;
-        options.on_iteration(shifted);
-      };
+    stage.on_iteration = shifted_progress(options, offset, elapsed);
     last = FlowResult{};
     last.geometry = s.geometry;
     {
@@ -1708,7 +1674,7 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
   r.history = std::move(history);
   r.iterations = used;
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  const std::string what = "the direct Newton solve stopped (" + direct + "); a continuation from the starting "
+  const std::string what = attempt + " stopped (" + direct + "); a continuation from the starting "
                            "curvature solved " + std::to_string(stages) + " intermediate target(s)";
   if (r.status == Status::Ok && done >= 1) {
     r.notes.insert(r.notes.begin(), what + " and converged");
@@ -1793,12 +1759,7 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
   if (homotopy) direct.max_iterations = std::min(options.max_iterations, kDirectSphericalIterations);
   // Times count from the call, the planar start included.
   const double before = std::chrono::duration<double>(Clock::now() - start).count();
-  if (options.on_iteration && before > 0)
-    direct.on_iteration = [&options, before](const IterationRecord& record) {
-      IterationRecord shifted = record;
-      shifted.seconds += before;
-      options.on_iteration(shifted);
-    };
+  direct.on_iteration = shifted_progress(options, 0, before);
   {
     FlowSolver solver(topology, structure, first_u, target, direct, r);
     if (!planar_u.empty()) solver.set_sphere_pins(pins);
@@ -1813,14 +1774,7 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
                      r.status == Status::TriangleInequality || r.status == Status::NumericalFailure;
   if (!homotopy || !retry || r.iterations >= options.max_iterations) return r;
   // Otherwise: a continuation from the starting curvature of the same start.
-  FlowResult c = spherical_continuation(topology, structure, first_u, target, options, std::move(r), start);
-  if (!c.notes.empty()) {
-    const std::string prefix = "the direct Newton solve";
-    if (c.notes.front().rfind(prefix, 0) == 0) c.notes.front().replace(0, prefix.size(), first_name);
-  }
-  if (c.status != Status::Ok && c.message.find(prefix_of_direct()) != std::string::npos)
-    c.message.replace(c.message.find(prefix_of_direct()), prefix_of_direct().size(), first_name);
-  return c;
+  return spherical_continuation(topology, structure, first_u, target, options, std::move(r), first_name, start);
 }
 
 }  // namespace ricci
