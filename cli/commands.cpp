@@ -525,6 +525,11 @@ int run(int argc, const char* const* argv) {
   CLI::App* flow_cmd = add_flow_command(app, flow);
   CutCommandOptions cut;
   CLI::App* cut_cmd = add_cut_command(app, cut);
+  UniformizeCommandOptions uniformize, layout;
+  CLI::App* uniformize_cmd = add_uniformize_command(app, uniformize);
+  CLI::App* layout_cmd = add_layout_command(app, layout);
+  CoverCommandOptions cover;
+  CLI::App* cover_cmd = add_cover_command(app, cover);
 
   try {
     app.parse(argc, argv);
@@ -541,6 +546,9 @@ int run(int argc, const char* const* argv) {
   if (convert_cmd->parsed()) return run_convert(convert);
   if (flow_cmd->parsed()) return run_flow(flow);
   if (cut_cmd->parsed()) return run_cut(cut);
+  if (uniformize_cmd->parsed()) return run_uniformize(uniformize);
+  if (layout_cmd->parsed()) return run_uniformize(layout);
+  if (cover_cmd->parsed()) return run_cover(cover);
   print_error("no subcommand given");
   return kExitUsage;
 }

@@ -106,6 +106,47 @@ struct CutCommandOptions {
 int run_cut(const CutCommandOptions& options);
 CLI::App* add_cut_command(CLI::App& app, CutCommandOptions& o);
 
+/// `ricci uniformize [MESH] -o OUTDIR` (the main job) and `ricci layout MESH --metric METRIC -o
+/// OUTDIR` (from a stored metric): uniformize_command.cpp.
+struct UniformizeCommandOptions {
+  std::string mesh;                       ///< input path; empty: the embedded default mesh
+  std::string output;                     ///< -o OUTDIR
+  std::string metric;                     ///< layout: the metric file (then no flow runs)
+  std::string geometry = "auto";          ///< auto, euclidean, hyperbolic, spherical
+  std::string scheme = "circle-packing";  ///< circle-packing, inversive-distance, yamabe
+  std::string target = "auto";            ///< auto, uniform, cones=FILE, single-vertex=I
+  std::string boundary = "auto";          ///< auto, free, fixed, circle, geodesic, loop-totals=…
+  double tolerance = 1e-12;               ///< flow: max |K̄ − K| at convergence
+  int max_iterations = 0;                 ///< flow: 0 for the library default
+  int threads = 0;                        ///< OpenMP threads; 0: the OpenMP default
+  int base_candidates = 6;                ///< H: base vertices tried for the cut
+  int seed_checks = 3;                    ///< extra seed faces for seed_independence_error
+  int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
+  bool unit_box = false;                  ///< E: layout scaled into [0,1]²
+  bool no_pictures = false;               ///< no PNG/SVG pictures, no report.html
+  bool no_angle_relax = false;
+  bool no_circle_normalization = false;
+  bool json = false;
+  bool quiet = false;
+  bool largest_component = false;
+};
+int run_uniformize(const UniformizeCommandOptions& options);
+CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o);
+CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o);
+
+/// `ricci cover [MESH] -o OUT --depth k`: the universal cover tiling as SVG or a mesh.
+struct CoverCommandOptions {
+  std::string mesh;
+  std::string output;
+  std::int64_t depth = 2;  ///< H: word length in the domain's side pairings; torus: block size
+  double radius = 0;  ///< H: keep copies with centre inside |z| <= radius (0: all)
+  bool json = false;
+  bool quiet = false;
+  bool largest_component = false;
+};
+int run_cover(const CoverCommandOptions& options);
+CLI::App* add_cover_command(CLI::App& app, CoverCommandOptions& o);
+
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.
 void print_note(bool quiet, const std::string& message);

@@ -40,6 +40,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "flow_setup.h"
 #include "ricci/flow.h"
 #include "ricci/io.h"
 #include "ricci/metric.h"
@@ -68,7 +69,9 @@ constexpr const char* kVertexNumberingNote =
     "with --largest-component, those of the other components); input_vertex is the 0-based index "
     "of the same vertex in the input file";
 
-// ---- option values --------------------------------------------------------------------------
+}  // namespace
+
+// ---- option values (shared with other commands through flow_setup.h) -------------------------
 
 std::optional<Geometry> parse_geometry(const std::string& s) {
   if (s == "euclidean") return Geometry::Euclidean;
@@ -108,12 +111,6 @@ std::optional<double> parse_angle(std::string_view s) {
   return x * factor;
 }
 
-struct TargetSpec {
-  enum class Kind { Uniform, Cones, SingleVertex } kind = Kind::Uniform;
-  std::string file;         ///< Cones
-  std::int64_t vertex = 0;  ///< SingleVertex
-};
-
 std::optional<TargetSpec> parse_target(const std::string& s, std::string* why) {
   TargetSpec t;
   if (s == "auto" || s == "uniform") return t;
@@ -139,12 +136,6 @@ std::optional<TargetSpec> parse_target(const std::string& s, std::string* why) {
   *why = "unknown target '" + s + "' (use auto, uniform, cones=FILE or single-vertex=I)";
   return std::nullopt;
 }
-
-struct BoundarySpec {
-  bool automatic = true;
-  BoundaryMode mode = BoundaryMode::Circle;
-  std::vector<double> totals;  ///< LoopTotals
-};
 
 std::optional<BoundarySpec> parse_boundary(const std::string& s, std::string* why) {
   BoundarySpec b;
@@ -187,17 +178,6 @@ std::optional<BoundarySpec> parse_boundary(const std::string& s, std::string* wh
   return std::nullopt;
 }
 
-/// A CLI11 validator from one of the parse functions above.
-template <class Parse>
-CLI::Validator spec_validator(Parse parse, const std::string& description) {
-  return CLI::Validator(
-      [parse](std::string& value) -> std::string {
-        std::string why;
-        return parse(value, &why) ? std::string() : why;
-      },
-      description);
-}
-
 /// A validator for a number: positive (`strict`) or non-negative; integral when `integer`.
 CLI::Validator number_validator(bool strict, bool integer) {
   const std::string what = std::string(strict ? "a positive " : "a non-negative ") + (integer ? "integer" : "number");
@@ -221,6 +201,66 @@ bool has_extension(const std::string& path, std::initializer_list<const char*> e
     if (e == x) return true;
   return false;
 }
+
+
+TargetBuild build_target(const ricci::Topology& topo, BoundaryMode mode, const TargetSpec& target_spec,
+                         const BoundarySpec& boundary_spec, const std::string& target_text,
+                         const std::string& boundary_text) {
+  TargetBuild out;
+  auto usage = [&](const std::string& m) {
+    out.usage = true;
+    out.status = Status::InvalidArgument;
+    out.message = m;
+    return out;
+  };
+  ricci::Target& target = out.target;
+  switch (target_spec.kind) {
+    case TargetSpec::Kind::Uniform:
+      target = ricci::uniform_target(topo, mode);
+      break;
+    case TargetSpec::Kind::SingleVertex:
+      if (target_spec.vertex >= topo.num_vertices)
+        return usage("--target " + target_text + ": the mesh has " + std::to_string(topo.num_vertices) +
+                     " vertices (numbered 0-based after validation)");
+      target = ricci::single_vertex_target(topo, static_cast<Index>(target_spec.vertex), mode);
+      break;
+    case TargetSpec::Kind::Cones: {
+      ricci::TargetFileResult tf = ricci::read_target_file(target_spec.file, topo, mode);
+      if (tf.status != Status::Ok) {
+        out.status = tf.status;
+        out.message = tf.message;
+        return out;
+      }
+      target = std::move(tf.target);
+      break;
+    }
+  }
+  if (mode == BoundaryMode::LoopTotals && !topo.is_closed()) {
+    if (boundary_spec.totals.size() != static_cast<std::size_t>(topo.num_boundary_loops()))
+      return usage("--boundary " + boundary_text + " gives " + std::to_string(boundary_spec.totals.size()) +
+                   " loop totals but the mesh has " + std::to_string(topo.num_boundary_loops()) +
+                   " boundary loops (in the order `ricci info` lists them)");
+    // A single-vertex target puts the rest of the total curvature at its vertex: keep that true
+    // for the totals given here.
+    double old_sum = 0, new_sum = 0;
+    for (double x : target.loop_total) old_sum += x;
+    for (double x : boundary_spec.totals) new_sum += x;
+    const Index sv = static_cast<Index>(target_spec.vertex);
+    if (target_spec.kind == TargetSpec::Kind::SingleVertex && !topo.is_boundary_vertex(sv) &&
+        target.loop_total.size() == boundary_spec.totals.size())
+      target.K[sv] += old_sum - new_sum;
+    target.loop_total = boundary_spec.totals;
+    // Stored boundary values: the equal share of each loop (the flow derives them from lengths).
+    for (Index i = 0; i < topo.num_boundary_loops(); ++i) {
+      const Index n = topo.boundary_offsets[i + 1] - topo.boundary_offsets[i];
+      for (Index k = topo.boundary_offsets[i]; k < topo.boundary_offsets[i + 1]; ++k)
+        target.K[topo.boundary_vertices[k]] = target.loop_total[i] / n;
+    }
+  }
+  return out;
+}
+
+namespace {
 
 // ---- formatting -----------------------------------------------------------------------------
 
@@ -568,45 +608,13 @@ int run_flow(const FlowCommandOptions& options) {
   }
 
   // ---- target ----
-  ricci::Target target;
-  switch (target_spec->kind) {
-    case TargetSpec::Kind::Uniform:
-      target = ricci::uniform_target(topo, mode);
-      break;
-    case TargetSpec::Kind::SingleVertex:
-      if (target_spec->vertex >= topo.num_vertices)
-        return usage("--target " + options.target + ": the mesh has " + std::to_string(topo.num_vertices) +
-                     " vertices (numbered 0-based after validation)");
-      target = ricci::single_vertex_target(topo, static_cast<Index>(target_spec->vertex), mode);
-      break;
-    case TargetSpec::Kind::Cones: {
-      ricci::TargetFileResult tf = ricci::read_target_file(target_spec->file, topo, mode);
-      if (tf.status != Status::Ok) {
-        fail(r, tf.status, tf.message);
-        return finish(options, r, start);
-      }
-      target = std::move(tf.target);
-      break;
-    }
+  TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, options.target, options.boundary);
+  if (tb.usage) return usage(tb.message);
+  if (tb.status != Status::Ok) {
+    fail(r, tb.status, tb.message);
+    return finish(options, r, start);
   }
-  if (mode == BoundaryMode::LoopTotals && !topo.is_closed()) {
-    // A single-vertex target puts the rest of the total curvature at its vertex: keep that true
-    // for the totals given here.
-    double old_sum = 0, new_sum = 0;
-    for (double x : target.loop_total) old_sum += x;
-    for (double x : boundary_spec->totals) new_sum += x;
-    const Index sv = static_cast<Index>(target_spec->vertex);
-    if (target_spec->kind == TargetSpec::Kind::SingleVertex && !topo.is_boundary_vertex(sv) &&
-        target.loop_total.size() == boundary_spec->totals.size())
-      target.K[sv] += old_sum - new_sum;
-    target.loop_total = boundary_spec->totals;
-    // Stored boundary values: the equal share of each loop (the flow derives them from lengths).
-    for (Index i = 0; i < topo.num_boundary_loops(); ++i) {
-      const Index n = topo.boundary_offsets[i + 1] - topo.boundary_offsets[i];
-      for (Index k = topo.boundary_offsets[i]; k < topo.boundary_offsets[i + 1]; ++k)
-        target.K[topo.boundary_vertices[k]] = target.loop_total[i] / n;
-    }
-  }
+  ricci::Target target = std::move(tb.target);
   r.loop_totals = target.loop_total;
 
   const ricci::TargetCheck check = ricci::check_target(topo, metric.structure, target);

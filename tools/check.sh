@@ -9,6 +9,8 @@ jobs="$(nproc)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DRICCI_WERROR=ON
 cmake --build build -j"$jobs"
 ctest --test-dir build --output-on-failure -j"$jobs"
+# The installed package: cmake --install, then a separate project finds it and links ricci::ricci.
+bash tools/check_install.sh build
 
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
   -DRICCI_SANITIZE=address,undefined -DRICCI_WERROR=ON

@@ -15,6 +15,7 @@ packages=(
   pkg-config              # finds cairo
   libcairo2-dev           # cairo: PNG and SVG pictures
   libfontconfig-dev       # fontconfig: fonts for the pictures' text (released at exit)
+  chromium                # headless browser: the report.html test
 )
 
 missing=()

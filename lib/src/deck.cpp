@@ -8,7 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <limits>
+#include <unordered_map>
 #include <utility>
 
 #include <ceres/ceres.h>
@@ -225,6 +227,90 @@ struct Rigid {
 };
 Rigid operator*(const Rigid& m, const Rigid& n) { return {m.c * n.c, m.c * n.t + m.t}; }
 
+/// Fits the Möbius map X taking z to w over all pairs (H): the two-point start from the end
+/// pairs, then Levenberg–Marquardt rounds in frames centred on the two sides; fills the map,
+/// residuals and single-edge spread of G. False when the result is not finite.
+bool fit_hyperbolic(const std::vector<Pair>& pairs, const DeckOptions& options, DeckGenerator& G,
+                    int& ceres_iterations) {
+  const std::size_t n = pairs.size();
+  // Work in frames centred on the two sides: X = Cp^-1 · M · Cs with Cs, Cp moving the
+  // sides' middle vertices to the origin. There the points are far from the unit circle and M
+  // has small entries, so residuals are evaluated without cancellation (a layout point at
+  // 1 − |z| ≈ 1e-7 mapped by X directly loses ~1e-7 of hyperbolic accuracy; centred, only
+  // the resolution of its input coordinates, ≈ 1e-16/(1 − |z|), remains).
+  const std::size_t mid = n / 2;
+  const Moebius Cs = Moebius::to_origin(pairs[mid].z), Cp = Moebius::to_origin(pairs[mid].w);
+  std::vector<Pair> local(n);
+  for (std::size_t k = 0; k < n; ++k) local[k] = {Cs.apply(pairs[k].z), Cp.apply(pairs[k].w)};
+  // Closed-form start from the side's end vertices (farthest apart), then Ceres.
+  Moebius M = moebius_from_two_points(local.front().z, local.back().z, local.front().w, local.back().w);
+  double sum0 = 0;
+  for (const Pair& p : local) {
+    const double d = hyperbolic_distance(M.apply(p.z), p.w);
+    G.initial_residual_max = std::max(G.initial_residual_max, d);
+    sum0 += d * d;
+  }
+  G.initial_residual_rms = std::sqrt(sum0 / double(n));
+  for (int round = 0; round < options.rounds; ++round) {
+    double delta[3] = {0, 0, 0};
+    ceres::Problem::Options popts;
+    ceres::Problem problem(popts);
+    for (const Pair& p : local) {
+      auto* cost = new ceres::AutoDiffCostFunction<PairResidual, 2, 3>(
+          new PairResidual{M.a, M.b, p.z, p.w, one_minus_abs2(p.z), one_minus_abs2(p.w)});
+      problem.AddResidualBlock(cost, nullptr, delta);
+    }
+    ceres::Solver::Options sopts;
+    sopts.linear_solver_type = ceres::DENSE_QR;
+    sopts.minimizer_type = ceres::TRUST_REGION;
+    sopts.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    sopts.max_num_iterations = options.max_iterations;
+    sopts.function_tolerance = options.function_tolerance;
+    sopts.gradient_tolerance = options.gradient_tolerance;
+    sopts.parameter_tolerance = options.parameter_tolerance;
+    sopts.logging_type = ceres::SILENT;
+    sopts.minimizer_progress_to_stdout = false;
+    sopts.num_threads = 1;
+    ceres::Solver::Summary summary;
+    {
+      // Ceres may evaluate trial points that raise floating-point flags; keep the caller's
+      // trap settings out of it and restore them afterwards.
+      std::fenv_t env;
+      std::feholdexcept(&env);
+      ceres::Solve(sopts, &problem, &summary);
+      std::fesetenv(&env);
+    }
+    ceres_iterations += static_cast<int>(summary.iterations.size());
+    // A round that cannot improve (Ceres FAILURE after consecutive invalid steps at the
+    // optimum, or a non-finite update) keeps the current map: it is valid, and the residuals
+    // below are measured independently of Ceres.
+    const bool improved = std::isfinite(delta[0]) && std::isfinite(delta[1]) && std::isfinite(delta[2]) &&
+                          delta[1] * delta[1] + delta[2] * delta[2] < 1 &&
+                          summary.final_cost <= summary.initial_cost;
+    if (!improved) break;
+    M = (M * Moebius::from_theta_z0(delta[0], {delta[1], delta[2]})).normalized();
+    if (summary.termination_type != ceres::CONVERGENCE) break;
+  }
+  const Moebius X = (Cp.inverse() * M * Cs).normalized();
+  G.map = X;
+  G.theta = X.theta();
+  G.z0 = X.z0();
+  G.translation_length = X.translation_length();
+  double sum2 = 0;
+  for (const Pair& p : local) {
+    const double d = hyperbolic_distance(M.apply(p.z), p.w);
+    G.residual_max = std::max(G.residual_max, d);
+    sum2 += d * d;
+  }
+  G.residual_rms = std::sqrt(sum2 / double(n));
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const Moebius E = moebius_from_two_points(local[k].z, local[k + 1].z, local[k].w, local[k + 1].w);
+    for (const Pair& p : local)
+      G.single_edge_spread = std::max(G.single_edge_spread, hyperbolic_distance(E.apply(p.z), M.apply(p.z)));
+  }
+  return std::isfinite(G.residual_max) && std::isfinite(G.single_edge_spread);
+}
+
 DeckResult fail(DeckResult r, Status s, std::string msg) {
   r.status = s;
   r.message = std::move(msg);
@@ -358,82 +444,7 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry, std
         G.single_edge_spread = std::max(G.single_edge_spread, std::abs(te - t));
       }
     } else {
-      // Work in frames centred on the two sides: X = Cp^-1 · M · Cs with Cs, Cp moving the
-      // sides' middle vertices to the origin. There the points are far from the unit circle and M
-      // has small entries, so residuals are evaluated without cancellation (a layout point at
-      // 1 − |z| ≈ 1e-7 mapped by X directly loses ~1e-7 of hyperbolic accuracy; centred, only
-      // the resolution of its input coordinates, ≈ 1e-16/(1 − |z|), remains).
-      const std::size_t mid = n / 2;
-      const Moebius Cs = Moebius::to_origin(e.pairs[mid].z), Cp = Moebius::to_origin(e.pairs[mid].w);
-      std::vector<Pair> local(n);
-      for (std::size_t k = 0; k < n; ++k) local[k] = {Cs.apply(e.pairs[k].z), Cp.apply(e.pairs[k].w)};
-      // Closed-form start from the side's end vertices (farthest apart), then Ceres.
-      Moebius M = moebius_from_two_points(local.front().z, local.back().z, local.front().w, local.back().w);
-      double sum0 = 0;
-      for (const Pair& p : local) {
-        const double d = hyperbolic_distance(M.apply(p.z), p.w);
-        G.initial_residual_max = std::max(G.initial_residual_max, d);
-        sum0 += d * d;
-      }
-      G.initial_residual_rms = std::sqrt(sum0 / double(n));
-      for (int round = 0; round < options.rounds; ++round) {
-        double delta[3] = {0, 0, 0};
-        ceres::Problem::Options popts;
-        ceres::Problem problem(popts);
-        for (const Pair& p : local) {
-          auto* cost = new ceres::AutoDiffCostFunction<PairResidual, 2, 3>(
-              new PairResidual{M.a, M.b, p.z, p.w, one_minus_abs2(p.z), one_minus_abs2(p.w)});
-          problem.AddResidualBlock(cost, nullptr, delta);
-        }
-        ceres::Solver::Options sopts;
-        sopts.linear_solver_type = ceres::DENSE_QR;
-        sopts.minimizer_type = ceres::TRUST_REGION;
-        sopts.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-        sopts.max_num_iterations = options.max_iterations;
-        sopts.function_tolerance = options.function_tolerance;
-        sopts.gradient_tolerance = options.gradient_tolerance;
-        sopts.parameter_tolerance = options.parameter_tolerance;
-        sopts.logging_type = ceres::SILENT;
-        sopts.minimizer_progress_to_stdout = false;
-        sopts.num_threads = 1;
-        ceres::Solver::Summary summary;
-        {
-          // Ceres may evaluate trial points that raise floating-point flags; keep the caller's
-          // trap settings out of it and restore them afterwards.
-          std::fenv_t env;
-          std::feholdexcept(&env);
-          ceres::Solve(sopts, &problem, &summary);
-          std::fesetenv(&env);
-        }
-        r.ceres_iterations += static_cast<int>(summary.iterations.size());
-        // A round that cannot improve (Ceres FAILURE after consecutive invalid steps at the
-        // optimum, or a non-finite update) keeps the current map: it is valid, and the residuals
-        // below are measured independently of Ceres.
-        const bool improved = std::isfinite(delta[0]) && std::isfinite(delta[1]) && std::isfinite(delta[2]) &&
-                              delta[1] * delta[1] + delta[2] * delta[2] < 1 &&
-                              summary.final_cost <= summary.initial_cost;
-        if (!improved) break;
-        M = (M * Moebius::from_theta_z0(delta[0], {delta[1], delta[2]})).normalized();
-        if (summary.termination_type != ceres::CONVERGENCE) break;
-      }
-      const Moebius X = (Cp.inverse() * M * Cs).normalized();
-      G.map = X;
-      G.theta = X.theta();
-      G.z0 = X.z0();
-      G.translation_length = X.translation_length();
-      double sum2 = 0;
-      for (const Pair& p : local) {
-        const double d = hyperbolic_distance(M.apply(p.z), p.w);
-        G.residual_max = std::max(G.residual_max, d);
-        sum2 += d * d;
-      }
-      G.residual_rms = std::sqrt(sum2 / double(n));
-      for (std::size_t k = 0; k + 1 < n; ++k) {
-        const Moebius E = moebius_from_two_points(local[k].z, local[k + 1].z, local[k].w, local[k + 1].w);
-        for (const Pair& p : local)
-          G.single_edge_spread = std::max(G.single_edge_spread, hyperbolic_distance(E.apply(p.z), M.apply(p.z)));
-      }
-      if (!std::isfinite(G.residual_max) || !std::isfinite(G.single_edge_spread))
+      if (!fit_hyperbolic(e.pairs, options, G, r.ceres_iterations))
         return fail(r, Status::NumericalFailure, "generator " + e.name + " maps its side outside the disk.");
     }
     r.residual_max = std::max(r.residual_max, G.residual_max);
@@ -498,6 +509,350 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry, std
   r.message = buf;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return r;
+}
+
+}  // namespace ricci
+
+// ---- through a compact domain ---------------------------------------------------------------
+
+namespace ricci {
+
+namespace {
+
+using cl = std::complex<long double>;
+
+cl apply_l(const MoebiusL& m, cl z) { return (m.a * z + m.b) / (std::conj(m.b) * z + std::conj(m.a)); }
+
+Moebius to_double(const MoebiusL& m) {
+  return Moebius{cplx(static_cast<double>(m.a.real()), static_cast<double>(m.a.imag())),
+                 cplx(static_cast<double>(m.b.real()), static_cast<double>(m.b.imag()))}
+      .normalized();
+}
+
+std::uint64_t dkey(Index u, Index v) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) | static_cast<std::uint32_t>(v);
+}
+
+}  // namespace
+
+DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain,
+                               std::span<const double> dpos, const DeckOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  DomainDeck out;
+  DeckResult& r = out.deck;
+  r.geometry = Geometry::Hyperbolic;
+  r.genus = canonical.genus;
+  auto bad = [&](Status s, const std::string& m) {
+    out.status = s;
+    out.message = m;
+    r.status = s;
+    r.message = m;
+    r.generators.clear();
+    out.side_maps.clear();
+    out.canonical_positions.clear();
+    return out;
+  };
+  std::string why;
+  if (!options.is_valid(&why)) return bad(Status::InvalidArgument, why);
+  why = check_cut(canonical);
+  if (!why.empty()) return bad(Status::InvalidArgument, why);
+  if (canonical.genus < 2) return bad(Status::InvalidArgument, "the compact-domain construction is for genus >= 2.");
+  if (domain.status != Status::Ok || domain.num_refined_vertices() != 0 || domain.genus != canonical.genus ||
+      domain.cut_faces.size() != domain.surface_faces.size() ||
+      domain.num_input_vertices != canonical.num_input_vertices)
+    return bad(Status::InvalidArgument, "the domain is not an unrefined cut of the same surface.");
+  const Index nin = canonical.num_input_vertices;
+  const Index Fin = static_cast<Index>(domain.surface_faces.size() / 3);
+  for (Index o : canonical.surface_face_to_input)
+    if (o < 0 || o >= Fin) return bad(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
+  const Index nd = domain.num_cut_vertices();
+  if (dpos.size() != 2 * static_cast<std::size_t>(nd))
+    return bad(Status::InvalidArgument, "domain positions: expected #domain cut vertices x 2 values.");
+  for (Index v = 0; v < nd; ++v) {
+    const cplx z(dpos[2 * v], dpos[2 * v + 1]);
+    if (!std::isfinite(z.real()) || !std::isfinite(z.imag()) || !(one_minus_abs2(z) > 0))
+      return bad(Status::InvalidArgument, "domain cut vertex " + std::to_string(v) + " is not inside the unit disk.");
+  }
+  auto dz = [&](Index v) { return cplx(dpos[2 * v], dpos[2 * v + 1]); };
+
+  // 1. Side pairings of the domain, fitted over all vertex pairs of each branch.
+  std::vector<MoebiusL> X(static_cast<std::size_t>(domain.num_generators()));
+  out.side_maps.resize(X.size());
+  for (Index s = 0; s < domain.num_sides(); ++s) {
+    if (domain.side_orientation[s] != 1) continue;
+    const Index k = domain.side_generator[s], p = domain.side_partner[s];
+    if (k < 0 || k >= static_cast<Index>(X.size()) || p < 0) return bad(Status::InvalidArgument, "a domain side has no pairing.");
+    const Index b0 = domain.side_offsets[s], bp = domain.side_offsets[p], n = domain.side_offsets[s + 1] - b0;
+    std::vector<Pair> pairs;
+    for (Index i = 0; i < n; ++i) pairs.push_back({dz(domain.side_vertices[b0 + i]), dz(domain.side_vertices[bp + n - 1 - i])});
+    DeckGenerator G;
+    G.name = domain.side_label[s];
+    G.side = s;
+    G.partner = p;
+    G.pairs = n;
+    if (!fit_hyperbolic(pairs, options, G, r.ceres_iterations))
+      return bad(Status::NumericalFailure, "domain side pairing " + G.name + " maps its side outside the disk.");
+    X[k] = MoebiusL(G.map);
+    out.side_maps[k] = std::move(G);
+  }
+
+  // 2. Directed boundary edges of the domain → (pairing, orientation), and the crossing map for
+  // the edge opposite corner k of input face O (identity when the domain does not cut it).
+  std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary;
+  for (Index s = 0; s < domain.num_sides(); ++s)
+    for (Index i = domain.side_offsets[s]; i + 1 < domain.side_offsets[s + 1]; ++i)
+      boundary[dkey(domain.side_vertices[i], domain.side_vertices[i + 1])] = {domain.side_generator[s],
+                                                                             domain.side_orientation[s]};
+  auto crossing = [&](Index O, int k) {
+    const Index c = 3 * O + k;
+    const auto it = boundary.find(dkey(domain.cut_faces[next_corner(c)], domain.cut_faces[prev_corner(c)]));
+    if (it == boundary.end()) return MoebiusL();
+    const MoebiusL& m = X[it->second.first];
+    return it->second.second == 1 ? m.inverse() : m;
+  };
+  const std::vector<Index>& in = domain.surface_faces;
+  // The corner of input face O1 opposite its edge shared with O2 that holds surface vertices a, b
+  // (input vertices or points added on that edge).
+  auto shared_corner = [&](Index O1, Index O2, Index a, Index b) {
+    int best = -1;
+    for (int k = 0; k < 3; ++k) {
+      const Index A = in[3 * O1 + (k + 1) % 3], B = in[3 * O1 + (k + 2) % 3];
+      bool in2 = false, in2b = false;
+      for (int j = 0; j < 3; ++j) {
+        in2 |= in[3 * O2 + j] == A;
+        in2b |= in[3 * O2 + j] == B;
+      }
+      if (!in2 || !in2b) continue;
+      const bool ends_ok = (a >= nin || a == A || a == B) && (b >= nin || b == A || b == B);
+      if (ends_ok) return k;
+      if (best < 0) best = k;
+    }
+    return best;
+  };
+
+  // Vertex cycles of the domain: the crossings around every input vertex compose to 1.
+  {
+    const TopologyResult it = build_topology(in, nin);
+    if (it.status != Status::Ok) return bad(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
+    const Topology& I = it.topology;
+    for (Index v = 0; v < nin; ++v) {
+      const Index k0 = I.vertex_corner_offsets[v], k1 = I.vertex_corner_offsets[v + 1];
+      if (k0 == k1) continue;
+      MoebiusL P;
+      bool crossed = false;
+      for (Index k = k0; k < k1; ++k) {
+        const Index c = I.vertex_corners[k];
+        // ccw neighbour: across the edge v–vertex(prev(c)), opposite corner next(c).
+        const Index nc = next_corner(c);
+        if (I.opposite[nc] == kInvalid) {
+          crossed = false;
+          break;
+        }
+        const MoebiusL N = crossing(corner_face(c), static_cast<int>(nc % 3));
+        crossed |= std::abs(N.b) != 0 || std::abs(N.a - 1.0L) != 0;
+        P = P * N;
+      }
+      if (!crossed) continue;
+      const Index c0 = I.vertex_corners[k0];
+      const MoebiusL C = MoebiusL::to_origin(dz(domain.cut_faces[c0]));
+      out.cycle_error = std::max(out.cycle_error, (C * P * C.inverse()).distance_to_identity());
+    }
+  }
+
+  // 3. Tiles of the canonical disk's faces, breadth first.
+  const TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
+  if (ct.status != Status::Ok) return bad(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
+  const Topology& T = ct.topology;
+  const Index Fc = T.num_faces;
+  std::vector<MoebiusL> h(static_cast<std::size_t>(Fc));
+  std::vector<Index> depth(static_cast<std::size_t>(Fc), kInvalid);
+  std::vector<Index> queue = {0};
+  depth[0] = 0;
+  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
+    const Index F1 = queue[qi], O1 = canonical.surface_face_to_input[F1];
+    for (int j = 0; j < 3; ++j) {
+      const Index c = 3 * F1 + j, o = T.opposite[c];
+      if (o == kInvalid) continue;
+      const Index F2 = corner_face(o);
+      if (depth[F2] != kInvalid) continue;
+      const Index O2 = canonical.surface_face_to_input[F2];
+      if (O1 == O2) {
+        h[F2] = h[F1];
+      } else {
+        const int k = shared_corner(O1, O2, canonical.surface_faces[next_corner(c)], canonical.surface_faces[prev_corner(c)]);
+        if (k < 0) return bad(Status::NumericalFailure, "canonical faces " + std::to_string(F1) + " and " +
+                                                            std::to_string(F2) + " lie in input faces that share no edge.");
+        h[F2] = h[F1] * crossing(O1, k);
+      }
+      depth[F2] = depth[F1] + 1;
+      out.tile_depth = std::max(out.tile_depth, depth[F2]);
+      queue.push_back(F2);
+    }
+  }
+  if (static_cast<Index>(queue.size()) != Fc) return bad(Status::InvalidArgument, "the canonical disk is not connected.");
+
+  // 4. The domain position of surface vertex x seen from input face O.
+  auto corner_of = [&](Index O, Index v) {
+    for (int k = 0; k < 3; ++k)
+      if (in[3 * O + k] == v) return k;
+    return -1;
+  };
+  auto local = [&](Index O, Index x, cl& w) {
+    if (x < nin) {
+      const int k = corner_of(O, x);
+      if (k < 0) return false;
+      const cplx z = dz(domain.cut_faces[3 * O + k]);
+      w = cl(z.real(), z.imag());
+      return true;
+    }
+    const Index rec = x - nin;
+    if (rec >= canonical.num_refined_vertices()) return false;
+    long double S[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      const double beta = canonical.refined_vertex_bary[3 * rec + k];
+      if (beta == 0) continue;
+      const int kk = corner_of(O, canonical.refined_vertex_corners[3 * rec + k]);
+      if (kk < 0) return false;
+      const cplx z = dz(domain.cut_faces[3 * O + kk]);
+      const long double q = 1.0L - static_cast<long double>(std::norm(z));
+      S[0] += beta * (1.0L + static_cast<long double>(std::norm(z))) / q;
+      S[1] += beta * 2.0L * z.real() / q;
+      S[2] += beta * 2.0L * z.imag() / q;
+    }
+    const long double nrm = std::sqrt(S[0] * S[0] - S[1] * S[1] - S[2] * S[2]);
+    if (!(nrm > 0)) return false;
+    w = cl(S[1] / nrm, S[2] / nrm) / (1.0L + S[0] / nrm);
+    return true;
+  };
+
+  // 5. Canonical positions, each cut vertex from every face that holds it.
+  const Index nc = canonical.num_cut_vertices();
+  std::vector<cl> pos(static_cast<std::size_t>(nc));
+  std::vector<char> have(static_cast<std::size_t>(nc), 0);
+  for (Index F = 0; F < Fc; ++F) {
+    const Index O = canonical.surface_face_to_input[F];
+    for (int j = 0; j < 3; ++j) {
+      const Index cv = canonical.cut_faces[3 * F + j], x = canonical.surface_faces[3 * F + j];
+      cl w;
+      if (!local(O, x, w))
+        return bad(Status::NumericalFailure, "surface vertex " + std::to_string(x) + " is not in its input face " + std::to_string(O) + ".");
+      const cl z = apply_l(h[F], w);
+      if (!have[cv]) {
+        pos[cv] = z;
+        have[cv] = 1;
+      } else {
+        const double d = hyperbolic_distance(cplx(static_cast<double>(pos[cv].real()), static_cast<double>(pos[cv].imag())),
+                                             cplx(static_cast<double>(z.real()), static_cast<double>(z.imag())));
+        out.tile_consistency = std::max(out.tile_consistency, d);
+      }
+    }
+  }
+  out.canonical_positions.resize(2 * static_cast<std::size_t>(nc));
+  for (Index v = 0; v < nc; ++v) {
+    const cplx z(static_cast<double>(pos[v].real()), static_cast<double>(pos[v].imag()));
+    if (!have[v] || !std::isfinite(z.real()) || !std::isfinite(z.imag()) || !(one_minus_abs2(z) > 0))
+      return bad(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) +
+                                               " lands outside the range of double precision in the Poincaré disk.");
+    out.canonical_positions[2 * v] = z.real();
+    out.canonical_positions[2 * v + 1] = z.imag();
+  }
+  auto cpos = [&](Index v) { return cplx(out.canonical_positions[2 * v], out.canonical_positions[2 * v + 1]); };
+
+  // 6. The canonical generators.
+  std::unordered_map<std::uint64_t, Index> face_of;  // directed cut-vertex edge → canonical face
+  for (Index F = 0; F < Fc; ++F)
+    for (int j = 0; j < 3; ++j)
+      face_of[dkey(canonical.cut_faces[3 * F + (j + 1) % 3], canonical.cut_faces[3 * F + (j + 2) % 3])] = 3 * F + j;
+  const Index g = canonical.genus;
+  std::vector<MoebiusL> XL;
+  for (Index i = 1; i <= g; ++i)
+    for (const char* letter : {"a", "b"}) {
+      DeckGenerator G;
+      G.name = letter + std::to_string(i);
+      G.geometry = Geometry::Hyperbolic;
+      if (!find_side_pair(canonical, G.name, &G.side, &G.partner))
+        return bad(Status::InvalidArgument, "the cut has no sides " + G.name + " and " + G.name + "^-1.");
+      const Index bs = canonical.side_offsets[G.side], bp = canonical.side_offsets[G.partner];
+      const Index n = canonical.side_offsets[G.side + 1] - bs;
+      const Index s0 = canonical.side_vertices[bs], s1 = canonical.side_vertices[bs + 1];
+      const Index p0 = canonical.side_vertices[bp + n - 2], p1 = canonical.side_vertices[bp + n - 1];
+      const auto fs = face_of.find(dkey(s0, s1)), fp = face_of.find(dkey(p0, p1));
+      if (fs == face_of.end() || fp == face_of.end()) return bad(Status::InvalidArgument, "side " + G.name + " is not on the disk boundary.");
+      const Index Fs = corner_face(fs->second), Fp = corner_face(fp->second);
+      const Index Os = canonical.surface_face_to_input[Fs], Op = canonical.surface_face_to_input[Fp];
+      MoebiusL N;
+      if (Os != Op) {
+        const int k = shared_corner(Os, Op, canonical.cut_to_surface[s0], canonical.cut_to_surface[s1]);
+        if (k < 0) return bad(Status::NumericalFailure, "the faces on either side of " + G.name + " share no input edge.");
+        N = crossing(Os, k);
+      }
+      const MoebiusL Xg = h[Fp] * N.inverse() * h[Fs].inverse();
+      XL.push_back(Xg);
+      G.map = to_double(Xg);
+      G.theta = G.map.theta();
+      G.z0 = G.map.z0();
+      G.translation_length = G.map.translation_length();
+      G.pairs = n;
+      // Residuals on the canonical positions, in frames centred on the two sides.
+      const Index mid = n / 2;
+      const cplx zm = cpos(canonical.side_vertices[bs + mid]), wm = cpos(canonical.side_vertices[bp + n - 1 - mid]);
+      const MoebiusL Cs = MoebiusL::to_origin(zm), Cp = MoebiusL::to_origin(wm);
+      const Moebius M = to_double(Cp * Xg * Cs.inverse());
+      const Moebius Csd = to_double(Cs), Cpd = to_double(Cp);
+      std::vector<Pair> loc;
+      double sum2 = 0;
+      for (Index k = 0; k < n; ++k) {
+        const Pair q{Csd.apply(cpos(canonical.side_vertices[bs + k])), Cpd.apply(cpos(canonical.side_vertices[bp + n - 1 - k]))};
+        const double d = hyperbolic_distance(M.apply(q.z), q.w);
+        G.residual_max = std::max(G.residual_max, d);
+        sum2 += d * d;
+        loc.push_back(q);
+      }
+      G.residual_rms = std::sqrt(sum2 / double(n));
+      G.initial_residual_max = G.residual_max;
+      G.initial_residual_rms = G.residual_rms;
+      for (std::size_t k = 0; k + 1 < loc.size(); ++k) {
+        const Moebius E = moebius_from_two_points(loc[k].z, loc[k + 1].z, loc[k].w, loc[k + 1].w);
+        for (const Pair& q : loc) G.single_edge_spread = std::max(G.single_edge_spread, hyperbolic_distance(E.apply(q.z), M.apply(q.z)));
+      }
+      if (!std::isfinite(G.residual_max) || !std::isfinite(G.single_edge_spread))
+        return bad(Status::NumericalFailure, "generator " + G.name + " is not finite.");
+      r.residual_max = std::max(r.residual_max, G.residual_max);
+      r.single_edge_spread = std::max(r.single_edge_spread, G.single_edge_spread);
+      r.generators.push_back(std::move(G));
+    }
+
+  // 7. The relation, conjugated to the corner v0, in long double.
+  {
+    Moebius R;
+    for (Index i = 0; i < g; ++i) {
+      const Moebius& A = r.generators[2 * i].map;
+      const Moebius& B = r.generators[2 * i + 1].map;
+      R = R * A.inverse() * B * A * B.inverse();
+    }
+    r.relator = R;
+    const MoebiusL C = MoebiusL::to_origin(cpos(canonical.side_vertices[canonical.side_offsets[0]]));
+    const MoebiusL Ci = C.inverse();
+    MoebiusL RL;
+    for (Index i = 0; i < g; ++i) {
+      const MoebiusL A = C * XL[2 * i] * Ci;
+      const MoebiusL B = C * XL[2 * i + 1] * Ci;
+      RL = RL * A.inverse() * B * A * B.inverse();
+    }
+    r.relation_error = RL.distance_to_identity();
+  }
+  if (!std::isfinite(r.relation_error)) return bad(Status::NumericalFailure, "the relation check is not finite.");
+  r.status = Status::Ok;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%d generators through %d domain pairings; residual max %.3g, relation error %.3g.",
+                static_cast<int>(r.generators.size()), static_cast<int>(out.side_maps.size()), r.residual_max,
+                r.relation_error);
+  r.message = buf;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  out.status = Status::Ok;
+  out.message = r.message;
+  out.seconds = r.seconds;
+  return out;
 }
 
 }  // namespace ricci

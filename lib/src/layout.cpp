@@ -194,6 +194,33 @@ struct Positions {
   }
 };
 
+/// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
+void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o) {
+  o.max_edge_length_error = 0;
+  o.worst_edge = kInvalid;
+  o.rounding_floor = 0;
+  constexpr double u = 0x1p-53;
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    const double d = P.distance(a, b);
+    const double err = std::abs(d - l[e]) / l[e];
+    double drift = 0;  // how far rounding the two ends' coordinates can move them, in the geometry
+    if (g == Geometry::Euclidean) {
+      drift = u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
+    } else if (g == Geometry::Hyperbolic) {
+      const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
+      drift = 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+    } else {
+      drift = 2 * u * std::sqrt(3.0);
+    }
+    o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
+    if (!(err <= o.max_edge_length_error)) {
+      o.max_edge_length_error = err;
+      o.worst_edge = e;
+    }
+  }
+}
+
 // ---- validation ----------------------------------------------------------------------------
 
 template <class R>
@@ -455,31 +482,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
 
   // Edge-length error of the isometric layout.
-  auto edge_error = [&](Layout& o) {
-    o.max_edge_length_error = 0;
-    o.worst_edge = kInvalid;
-    o.rounding_floor = 0;
-    constexpr double u = 0x1p-53;
-    for (Index e = 0; e < t.num_edges; ++e) {
-      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-      const double d = P.distance(a, b);
-      const double err = std::abs(d - l[e]) / l[e];
-      double drift = 0;  // how far rounding the two ends' coordinates can move them, in the geometry
-      if (g == Geometry::Euclidean) {
-        drift = u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
-      } else if (g == Geometry::Hyperbolic) {
-        const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
-        drift = 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
-      } else {
-        drift = 2 * u * std::sqrt(3.0);
-      }
-      o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
-      if (!(err <= o.max_edge_length_error)) {
-        o.max_edge_length_error = err;
-        o.worst_edge = e;
-      }
-    }
-  };
+  auto edge_error = [&](Layout& o) { measure_edges(t, g, l, P, o); };
   edge_error(out);
 
   if (options.normalize) {
@@ -845,6 +848,42 @@ LayoutAlignment align_layouts(Geometry g, std::span<const double> a, std::span<c
 double layout_alignment_error(Geometry g, std::span<const double> a, std::span<const double> b) {
   const LayoutAlignment r = align_layouts(g, a, b);
   return r.status == Status::Ok ? r.max_deviation : kInf;
+}
+
+}  // namespace ricci
+
+namespace ricci {
+
+Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions) {
+  Layout out;
+  out.geometry = g;
+  out.dims = g == Geometry::Spherical ? 3 : 2;
+  const Index nv = disk.num_vertices;
+  if (l.size() != static_cast<std::size_t>(disk.num_edges) ||
+      positions.size() != static_cast<std::size_t>(nv) * static_cast<std::size_t>(out.dims)) {
+    out.status = Status::InvalidArgument;
+    out.message = "measure_layout: sizes do not match the mesh";
+    return out;
+  }
+  out.positions.assign(positions.begin(), positions.end());
+  Positions P{g, out.dims, out.positions};
+  for (Index v = 0; v < nv; ++v)
+    if (!P.finite(v)) {
+      out.status = Status::NonFiniteCoordinate;
+      out.message = "measure_layout: vertex " + std::to_string(v) + " has no valid position";
+      out.element = Element::Vertex;
+      out.element_index = v;
+      return out;
+    }
+  measure_edges(disk, g, l, P, out);
+  for (Index f = 0; f < disk.num_faces; ++f)
+    if (P.orientation(disk.corner_vertex[3 * f], disk.corner_vertex[3 * f + 1], disk.corner_vertex[3 * f + 2]) < 0) {
+      if (out.flipped_faces == 0) out.first_flipped_face = f;
+      ++out.flipped_faces;
+    }
+  out.status = Status::Ok;
+  out.message = "measured";
+  return out;
 }
 
 }  // namespace ricci

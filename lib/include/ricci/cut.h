@@ -73,6 +73,14 @@ struct CutOptions {
   /// Optional per-edge weights (#E, in the topology's edge numbering, finite and ≥ 0) for the
   /// shortest-path tree and the loop lengths. Empty: 3D edge lengths (uniform without positions).
   std::vector<double> edge_weights;
+  /// Optional metric scale per vertex (#V, finite and > 0): every length the cut measures (tree,
+  /// loop lengths, cut-and-paste paths) is the 3D length times the mean scale of its ends, so
+  /// that loops are short in a conformal metric (scale = its length over the 3D length).
+  std::vector<double> vertex_scale;
+  /// Optional cut graph to start from instead of tree–cotree (#E flags, closed surfaces only),
+  /// e.g. the edges of a compact domain's sides: it must cut the surface into one disk (else the
+  /// result is NumericalFailure). The base is its interior vertex nearest to base_vertex.
+  std::vector<std::uint8_t> initial_cut;
   /// Run the cut-and-paste canonicalisation (else: the tree–cotree polygon, canonical = false).
   bool canonicalize = true;
   /// Upper bound on cut-and-paste moves (0: 64 + 40·g).
@@ -178,6 +186,22 @@ struct CutResult {
 /// of this header). `mesh.positions` may be empty (then lengths are uniform); `topology` is
 /// build_topology(mesh.faces, V). Deterministic for fixed options.
 CutResult cut_surface(const Mesh& mesh, const Topology& topology, const CutOptions& options = {});
+
+/// A compact fundamental domain of a closed surface of genus ≥ 1 for a metric given by its edge
+/// lengths (#E): faces are reached from a central face by a shortest-path tree of the dual graph
+/// (dual edge weight: the distance between the two faces' centroids, the pair unfolded into the
+/// plane along their edge), and the surface is cut along the edges that tree does not cross, spurs
+/// pruned. The domain grows like a metric ball until it meets itself, as a Dirichlet domain does,
+/// so its layout stays within about the surface's radius of the centre — in the Poincaré disk,
+/// where coordinates lose precision as e^r, that is what keeps it accurate, unlike canonical
+/// polygons, whose loops share long paths from their base vertex and make thin spikes.
+/// `centre_face` −1: the face minimising the larger dual distance to the two ends of a
+/// double-sweep diameter. The result is a CutResult with no refinement (surface = input):
+/// sides are the branches of the cut graph between nodes (cut-graph degree ≥ 3), labelled x1,
+/// x1^-1, x2, … in boundary order with partners and orientations; canonical is false. Errors:
+/// InvalidArgument (sizes, lengths, not closed or genus 0), MultipleComponents, NumericalFailure.
+CutResult cut_compact(const Mesh& mesh, const Topology& topology, std::span<const double> lengths,
+                      Index centre_face = -1);
 
 /// Per-vertex data (#rows×dims, row-major) carried to the cut vertices (#Vc×dims). `data` is
 /// either per surface vertex (#V'×dims) or per input vertex (#V×dims; added vertices are then

@@ -178,6 +178,58 @@ struct DeckResult {
 DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry,
                                     std::span<const double> positions, const DeckOptions& options = {});
 
+// ---- Through a compact domain (H) ------------------------------------------------------------
+//
+// A canonical polygon of genus ≥ 3 often reaches far out in the Poincaré disk (thin spikes where
+// loops leave the base vertex together), where double coordinates resolve hyperbolic distance
+// only to ~2^-52 e^r; its layout, and deck maps fitted to it, inherit that. A compact domain
+// (cut_compact(): radius about the surface's own) lays out to rounding. Its side pairings are
+// fitted there — one Möbius map per branch of its cut graph, with Ceres over all vertex pairs —
+// and the canonical generators follow as exact products of them:
+//   every face F of the canonical disk gets the tile h_F (a product of side pairings, long
+//   double) in which it lies: breadth-first over the disk from face 0 (h = identity); crossing
+//   an input edge that the compact domain cuts multiplies by that edge's pairing N (the map that
+//   places the neighbouring face next to the current one: X^-1 when the current face lies on
+//   side x, X on side x^-1); crossing anything else keeps h.
+//   The canonical polygon's positions are h_F(w), w the compact layout's point (input vertices:
+//   their corner in the input face; added vertices: the hyperboloid combination of their record
+//   within that face), so each is rounded once, where it lands.
+//   The generator of side s (partner p): X = h_{F_p} · N^-1 · h_{F_s}^-1 for the faces F_s, F_p
+//   on either side of the surface edge where s begins and N the pairing crossed between them.
+// Residuals of these generators are measured on the canonical positions (what the polygon's
+// coordinates resolve); the relation is computed in long double from the exact products.
+
+/// Side pairings of a compact domain and the canonical generators derived from them.
+struct DomainDeck {
+  /// Ok; InvalidArgument (sizes, a canonical cut that is not Ok / canonical / closed genus ≥ 2, a
+  /// domain that is not a cut of the same input surface); NumericalFailure (a fit left the disk,
+  /// a refined vertex whose record does not fit its face, or a tile product that is not finite).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// The canonical generators a1 b1 … (map, residuals on canonical_positions), the relation.
+  DeckResult deck;
+  /// The compact domain's side pairings x1, x2, … (each maps side x_k onto x_k^-1, reversed).
+  std::vector<DeckGenerator> side_maps;
+  /// #Vc(canonical)×2: the canonical disk laid out through the compact domain's tiles.
+  std::vector<double> canonical_positions;
+  /// Largest hyperbolic distance between two computations of one canonical cut vertex from
+  /// different faces (tiles reached along different paths; 0 up to the side maps' residuals).
+  double tile_consistency = 0;
+  /// Longest breadth-first path over the canonical disk (number of face steps).
+  Index tile_depth = 0;
+  /// Poincaré's polygon theorem for the domain: around every vertex of its cut graph the side
+  /// pairings crossed compose to the identity. Largest deviation (largest entry of M ∓ I of the
+  /// product conjugated to that vertex's position), in long double.
+  double cycle_error = 0;
+  double seconds = 0;
+};
+
+/// See the block comment above. `domain` is cut_compact() of the same input surface (no
+/// refinement), `domain_positions` its layout (#Vc(domain)×2, Poincaré disk), `canonical` a
+/// canonical cut_surface() of that surface (refined or not).
+DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain,
+                               std::span<const double> domain_positions, const DeckOptions& options = {});
+
 // ---- Universal cover ----------------------------------------------------------------------
 
 struct CoverOptions {

@@ -196,6 +196,11 @@ Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, 
 /// (#E) on the unit sphere — no cut is needed: the last faces close up by themselves.
 Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options = {});
 
+/// The figures of a Layout (max_edge_length_error, worst_edge, rounding_floor, flipped_faces)
+/// for positions computed elsewhere (e.g. deck_through_domain()'s canonical polygon): `l` #E of
+/// `disk`, positions #V×dims. Status NonFiniteCoordinate names a vertex without a valid position.
+Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions);
+
 // ---------------------------------------------------------------------------------------------
 // Comparing layouts.
 

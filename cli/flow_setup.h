@@ -1,0 +1,73 @@
+// ricci command-line driver — option values shared by the commands that run the flow (`flow`,
+// `uniformize`): parsing of --geometry/--scheme/--target/--boundary/--method, CLI11 validators,
+// and the target curvature built from them. Definitions in flow_command.cpp.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ricci/flow.h"
+#include "ricci/metric.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci_cli {
+
+std::optional<ricci::Geometry> parse_geometry(const std::string& s);
+std::optional<ricci::Scheme> parse_scheme(const std::string& s);
+std::optional<ricci::Method> parse_method(const std::string& s);
+std::string_view method_name(ricci::Method m);
+/// A whole-string number; a trailing "pi" multiplies by π ("2pi", "-0.5pi", "pi").
+std::optional<double> parse_angle(std::string_view s);
+
+/// --target: auto/uniform, cones=FILE, single-vertex=I.
+struct TargetSpec {
+  enum class Kind { Uniform, Cones, SingleVertex } kind = Kind::Uniform;
+  std::string file;         ///< Cones
+  std::int64_t vertex = 0;  ///< SingleVertex
+};
+std::optional<TargetSpec> parse_target(const std::string& s, std::string* why);
+
+/// --boundary: auto, free, fixed, circle, geodesic, loop-totals=T1,T2,…
+struct BoundarySpec {
+  bool automatic = true;
+  ricci::BoundaryMode mode = ricci::BoundaryMode::Circle;
+  std::vector<double> totals;  ///< LoopTotals
+};
+std::optional<BoundarySpec> parse_boundary(const std::string& s, std::string* why);
+
+/// A CLI11 validator from one of the parse functions above.
+template <class Parse>
+CLI::Validator spec_validator(Parse parse, const std::string& description) {
+  return CLI::Validator(
+      [parse](std::string& value) -> std::string {
+        std::string why;
+        return parse(value, &why) ? std::string() : why;
+      },
+      description);
+}
+
+/// A validator for a number: positive (`strict`) or non-negative; integral when `integer`.
+CLI::Validator number_validator(bool strict, bool integer);
+
+/// Whether the path's extension (case-insensitive) is one of `exts` (".obj", …).
+bool has_extension(const std::string& path, std::initializer_list<const char*> exts);
+
+/// The target curvature for the parsed --target and --boundary on a validated mesh: `usage` is
+/// set for a bad option value (exit 2); otherwise `status` is Ok or the target file's error.
+struct TargetBuild {
+  ricci::Status status = ricci::Status::Ok;
+  bool usage = false;
+  std::string message;
+  ricci::Target target;
+};
+TargetBuild build_target(const ricci::Topology& topo, ricci::BoundaryMode mode, const TargetSpec& target_spec,
+                         const BoundarySpec& boundary_spec, const std::string& target_text,
+                         const std::string& boundary_text);
+
+}  // namespace ricci_cli

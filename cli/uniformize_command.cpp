@@ -1,0 +1,930 @@
+// ricci command-line driver: `uniformize` (the main job), `layout` (from a stored metric) and
+// `cover` (the universal cover tiling). See commands.h and lib/include/ricci/uniformize.h.
+//
+//   load → initial metric → target → flow → cut → layout → seed check → deck maps → outputs
+//
+// OUTDIR (written only when every stage succeeded; built in a hidden staging directory beside it
+// and renamed into place, so a failed or interrupted run leaves no partial OUTDIR; an existing
+// OUTDIR is replaced only when it is empty or holds a ricci report.json):
+//   mesh.obj         the (refined) surface, input vertices first; per-corner `vt` = the layout
+//                    (E: plane, H: Poincaré disk), so seams run exactly along the cut. Closed
+//                    genus 0: the input surface without vt (see sphere.obj).
+//   sphere.obj       closed genus 0: the same faces with the layout's unit vectors as positions.
+//   domain.obj       the cut disk with its layout as positions (x, y, 0), one vertex per cut vertex.
+//   metric.csv       as `ricci flow -o`: u, K, K_target per vertex; length per edge (uniformize only).
+//   generators.json  closed genus ≥ 1: the deck generators (see generators_json()).
+//   cover.svg, cover.obj   closed genus ≥ 1: the universal cover tiling (--cover-depth).
+//   report.json      the summary (the keys of --json), also printed on stdout with --json.
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "commands.h"
+#include "flow_setup.h"
+#include "ricci/deck.h"
+#include "ricci/io.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
+#include "report_html.h"
+#include "uniformize_pictures.h"
+
+namespace ricci_cli {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+using ricci::Geometry;
+using ricci::Index;
+using ricci::Status;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+Json real(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
+
+std::string sci(double x, const char* fmt = "%.3g") {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, x);
+  return buf;
+}
+
+/// Progress line of a finished stage (summaries that name their stage are printed as they are).
+void print_stage(const ricci::StageRecord& s) {
+  const bool named = s.summary.rfind(std::string(s.stage) + ":", 0) == 0;
+  std::cerr << "ricci: " << (named ? std::string() : std::string(s.stage) + ": ") << s.summary << " (" << sci(s.seconds)
+            << " s)\n";
+}
+
+/// The group that tiles the universal cover with copies of the layout: the compact domain's side
+/// pairings (H: its neighbours across every side are one letter away) or the deck generators.
+ricci::DeckResult tiling_group(const ricci::UniformizeResult& r) {
+  if (r.domain_maps.empty()) return r.deck;
+  ricci::DeckResult d;
+  d.status = Status::Ok;
+  d.geometry = r.geometry;
+  d.genus = r.deck.genus;
+  d.generators = r.domain_maps;
+  return d;
+}
+
+/// Cover options for a layout with `faces` faces: the depth asked for (0: 3 for the torus's
+/// 3x3 block, 1 — every neighbour across a side — for the compact domain, 2 otherwise), at most
+/// about 3 million faces in all.
+ricci::CoverOptions cover_options(const ricci::UniformizeResult& r, std::int64_t depth) {
+  ricci::CoverOptions co;
+  co.depth = depth > 0 ? depth : (r.geometry == Geometry::Euclidean ? 3 : (r.domain_maps.empty() ? 2 : 1));
+  const std::int64_t faces = std::max<std::int64_t>(1, static_cast<std::int64_t>(r.cut.cut_faces.size() / 3));
+  co.max_copies = std::max<std::int64_t>(1, std::min<std::int64_t>(20000, 3000000 / faces));
+  return co;
+}
+
+std::string status_text(Status s) { return s == Status::Ok ? std::string("ok") : std::string(ricci::status_name(s)); }
+
+// ---- output files -------------------------------------------------------------------------------
+
+struct OutFile {
+  std::string name;
+  std::string data;
+};
+
+/// Refuses OUTDIR when it cannot be (re)placed; empty string when fine.
+std::string check_output_dir(const fs::path& out, const std::vector<std::string>& protected_paths, Status* status) {
+  std::error_code ec;
+  *status = Status::WriteFailed;
+  if (out.empty()) return "no output directory given";
+  if (fs::exists(out, ec)) {
+    if (!fs::is_directory(out, ec)) return out.string() + " exists and is not a directory";
+    const bool empty = fs::is_empty(out, ec);
+    if (!empty && !fs::exists(out / "report.json", ec))
+      return out.string() + " is not empty and holds no ricci report.json; refusing to replace it";
+  }
+  const fs::path parent = fs::absolute(out, ec).parent_path();
+  if (!fs::is_directory(parent, ec)) return "cannot create " + out.string() + ": " + parent.string() + " is not a directory";
+  if (::access(parent.c_str(), W_OK) != 0) return "cannot create " + out.string() + ": " + parent.string() + " is not writable";
+  const fs::path abs_out = fs::weakly_canonical(fs::absolute(out, ec), ec);
+  for (const std::string& p : protected_paths) {
+    const fs::path ap = fs::weakly_canonical(fs::absolute(p, ec), ec);
+    auto it = std::mismatch(abs_out.begin(), abs_out.end(), ap.begin(), ap.end());
+    if (it.first == abs_out.end()) {
+      *status = Status::OutputIsInput;
+      return "refusing to write " + out.string() + ": it contains the input file " + p + "; nothing was written";
+    }
+  }
+  *status = Status::Ok;
+  return {};
+}
+
+/// Writes the files into a staging directory beside OUTDIR, then renames it into place.
+std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& files) {
+  std::error_code ec;
+  const fs::path abs = fs::absolute(out, ec);
+  const fs::path parent = abs.parent_path();
+  const std::string base = abs.filename().string();
+  const fs::path staging = parent / ("." + base + ".ricci-tmp-" + std::to_string(::getpid()));
+  const fs::path old = parent / ("." + base + ".ricci-old-" + std::to_string(::getpid()));
+  fs::remove_all(staging, ec);
+  if (!fs::create_directory(staging, ec)) return "cannot create " + staging.string() + ": " + ec.message();
+  auto abandon = [&](const std::string& m) {
+    std::error_code e2;
+    fs::remove_all(staging, e2);
+    return m;
+  };
+  for (const OutFile& f : files) {
+    std::ofstream os(staging / f.name, std::ios::binary);
+    os.write(f.data.data(), static_cast<std::streamsize>(f.data.size()));
+    os.close();
+    if (!os) return abandon("cannot write " + (out / f.name).string());
+  }
+  const bool existed = fs::exists(abs, ec);
+  if (existed) {
+    fs::rename(abs, old, ec);
+    if (ec) return abandon("cannot replace " + out.string() + ": " + ec.message());
+  }
+  fs::rename(staging, abs, ec);
+  if (ec) {
+    std::error_code e2;
+    if (existed) fs::rename(old, abs, e2);
+    return abandon("cannot create " + out.string() + ": " + ec.message());
+  }
+  if (existed) fs::remove_all(old, ec);
+  return {};
+}
+
+std::string obj_header(const std::string& what, const std::string& source) {
+  return "# ricci: " + what + "\n# input: " + source + "\n";
+}
+
+/// A disk with its layout as positions (x, y, 0) (E, H).
+std::string disk_obj(const ricci::CutResult& cut, std::span<const double> x, Geometry g, const std::string& what,
+                     const std::string& source) {
+  std::string s = obj_header(what + ", laid out (" + std::string(ricci::geometry_name(g)) +
+                                 (g == Geometry::Hyperbolic ? ", Poincare disk" : "") + "); sides " + cut.word,
+                             source);
+  for (Index v = 0; v < cut.num_cut_vertices(); ++v) {
+    s += "v ";
+    append_number(s, x[2 * static_cast<std::size_t>(v)]);
+    s += ' ';
+    append_number(s, x[2 * static_cast<std::size_t>(v) + 1]);
+    s += " 0\n";
+  }
+  for (std::size_t f = 0; f + 2 < cut.cut_faces.size(); f += 3) {
+    s += "f " + std::to_string(cut.cut_faces[f] + 1) + ' ' + std::to_string(cut.cut_faces[f + 1] + 1) + ' ' +
+         std::to_string(cut.cut_faces[f + 2] + 1) + '\n';
+  }
+  return s;
+}
+
+Json moebius_json(const ricci::Moebius& m) {
+  return Json{{"a", {m.a.real(), m.a.imag()}}, {"b", {m.b.real(), m.b.imag()}}};
+}
+
+Json generators_array(const std::vector<ricci::DeckGenerator>& gens) {
+  Json a = Json::array();
+  for (const ricci::DeckGenerator& g : gens) {
+    Json j;
+    j["name"] = g.name;
+    j["side"] = g.side;
+    j["partner"] = g.partner;
+    if (g.geometry == Geometry::Hyperbolic) {
+      j["theta"] = real(g.theta);
+      j["z0"] = {real(g.z0.real()), real(g.z0.imag())};
+      j["matrix"] = moebius_json(g.map);
+      j["translation_length"] = real(g.translation_length);
+    } else {
+      j["translation"] = {real(g.translation[0]), real(g.translation[1])};
+      j["rotation"] = real(g.rotation);
+      j["translation_length"] = real(std::hypot(g.translation[0], g.translation[1]));
+    }
+    j["residual_max"] = real(g.residual_max);
+    j["residual_rms"] = real(g.residual_rms);
+    j["pairs"] = g.pairs;
+    j["single_edge_spread"] = real(g.single_edge_spread);
+    a.push_back(std::move(j));
+  }
+  return a;
+}
+
+std::string generators_json(const ricci::UniformizeResult& r, const std::string& source) {
+  Json j;
+  j["format"] = "ricci-deck-generators";
+  j["version"] = 1;
+  j["input"] = source;
+  j["geometry"] = std::string(ricci::geometry_name(r.geometry));
+  j["genus"] = r.deck.genus;
+  j["word"] = r.has_polygon ? r.polygon_cut.word : r.cut.word;
+  j["convention"] =
+      r.geometry == Geometry::Hyperbolic
+          ? "each generator X maps side X of the polygon onto side X^-1, reversing it; H: z -> e^{i theta}(z - z0)/(1 - "
+            "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1"
+          : "each generator X maps side X of the polygon onto side X^-1: z -> z + translation";
+  j["relation_error"] = real(r.deck.relation_error);
+  if (r.geometry == Geometry::Hyperbolic) j["relator"] = moebius_json(r.deck.relator);
+  j["generators"] = generators_array(r.deck.generators);
+  if (!r.domain_maps.empty()) {
+    j["domain_side_pairings"] = generators_array(r.domain_maps);
+    j["domain_cycle_error"] = real(r.domain_cycle_error);
+    j["tile_consistency"] = real(r.tile_consistency);
+  }
+  return j.dump(2) + '\n';
+}
+
+std::string metric_csv(const ricci::UniformizeResult& r, const ricci::Topology& t, std::span<const Index> to_input,
+                       const std::string& source, const std::string& scheme) {
+  const ricci::FlowResult& f = r.flow;
+  std::string s;
+  s += "# ricci flow metric of " + source + '\n';
+  s += "# geometry=" + std::string(ricci::geometry_name(r.geometry)) + " scheme=" + scheme + " boundary=" +
+       (t.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary))) +
+       " target=uniform method=newton\n";
+  s += "# iterations=" + std::to_string(f.iterations) + " max_curvature_error=";
+  append_number(s, f.max_curvature_error);
+  s += " gauss_bonnet_error=";
+  append_number(s, f.gauss_bonnet_error);
+  s += "\n# vertex,input_vertex,u,K,K_target\n";
+  for (Index v = 0; v < t.num_vertices; ++v) {
+    s += std::to_string(v) + ',' + std::to_string(to_input[v]) + ',';
+    append_number(s, f.u[v]);
+    s += ',';
+    append_number(s, f.K[v]);
+    s += ',';
+    append_number(s, f.K_target[v]);
+    s += '\n';
+  }
+  s += "# edge,v0,v1,length\n";
+  for (Index e = 0; e < t.num_edges; ++e) {
+    s += std::to_string(e) + ',' + std::to_string(t.edge_vertices[2 * e]) + ',' +
+         std::to_string(t.edge_vertices[2 * e + 1]) + ',';
+    append_number(s, f.l[e]);
+    s += '\n';
+  }
+  return s;
+}
+
+// ---- stored metrics (`ricci layout`) ------------------------------------------------------------
+
+struct StoredMetric {
+  Status status = Status::NotRun;
+  std::string message;
+  std::optional<Geometry> geometry;
+  std::vector<double> lengths;
+};
+
+/// Reads the edge lengths of a metric file written by `ricci flow -o` (CSV or JSON) and checks
+/// that its edges are the mesh's edges.
+StoredMetric read_metric(const std::string& path, const ricci::Topology& t) {
+  StoredMetric m;
+  auto fail = [&](Status s, const std::string& msg) {
+    m.status = s;
+    m.message = path + ": " + msg;
+    m.lengths.clear();
+    return m;
+  };
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return fail(Status::FileNotFound, "no such file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return fail(Status::FileUnreadable, "cannot be read");
+  const auto size = fs::file_size(path, ec);
+  if (!ec && size > (std::uintmax_t{1} << 32)) return fail(Status::FileTooLarge, "larger than 4 GiB");
+  const Index E = t.num_edges;
+  std::vector<std::array<Index, 2>> ends;
+  std::vector<double> len;
+  if (has_extension(path, {".json"})) {
+    Json j;
+    try {
+      j = Json::parse(in);
+    } catch (const std::exception& e) {
+      return fail(Status::ParseError, std::string("not valid JSON: ") + e.what());
+    }
+    if (j.contains("geometry") && j["geometry"].is_string()) m.geometry = parse_geometry(j["geometry"].get<std::string>());
+    if (!j.contains("edges") || !j["edges"].is_object()) return fail(Status::ParseError, "no \"edges\" object");
+    const Json& ed = j["edges"];
+    for (const char* k : {"v0", "v1", "length"})
+      if (!ed.contains(k) || !ed[k].is_array()) return fail(Status::ParseError, std::string("edges has no array \"") + k + "\"");
+    const std::size_t n = ed["length"].size();
+    if (ed["v0"].size() != n || ed["v1"].size() != n) return fail(Status::ParseError, "edges arrays differ in length");
+    for (std::size_t e = 0; e < n; ++e) {
+      const Json &a = ed["v0"][e], &b = ed["v1"][e], &l = ed["length"][e];
+      if (!a.is_number_integer() || !b.is_number_integer() || !l.is_number())
+        return fail(Status::ParseError, "edge " + std::to_string(e) + ": v0, v1 must be integers and length a number");
+      ends.push_back({a.get<Index>(), b.get<Index>()});
+      len.push_back(l.get<double>());
+    }
+  } else {
+    std::string line;
+    std::int64_t lineno = 0;
+    bool in_edges = false;
+    while (std::getline(in, line)) {
+      ++lineno;
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line.empty()) continue;
+      if (line[0] == '#') {
+        if (line.rfind("# geometry=", 0) == 0) {
+          const std::size_t sp = line.find(' ', 11);
+          m.geometry = parse_geometry(line.substr(11, sp == std::string::npos ? std::string::npos : sp - 11));
+        }
+        if (line.rfind("# edge,", 0) == 0) in_edges = true;
+        if (line.rfind("# vertex,", 0) == 0) in_edges = false;
+        continue;
+      }
+      if (!in_edges) continue;
+      std::istringstream ss(line);
+      std::string f[4];
+      for (auto& x : f)
+        if (!std::getline(ss, x, ',')) break;
+      char* end = nullptr;
+      const long long v0 = std::strtoll(f[1].c_str(), &end, 10);
+      const bool ok0 = !f[1].empty() && *end == '\0';
+      const long long v1 = std::strtoll(f[2].c_str(), &end, 10);
+      const bool ok1 = !f[2].empty() && *end == '\0';
+      const double l = std::strtod(f[3].c_str(), &end);
+      const bool ok2 = !f[3].empty() && *end == '\0';
+      if (!ok0 || !ok1 || !ok2)
+        return fail(Status::ParseError, "line " + std::to_string(lineno) + ": expected 'edge,v0,v1,length'");
+      ends.push_back({static_cast<Index>(v0), static_cast<Index>(v1)});
+      len.push_back(l);
+      if (static_cast<Index>(len.size()) > E) break;
+    }
+  }
+  if (static_cast<Index>(len.size()) != E)
+    return fail(Status::ParseError, "has " + std::to_string(len.size()) + " edges but the mesh has " + std::to_string(E) +
+                                        " (a metric of another mesh?)");
+  for (Index e = 0; e < E; ++e) {
+    if (ends[e][0] != t.edge_vertices[2 * e] || ends[e][1] != t.edge_vertices[2 * e + 1])
+      return fail(Status::ParseError, "edge " + std::to_string(e) + " joins " + std::to_string(ends[e][0]) + "-" +
+                                          std::to_string(ends[e][1]) + " but the mesh's edge " + std::to_string(e) +
+                                          " joins " + std::to_string(t.edge_vertices[2 * e]) + "-" +
+                                          std::to_string(t.edge_vertices[2 * e + 1]) + " (a metric of another mesh?)");
+    if (!(len[e] > 0) || !std::isfinite(len[e]))
+      return fail(Status::DegenerateFace, "the length of edge " + std::to_string(e) + " is not a positive finite number");
+  }
+  m.lengths = std::move(len);
+  m.status = Status::Ok;
+  return m;
+}
+
+// ---- the report -----------------------------------------------------------------------------
+
+struct Run {
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  std::string file;
+  bool embedded = false;
+  bool have_mesh = false;
+  ricci::Topology topo;
+  std::string scheme = "circle-packing";
+  bool have_result = false;
+  ricci::UniformizeResult result;
+  std::vector<ricci::Repair> repairs;
+  std::vector<std::string> notes;
+  std::vector<std::string> outputs;
+  std::string output_dir;
+  double load_seconds = 0, write_seconds = 0, pictures_seconds = 0, total_seconds = 0;
+  std::optional<ConformalDistortion> distortion;
+  bool from_metric = false;
+};
+
+Json report_json(const Run& run) {
+  const ricci::UniformizeResult& r = run.result;
+  const bool have = run.have_result;
+  Json j;
+  j["status"] = status_text(run.status);
+  j["message"] = run.message;
+  j["failed_stage"] = have && !r.failed_stage.empty() ? Json(r.failed_stage) : Json(nullptr);
+  j["input"] = run.file;
+  j["embedded_default"] = run.embedded;
+  if (run.have_mesh) {
+    const ricci::Topology& t = run.topo;
+    j["mesh"] = Json{{"vertices", t.num_vertices},     {"edges", t.num_edges},
+                     {"faces", t.num_faces},           {"boundary_loops", t.num_boundary_loops()},
+                     {"euler_characteristic", t.euler_characteristic()}, {"genus", t.genus()}};
+  } else {
+    j["mesh"] = nullptr;
+  }
+  j["geometry"] = have ? Json(std::string(ricci::geometry_name(r.geometry))) : Json(nullptr);
+  j["scheme"] = run.from_metric ? Json(nullptr) : Json(run.scheme);
+  j["boundary"] = have && run.have_mesh ? (run.topo.is_closed() ? Json("none") : Json(std::string(ricci::boundary_mode_name(r.boundary))))
+                                        : Json(nullptr);
+  const bool flowed = have && !run.from_metric && r.flow.status != Status::NotRun;
+  j["iterations"] = flowed ? Json(r.flow.iterations) : Json(nullptr);
+  j["max_curvature_error"] = flowed ? real(r.flow.max_curvature_error) : Json(nullptr);
+  j["gauss_bonnet_error"] = flowed ? real(r.flow.gauss_bonnet_error) : Json(nullptr);
+  const bool laid = have && r.layout.status == Status::Ok;
+  if (laid) {
+    const ricci::Layout& L = r.layout;
+    j["layout"] = Json{{"domain", r.has_cut ? (r.geometry == Geometry::Hyperbolic ? "poincare-disk" : "plane") : "sphere"},
+                       {"max_edge_length_error", real(L.max_edge_length_error)},
+                       {"flipped_faces", L.flipped_faces},
+                       {"rounding_floor", real(L.rounding_floor)},
+                       {"seed_face", L.seed_face},
+                       {"depth", L.depth},
+                       {"vertices", static_cast<std::int64_t>(L.positions.size() / std::max(1, L.dims))},
+                       {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)}};
+  } else {
+    j["layout"] = nullptr;
+  }
+  j["seed_independence_error"] = laid && !r.seed_faces_checked.empty() ? real(r.seed_independence_error) : Json(nullptr);
+  j["seed_faces_checked"] = have ? Json(r.seed_faces_checked) : Json::array();
+  auto cut_json = [](const ricci::CutResult& c) {
+    return Json{{"genus", c.genus},
+                {"boundary_loops", c.boundary_loops},
+                {"word", c.word},
+                {"canonical", c.canonical},
+                {"base_vertex", c.base_vertex},
+                {"sides", c.num_sides()},
+                {"refined_vertices", c.num_refined_vertices()},
+                {"cut_vertices", c.num_cut_vertices()}};
+  };
+  if (have && r.has_cut && r.cut.status == Status::Ok) {
+    Json c = cut_json(r.cut);
+    c["kind"] = r.domain_maps.empty() ? "canonical" : "compact";
+    j["cut"] = std::move(c);
+  } else {
+    j["cut"] = nullptr;
+  }
+  if (have && r.has_polygon) {
+    Json c = cut_json(r.polygon_cut);
+    c["max_edge_length_error"] = real(r.polygon.max_edge_length_error);
+    c["rounding_floor"] = real(r.polygon.rounding_floor);
+    c["flipped_faces"] = r.polygon.flipped_faces;
+    Json cands = Json::array();
+    for (const ricci::BaseCandidate& b : r.candidates)
+      cands.push_back(Json{{"base_vertex", b.base_vertex},
+                           {"refined_vertices", b.refined_vertices},
+                           {"relation_error", real(b.relation_error)},
+                           {"max_edge_length_error", real(b.max_edge_length_error)},
+                           {"rounding_floor", real(b.rounding_floor)},
+                           {"seconds", b.seconds}});
+    c["base_candidates"] = std::move(cands);
+    j["polygon"] = std::move(c);
+  } else {
+    j["polygon"] = nullptr;
+  }
+  j["generators"] = have && r.has_deck && r.deck.status == Status::Ok ? generators_array(r.deck.generators) : Json::array();
+  j["domain_cycle_error"] = have && !r.domain_maps.empty() ? real(r.domain_cycle_error) : Json(nullptr);
+  j["relation_error"] = have && r.has_deck && r.deck.status == Status::Ok ? real(r.deck.relation_error) : Json(nullptr);
+  j["angle_distortion"] = have && !r.angles.ratio.empty()
+                              ? Json{{"mean", real(r.angles.mean_abs_log)}, {"max", real(r.angles.max_abs_log)}}
+                              : Json(nullptr);
+  j["conformal_distortion"] =
+      run.distortion ? Json{{"faces", run.distortion->faces},
+                            {"mean", real(run.distortion->mean)},
+                            {"median", real(run.distortion->median)},
+                            {"p95", real(run.distortion->p95)},
+                            {"max", real(run.distortion->max)}}
+                     : Json(nullptr);
+  Json timings = Json::object();
+  timings["load"] = run.load_seconds;
+  if (have)
+    for (const auto& [name, s] : r.timings) timings[name] = s;
+  timings["outputs"] = run.write_seconds;
+  if (run.pictures_seconds > 0) timings["pictures"] = run.pictures_seconds;
+  j["timings"] = std::move(timings);
+  j["total_seconds"] = run.total_seconds;
+  j["output_dir"] = run.output_dir.empty() ? Json(nullptr) : Json(run.output_dir);
+  j["outputs"] = run.outputs;
+  Json history = Json::array();
+  if (flowed)
+    for (const ricci::IterationRecord& h : r.flow.history)
+      history.push_back(Json{{"iteration", h.iteration}, {"max_error", real(h.max_error)}, {"seconds", real(h.seconds)}});
+  j["history"] = std::move(history);
+  j["notes"] = run.notes;
+  j["repairs"] = repairs_json(run.repairs);
+  return j;
+}
+
+int finish(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, std::optional<int> code = std::nullopt) {
+  run.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (o.json) {
+    std::cout << report_json(run).dump(2) << '\n';
+  } else if (run.have_result) {
+    std::cout << run.result.brief_report() << '\n';
+  }
+  return finish_stdout(code ? *code : exit_code(run.status));
+}
+
+void fail(Run& run, Status status, const std::string& message) {
+  run.status = status;
+  run.message = message;
+  print_error(message);
+}
+
+}  // namespace
+
+int run_uniformize(const UniformizeCommandOptions& o) {
+  const Clock::time_point start = Clock::now();
+  Run run;
+  run.embedded = o.mesh.empty();
+  run.file = run.embedded ? std::string(embedded_default_name()) : o.mesh;
+  run.scheme = o.scheme;
+  run.from_metric = !o.metric.empty();
+  const char* cmd = run.from_metric ? "layout" : "uniformize";
+  auto usage = [&](const std::string& m) {
+    fail(run, Status::InvalidArgument, m);
+    return finish(o, run, start, kExitUsage);
+  };
+
+  // ---- settings ----
+  std::string why;
+  ricci::UniformizeOptions uo;
+  if (o.geometry != "auto") {
+    uo.geometry = parse_geometry(o.geometry);
+    if (!uo.geometry) return usage("unknown geometry '" + o.geometry + "'");
+  }
+  const std::optional<ricci::Scheme> scheme = parse_scheme(o.scheme);
+  if (!scheme) return usage("unknown scheme '" + o.scheme + "'");
+  const std::optional<TargetSpec> target_spec = parse_target(o.target, &why);
+  if (!target_spec) return usage(why);
+  const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
+  if (!boundary_spec) return usage(why);
+  uo.metric.scheme = *scheme;
+  uo.metric.relax_angles = !o.no_angle_relax;
+  uo.flow.tolerance = o.tolerance;
+  if (o.max_iterations > 0) uo.flow.max_iterations = o.max_iterations;
+  uo.flow.threads = o.threads;
+  uo.flow.normalize_circle_domains = !o.no_circle_normalization;
+  uo.base_candidates = o.base_candidates;
+  uo.seed_checks = o.seed_checks;
+  uo.layout.unit_box = o.unit_box;
+  if (!uo.is_valid(&why)) return usage(why);
+  if (o.output.empty()) return usage("-o OUTDIR is required");
+
+  std::vector<std::string> protected_paths;
+  if (!run.embedded) protected_paths.push_back(o.mesh);
+  if (target_spec->kind == TargetSpec::Kind::Cones) protected_paths.push_back(target_spec->file);
+  if (run.from_metric) protected_paths.push_back(o.metric);
+  {
+    Status s = Status::Ok;
+    const std::string m = check_output_dir(o.output, protected_paths, &s);
+    if (s != Status::Ok) {
+      fail(run, s, m);
+      return finish(o, run, start);
+    }
+  }
+
+  // ---- load ----
+  if (run.embedded)
+    print_note(o.quiet, std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
+  ricci::ValidateOptions vo;
+  vo.keep_largest_component = o.largest_component;
+  ricci::LoadResult loaded = load_input(run.embedded ? std::string() : o.mesh, vo);
+  run.load_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (loaded.status != Status::Ok) {
+    fail(run, loaded.status, loaded.message);
+    return finish(o, run, start);
+  }
+  run.repairs = loaded.repairs;
+  for (const ricci::Repair& rep : run.repairs) print_note(o.quiet, rep.message);
+  const ricci::ValidateResult v = std::move(loaded.validated);
+  run.topo = v.topology;
+  run.have_mesh = true;
+  const ricci::Topology& topo = v.topology;
+  print_note(o.quiet, std::string(cmd) + ": loaded " + run.file + ": " + std::to_string(topo.num_vertices) +
+                          " vertices, " + std::to_string(topo.num_faces) + " faces, genus " + std::to_string(topo.genus()) +
+                          ", " + std::to_string(topo.num_boundary_loops()) + " boundary loops (" +
+                          sci(run.load_seconds) + " s)");
+
+  if (!o.quiet) {
+    uo.on_stage = print_stage;
+    uo.flow.on_iteration = [](const ricci::IterationRecord& rec) {
+      std::cerr << "ricci: flow iteration " << rec.iteration << ": max error " << sci(rec.max_error, "%.3e") << ", "
+                << sci(rec.seconds) << " s\n";
+    };
+  }
+
+  if (run.from_metric) {
+    const StoredMetric m = read_metric(o.metric, topo);
+    if (m.status != Status::Ok) {
+      fail(run, m.status, m.message);
+      return finish(o, run, start);
+    }
+    Geometry g = m.geometry ? *m.geometry : ricci::natural_geometry(topo);
+    if (uo.geometry && m.geometry && *uo.geometry != *m.geometry)
+      return usage("--geometry " + o.geometry + " contradicts the metric file's geometry " +
+                   std::string(ricci::geometry_name(*m.geometry)));
+    if (uo.geometry) g = *uo.geometry;
+    run.result = ricci::lay_out_metric(v.mesh, topo, g, m.lengths, uo);
+  } else {
+    // Boundary mode and target as for `ricci flow`.
+    const Geometry g = uo.geometry ? *uo.geometry : ricci::natural_geometry(topo);
+    ricci::BoundaryMode mode = ricci::BoundaryMode::Free;
+    if (!topo.is_closed()) {
+      mode = boundary_spec->automatic ? ricci::natural_boundary_mode(topo, g) : boundary_spec->mode;
+      uo.boundary = mode;
+    } else if (!boundary_spec->automatic) {
+      const std::string note = "the surface is closed; --boundary " + o.boundary + " is ignored";
+      run.notes.push_back(note);
+      print_note(o.quiet, note);
+    }
+    TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, o.target, o.boundary);
+    if (tb.usage) return usage(tb.message);
+    if (tb.status != Status::Ok) {
+      fail(run, tb.status, tb.message);
+      return finish(o, run, start);
+    }
+    run.result = ricci::uniformize(v.mesh, topo, uo, &tb.target);
+  }
+  run.have_result = true;
+  ricci::UniformizeResult& r = run.result;
+  for (const std::string& n : r.flow.notes) {
+    run.notes.push_back(n);
+    print_note(o.quiet, n);
+  }
+  if (r.status != Status::Ok) {
+    fail(run, r.status, run.file + ": " + r.message);
+    print_error("no output written to " + o.output);
+    return finish(o, run, start);
+  }
+  if (r.layout.flipped_faces > 0) {
+    const std::string note = "the layout has " + std::to_string(r.layout.flipped_faces) + " flipped faces (first: face " +
+                             std::to_string(r.layout.first_flipped_face) + ")";
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  }
+  if (r.layout.rounding_floor > 1e-9) {
+    const std::string note = "the cut polygon reaches far out in the Poincare disk: double-precision coordinates resolve "
+                             "edge lengths there only to " + sci(r.layout.rounding_floor) + " (layout.rounding_floor)";
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  }
+
+  // ---- outputs ----
+  const Clock::time_point tw = Clock::now();
+  std::vector<OutFile> files;
+  const bool sphere = !r.has_cut;
+  ricci::Mesh surface;  // what mesh.obj holds (and the checkerboard renders)
+  if (sphere) {
+    surface = v.mesh;
+    surface.texcoords.clear();
+    surface.corner_texcoords.clear();
+    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+    ricci::Mesh s;
+    s.positions = r.layout.positions;
+    s.faces = v.mesh.faces;
+    files.push_back({"sphere.obj", ricci::serialize_mesh(s, ricci::FileFormat::Obj)});
+  } else {
+    surface = ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
+    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+    files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
+                                            r.domain_maps.empty() ? "the cut disk" : "the compact fundamental domain",
+                                            run.file)});
+    if (r.has_polygon && !r.domain_maps.empty())
+      files.push_back({"polygon.obj", disk_obj(r.polygon_cut, r.polygon.positions, r.geometry,
+                                               "the canonical fundamental polygon", run.file)});
+  }
+  if (!run.from_metric) files.push_back({"metric.csv", metric_csv(r, topo, v.vertex_to_input, run.file, o.scheme)});
+  ricci::CoverResult cover;
+  if (r.has_deck) {
+    files.push_back({"generators.json", generators_json(r, run.file)});
+    cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), cover_options(r, o.cover_depth));
+    if (cover.status == Status::Ok) {
+      files.push_back({"cover.svg", ricci::cover_svg(r.cut, r.layout.positions, cover)});
+      files.push_back({"cover.obj", ricci::serialize_mesh(ricci::cover_mesh(r.cut, r.layout.positions, cover),
+                                                          ricci::FileFormat::Obj)});
+    } else {
+      const std::string note = "no cover written: " + cover.message;
+      run.notes.push_back(note);
+      print_note(o.quiet, note);
+    }
+  }
+  run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
+  std::vector<ReportImage> images;
+  if (!o.no_pictures) {
+    const Clock::time_point tp = Clock::now();
+    ConformalDistortion qc;
+    const std::vector<NamedPicture> pics =
+        uniformize_pictures(r, surface, cover.status == Status::Ok ? &cover : nullptr, &qc);
+    for (const NamedPicture& p : pics) {
+      files.push_back({p.id + ".png", p.png});
+      if (!p.svg.empty() && p.id != "cover") files.push_back({p.id + ".svg", p.svg});
+      images.push_back({p.id, p.title, p.caption, "image/png", p.png});
+    }
+    if (qc.faces > 0) run.distortion = qc;
+    run.pictures_seconds = std::chrono::duration<double>(Clock::now() - tp).count();
+    print_note(o.quiet, std::string(cmd) + ": " + std::to_string(pics.size()) + " pictures (" + sci(run.pictures_seconds) + " s)");
+  }
+  for (const OutFile& f : files)
+    if (f.data.empty()) {
+      fail(run, Status::WriteFailed, "could not serialise " + f.name + "; nothing was written");
+      return finish(o, run, start);
+    }
+  run.status = Status::Ok;
+  run.message = "ok";
+  run.output_dir = o.output;
+  for (const OutFile& f : files) run.outputs.push_back(f.name);
+  run.outputs.push_back("report.json");
+  if (!o.no_pictures) run.outputs.push_back("report.html");
+  run.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const Json report = report_json(run);
+  files.push_back({"report.json", report.dump(2) + '\n'});
+  if (!o.no_pictures) files.push_back({"report.html", report_html(report, images, "ricci uniformize: " + run.file)});
+  const std::string werr = write_output_dir(o.output, files);
+  if (!werr.empty()) {
+    run.outputs.clear();
+    run.output_dir.clear();
+    fail(run, Status::WriteFailed, werr + "; nothing was written");
+    return finish(o, run, start);
+  }
+  print_note(o.quiet, std::string(cmd) + ": wrote " + std::to_string(files.size()) + " files to " + o.output);
+  print_note(o.quiet, std::string(cmd) + " done: " + r.brief_report());
+  return finish(o, run, start);
+}
+
+int run_cover(const CoverCommandOptions& o) {
+  const Clock::time_point start = Clock::now();
+  const bool svg = has_extension(o.output, {".svg"});
+  if (o.output.empty() || (!svg && !has_extension(o.output, {".obj", ".off", ".ply"}))) {
+    print_error("-o must name an .svg (picture) or a mesh file (.obj, .off, .ply) for the tiling");
+    return finish_stdout(kExitUsage);
+  }
+  if (o.depth < 1 || o.depth > 12) {
+    print_error("--depth must be between 1 and 12");
+    return finish_stdout(kExitUsage);
+  }
+  if (!o.mesh.empty() && same_file(o.output, o.mesh)) {
+    print_error("refusing to write " + o.output + ": it is the input file; nothing was written");
+    return finish_stdout(exit_code(Status::OutputIsInput));
+  }
+  const std::string name = o.mesh.empty() ? std::string(embedded_default_name()) : o.mesh;
+  if (o.mesh.empty()) print_note(o.quiet, std::string("no MESH given; using the embedded default mesh ") + name);
+  ricci::ValidateOptions vo;
+  vo.keep_largest_component = o.largest_component;
+  ricci::LoadResult loaded = load_input(o.mesh, vo);
+  if (loaded.status != Status::Ok) {
+    print_error(loaded.message);
+    return finish_stdout(exit_code(loaded.status));
+  }
+  const ricci::Topology& topo = loaded.validated.topology;
+  if (!topo.is_closed() || topo.genus() < 1) {
+    print_error(name + ": the universal cover tiling needs a closed surface of genus >= 1 (this one has genus " +
+                std::to_string(topo.genus()) + " and " + std::to_string(topo.num_boundary_loops()) + " boundary loops)");
+    return finish_stdout(exit_code(Status::InvalidArgument));
+  }
+  ricci::UniformizeOptions uo;
+  uo.seed_checks = 0;
+  if (!o.quiet) uo.on_stage = print_stage;
+  const ricci::UniformizeResult r = ricci::uniformize(loaded.validated.mesh, topo, uo);
+  if (r.status != Status::Ok) {
+    print_error(name + ": " + r.message);
+    return finish_stdout(exit_code(r.status));
+  }
+  if (!r.has_deck) {
+    print_error(name + ": no deck transformations (the cut is not canonical: " + r.cut.reason + ")");
+    return finish_stdout(exit_code(Status::NumericalFailure));
+  }
+  ricci::CoverOptions co = cover_options(r, o.depth);
+  if (o.radius > 0) co.radius = o.radius;
+  const ricci::CoverResult cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), co);
+  if (cover.status != Status::Ok) {
+    print_error(name + ": " + cover.message);
+    return finish_stdout(exit_code(cover.status));
+  }
+  ricci::WriteResult w;
+  if (svg) {
+    w = ricci::write_file_atomic(o.output, ricci::cover_svg(r.cut, r.layout.positions, cover), {o.mesh});
+  } else {
+    w = ricci::write_mesh(o.output, ricci::cover_mesh(r.cut, r.layout.positions, cover));
+  }
+  if (w.status != Status::Ok) {
+    print_error(w.message);
+    return finish_stdout(exit_code(w.status));
+  }
+  const double secs = std::chrono::duration<double>(Clock::now() - start).count();
+  if (o.json) {
+    Json j{{"status", "ok"},
+           {"input", name},
+           {"geometry", std::string(ricci::geometry_name(r.geometry))},
+           {"depth", o.depth},
+           {"copies", static_cast<std::int64_t>(cover.elements.size())},
+           {"words_generated", cover.words_generated},
+           {"truncated", cover.truncated},
+           {"relation_error", real(r.deck.relation_error)},
+           {"output", o.output},
+           {"seconds", secs}};
+    std::cout << j.dump(2) << '\n';
+  } else {
+    std::cout << "cover: " << cover.elements.size() << " copies of the fundamental domain (depth " << o.depth << ") written to "
+              << o.output << '\n';
+  }
+  return finish_stdout(kExitOk);
+}
+
+CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
+  CLI::App* cmd = app.add_subcommand(
+      "uniformize",
+      "The whole job: flow to the uniformization metric (geometry by the topology), cut into a disk "
+      "(canonical polygon for closed genus >= 1), lay it out (plane, Poincare disk or sphere), fit the deck "
+      "transformations, and write the parameterized mesh, the metric, the generators, the cover and report.json "
+      "into OUTDIR. Progress on stderr; a summary line (or --json) on stdout.");
+  cmd->add_option("MESH", o.mesh,
+                  "Mesh file (.obj, .off, .ply). Default: the embedded genus-2 mesh (" +
+                      std::string(embedded_default_name()) + ").");
+  cmd->add_option("-o,--output", o.output,
+                  "Output directory (created; replaced only if it is empty or holds a previous ricci report.json). "
+                  "Written only when every stage succeeded.")
+      ->type_name("OUTDIR");
+  cmd->add_option("--geometry", o.geometry,
+                  "Background geometry: auto (spherical for closed genus 0, euclidean for genus 1 and for genus 0 "
+                  "with boundary, hyperbolic otherwise), euclidean, hyperbolic or spherical. Default: auto.")
+      ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
+  cmd->add_option("--scheme", o.scheme,
+                  "Discrete conformal scheme: circle-packing, inversive-distance or yamabe. Default: circle-packing.")
+      ->check(CLI::IsMember({"circle-packing", "inversive-distance", "yamabe"}));
+  cmd->add_option("--target", o.target,
+                  "Target curvature: auto (= uniform), uniform, cones=FILE or single-vertex=I (as for `ricci flow`). "
+                  "Default: auto.")
+      ->check(spec_validator(parse_target, "auto|uniform|cones=FILE|single-vertex=I"));
+  cmd->add_option("--boundary", o.boundary,
+                  "Boundary condition: auto (circle in euclidean, geodesic in hyperbolic), free, fixed, circle, "
+                  "geodesic or loop-totals=T1,T2,... (as for `ricci flow`). Default: auto.")
+      ->check(spec_validator(parse_boundary, "auto|free|fixed|circle|geodesic|loop-totals=T1,T2,..."));
+  cmd->add_option("--tol", o.tolerance, "Flow: stop when max |target K - K| < TOL (radians). Default: 1e-12.")
+      ->check(number_validator(true, false));
+  cmd->add_option("--max-iter", o.max_iterations, "Flow: Newton iteration limit. Default: 200.")
+      ->check(number_validator(true, true));
+  cmd->add_option("--threads", o.threads, "OpenMP threads; 0 uses the OpenMP default. Default: 0.")
+      ->check(number_validator(false, true));
+  cmd->add_option("--base-candidates", o.base_candidates,
+                  "Hyperbolic: base vertices tried for the cut; the layout that double precision resolves best is "
+                  "kept. Default: 6.")
+      ->check(number_validator(true, true));
+  cmd->add_option("--seed-checks", o.seed_checks,
+                  "Layouts from this many other seed faces are aligned to the first (seed_independence_error). "
+                  "Default: 3.")
+      ->check(number_validator(false, true));
+  cmd->add_option("--cover-depth", o.cover_depth,
+                  "Closed genus >= 1: word length of the cover tiling written (cover.svg, cover.obj): in the "
+                  "side pairings of the compact domain (hyperbolic) or the translations a1, b1 (torus); 0: 1 "
+                  "(hyperbolic: every neighbour across a side) or a 3x3 block (torus). Default: 0.")
+      ->check(number_validator(false, true));
+  cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box [0,1]^2. Default: off.");
+  cmd->add_flag("--no-pictures", o.no_pictures,
+                "Write no pictures and no report.html (only the meshes, metric, generators and report.json). "
+                "Default: off.");
+  cmd->add_flag("--no-angle-relax", o.no_angle_relax,
+                "Circle packing: keep Step 2's intersection angles exactly (see `ricci flow`). Default: off.");
+  cmd->add_flag("--no-circle-normalization", o.no_circle_normalization,
+                "Circle domains: the target proportional to length exactly (see `ricci flow`). Default: off.");
+  cmd->add_flag("--json", o.json, "Print report.json's content on stdout instead of the summary line. Default: off.");
+  cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr; errors are still printed. Default: off.");
+  cmd->add_flag("--largest-component", o.largest_component,
+                "Keep the largest connected component instead of failing on several. Default: off.");
+  return cmd;
+}
+
+CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
+  CLI::App* cmd = app.add_subcommand(
+      "layout",
+      "Lay out a stored metric (written by `ricci flow -o`): cut, layout, deck transformations and the same "
+      "outputs as `ricci uniformize` (without metric.csv) in OUTDIR.");
+  cmd->add_option("MESH", o.mesh, "The mesh the metric belongs to (validated the same way). Required.")->required();
+  cmd->add_option("--metric", o.metric, "Metric file from `ricci flow -o` (CSV or .json). Required.")
+      ->required()
+      ->type_name("METRIC");
+  cmd->add_option("-o,--output", o.output, "Output directory (as for uniformize). Required.")->required()->type_name("OUTDIR");
+  cmd->add_option("--geometry", o.geometry, "Geometry of the lengths: auto (the file's). Default: auto.")
+      ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
+  cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 6.")->check(number_validator(true, true));
+  cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 3.")->check(number_validator(false, true));
+  cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
+  cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
+  cmd->add_flag("--json", o.json, "Print the report on stdout. Default: off.");
+  cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr. Default: off.");
+  cmd->add_flag("--largest-component", o.largest_component, "Keep the largest connected component. Default: off.");
+  return cmd;
+}
+
+CLI::App* add_cover_command(CLI::App& app, CoverCommandOptions& o) {
+  CLI::App* cmd = app.add_subcommand(
+      "cover",
+      "Uniformize a closed surface of genus >= 1 and write its universal cover tiling: copies of the "
+      "fundamental polygon under the deck group's reduced words up to --depth.");
+  cmd->add_option("MESH", o.mesh,
+                  "Mesh file. Default: the embedded genus-2 mesh (" + std::string(embedded_default_name()) + ").");
+  cmd->add_option("-o,--output", o.output, "cover.svg (picture) or a mesh file (.obj, .off, .ply). Required.")
+      ->required()
+      ->type_name("OUT");
+  cmd->add_option("--depth", o.depth,
+                  "Hyperbolic: word length in the compact domain's side pairings (1: every neighbour across a "
+                  "side); torus: the block of translates is DEPTH x DEPTH. Default: 2.")
+      ->check(number_validator(true, true));
+  cmd->add_option("--radius", o.radius,
+                  "Hyperbolic: keep only copies whose centre lies within |z| <= RADIUS (0: no limit). Default: 0.")
+      ->check(number_validator(false, false));
+  cmd->add_flag("--json", o.json, "Print a JSON summary on stdout. Default: off.");
+  cmd->add_flag("-q,--quiet", o.quiet, "Silence progress on stderr. Default: off.");
+  cmd->add_flag("--largest-component", o.largest_component, "Keep the largest connected component. Default: off.");
+  return cmd;
+}
+
+}  // namespace ricci_cli

@@ -1,0 +1,304 @@
+// ricci command-line driver — the pictures of `ricci uniformize` (see uniformize_pictures.h).
+#include "uniformize_pictures.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "pictures.h"
+#include "ricci/deck.h"
+
+namespace ricci_cli {
+
+namespace {
+
+using ricci::Geometry;
+using ricci::Index;
+using cplx = std::complex<double>;
+constexpr double kPi = std::numbers::pi;
+
+/// Sides of a cut as polylines over `positions` (2D), one colour per generator (partners share it).
+std::vector<Polyline> side_lines(const ricci::CutResult& cut, std::span<const double> positions, double width) {
+  std::vector<Polyline> out;
+  for (Index s = 0; s < cut.num_sides(); ++s) {
+    Polyline pl;
+    const Index gen = cut.side_generator[s];
+    pl.colour = gen >= 0 ? palette(static_cast<int>(gen)) : 0xFF333333;
+    pl.width = width;
+    for (Index i = cut.side_offsets[s]; i < cut.side_offsets[s + 1]; ++i) {
+      const Index v = cut.side_vertices[i];
+      pl.points.push_back(positions[2 * v]);
+      pl.points.push_back(positions[2 * v + 1]);
+    }
+    out.push_back(std::move(pl));
+  }
+  return out;
+}
+
+Drawing disk_drawing(const ricci::CutResult& cut, std::span<const double> positions, Geometry g, const std::string& title) {
+  Drawing d;
+  d.domain = g == Geometry::Hyperbolic ? Domain::Disk : Domain::Plane;
+  d.positions.assign(positions.begin(), positions.end());
+  d.faces = cut.cut_faces;
+  d.edge_colour = cut.cut_faces.size() / 3 > 20000 ? 0 : 0x30304050;
+  d.lines = side_lines(cut, positions, 2.5);
+  d.title = title;
+  return d;
+}
+
+/// Per-corner texture coordinates for the checkerboard: the layout (E, H) through the cut, or
+/// the Mercator projection of the sphere layout (conformal), longitudes unwrapped per face.
+std::vector<double> corner_uv(const ricci::UniformizeResult& r, const ricci::Mesh& surface) {
+  std::vector<double> uv;
+  const std::size_t nc = surface.faces.size();
+  uv.reserve(2 * nc);
+  if (r.has_cut) {
+    for (std::size_t c = 0; c < nc; ++c) {
+      const Index t = surface.corner_texcoords[c];
+      uv.push_back(surface.texcoords[2 * t]);
+      uv.push_back(surface.texcoords[2 * t + 1]);
+    }
+    return uv;
+  }
+  const std::vector<double>& x = r.layout.positions;
+  for (std::size_t f = 0; f < nc / 3; ++f) {
+    double lon[3], lat[3];
+    for (int k = 0; k < 3; ++k) {
+      const Index v = surface.faces[3 * f + k];
+      lon[k] = std::atan2(x[3 * v + 1], x[3 * v]);
+      lat[k] = std::asin(std::clamp(x[3 * v + 2], -1.0, 1.0));
+    }
+    for (int k = 1; k < 3; ++k) {
+      if (lon[k] - lon[0] > kPi) lon[k] -= 2 * kPi;
+      if (lon[k] - lon[0] < -kPi) lon[k] += 2 * kPi;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const double y = std::log(std::tan(kPi / 4 + std::clamp(lat[k], -1.5, 1.5) / 2));
+      uv.push_back(lon[k]);
+      uv.push_back(y);
+    }
+  }
+  return uv;
+}
+
+}  // namespace
+
+ConformalDistortion conformal_distortion(std::span<const double> positions, std::span<const Index> faces,
+                                         std::span<const double> uv) {
+  ConformalDistortion out;
+  const std::size_t nf = faces.size() / 3;
+  std::vector<double> q;
+  q.reserve(nf);
+  for (std::size_t f = 0; f < nf; ++f) {
+    // The triangle in its own plane (a at 0, b on the x axis) and in the texture plane.
+    double P[3][3];
+    for (int k = 0; k < 3; ++k)
+      for (int d = 0; d < 3; ++d) P[k][d] = positions[3 * faces[3 * f + k] + d];
+    double e1[3], e2[3];
+    for (int d = 0; d < 3; ++d) {
+      e1[d] = P[1][d] - P[0][d];
+      e2[d] = P[2][d] - P[0][d];
+    }
+    const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    if (!(l1 > 0)) continue;
+    const double x2 = (e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]) / l1;
+    const double y2 = std::sqrt(std::max(0.0, e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2] - x2 * x2));
+    if (!(y2 > 0)) continue;
+    const double u0 = uv[6 * f], v0 = uv[6 * f + 1];
+    const double du1 = uv[6 * f + 2] - u0, dv1 = uv[6 * f + 3] - v0, du2 = uv[6 * f + 4] - u0, dv2 = uv[6 * f + 5] - v0;
+    // Jacobian J with J·(l1, 0) = (du1, dv1) and J·(x2, y2) = (du2, dv2).
+    const double a = du1 / l1, c = dv1 / l1;
+    const double b = (du2 - a * x2) / y2, d = (dv2 - c * x2) / y2;
+    // Singular values of [[a, b], [c, d]].
+    const double s1 = std::hypot(a + d, c - b) / 2, s2 = std::hypot(a - d, c + b) / 2;
+    const double smax = s1 + s2, smin = std::abs(s1 - s2);
+    if (!(smin > 0) || !std::isfinite(smax)) continue;
+    q.push_back(smax / smin);
+  }
+  if (q.empty()) return out;
+  out.faces = static_cast<Index>(q.size());
+  double sum = 0;
+  for (double x : q) sum += x;
+  out.mean = sum / static_cast<double>(q.size());
+  std::sort(q.begin(), q.end());
+  out.median = q[q.size() / 2];
+  out.p95 = q[std::min(q.size() - 1, static_cast<std::size_t>(0.95 * static_cast<double>(q.size())))];
+  out.max = q.back();
+  return out;
+}
+
+std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, const ricci::Mesh& surface,
+                                              const ricci::CoverResult* cover, ConformalDistortion* distortion) {
+  std::vector<NamedPicture> out;
+  const Geometry g = r.geometry;
+  const std::string gname(ricci::geometry_name(g));
+
+  // The fundamental domain(s).
+  if (r.has_cut) {
+    const bool compact = !r.domain_maps.empty();
+    const Drawing d = disk_drawing(r.cut, r.layout.positions, g,
+                                   compact ? "Compact fundamental domain (" + std::to_string(r.cut.num_generators()) +
+                                                 " side pairings)"
+                                           : "Fundamental domain: " + r.cut.word);
+    const Picture p = draw(d);
+    out.push_back({"domain", compact ? "The compact fundamental domain" : "The fundamental domain",
+                   compact ? "The layout written to mesh.obj: the surface cut along the branches of a cut graph "
+                             "grown from a central face, in the Poincaré disk. Paired sides share a colour."
+                           : "The cut surface laid out (" + gname + "); sides that are glued together share a colour.",
+                   p.png, p.svg});
+    if (r.has_polygon && compact) {
+      // Shown centred: the disk automorphism moving its hyperboloid centre of mass to 0.
+      std::vector<double> centred = r.polygon.positions;
+      double T = 0, X = 0, Y = 0;
+      for (std::size_t v = 0; v + 1 < centred.size(); v += 2) {
+        const cplx z(centred[v], centred[v + 1]);
+        const double q = (1 - std::abs(z)) * (1 + std::abs(z));
+        T += (1 + std::norm(z)) / q;
+        X += 2 * z.real() / q;
+        Y += 2 * z.imag() / q;
+      }
+      const double n = std::sqrt(std::max(T * T - X * X - Y * Y, 0.0));
+      if (n > 0) {
+        const ricci::Moebius C = ricci::Moebius::to_origin(cplx(X, Y) / (T + n));
+        for (std::size_t v = 0; v + 1 < centred.size(); v += 2) {
+          const cplx w = C.apply(cplx(centred[v], centred[v + 1]));
+          centred[v] = w.real();
+          centred[v + 1] = w.imag();
+        }
+      }
+      const Picture q = draw(disk_drawing(r.polygon_cut, centred, g, "Canonical polygon " + r.polygon_cut.word));
+      out.push_back({"polygon", "The canonical fundamental polygon",
+                     "Sides a_i, b_i and their partners a_i^-1, b_i^-1 share a colour; each deck generator maps a "
+                     "side onto its partner. Laid out through the compact domain's tiles.",
+                     q.png, q.svg});
+    }
+  } else {
+    Drawing d;
+    d.domain = Domain::SphereFront;
+    d.dims = 3;
+    d.positions = r.layout.positions;
+    d.faces = surface.faces;
+    d.edge_colour = surface.faces.size() / 3 > 20000 ? 0 : 0x30304050;
+    d.title = "Spherical layout (front hemisphere)";
+    const Picture p = draw(d);
+    out.push_back({"domain", "The layout on the unit sphere",
+                   "The round-sphere metric laid out on the unit sphere (Möbius-centred), seen from +z.", p.png, p.svg});
+  }
+
+  // The universal cover.
+  if (cover != nullptr && cover->status == ricci::Status::Ok && r.has_cut) {
+    const ricci::Mesh tiling = ricci::cover_mesh(r.cut, r.layout.positions, *cover);
+    Drawing d;
+    d.domain = g == Geometry::Hyperbolic ? Domain::Disk : Domain::Plane;
+    d.dims = 2;
+    const std::size_t nv = tiling.positions.size() / 3;
+    for (std::size_t v = 0; v < nv; ++v) {
+      d.positions.push_back(tiling.positions[3 * v]);
+      d.positions.push_back(tiling.positions[3 * v + 1]);
+    }
+    const std::size_t per_copy = r.cut.cut_faces.size() / 3;
+    const bool fill = tiling.faces.size() / 3 <= 400000;
+    if (fill) {
+      d.faces = tiling.faces;
+      d.face_colours.resize(tiling.faces.size() / 3);
+      for (std::size_t f = 0; f < d.face_colours.size(); ++f) {
+        const std::size_t k = per_copy ? f / per_copy : 0;
+        const Index len = k < cover->elements.size() ? cover->elements[k].length : 0;
+        // Lighter with word length: the identity copy strongest.
+        const std::uint32_t base = palette(static_cast<int>(len));
+        const auto mix = [&](int shift) {
+          const int c = static_cast<int>((base >> shift) & 0xFF);
+          return static_cast<std::uint32_t>(c + (255 - c) * std::min<Index>(len, 4) / 6);
+        };
+        d.face_colours[f] = 0xFF000000u | (mix(16) << 16) | (mix(8) << 8) | mix(0);
+      }
+      d.edge_colour = 0;
+    }
+    // Every copy's boundary.
+    for (const ricci::CoverElement& e : cover->elements) {
+      Polyline pl;
+      pl.colour = 0xC0202830;
+      pl.width = e.length == 0 ? 2.0 : 0.8;
+      for (Index s = 0; s < r.cut.num_sides(); ++s)
+        for (Index i = r.cut.side_offsets[s]; i + 1 < r.cut.side_offsets[s + 1]; ++i) {
+          const Index v = r.cut.side_vertices[i];
+          cplx z(r.layout.positions[2 * v], r.layout.positions[2 * v + 1]);
+          z = g == Geometry::Hyperbolic ? e.map.apply(z) : z + cplx(e.translation[0], e.translation[1]);
+          pl.points.push_back(z.real());
+          pl.points.push_back(z.imag());
+        }
+      d.lines.push_back(std::move(pl));
+    }
+    d.title = "Universal cover: " + std::to_string(cover->elements.size()) + " copies";
+    const Picture p = draw(d, 900, 900);
+    out.push_back({"cover", "The universal cover",
+                   "Copies of the fundamental domain moved by the deck group (reduced words up to the cover depth); "
+                   "neighbouring copies meet along whole sides, without gaps or overlaps.",
+                   p.png, std::string()});
+  }
+
+  // Checkerboard renderings from three viewpoints.
+  const std::vector<double> uv = corner_uv(r, surface);
+  if (distortion != nullptr && r.has_cut) *distortion = conformal_distortion(surface.positions, surface.faces, uv);
+  CheckerOptions co;
+  co.checks_across = g == Geometry::Spherical ? 24 : 20;
+  const double az[3] = {30, 150, 270};
+  for (int k = 0; k < 3; ++k) {
+    CheckerView view;
+    view.azimuth_degrees = az[k];
+    view.elevation_degrees = 20;
+    const Image img = render_checkerboard(surface.positions, surface.faces, uv, view, co);
+    out.push_back({"checker-" + std::to_string(k + 1), "Checkerboard, view " + std::to_string(k + 1),
+                   k == 0 ? std::string("The surface textured by its parameterization (") +
+                                (g == Geometry::Spherical ? "Mercator projection of the sphere layout" : "the layout") +
+                                "). A conformal map keeps checks square; they only change size."
+                          : std::string(),
+                   encode_png(img), std::string()});
+  }
+
+  // Angle ratios.
+  if (!r.angles.ratio.empty()) {
+    double lo = 1, hi = 1;
+    std::vector<double> sorted = r.angles.ratio;
+    std::sort(sorted.begin(), sorted.end());
+    lo = std::min(0.5, sorted[sorted.size() / 200]);
+    hi = std::max(1.5, sorted[sorted.size() - 1 - sorted.size() / 200]);
+    const Picture p = histogram(r.angles.ratio, lo, hi, 60, "Corner angles: input / conformal metric", "angle ratio");
+    out.push_back({"angles", "Angle distortion",
+                   "Corner angles of the input mesh over those of the computed metric (the mapped angles); 1 is perfect.",
+                   p.png, p.svg});
+  }
+
+  // Convergence.
+  if (!r.flow.history.empty()) {
+    Chart it, tm;
+    it.title = "Newton convergence";
+    it.x_label = "iteration";
+    it.y_label = "max |target K - K|";
+    tm = it;
+    tm.x_label = "seconds";
+    Series si{"newton", {}, {}, palette(0)}, st{"newton", {}, {}, palette(0)};
+    for (const ricci::IterationRecord& h : r.flow.history) {
+      si.x.push_back(h.iteration);
+      si.y.push_back(h.max_error);
+      st.x.push_back(h.seconds);
+      st.y.push_back(h.max_error);
+    }
+    it.series.push_back(si);
+    tm.series.push_back(st);
+    it.reference_y.push_back({1e-6, "the paper's tolerance 1e-6"});
+    tm.reference_y = it.reference_y;
+    const Picture a = line_chart(it), b = line_chart(tm);
+    out.push_back({"convergence", "Convergence by iteration",
+                   "max |target K - K| after each Newton step (logarithmic axis): quadratic convergence shows as a "
+                   "steepening drop.",
+                   a.png, a.svg});
+    out.push_back({"convergence-time", "Convergence by time", "The same against wall-clock seconds.", b.png, b.svg});
+  }
+  return out;
+}
+
+}  // namespace ricci_cli

@@ -1,0 +1,182 @@
+// ricci — the whole job in one call: a validated mesh in, its uniformization out.
+//
+//   LoadResult in = load_mesh("kitten.obj");
+//   UniformizeResult r = uniformize(in.validated.mesh, in.validated.topology);
+//   if (r.status == Status::Ok) use(r.layout.positions, r.cut.cut_faces, r.deck.generators);
+//
+// Stages (each timed in `timings`, reported through `on_stage`):
+//   initial_metric  Step 2 of the paper in the chosen geometry (InitialMetricOptions)
+//   target          the target curvature (uniform_target() for the boundary mode unless given),
+//                   check_target() before any iteration
+//   flow            solve_flow() (Newton by default) to FlowOptions::tolerance
+//   cut             cut_surface(): a canonical polygon (closed genus ≥ 1), arcs to the holes
+//                   (genus 0 with several boundary loops), nothing for a disk; skipped for a
+//                   closed genus-0 surface, which is laid out on the sphere directly
+//   cut_metric      refined_edge_lengths() and disk_edge_lengths(): the metric on the disk
+//   layout          layout_disk() (plane / Poincaré disk) or layout_sphere()
+//   seed_check      the layout again from `seed_checks` other seed faces, aligned to the first by
+//                   the fitted isometry (align_layouts()): seed_independence_error
+//   deck            fit_deck_transformations() for closed genus ≥ 1 (translations / Möbius maps)
+//   angles          corner angles of the input against those of the metric (angle_distortion)
+//
+// Geometry and boundary mode default to the surface's natural ones (natural_geometry():
+// S for closed genus 0, E for χ = 0 and for genus 0 with boundary, H for χ < 0;
+// natural_boundary_mode(): circles in E, geodesics in H).
+//
+// Base candidates (H only). Poincaré coordinates resolve hyperbolic distance only to about
+// 2^-52 / (1 − |z|²), so a cut polygon that reaches far out — long thin spikes where two sides
+// leave the base vertex together — is laid out less accurately (Layout::rounding_floor). The
+// shape of the canonical polygon depends strongly on the base vertex of its loops, so up to
+// `base_candidates` base vertices are tried: the most central vertex (least max metric distance to
+// the two ends of a double-sweep diameter), then vertices spread over the central quarter by
+// farthest-point sampling. The cut whose layout has the smallest max(rounding_floor,
+// max_edge_length_error) is kept (the search stops early below 1e-12); `candidates` lists them.
+#pragma once
+
+#include <cmath>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ricci/cut.h"
+#include "ricci/deck.h"
+#include "ricci/flow.h"
+#include "ricci/layout.h"
+#include "ricci/mesh.h"
+#include "ricci/metric.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+/// What on_stage receives when a stage ends.
+struct StageRecord {
+  std::string_view stage;  ///< "initial_metric", "target", "flow", "cut", "cut_metric", "layout", …
+  double seconds = 0;      ///< time the stage took
+  std::string summary;     ///< one line: what it found (e.g. the layout's edge error)
+};
+
+struct UniformizeOptions {
+  /// Background geometry; empty: natural_geometry(topology).
+  std::optional<Geometry> geometry;
+  /// Boundary mode for surfaces with boundary; empty: natural_boundary_mode(topology, geometry).
+  std::optional<BoundaryMode> boundary;
+  /// Step 2 options (its `geometry` is overwritten by the geometry chosen above).
+  InitialMetricOptions metric;
+  /// Newton to max |K̄ − K| < 1e-12 by default.
+  FlowOptions flow = [] {
+    FlowOptions f;
+    f.tolerance = 1e-12;
+    return f;
+  }();
+  CutOptions cut;
+  /// After the flow converged, up to two more Newton steps, kept when they lower max |K̄ − K|.
+  bool polish = true;
+  /// H (closed): base vertices tried for the canonical polygon (see the header comment).
+  int base_candidates = 8;
+  LayoutOptions layout;
+  /// Extra seed faces (0, F/2, F−1, …) whose layouts are compared with the first.
+  int seed_checks = 3;
+  DeckOptions deck;
+  /// Called when each stage ends (the library never prints). Flow iterations: flow.on_iteration.
+  std::function<void(const StageRecord&)> on_stage;
+
+  bool is_valid(std::string* why) const;
+};
+
+/// One base vertex tried for the canonical polygon (H, closed).
+struct BaseCandidate {
+  Index base_vertex = -1;                              ///< the base actually used by the cut
+  Index refined_vertices = 0;                          ///< vertices the cut added
+  double relation_error = INFINITY;                    ///< of its generators (∞: failed)
+  double rounding_floor = INFINITY;                    ///< of its polygon's positions
+  double max_edge_length_error = INFINITY;             ///< of its polygon's positions
+  double seconds = 0;
+};
+
+struct AngleDistortion {
+  /// Per corner of the input (#F×3): θ_input / θ_metric, the 3D corner angle over the angle of
+  /// the conformal metric (the mapped angle: layouts are isometric to the metric). 1 is perfect.
+  std::vector<double> ratio;
+  double mean_abs_log = 0;  ///< mean over corners of |log ratio|
+  double max_abs_log = 0;   ///< max over corners of |log ratio|
+};
+
+struct UniformizeResult {
+  /// Ok when every stage that applies succeeded. Otherwise the status of the first stage that
+  /// failed (`failed_stage` names it; `message` is its message), and the results of the stages
+  /// before it stay filled in.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  std::string failed_stage;
+
+  Geometry geometry = Geometry::Euclidean;
+  BoundaryMode boundary = BoundaryMode::Free;  ///< Free for a closed surface
+
+  InitialMetric metric;
+  Target target;
+  FlowResult flow;
+
+  /// Cut (not for a closed genus-0 surface: has_cut false). The disk is
+  /// build_topology(cut.cut_faces, cut.num_cut_vertices()) with lengths disk_lengths.
+  bool has_cut = false;
+  CutResult cut;
+  RefinedMetric cut_metric;
+  Topology disk;
+  std::vector<double> disk_lengths;
+  std::vector<BaseCandidate> candidates;
+
+  /// The layout: of the disk (positions per cut vertex, dims 2) or, for a closed genus-0
+  /// surface, of the surface on the unit sphere (positions per vertex, dims 3).
+  Layout layout;
+  /// Max over the extra seeds of the deviation after alignment (distance of the geometry;
+  /// layouts without normalisation). 0 when seed_checks is 0.
+  double seed_independence_error = 0;
+  std::vector<Index> seed_faces_checked;
+
+  /// Closed genus ≥ 1: the canonical polygon a1 b1 a1^-1 b1^-1 … laid out (E: the cut and layout
+  /// above; H: a canonical cut_surface() laid out through the compact domain's tiles,
+  /// deck_through_domain(), its errors measured by measure_layout()).
+  bool has_polygon = false;
+  CutResult polygon_cut;
+  Topology polygon_disk;
+  std::vector<double> polygon_lengths;
+  Layout polygon;
+
+  /// Deck transformations of the canonical polygon (closed genus ≥ 1), in the frame of `layout`.
+  bool has_deck = false;
+  DeckResult deck;
+  /// H: the compact domain's side pairings (Ceres fits), the largest deviation from the identity
+  /// of their products around the domain's vertex cycles, and the tile consistency.
+  std::vector<DeckGenerator> domain_maps;
+  double domain_cycle_error = 0;
+  double tile_consistency = 0;
+
+  AngleDistortion angles;
+
+  /// Seconds per stage, in order.
+  std::vector<std::pair<std::string, double>> timings;
+  double seconds = 0;
+
+  /// One line: status, geometry, iterations, curvature error, layout error, flips, relation.
+  std::string brief_report() const;
+};
+
+/// Runs the stages at the top of this header on a validated mesh (validate_mesh() / load_mesh()).
+/// `target`: the target curvature; nullptr for uniform_target() with the boundary mode.
+/// Deterministic for fixed options (OpenMP loops included).
+UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options = {},
+                            const Target* target = nullptr);
+
+/// The stages from `cut` on for a metric given by its edge lengths (#E, in `geometry`; e.g. read
+/// back from a file `ricci flow -o` wrote): flow stays empty (status NotRun, l = lengths).
+UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                std::span<const double> lengths, const UniformizeOptions& options = {});
+
+/// Corner-angle distortion of a metric (lengths `l` #E in geometry g) against the mesh's own 3D
+/// angles (see AngleDistortion).
+AngleDistortion angle_distortion(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l);
+
+}  // namespace ricci

@@ -1,0 +1,259 @@
+// ricci — a compact fundamental domain: the surface cut along the complement of a shortest-path
+// tree of the dual graph grown from a central face (see cut_compact() in cut.h).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "ricci/cut.h"
+
+namespace ricci {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct UnionFind {
+  std::vector<Index> parent;
+  explicit UnionFind(Index n) : parent(static_cast<std::size_t>(n)) { std::iota(parent.begin(), parent.end(), 0); }
+  Index find(Index x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  void unite(Index a, Index b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+/// Distance between the centroids of the two faces of interior edge e (corner c opposite it in
+/// one face), the faces unfolded into the plane along e with the given lengths.
+double dual_weight(const Topology& t, std::span<const double> l, Index c) {
+  const Index c2 = t.opposite[c];
+  const double L = l[t.corner_edge[c]];
+  // Face of c: the edge runs from vertex(next(c)) (A) to vertex(prev(c)) (B); the third vertex
+  // C is at distance l[corner_edge[prev(c)]] from A and l[corner_edge[next(c)]] from B.
+  auto apex = [&](Index corner, double sign) {
+    const double la = l[t.corner_edge[prev_corner(corner)]], lb = l[t.corner_edge[next_corner(corner)]];
+    const double x = (L * L + la * la - lb * lb) / (2 * L);
+    const double y = std::sqrt(std::max(0.0, la * la - x * x));
+    return std::array<double, 2>{x, sign * y};
+  };
+  const std::array<double, 2> p = apex(c, 1.0);
+  // In the other face the edge runs the other way: measured from B, so mirror x.
+  std::array<double, 2> q = apex(c2, -1.0);
+  q[0] = L - q[0];
+  const double dx = (p[0] - q[0]) / 3, dy = (p[1] - q[1]) / 3;
+  return std::sqrt(dx * dx + dy * dy);
+}
+
+std::vector<double> dual_distances(const Topology& t, std::span<const double> w, Index source, std::vector<Index>* via) {
+  const Index F = t.num_faces;
+  std::vector<double> d(static_cast<std::size_t>(F), kInf);
+  if (via) via->assign(static_cast<std::size_t>(F), kInvalid);
+  using Item = std::pair<double, Index>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  d[source] = 0;
+  pq.push({0.0, source});
+  while (!pq.empty()) {
+    const auto [df, f] = pq.top();
+    pq.pop();
+    if (df > d[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const Index c = 3 * f + k, o = t.opposite[c];
+      if (o == kInvalid) continue;
+      const Index g = corner_face(o);
+      const double nd = df + w[c];
+      if (nd < d[g]) {
+        d[g] = nd;
+        if (via) (*via)[g] = o;  // g is reached across the edge of its corner o
+        pq.push({nd, g});
+      }
+    }
+  }
+  return d;
+}
+
+std::uint64_t pair_key(Index u, Index v) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) | static_cast<std::uint32_t>(v);
+}
+
+}  // namespace
+
+CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const double> lengths, Index centre_face) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CutResult r;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = "cut_compact: " + m;
+    return r;
+  };
+  const Index V = topo.num_vertices, F = topo.num_faces, E = topo.num_edges;
+  if (mesh.faces.size() != static_cast<std::size_t>(3 * F)) return fail(Status::InvalidArgument, "faces do not match the topology");
+  if (lengths.size() != static_cast<std::size_t>(E))
+    return fail(Status::InvalidArgument, "lengths must have one value per edge (" + std::to_string(E) + ")");
+  for (Index e = 0; e < E; ++e)
+    if (!(lengths[e] > 0) || !std::isfinite(lengths[e]))
+      return fail(Status::InvalidArgument, "the length of edge " + std::to_string(e) + " is not a positive finite number");
+  if (topo.num_components != 1) return fail(Status::MultipleComponents, "the surface is not connected");
+  if (!topo.is_closed() || topo.genus() < 1)
+    return fail(Status::InvalidArgument, "a compact domain is built for closed surfaces of genus >= 1");
+  if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
+
+  // Dual edge weights (per corner: the edge opposite it), then the centre: the face minimising
+  // the larger distance to the two ends of a double-sweep diameter of the dual graph.
+  std::vector<double> w(static_cast<std::size_t>(3 * F), kInf);
+  for (Index c = 0; c < 3 * F; ++c)
+    if (topo.opposite[c] != kInvalid) w[c] = dual_weight(topo, lengths, c);
+  if (centre_face < 0) {
+    auto farthest = [&](const std::vector<double>& d) {
+      Index best = 0;
+      for (Index f = 0; f < F; ++f)
+        if (d[f] > d[best]) best = f;
+      return best;
+    };
+    const Index a = farthest(dual_distances(topo, w, 0, nullptr));
+    const std::vector<double> da = dual_distances(topo, w, a, nullptr);
+    const std::vector<double> db = dual_distances(topo, w, farthest(da), nullptr);
+    centre_face = 0;
+    for (Index f = 1; f < F; ++f)
+      if (std::max(da[f], db[f]) < std::max(da[centre_face], db[centre_face])) centre_face = f;
+  }
+  std::vector<Index> via;
+  dual_distances(topo, w, centre_face, &via);
+
+  // The cut graph: edges the dual tree does not cross, spurs pruned.
+  std::vector<char> cut(static_cast<std::size_t>(E), 1);
+  for (Index f = 0; f < F; ++f)
+    if (via[f] != kInvalid) cut[topo.corner_edge[via[f]]] = 0;
+  std::vector<Index> degree(static_cast<std::size_t>(V), 0);
+  for (Index e = 0; e < E; ++e)
+    if (cut[e]) {
+      ++degree[topo.edge_vertices[2 * e]];
+      ++degree[topo.edge_vertices[2 * e + 1]];
+    }
+  {
+    std::vector<Index> stack;
+    for (Index v = 0; v < V; ++v)
+      if (degree[v] == 1) stack.push_back(v);
+    while (!stack.empty()) {
+      const Index v = stack.back();
+      stack.pop_back();
+      if (degree[v] != 1) continue;
+      for (Index k = topo.vertex_corner_offsets[v]; k < topo.vertex_corner_offsets[v + 1]; ++k) {
+        const Index c = topo.vertex_corners[k];
+        for (const Index e : {topo.corner_edge[next_corner(c)], topo.corner_edge[prev_corner(c)]}) {
+          if (!cut[e]) continue;
+          cut[e] = 0;
+          for (int s = 0; s < 2; ++s) {
+            const Index u = topo.edge_vertices[2 * e + s];
+            if (--degree[u] == 1) stack.push_back(u);
+          }
+        }
+      }
+    }
+  }
+
+  // Cut vertices: corners joined across every edge that is not cut.
+  UnionFind uf(3 * F);
+  for (Index e = 0; e < E; ++e) {
+    if (cut[e]) continue;
+    const Index c1 = topo.edge_corners[2 * e], c2 = topo.edge_corners[2 * e + 1];
+    if (c2 == kInvalid) continue;
+    uf.unite(next_corner(c1), prev_corner(c2));
+    uf.unite(prev_corner(c1), next_corner(c2));
+  }
+  std::vector<Index> id(static_cast<std::size_t>(3 * F), kInvalid);
+  r.cut_faces.resize(static_cast<std::size_t>(3 * F));
+  for (Index c = 0; c < 3 * F; ++c) {
+    const Index root = uf.find(c);
+    if (id[root] == kInvalid) {
+      id[root] = static_cast<Index>(r.cut_to_surface.size());
+      r.cut_to_surface.push_back(mesh.faces[c]);
+    }
+    r.cut_faces[c] = id[root];
+  }
+  const TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
+  if (disk.status != Status::Ok) return fail(Status::NumericalFailure, "the cut surface is not a manifold: " + disk.message);
+  const Topology& dt = disk.topology;
+  if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
+    return fail(Status::NumericalFailure, "the cut surface is not a disk");
+
+  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3).
+  const Index b0 = dt.boundary_offsets[0], m = dt.boundary_offsets[1] - b0;
+  Index first = kInvalid;
+  for (Index k = 0; k < m && first == kInvalid; ++k)
+    if (degree[r.cut_to_surface[dt.boundary_vertices[b0 + k]]] >= 3) first = k;
+  if (first == kInvalid) return fail(Status::NumericalFailure, "the cut graph has no node");
+  auto at = [&](Index k) { return dt.boundary_vertices[b0 + (first + k) % m]; };
+  r.side_offsets.push_back(0);
+  for (Index k = 0; k < m;) {
+    r.side_vertices.push_back(at(k));
+    Index j = k + 1;
+    while (j < m && degree[r.cut_to_surface[at(j)]] < 3) r.side_vertices.push_back(at(j++));
+    r.side_vertices.push_back(at(j));  // the closing node (at(m) == at(0))
+    r.side_offsets.push_back(static_cast<Index>(r.side_vertices.size()));
+    k = j;
+  }
+  const Index ns = static_cast<Index>(r.side_offsets.size()) - 1;
+  auto sv = [&](Index s, Index i) { return r.cut_to_surface[r.side_vertices[r.side_offsets[s] + i]]; };
+  auto len = [&](Index s) { return r.side_offsets[s + 1] - r.side_offsets[s]; };
+  std::unordered_map<std::uint64_t, Index> by_first;
+  for (Index s = 0; s < ns; ++s) by_first[pair_key(sv(s, 0), sv(s, 1))] = s;
+  r.side_partner.assign(static_cast<std::size_t>(ns), kInvalid);
+  for (Index s = 0; s < ns; ++s) {
+    const Index n = len(s);
+    const auto it = by_first.find(pair_key(sv(s, n - 1), sv(s, n - 2)));
+    if (it == by_first.end() || len(it->second) != n) return fail(Status::NumericalFailure, "a side has no partner");
+    r.side_partner[s] = it->second;
+  }
+  r.side_kind.assign(static_cast<std::size_t>(ns), SideKind::Loop);
+  r.side_generator.assign(static_cast<std::size_t>(ns), kInvalid);
+  r.side_orientation.assign(static_cast<std::size_t>(ns), 0);
+  r.side_boundary_loop.assign(static_cast<std::size_t>(ns), -1);
+  r.side_label.assign(static_cast<std::size_t>(ns), "");
+  r.generator_offsets.push_back(0);
+  for (Index s = 0; s < ns; ++s) {
+    if (r.side_generator[s] != kInvalid) continue;
+    const Index k = r.num_generators(), p = r.side_partner[s];
+    const std::string name = "x" + std::to_string(k + 1);
+    r.side_generator[s] = r.side_generator[p] = k;
+    r.side_orientation[s] = 1;
+    r.side_orientation[p] = -1;
+    r.side_label[s] = name;
+    r.side_label[p] = name + "^-1";
+    for (Index i = 0; i < len(s); ++i) r.generator_vertices.push_back(sv(s, i));
+    r.generator_offsets.push_back(static_cast<Index>(r.generator_vertices.size()));
+    r.generator_kind.push_back(SideKind::Loop);
+    r.generator_name.push_back(name);
+    r.generator_boundary_loop.push_back(-1);
+  }
+  for (Index s = 0; s < ns; ++s) r.word += (s ? " " : "") + r.side_label[s];
+
+  r.genus = topo.genus();
+  r.boundary_loops = 0;
+  r.base_vertex = -1;
+  r.requested_base_vertex = -1;
+  r.canonical = false;
+  r.reason = "compact domain: the sides are the branches of a cut graph, not a canonical system of loops";
+  r.num_input_vertices = V;
+  r.surface_positions = mesh.positions;
+  r.surface_faces = mesh.faces;
+  r.surface_face_to_input.resize(static_cast<std::size_t>(F));
+  std::iota(r.surface_face_to_input.begin(), r.surface_face_to_input.end(), 0);
+  r.status = Status::Ok;
+  r.message = "ok";
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace ricci

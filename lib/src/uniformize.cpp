@@ -1,0 +1,509 @@
+// ricci — the whole job: metric, flow, cut, layout, seed check, deck maps, angle distortion.
+#include "ricci/uniformize.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <queue>
+#include <utility>
+
+namespace ricci {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::string sci(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
+/// Dijkstra distances over the mesh edges with lengths l from `source`.
+std::vector<double> distances(const Topology& t, std::span<const Index> faces, std::span<const double> l, Index source) {
+  std::vector<double> d(static_cast<std::size_t>(t.num_vertices), kInf);
+  using Item = std::pair<double, Index>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  d[source] = 0;
+  pq.push({0.0, source});
+  while (!pq.empty()) {
+    const auto [du, u] = pq.top();
+    pq.pop();
+    if (du > d[u]) continue;
+    for (Index k = t.vertex_corner_offsets[u]; k < t.vertex_corner_offsets[u + 1]; ++k) {
+      const Index c = t.vertex_corners[k];
+      // Both edges of the corner at u: to the next and to the previous corner's vertex.
+      const Index cn = next_corner(c), cp = prev_corner(c);
+      const std::pair<Index, Index> hops[2] = {{faces[cn], t.corner_edge[cp]}, {faces[cp], t.corner_edge[cn]}};
+      for (const auto& [w, e] : hops) {
+        const double nd = du + l[e];
+        if (nd < d[w]) {
+          d[w] = nd;
+          pq.push({nd, w});
+        }
+      }
+    }
+  }
+  return d;
+}
+
+/// Base vertices to try (see the header comment): the most central vertex first, then farthest
+/// points within the central quarter.
+std::vector<Index> base_candidates(const Topology& t, std::span<const Index> faces, std::span<const double> l,
+                                   int count) {
+  const Index V = t.num_vertices;
+  std::vector<Index> out;
+  if (V == 0 || count <= 0) return out;
+  auto farthest = [&](const std::vector<double>& d) {
+    Index best = 0;
+    for (Index v = 0; v < V; ++v)
+      if (std::isfinite(d[v]) && d[v] > d[best]) best = v;
+    return best;
+  };
+  const Index a = farthest(distances(t, faces, l, 0));
+  const std::vector<double> da = distances(t, faces, l, a);
+  const Index b = farthest(da);
+  const std::vector<double> db = distances(t, faces, l, b);
+  std::vector<Index> order;
+  for (Index v = 0; v < V; ++v)
+    if (!t.is_boundary_vertex(v)) order.push_back(v);
+  if (order.empty()) return out;
+  auto ecc = [&](Index v) { return std::max(da[v], db[v]); };
+  std::stable_sort(order.begin(), order.end(), [&](Index x, Index y) { return ecc(x) < ecc(y); });
+  const std::size_t keep = std::max<std::size_t>(1, order.size() / 4);
+  order.erase(order.begin() + static_cast<std::ptrdiff_t>(keep), order.end());
+  out.push_back(order.front());
+  std::vector<double> near = distances(t, faces, l, order.front());
+  while (static_cast<int>(out.size()) < count) {
+    Index best = kInvalid;
+    for (Index v : order)
+      if (std::isfinite(near[v]) && near[v] > 0 && (best == kInvalid || near[v] > near[best])) best = v;
+    if (best == kInvalid) break;
+    out.push_back(best);
+    const std::vector<double> d = distances(t, faces, l, best);
+    for (Index v = 0; v < V; ++v) near[v] = std::min(near[v], d[v]);
+  }
+  return out;
+}
+
+struct DiskBuild {
+  CutResult cut;
+  RefinedMetric metric;
+  Topology disk;
+  std::vector<double> lengths;
+  Layout layout;
+  Status status = Status::NotRun;
+  std::string message;
+  std::string stage;
+};
+
+/// cut → metric on the cut → layout, for one set of cut options.
+DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l,
+                     const CutOptions& co, const LayoutOptions& lo) {
+  DiskBuild d;
+  d.cut = cut_surface(mesh, topology, co);
+  if (d.cut.status != Status::Ok) {
+    d.status = d.cut.status;
+    d.message = d.cut.message;
+    d.stage = "cut";
+    return d;
+  }
+  d.metric = refined_edge_lengths(d.cut, topology, g, l);
+  if (d.metric.status != Status::Ok) {
+    d.status = d.metric.status;
+    d.message = d.metric.message;
+    d.stage = "cut_metric";
+    return d;
+  }
+  TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+  if (tr.status != Status::Ok) {
+    d.status = Status::NumericalFailure;
+    d.message = "the cut disk is not a valid mesh: " + tr.message;
+    d.stage = "cut_metric";
+    return d;
+  }
+  d.disk = std::move(tr.topology);
+  d.lengths = disk_edge_lengths(d.cut, d.metric.surface, d.metric.l, d.disk);
+  d.layout = layout_disk(d.disk, g, d.lengths, lo);
+  if (d.layout.status != Status::Ok) {
+    d.status = d.layout.status;
+    d.message = d.layout.message;
+    d.stage = "layout";
+    return d;
+  }
+  d.status = Status::Ok;
+  return d;
+}
+
+void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start);
+
+}  // namespace
+
+bool UniformizeOptions::is_valid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (base_candidates < 1) return fail("base_candidates must be >= 1");
+  if (seed_checks < 0) return fail("seed_checks must be >= 0");
+  std::string w;
+  if (!flow.is_valid(&w)) return fail(w);
+  if (!cut.is_valid(&w)) return fail(w);
+  if (!layout.is_valid(&w)) return fail(w);
+  if (!deck.is_valid(&w)) return fail(w);
+  return true;
+}
+
+std::string UniformizeResult::brief_report() const {
+  std::string s = std::string(status_name(status)) + " " + std::string(geometry_name(geometry));
+  if (!failed_stage.empty()) s += " (failed at " + failed_stage + ")";
+  s += ": " + std::to_string(flow.iterations) + " iterations, max |K̄ − K| " + sci(flow.max_curvature_error);
+  if (layout.status == Status::Ok)
+    s += ", layout edge error " + sci(layout.max_edge_length_error) + ", " + std::to_string(layout.flipped_faces) +
+         " flipped";
+  if (has_deck && deck.status == Status::Ok) s += ", relation error " + sci(deck.relation_error);
+  s += ", " + sci(seconds) + " s";
+  return s;
+}
+
+AngleDistortion angle_distortion(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l) {
+  AngleDistortion a;
+  const Index F = topology.num_faces, E = topology.num_edges;
+  if (l.size() != static_cast<std::size_t>(E) || mesh.faces.size() != static_cast<std::size_t>(3 * F) ||
+      mesh.positions.size() < static_cast<std::size_t>(3 * topology.num_vertices))
+    return a;
+  std::vector<double> l3(static_cast<std::size_t>(E));
+  for (Index e = 0; e < E; ++e) {
+    const Index u = topology.edge_vertices[2 * e], v = topology.edge_vertices[2 * e + 1];
+    double s = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double x = mesh.positions[3 * u + d] - mesh.positions[3 * v + d];
+      s += x * x;
+    }
+    l3[e] = std::sqrt(s);
+  }
+  std::vector<double> t3(static_cast<std::size_t>(3 * F)), tm(static_cast<std::size_t>(3 * F));
+  corner_angles(topology, Geometry::Euclidean, l3, t3);
+  corner_angles(topology, g, l, tm);
+  a.ratio.resize(static_cast<std::size_t>(3 * F));
+  double sum = 0;
+  Index n = 0;
+  for (Index c = 0; c < 3 * F; ++c) {
+    const double r = tm[c] > 0 ? t3[c] / tm[c] : kInf;
+    a.ratio[c] = r;
+    if (!(r > 0) || !std::isfinite(r)) continue;
+    const double x = std::abs(std::log(r));
+    sum += x;
+    ++n;
+    a.max_abs_log = std::max(a.max_abs_log, x);
+  }
+  a.mean_abs_log = n > 0 ? sum / n : 0;
+  return a;
+}
+
+UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                            const Target* target) {
+  const Clock::time_point start = Clock::now();
+  UniformizeResult r;
+  std::string why;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) -> UniformizeResult& {
+    r.status = s;
+    r.failed_stage = stage;
+    r.message = stage + ": " + message;
+    r.seconds = since(start);
+    return r;
+  };
+  if (!options.is_valid(&why)) return fail(Status::InvalidArgument, "options", why);
+  if (mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
+      mesh.num_vertices() != topology.num_vertices)
+    return fail(Status::InvalidArgument, "options", "the mesh does not match its topology");
+  if (topology.num_components != 1) return fail(Status::MultipleComponents, "options", "the mesh is not connected");
+
+  Clock::time_point t0 = Clock::now();
+  auto stage_done = [&](const char* name, const std::string& summary) {
+    const double s = since(t0);
+    r.timings.emplace_back(name, s);
+    if (options.on_stage) options.on_stage(StageRecord{name, s, summary});
+    t0 = Clock::now();
+  };
+
+  // ---- metric, target, flow ----
+  r.geometry = options.geometry ? *options.geometry : natural_geometry(topology);
+  r.boundary = topology.is_closed() ? BoundaryMode::Free
+                                    : (options.boundary ? *options.boundary : natural_boundary_mode(topology, r.geometry));
+  InitialMetricOptions mo = options.metric;
+  mo.geometry = r.geometry;
+  r.metric = initial_metric(mesh, topology, mo);
+  if (r.metric.status != Status::Ok) return fail(r.metric.status, "initial_metric", r.metric.message);
+  stage_done("initial_metric", std::string(geometry_name(r.geometry)) + ", " + std::string(scheme_name(mo.scheme)));
+
+  r.target = target ? *target : uniform_target(topology, r.boundary);
+  const TargetCheck check = check_target(topology, r.metric.structure, r.target);
+  if (check.status != Status::Ok) return fail(check.status, "target", check.message);
+  stage_done("target", "feasible");
+
+  r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, options.flow);
+  if (r.flow.status != Status::Ok) return fail(r.flow.status, "flow", r.flow.message);
+  if (options.polish && options.flow.method == Method::Newton && r.flow.max_curvature_error > 0) {
+    // Up to two more Newton steps from the converged metric, kept when they lower the error:
+    // layouts close up to the metric's residual curvature, so the last digits matter there.
+    FlowOptions po = options.flow;
+    po.tolerance = std::numeric_limits<double>::min();
+    po.max_iterations = 2;
+    po.spherical_safeguards = false;
+    po.on_iteration = nullptr;
+    FlowResult p = solve_flow(topology, r.metric.structure, r.flow.u, r.target, po);
+    if (!p.u.empty() && std::isfinite(p.max_curvature_error) && p.max_curvature_error < r.flow.max_curvature_error) {
+      r.flow.notes.push_back("polished by " + std::to_string(p.iterations) + " Newton steps: max |K̄ − K| " +
+                             sci(r.flow.max_curvature_error) + " → " + sci(p.max_curvature_error));
+      r.flow.u = std::move(p.u);
+      r.flow.l = std::move(p.l);
+      r.flow.K = std::move(p.K);
+      r.flow.K_target = std::move(p.K_target);
+      r.flow.max_curvature_error = p.max_curvature_error;
+      r.flow.gauss_bonnet_error = p.gauss_bonnet_error;
+      for (IterationRecord h : p.history) {
+        h.iteration += r.flow.iterations;
+        h.seconds += r.flow.seconds;
+        r.flow.history.push_back(h);
+      }
+      r.flow.iterations += p.iterations;
+      r.flow.seconds += p.seconds;
+    }
+  }
+  stage_done("flow", r.flow.brief_report());
+  layout_stages(mesh, topology, options, r.flow.l, r, start);
+  return r;
+}
+
+UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                std::span<const double> lengths, const UniformizeOptions& options) {
+  const Clock::time_point start = Clock::now();
+  UniformizeResult r;
+  r.geometry = geometry;
+  r.boundary = BoundaryMode::Free;
+  std::string why;
+  auto fail = [&](Status s, const std::string& message) {
+    r.status = s;
+    r.failed_stage = "options";
+    r.message = "options: " + message;
+    r.seconds = since(start);
+    return r;
+  };
+  if (!options.is_valid(&why)) return fail(Status::InvalidArgument, why);
+  if (mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
+      mesh.num_vertices() != topology.num_vertices)
+    return fail(Status::InvalidArgument, "the mesh does not match its topology");
+  if (topology.num_components != 1) return fail(Status::MultipleComponents, "the mesh is not connected");
+  if (lengths.size() != static_cast<std::size_t>(topology.num_edges))
+    return fail(Status::InvalidArgument, "the metric has " + std::to_string(lengths.size()) +
+                                             " lengths but the mesh has " + std::to_string(topology.num_edges) + " edges");
+  for (Index e = 0; e < topology.num_edges; ++e)
+    if (!(lengths[e] > 0) || !std::isfinite(lengths[e])) {
+      r.status = Status::DegenerateFace;
+      r.failed_stage = "options";
+      r.message = "options: the length of edge " + std::to_string(e) + " is not a positive finite number";
+      r.seconds = since(start);
+      return r;
+    }
+  r.flow.l.assign(lengths.begin(), lengths.end());
+  r.flow.geometry = geometry;
+  r.flow.status = Status::NotRun;
+  r.flow.message = "given metric";
+  layout_stages(mesh, topology, options, lengths, r, start);
+  return r;
+}
+
+namespace {
+
+void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start) {
+  Clock::time_point t0 = Clock::now();
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) {
+    r.status = s;
+    r.failed_stage = stage;
+    r.message = stage + ": " + message;
+    r.seconds = since(start);
+  };
+  auto stage_done = [&](const char* name, const std::string& summary) {
+    const double s = since(t0);
+    r.timings.emplace_back(name, s);
+    if (options.on_stage) options.on_stage(StageRecord{name, s, summary});
+    t0 = Clock::now();
+  };
+  const bool sphere = topology.is_closed() && topology.euler_characteristic() == 2;
+  const bool compact = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
+
+  // ---- cut and layout ----
+  if (sphere) {
+    r.layout = layout_sphere(topology, metric_l, options.layout);
+    if (r.layout.status != Status::Ok) return (void)fail(r.layout.status, "layout", r.layout.message);
+    stage_done("layout", r.layout.brief_report());
+  } else if (compact) {
+    r.has_cut = true;
+    DiskBuild d;
+    d.cut = cut_compact(mesh, topology, metric_l);
+    if (d.cut.status != Status::Ok) return (void)fail(d.cut.status, "cut", d.cut.message);
+    d.metric = refined_edge_lengths(d.cut, topology, r.geometry, metric_l);
+    if (d.metric.status != Status::Ok) return (void)fail(d.metric.status, "cut", d.metric.message);
+    TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+    if (tr.status != Status::Ok) return (void)fail(Status::NumericalFailure, "cut", "the domain is not a valid mesh");
+    r.cut = std::move(d.cut);
+    r.cut_metric = std::move(d.metric);
+    r.disk = std::move(tr.topology);
+    r.disk_lengths = disk_edge_lengths(r.cut, r.cut_metric.surface, r.cut_metric.l, r.disk);
+    stage_done("cut", "compact domain: " + std::to_string(r.cut.num_sides()) + " sides, " +
+                          std::to_string(r.cut.num_generators()) + " side pairings");
+    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, options.layout);
+    if (r.layout.status != Status::Ok) return (void)fail(r.layout.status, "layout", r.layout.message);
+    stage_done("layout", r.layout.brief_report());
+  } else {
+    r.has_cut = true;
+    DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut, options.layout);
+    r.cut = std::move(d.cut);
+    r.cut_metric = std::move(d.metric);
+    r.disk = std::move(d.disk);
+    r.disk_lengths = std::move(d.lengths);
+    r.layout = std::move(d.layout);
+    if (d.status != Status::Ok) return (void)fail(d.status, d.stage, d.message);
+    const double total = since(t0);
+    const double lay_s = std::min(total, r.layout.seconds);
+    r.timings.emplace_back("cut", total - lay_s);
+    if (options.on_stage) options.on_stage(StageRecord{"cut", total - lay_s, r.cut.brief_report()});
+    r.timings.emplace_back("layout", lay_s);
+    if (options.on_stage) options.on_stage(StageRecord{"layout", lay_s, r.layout.brief_report()});
+    t0 = Clock::now();
+  }
+
+  // ---- seed independence ----
+  if (options.seed_checks > 0) {
+    const Index nf = sphere ? topology.num_faces : r.disk.num_faces;
+    LayoutOptions lo = options.layout;
+    lo.normalize = false;
+    lo.seed_face = -1;
+    auto lay = [&](const LayoutOptions& o) {
+      return sphere ? layout_sphere(topology, metric_l, o) : layout_disk(r.disk, r.geometry, r.disk_lengths, o);
+    };
+    const Layout base = lay(lo);
+    if (base.status != Status::Ok) return (void)fail(base.status, "seed_check", base.message);
+    for (int k = 0; k < options.seed_checks; ++k) {
+      const Index seed = options.seed_checks == 1 ? nf / 2 : static_cast<Index>((static_cast<std::int64_t>(nf - 1) * k) / (options.seed_checks - 1));
+      lo.seed_face = seed;
+      const Layout other = lay(lo);
+      if (other.status != Status::Ok) return (void)fail(other.status, "seed_check", other.message);
+      r.seed_faces_checked.push_back(seed);
+      r.seed_independence_error =
+          std::max(r.seed_independence_error, layout_alignment_error(r.geometry, base.positions, other.positions));
+    }
+    stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
+                                 std::to_string(r.seed_faces_checked.size()) + " seeds");
+  }
+
+  // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
+  if (compact) {
+    std::vector<Index> bases;
+    if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
+    else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
+    if (bases.empty()) bases.push_back(-1);
+    double best_score = kInf;
+    std::string last_error = "no base vertex tried";
+    for (Index base : bases) {
+      const Clock::time_point tc = Clock::now();
+      BaseCandidate bc;
+      bc.base_vertex = base;
+      CutOptions co = options.cut;
+      co.base_vertex = base;
+      CutResult pc = cut_surface(mesh, topology, co);
+      auto reject = [&](const std::string& why) {
+        last_error = why;
+        bc.seconds = since(tc);
+        r.candidates.push_back(bc);
+      };
+      if (pc.status != Status::Ok || !pc.canonical) {
+        reject(pc.status != Status::Ok ? pc.message : "the cut is not canonical: " + pc.reason);
+        continue;
+      }
+      bc.base_vertex = pc.base_vertex;
+      bc.refined_vertices = pc.num_refined_vertices();
+      RefinedMetric pm = refined_edge_lengths(pc, topology, r.geometry, metric_l);
+      if (pm.status != Status::Ok) {
+        reject(pm.message);
+        continue;
+      }
+      TopologyResult pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
+      if (pt.status != Status::Ok) {
+        reject("the canonical disk is not a valid mesh");
+        continue;
+      }
+      std::vector<double> pl = disk_edge_lengths(pc, pm.surface, pm.l, pt.topology);
+      DomainDeck dd = deck_through_domain(pc, r.cut, r.layout.positions, options.deck);
+      if (dd.status != Status::Ok) {
+        reject(dd.message);
+        continue;
+      }
+      Layout poly = measure_layout(pt.topology, r.geometry, pl, dd.canonical_positions);
+      if (poly.status != Status::Ok) {
+        reject(poly.message);
+        continue;
+      }
+      bc.relation_error = dd.deck.relation_error;
+      bc.rounding_floor = poly.rounding_floor;
+      bc.max_edge_length_error = poly.max_edge_length_error;
+      reject("");
+      const double score = std::max({dd.deck.relation_error, poly.max_edge_length_error, poly.rounding_floor});
+      if (!(score < best_score)) continue;
+      best_score = score;
+      r.polygon_cut = std::move(pc);
+      r.polygon_disk = std::move(pt.topology);
+      r.polygon_lengths = std::move(pl);
+      r.polygon = std::move(poly);
+      r.deck = std::move(dd.deck);
+      r.domain_maps = std::move(dd.side_maps);
+      r.domain_cycle_error = dd.cycle_error;
+      r.tile_consistency = dd.tile_consistency;
+      if (best_score < 1e-11) break;
+    }
+    if (!std::isfinite(best_score))
+      return (void)fail(Status::NumericalFailure, "polygon",
+                        "no canonical polygon could be laid out through the domain (last: " + last_error + ")");
+    r.has_polygon = true;
+    r.has_deck = true;
+    stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
+                              std::to_string(r.polygon_cut.base_vertex) + ", best of " +
+                              std::to_string(r.candidates.size()) + "): edge error " +
+                              sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
+    stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
+                           std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                           sci(r.domain_cycle_error) + "), residual max " + sci(r.deck.residual_max) +
+                           ", relation error " + sci(r.deck.relation_error));
+  } else if (!sphere && topology.is_closed() && topology.genus() == 1 && r.geometry == Geometry::Euclidean &&
+             r.cut.canonical) {
+    r.has_polygon = true;
+    r.polygon_cut = r.cut;
+    r.polygon_disk = r.disk;
+    r.polygon_lengths = r.disk_lengths;
+    r.polygon = r.layout;
+    r.has_deck = true;
+    r.deck = fit_deck_transformations(r.cut, r.geometry, r.layout.positions, options.deck);
+    if (r.deck.status != Status::Ok) return (void)fail(r.deck.status, "deck", r.deck.message);
+    stage_done("deck", r.deck.brief_report());
+  }
+
+  // ---- angle distortion ----
+  r.angles = angle_distortion(mesh, topology, r.geometry, metric_l);
+  stage_done("angles", "mean |log ratio| " + sci(r.angles.mean_abs_log) + ", max " + sci(r.angles.max_abs_log));
+
+  r.status = Status::Ok;
+  r.message = "ok";
+  r.seconds = since(start);
+}
+
+}  // namespace
+
+}  // namespace ricci

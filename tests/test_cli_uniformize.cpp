@@ -1,0 +1,273 @@
+// Tests of `ricci uniformize`, `ricci layout` and `ricci cover`, run as separate processes: the
+// embedded default end to end (the report keys scripts rely on, every output file and what it
+// holds), the output directory's all-or-nothing replacement rules, a stored metric laid out
+// again, the cover tiling, and exit codes for bad input.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <complex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "ricci/deck.h"
+#include "pictures.h"
+#include "ricci/io.h"
+#include "support.h"
+
+namespace {
+
+using ricci_test::run_cli;
+using ricci_test::TempDir;
+using Json = nlohmann::json;
+namespace fs = std::filesystem;
+
+Json parse(const std::string& text) { return Json::parse(text, nullptr, /*allow_exceptions=*/false); }
+
+/// Names in a directory (hidden staging directories included).
+std::vector<std::string> listing(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (const auto& e : fs::directory_iterator(dir)) out.push_back(e.path().filename().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writes every output") {
+  TempDir tmp;
+  const fs::path out = tmp / "out";
+  const auto r = run_cli({"uniformize", "-o", out.string(), "--json"});
+  REQUIRE(r.exit_code == 0);
+  const Json j = parse(r.out);
+  REQUIRE(j.is_object());
+  for (const char* key : {"status", "message", "input", "mesh", "geometry", "scheme", "boundary", "iterations",
+                          "max_curvature_error", "layout", "seed_independence_error", "cut", "generators",
+                          "relation_error", "angle_distortion", "timings", "total_seconds", "outputs", "history",
+                          "notes", "repairs"})
+    CHECK_MESSAGE(j.contains(key), key);
+  CHECK(j["status"] == "ok");
+  CHECK(j["geometry"] == "hyperbolic");
+  CHECK(j["scheme"] == "circle-packing");
+  CHECK(j["mesh"]["genus"] == 2);
+  CHECK(j["iterations"].get<int>() >= 1);
+  CHECK(j["max_curvature_error"].get<double>() < 1e-12);
+  CHECK(j["layout"]["max_edge_length_error"].get<double>() < 1e-9);
+  CHECK(j["layout"]["flipped_faces"] == 0);
+  CHECK(j["seed_independence_error"].get<double>() < 1e-9);
+  CHECK(j["relation_error"].get<double>() < 1e-9);
+  REQUIRE(j["generators"].size() == 4);
+  for (const Json& g : j["generators"]) {
+    CHECK(g["residual_max"].get<double>() < 1e-9);
+    CHECK(g["translation_length"].get<double>() > 0);
+  }
+  // The layout is the compact domain; the canonical polygon is laid out through its tiles.
+  CHECK(j["cut"]["kind"] == "compact");
+  CHECK(j["cut"]["canonical"] == false);
+  CHECK(j["polygon"]["word"] == "a1 b1 a1^-1 b1^-1 a2 b2 a2^-1 b2^-1");
+  CHECK(j["polygon"]["max_edge_length_error"].get<double>() < 1e-9);
+  CHECK(j["domain_cycle_error"].get<double>() < 1e-12);
+  CHECK(j["angle_distortion"]["mean"].get<double>() <= j["angle_distortion"]["max"].get<double>());
+  for (const char* stage : {"load", "initial_metric", "target", "flow", "cut", "layout", "seed_check", "deck", "outputs", "pictures"})
+    CHECK_MESSAGE(j["timings"].contains(stage), stage);
+  // Progress on stderr for every stage, and a final summary line on stdout without --json.
+  for (const char* stage : {"initial_metric", "flow iteration 1", "cut:", "layout:", "seed_check", "deck:", "wrote"})
+    CHECK_MESSAGE(r.err.find(stage) != std::string::npos, stage);
+
+  // The files.
+  const std::vector<std::string> files = listing(out);
+  CHECK(files == std::vector<std::string>{
+                     "angles.png",      "angles.svg",      "checker-1.png",   "checker-2.png",
+                     "checker-3.png",   "convergence-time.png", "convergence-time.svg", "convergence.png",
+                     "convergence.svg", "cover.obj",       "cover.png",       "cover.svg",
+                     "domain.obj",      "domain.png",      "domain.svg",      "generators.json",
+                     "mesh.obj",        "metric.csv",      "polygon.obj",     "polygon.png",
+                     "polygon.svg",     "report.html",     "report.json"});
+  // The checkerboard's texture map is close to conformal (square checks): sigma_max/sigma_min.
+  CHECK(j["conformal_distortion"]["faces"].get<int>() > 1000);
+  CHECK(j["conformal_distortion"]["median"].get<double>() < 1.5);
+  // Every PNG decodes to a non-empty picture.
+  for (const std::string& name : files)
+    if (name.size() > 4 && name.substr(name.size() - 4) == ".png") {
+      const ricci_cli::Image img = ricci_cli::decode_png(ricci_test::read_bytes(out / name));
+      CHECK_MESSAGE(img.width > 100, name);
+    }
+  const Json report = parse(ricci_test::read_bytes(out / "report.json"));
+  REQUIRE(report.is_object());
+  CHECK(report["status"] == "ok");
+  CHECK(report["relation_error"] == j["relation_error"]);
+  CHECK(report["layout"] == j["layout"]);
+  // mesh.obj: the surface with per-corner texture coordinates inside the Poincare disk, seams
+  // along the cut (more texture coordinates than vertices).
+  const ricci::ReadResult mesh = ricci::read_mesh((out / "mesh.obj").string());
+  REQUIRE(mesh.status == ricci::Status::Ok);
+  CHECK(mesh.mesh.has_texcoords());
+  CHECK(mesh.mesh.num_texcoords() > mesh.mesh.num_vertices());
+  CHECK(mesh.mesh.num_faces() >= j["mesh"]["faces"].get<int>());
+  for (std::size_t k = 0; k + 1 < mesh.mesh.texcoords.size(); k += 2)
+    CHECK(std::hypot(mesh.mesh.texcoords[k], mesh.mesh.texcoords[k + 1]) < 1);
+  // generators.json: the maps themselves; each matrix is in SU(1,1).
+  const Json gens = parse(ricci_test::read_bytes(out / "generators.json"));
+  REQUIRE(gens.is_object());
+  CHECK(gens["word"] == j["polygon"]["word"]);
+  CHECK(gens["domain_side_pairings"].size() >= 4);
+  REQUIRE(gens["generators"].size() == 4);
+  for (const Json& g : gens["generators"]) {
+    const std::complex<double> a(g["matrix"]["a"][0].get<double>(), g["matrix"]["a"][1].get<double>());
+    const std::complex<double> b(g["matrix"]["b"][0].get<double>(), g["matrix"]["b"][1].get<double>());
+    CHECK(std::norm(a) - std::norm(b) == doctest::Approx(1).epsilon(1e-12));
+    const ricci::Moebius m{a, b};
+    CHECK(m.theta() == doctest::Approx(g["theta"].get<double>()).epsilon(1e-12));
+  }
+  CHECK(ricci_test::read_bytes(out / "cover.svg").find("<svg") != std::string::npos);
+  CHECK(ricci_test::read_bytes(out / "metric.csv").find("# edge,v0,v1,length") != std::string::npos);
+
+  // Text mode: one summary line on stdout.
+  const fs::path out2 = tmp / "out2";
+  const auto t = run_cli({"uniformize", "-o", out2.string(), "-q"});
+  CHECK(t.exit_code == 0);
+  CHECK(t.err.empty());
+  CHECK(t.out.rfind("ok hyperbolic", 0) == 0);
+}
+
+TEST_CASE("cli uniformize: the output directory is all or nothing") {
+  TempDir tmp;
+  const std::string torus = (ricci_test::fixtures_dir() / "torus.obj").string();
+  const fs::path out = tmp / "out";
+  REQUIRE(run_cli({"uniformize", torus, "-o", out.string(), "-q"}).exit_code == 0);
+  const std::string first = ricci_test::read_bytes(out / "report.json");
+  // A previous ricci output directory is replaced as a whole.
+  ricci_test::write_bytes(out / "stale.txt", "old");
+  REQUIRE(run_cli({"uniformize", torus, "-o", out.string(), "-q"}).exit_code == 0);
+  CHECK(!fs::exists(out / "stale.txt"));
+  CHECK(fs::exists(out / "generators.json"));
+  // A directory that is not ricci's is refused and left alone.
+  const fs::path mine = tmp / "mine";
+  fs::create_directory(mine);
+  ricci_test::write_bytes(mine / "notes.txt", "keep");
+  const auto refused = run_cli({"uniformize", torus, "-o", mine.string(), "-q"});
+  CHECK(refused.exit_code == 6);
+  CHECK(refused.err.find("refusing") != std::string::npos);
+  CHECK(listing(mine) == std::vector<std::string>{"notes.txt"});
+  // An output directory that holds the input is refused.
+  const fs::path holder = tmp / "holder";
+  fs::create_directory(holder);
+  fs::copy_file(torus, holder / "torus.obj");
+  ricci_test::write_bytes(holder / "report.json", "{}");
+  const auto self = run_cli({"uniformize", (holder / "torus.obj").string(), "-o", holder.string(), "-q"});
+  CHECK(self.exit_code == 6);
+  CHECK(fs::exists(holder / "torus.obj"));
+  // A failing run writes nothing and leaves no staging directory: an infeasible cone file.
+  const fs::path cones = tmp / "cones.txt";
+  ricci_test::write_bytes(cones, "0 6.283185307179586\n");
+  const fs::path failed = tmp / "failed";
+  const auto bad = run_cli({"uniformize", torus, "-o", failed.string(), "--target", "cones=" + cones.string(), "-q"});
+  CHECK(bad.exit_code == 8);
+  CHECK(bad.err.find("no output written") != std::string::npos);
+  CHECK(!fs::exists(failed));
+  for (const std::string& name : listing(tmp.path())) CHECK_MESSAGE(name.find("ricci-tmp") == std::string::npos, name);
+  // Usage errors.
+  CHECK(run_cli({"uniformize", torus, "-q"}).exit_code == 2);
+  CHECK(run_cli({"uniformize", torus, "-o", out.string(), "--base-candidates", "0"}).exit_code == 2);
+  CHECK(run_cli({"uniformize", (tmp / "missing.obj").string(), "-o", (tmp / "x").string()}).exit_code == 3);
+  CHECK(!fs::exists(tmp / "x"));
+}
+
+TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
+  TempDir tmp;
+  const auto torus = run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o",
+                              (tmp / "t").string(), "--json", "-q", "--no-pictures"});
+  REQUIRE(torus.exit_code == 0);
+  const Json t = parse(torus.out);
+  CHECK(t["geometry"] == "euclidean");
+  CHECK(t["generators"].size() == 2);
+  CHECK(t["relation_error"].get<double>() < 1e-12);
+  CHECK(t["layout"]["domain"] == "plane");
+  CHECK(t["cut"]["kind"] == "canonical");
+  CHECK(t["polygon"]["word"] == "a1 b1 a1^-1 b1^-1");
+
+  const auto sphere = run_cli({"uniformize", (ricci_test::fixtures_dir() / "icosphere.obj").string(), "-o",
+                               (tmp / "s").string(), "--json", "-q"});
+  REQUIRE(sphere.exit_code == 0);
+  const Json s = parse(sphere.out);
+  CHECK(s["geometry"] == "spherical");
+  CHECK(s["layout"]["domain"] == "sphere");
+  CHECK(s["generators"].empty());
+  CHECK(s["relation_error"].is_null());
+  // With pictures (the checkerboard from the Mercator projection of the sphere layout).
+  for (const char* name : {"mesh.obj", "metric.csv", "report.json", "report.html", "sphere.obj", "domain.png", "checker-1.png",
+                           "angles.png", "convergence.png"})
+    CHECK_MESSAGE(fs::exists(tmp / "s" / name), name);
+  CHECK(!fs::exists(tmp / "s" / "cover.png"));
+  const ricci::ReadResult sph = ricci::read_mesh((tmp / "s" / "sphere.obj").string());
+  REQUIRE(sph.status == ricci::Status::Ok);
+  for (std::size_t k = 0; k + 2 < sph.mesh.positions.size(); k += 3)
+    CHECK(std::hypot(sph.mesh.positions[k], sph.mesh.positions[k + 1], sph.mesh.positions[k + 2]) ==
+          doctest::Approx(1).epsilon(1e-12));
+
+  const auto disk = run_cli({"uniformize", (ricci_test::fixtures_dir() / "sphere-3holes.obj").string(), "-o",
+                             (tmp / "d").string(), "--json", "-q", "--no-pictures"});
+  REQUIRE(disk.exit_code == 0);
+  const Json d = parse(disk.out);
+  CHECK(d["geometry"] == "euclidean");
+  CHECK(d["boundary"] == "circle");
+  CHECK(d["layout"]["flipped_faces"] == 0);
+  CHECK(listing(tmp / "d") == std::vector<std::string>{"domain.obj", "mesh.obj", "metric.csv", "report.json"});
+}
+
+TEST_CASE("cli layout: a stored metric laid out again; a metric of another mesh is refused") {
+  TempDir tmp;
+  const std::string g2 = (ricci_test::fixtures_dir() / "genus2.obj").string();
+  const fs::path metric = tmp / "metric.csv";
+  REQUIRE(run_cli({"flow", g2, "--tol", "1e-12", "-o", metric.string(), "-q"}).exit_code == 0);
+  const auto r = run_cli({"layout", g2, "--metric", metric.string(), "-o", (tmp / "lay").string(), "--json", "-q"});
+  REQUIRE(r.exit_code == 0);
+  const Json j = parse(r.out);
+  CHECK(j["status"] == "ok");
+  CHECK(j["geometry"] == "hyperbolic");
+  CHECK(j["iterations"].is_null());
+  CHECK(j["layout"]["max_edge_length_error"].get<double>() < 1e-9);
+  CHECK(j["relation_error"].get<double>() < 1e-9);
+  CHECK(!fs::exists(tmp / "lay" / "metric.csv"));
+  // JSON metrics too.
+  const fs::path mj = tmp / "metric.json";
+  REQUIRE(run_cli({"flow", g2, "--tol", "1e-12", "-o", mj.string(), "-q"}).exit_code == 0);
+  const auto rj = run_cli({"layout", g2, "--metric", mj.string(), "-o", (tmp / "layj").string(), "--json", "-q"});
+  REQUIRE(rj.exit_code == 0);
+  CHECK(parse(rj.out)["relation_error"] == j["relation_error"]);
+  // The torus's metric does not fit the genus-2 mesh.
+  const fs::path tm = tmp / "torus.csv";
+  REQUIRE(run_cli({"flow", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", tm.string(), "-q"}).exit_code == 0);
+  const auto bad = run_cli({"layout", g2, "--metric", tm.string(), "-o", (tmp / "bad").string(), "-q"});
+  CHECK(bad.exit_code == 4);
+  CHECK(bad.err.find(tm.string()) != std::string::npos);
+  CHECK(bad.err.find("another mesh") != std::string::npos);
+  CHECK(!fs::exists(tmp / "bad"));
+  // A malformed row names its line.
+  const fs::path broken = tmp / "broken.csv";
+  ricci_test::write_bytes(broken, "# edge,v0,v1,length\n0,1,x,0.5\n");
+  const auto br = run_cli({"layout", g2, "--metric", broken.string(), "-o", (tmp / "br").string(), "-q"});
+  CHECK(br.exit_code == 4);
+  CHECK(br.err.find("line 2") != std::string::npos);
+}
+
+TEST_CASE("cli cover: the tiling as SVG or mesh; surfaces without a cover are refused") {
+  TempDir tmp;
+  const fs::path svg = tmp / "cover.svg";
+  const auto r = run_cli({"cover", "--depth", "2", "-o", svg.string(), "--json", "-q"});
+  REQUIRE(r.exit_code == 0);
+  const Json j = parse(r.out);
+  CHECK(j["copies"].get<int>() > 8);
+  CHECK(ricci_test::read_bytes(svg).find("<svg") != std::string::npos);
+  const fs::path obj = tmp / "cover.obj";
+  REQUIRE(run_cli({"cover", (ricci_test::fixtures_dir() / "torus.obj").string(), "--depth", "3", "-o", obj.string(), "-q"})
+              .exit_code == 0);
+  const ricci::ReadResult m = ricci::read_mesh(obj.string());
+  REQUIRE(m.status == ricci::Status::Ok);
+  CHECK(m.mesh.num_faces() % 9 == 0);  // a 3x3 block of copies of the (refined) disk
+  CHECK(m.mesh.num_faces() >= 9 * 1024);
+  const auto disk = run_cli({"cover", (ricci_test::fixtures_dir() / "disk.obj").string(), "-o", svg.string(), "-q"});
+  CHECK(disk.exit_code == 2);
+  CHECK(disk.err.find("genus >= 1") != std::string::npos);
+  CHECK(run_cli({"cover", "-o", (tmp / "c.txt").string()}).exit_code == 2);
+}

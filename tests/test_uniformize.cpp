@@ -1,0 +1,187 @@
+// The whole job as a library call (uniformize.h): every fixture uniformizes with the accuracy the
+// stages promise; lay_out_metric() on the flow's own lengths reproduces the layout; stage
+// failures name their stage and keep what ran before; angle distortion is measured per corner.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "ricci/io.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "support.h"
+
+using namespace ricci;
+namespace fs = std::filesystem;
+
+TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy") {
+  for (const fs::path& p : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
+    INFO(p.filename().string());
+    const LoadResult lr = load_mesh(p.string());
+    REQUIRE(lr.status == Status::Ok);
+    const Topology& t = lr.validated.topology;
+    std::vector<std::string> stages;
+    UniformizeOptions o;
+    o.on_stage = [&](const StageRecord& s) {
+      stages.emplace_back(s.stage);
+      CHECK(s.seconds >= 0);
+      CHECK(!s.summary.empty());
+    };
+    const UniformizeResult r = uniformize(lr.validated.mesh, t, o);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    MESSAGE(p.filename().string() << ": " << r.brief_report() << "; floor " << r.layout.rounding_floor
+                                  << ", seed independence " << r.seed_independence_error);
+    CHECK(r.geometry == natural_geometry(t));
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    CHECK(r.layout.flipped_faces == 0);
+    CHECK(r.layout.max_edge_length_error < std::max(1e-9, 8 * r.layout.rounding_floor));
+    CHECK(r.timings.size() == stages.size());
+    const bool sphere = t.is_closed() && t.euler_characteristic() == 2;
+    CHECK(r.has_cut == !sphere);
+    CHECK(r.layout.dims == (sphere ? 3 : 2));
+    if (r.has_cut) {
+      CHECK(r.layout.positions.size() == 2 * static_cast<std::size_t>(r.cut.num_cut_vertices()));
+      CHECK(r.disk.num_faces == static_cast<Index>(r.cut.cut_faces.size() / 3));
+    }
+    // Seed independence: three more seeds, aligned by the fitted isometry.
+    CHECK(r.seed_faces_checked.size() == 3);
+    CHECK(r.seed_independence_error < 1e-9);
+    // Closed genus >= 1: the canonical polygon and its deck transformations. In H the layout is
+    // the compact domain and the polygon is laid out through its tiles.
+    const bool closed_handles = t.is_closed() && t.genus() >= 1;
+    CHECK(r.has_polygon == closed_handles);
+    CHECK(r.has_deck == closed_handles);
+    if (closed_handles) {
+      REQUIRE(r.deck.status == Status::Ok);
+      CHECK(r.polygon_cut.canonical);
+      CHECK(r.deck.generators.size() == 2 * static_cast<std::size_t>(t.genus()));
+      CHECK(r.polygon.flipped_faces == 0);
+      CHECK(r.polygon.max_edge_length_error < std::max(1e-9, 8 * r.polygon.rounding_floor));
+      CHECK(r.deck.residual_max < std::max(1e-9, 100 * r.polygon.rounding_floor));
+      CHECK(r.deck.relation_error < 1e-9);
+    }
+    if (closed_handles && r.geometry == Geometry::Hyperbolic) {
+      CHECK(!r.cut.canonical);  // the compact domain
+      CHECK(r.domain_maps.size() == static_cast<std::size_t>(r.cut.num_generators()));
+      CHECK(r.domain_cycle_error < 1e-12);
+      CHECK(r.tile_consistency < 1e-9);
+      REQUIRE(!r.candidates.empty());
+      double best = INFINITY;
+      for (const BaseCandidate& c : r.candidates)
+        best = std::min(best, std::max({c.relation_error, c.max_edge_length_error, c.rounding_floor}));
+      CHECK(std::max({r.deck.relation_error, r.polygon.max_edge_length_error, r.polygon.rounding_floor}) == best);
+    } else {
+      CHECK(r.candidates.empty());
+      CHECK(r.domain_maps.empty());
+    }
+    // Angle distortion: one ratio per corner, finite, the statistics consistent with them.
+    REQUIRE(r.angles.ratio.size() == 3 * static_cast<std::size_t>(t.num_faces));
+    double mx = 0;
+    for (double x : r.angles.ratio) {
+      CHECK(std::isfinite(x));
+      CHECK(x > 0);
+      mx = std::max(mx, std::abs(std::log(x)));
+    }
+    CHECK(r.angles.max_abs_log == doctest::Approx(mx));
+    CHECK(r.angles.mean_abs_log <= r.angles.max_abs_log);
+  }
+}
+
+TEST_CASE("uniformize: a stored metric lays out exactly as the flow's own lengths") {
+  const LoadResult lr = load_mesh((ricci_test::fixtures_dir() / "genus2.obj").string());
+  REQUIRE(lr.status == Status::Ok);
+  const Mesh& m = lr.validated.mesh;
+  const Topology& t = lr.validated.topology;
+  const UniformizeResult a = uniformize(m, t);
+  REQUIRE(a.status == Status::Ok);
+  const UniformizeResult b = lay_out_metric(m, t, a.geometry, a.flow.l);
+  REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+  CHECK(b.flow.status == Status::NotRun);
+  CHECK(b.cut.word == a.cut.word);
+  CHECK(b.layout.positions == a.layout.positions);  // deterministic: bit for bit
+  CHECK(b.deck.relation_error == a.deck.relation_error);
+  // Bad lengths are named.
+  std::vector<double> l = a.flow.l;
+  l[17] = -1;
+  const UniformizeResult c = lay_out_metric(m, t, a.geometry, l);
+  CHECK(c.status == Status::DegenerateFace);
+  CHECK(c.message.find("edge 17") != std::string::npos);
+  l.pop_back();
+  CHECK(lay_out_metric(m, t, a.geometry, l).status == Status::InvalidArgument);
+}
+
+TEST_CASE("uniformize: failures name their stage and keep what ran before") {
+  const Mesh mesh = ricci_shapes::torus(16, 8, 1.0, 0.4);
+  const ValidateResult v = validate_mesh(mesh);
+  REQUIRE(v.status == Status::Ok);
+  // A target that violates Gauss-Bonnet (2pi at one vertex of a torus): stopped at `target`.
+  Target bad = uniform_target(v.topology);
+  bad.K[3] = 2 * std::numbers::pi;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, {}, &bad);
+  CHECK(r.status == Status::InfeasibleTarget);
+  CHECK(r.failed_stage == "target");
+  CHECK(r.message.rfind("target: ", 0) == 0);
+  CHECK(r.metric.status == Status::Ok);
+  CHECK(r.layout.status == Status::NotRun);
+  // The flow's iteration limit: stopped at `flow`, with its iterate.
+  UniformizeOptions o;
+  o.flow.max_iterations = 1;
+  const UniformizeResult f = uniformize(v.mesh, v.topology, o);
+  CHECK(f.status == Status::NotConverged);
+  CHECK(f.failed_stage == "flow");
+  CHECK(f.flow.u.size() == static_cast<std::size_t>(v.topology.num_vertices));
+  // Bad options.
+  o = {};
+  o.base_candidates = 0;
+  CHECK(uniformize(v.mesh, v.topology, o).status == Status::InvalidArgument);
+  o = {};
+  o.seed_checks = -1;
+  CHECK(uniformize(v.mesh, v.topology, o).status == Status::InvalidArgument);
+}
+
+TEST_CASE("uniformize: angle distortion is zero for a metric equal to the mesh's own (E)") {
+  const Mesh mesh = ricci_shapes::disk(6);
+  const ValidateResult v = validate_mesh(mesh);
+  REQUIRE(v.status == Status::Ok);
+  const Topology& t = v.topology;
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    double s = 0;
+    for (int d = 0; d < 3; ++d) s += std::pow(v.mesh.positions[3 * a + d] - v.mesh.positions[3 * b + d], 2);
+    l[e] = std::sqrt(s);
+  }
+  const AngleDistortion a = angle_distortion(v.mesh, t, Geometry::Euclidean, l);
+  CHECK(a.max_abs_log < 1e-12);
+  // Doubling one edge changes the angles of its two faces only.
+  l[0] *= 1.5;
+  const AngleDistortion b = angle_distortion(v.mesh, t, Geometry::Euclidean, l);
+  Index changed = 0;
+  for (double x : b.ratio) changed += std::abs(std::log(x)) > 1e-12 ? 1 : 0;
+  CHECK(changed == (t.edge_corners[1] == kInvalid ? 3 : 6));
+  CHECK(b.max_abs_log > 0.1);
+}
+
+TEST_CASE("uniformize: genus 4 and 5 through the compact domain") {
+  // Generated pretzels with 4 and 5 holes: the layout (the compact domain) and its side pairings
+  // are exact to rounding whatever the canonical polygon looks like; the canonical generators'
+  // relation is reported (it degrades with the length of the canonical loops, see README).
+  for (int g : {4, 5}) {
+    CAPTURE(g);
+    const ValidateResult v = validate_mesh(ricci_shapes::pretzel(g, 4));
+    REQUIRE(v.status == Status::Ok);
+    const UniformizeResult r = uniformize(v.mesh, v.topology);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.layout.max_edge_length_error < 1e-9);
+    CHECK(r.layout.flipped_faces == 0);
+    CHECK(r.seed_independence_error < 1e-9);
+    CHECK(r.domain_cycle_error < 1e-12);
+    CHECK(r.has_deck);
+    CHECK(r.deck.generators.size() == 2 * static_cast<std::size_t>(g));
+    MESSAGE("pretzel(" << g << ", 4): " << r.brief_report() << "; canonical polygon edge error "
+                       << r.polygon.max_edge_length_error << ", floor " << r.polygon.rounding_floor
+                       << ", domain vertex cycles " << r.domain_cycle_error);
+  }
+}
