@@ -228,8 +228,8 @@ std::string generators_json(const ricci::UniformizeResult& r, const std::string&
           ? "each generator X maps side X of the polygon onto side X^-1, reversing it; H: z -> e^{i theta}(z - z0)/(1 - "
             "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1"
           : "each generator X maps side X of the polygon onto side X^-1: z -> z + translation";
-  j["relation_error"] = real(r.deck.relation_error);
-  if (r.geometry == Geometry::Hyperbolic) j["relator"] = moebius_json(r.deck.relator);
+  j["relation_error"] = r.has_deck ? real(r.deck.relation_error) : Json(nullptr);
+  if (r.has_deck && r.geometry == Geometry::Hyperbolic) j["relator"] = moebius_json(r.deck.relator);
   j["generators"] = generators_array(r.deck.generators);
   if (!r.domain_maps.empty()) {
     j["domain_side_pairings"] = generators_array(r.domain_maps);
@@ -684,7 +684,11 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   }
   if (!run.from_metric) files.push_back({"metric.csv", metric_csv(r, topo, v.vertex_to_input, run.file, o.scheme)});
   ricci::CoverResult cover;
-  if (r.has_deck) {
+  if (!r.polygon_note.empty()) {
+    run.notes.push_back(r.polygon_note);
+    print_note(o.quiet, r.polygon_note);
+  }
+  if (r.has_deck || !r.domain_maps.empty()) {
     files.push_back({"generators.json", generators_json(r, run.file)});
     cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), cover_options(r, o.cover_depth));
     if (cover.status == Status::Ok) {

@@ -242,7 +242,7 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
 
   // Checkerboard renderings from three viewpoints.
   const std::vector<double> uv = corner_uv(r, surface);
-  if (distortion != nullptr && r.has_cut) *distortion = conformal_distortion(surface.positions, surface.faces, uv);
+  if (distortion != nullptr) *distortion = conformal_distortion(surface.positions, surface.faces, uv);
   CheckerOptions co;
   co.checks_across = g == Geometry::Spherical ? 24 : 20;
   const double az[3] = {30, 150, 270};

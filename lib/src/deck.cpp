@@ -535,13 +535,17 @@ std::uint64_t dkey(Index u, Index v) {
 
 }  // namespace
 
-DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain,
-                               std::span<const double> dpos, const DeckOptions& options) {
+namespace {
+
+/// deck_through_domain() with the canonical cut optional: without it, only the domain's side
+/// pairings and the vertex-cycle check (fit_domain_pairings()).
+DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, std::span<const double> dpos,
+                       const DeckOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   DomainDeck out;
   DeckResult& r = out.deck;
   r.geometry = Geometry::Hyperbolic;
-  r.genus = canonical.genus;
+  r.genus = domain.genus;
   auto bad = [&](Status s, const std::string& m) {
     out.status = s;
     out.message = m;
@@ -554,17 +558,12 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
   };
   std::string why;
   if (!options.is_valid(&why)) return bad(Status::InvalidArgument, why);
-  why = check_cut(canonical);
-  if (!why.empty()) return bad(Status::InvalidArgument, why);
-  if (canonical.genus < 2) return bad(Status::InvalidArgument, "the compact-domain construction is for genus >= 2.");
-  if (domain.status != Status::Ok || domain.num_refined_vertices() != 0 || domain.genus != canonical.genus ||
-      domain.cut_faces.size() != domain.surface_faces.size() ||
-      domain.num_input_vertices != canonical.num_input_vertices)
-    return bad(Status::InvalidArgument, "the domain is not an unrefined cut of the same surface.");
-  const Index nin = canonical.num_input_vertices;
+  if (domain.genus < 2) return bad(Status::InvalidArgument, "the compact-domain construction is for genus >= 2.");
+  if (domain.status != Status::Ok || domain.num_refined_vertices() != 0 ||
+      domain.cut_faces.size() != domain.surface_faces.size())
+    return bad(Status::InvalidArgument, "the domain is not an unrefined cut of the surface.");
+  const Index nin = domain.num_input_vertices;
   const Index Fin = static_cast<Index>(domain.surface_faces.size() / 3);
-  for (Index o : canonical.surface_face_to_input)
-    if (o < 0 || o >= Fin) return bad(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
   const Index nd = domain.num_cut_vertices();
   if (dpos.size() != 2 * static_cast<std::size_t>(nd))
     return bad(Status::InvalidArgument, "domain positions: expected #domain cut vertices x 2 values.");
@@ -658,6 +657,24 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
       out.cycle_error = std::max(out.cycle_error, (C * P * C.inverse()).distance_to_identity());
     }
   }
+
+  if (canonical_in == nullptr) {
+    out.status = Status::Ok;
+    out.message = std::to_string(out.side_maps.size()) + " side pairings fitted; vertex cycles within " +
+                  std::to_string(out.cycle_error) + " of the identity.";
+    r.status = Status::NotRun;
+    r.message = "no canonical cut given";
+    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    return out;
+  }
+  const CutResult& canonical = *canonical_in;
+  r.genus = canonical.genus;
+  why = check_cut(canonical);
+  if (!why.empty()) return bad(Status::InvalidArgument, why);
+  if (canonical.genus != domain.genus || canonical.num_input_vertices != nin)
+    return bad(Status::InvalidArgument, "the domain is not a cut of the canonical cut's surface.");
+  for (Index o : canonical.surface_face_to_input)
+    if (o < 0 || o >= Fin) return bad(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
 
   // 3. Tiles of the canonical disk's faces, breadth first.
   const TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
@@ -853,6 +870,17 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
   out.message = r.message;
   out.seconds = r.seconds;
   return out;
+}
+
+}  // namespace
+
+DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain, std::span<const double> dpos,
+                               const DeckOptions& options) {
+  return domain_deck(&canonical, domain, dpos, options);
+}
+
+DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> dpos, const DeckOptions& options) {
+  return domain_deck(nullptr, domain, dpos, options);
 }
 
 }  // namespace ricci

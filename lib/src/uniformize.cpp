@@ -469,9 +469,22 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       r.tile_consistency = dd.tile_consistency;
       if (best_score < 1e-11) break;
     }
-    if (!std::isfinite(best_score))
-      return (void)fail(Status::NumericalFailure, "polygon",
-                        "no canonical polygon could be laid out through the domain (last: " + last_error + ")");
+    if (!std::isfinite(best_score)) {
+      // The layout and the domain's side pairings stand; only the canonical view is missing.
+      r.polygon_note = "no canonical polygon: none of " + std::to_string(r.candidates.size()) +
+                       " base vertices gave one that double precision can lay out (last: " + last_error +
+                       "); the deck group is given by the compact domain's side pairings";
+      r.deck = DeckResult{};
+      {
+        DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, options.deck);
+        if (dd.status != Status::Ok) return (void)fail(dd.status, "deck", dd.message);
+        r.domain_maps = std::move(dd.side_maps);
+        r.domain_cycle_error = dd.cycle_error;
+      }
+      stage_done("polygon", r.polygon_note);
+      stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                             sci(r.domain_cycle_error) + ")");
+    } else {
     r.has_polygon = true;
     r.has_deck = true;
     stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
@@ -482,6 +495,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
                            std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
                            sci(r.domain_cycle_error) + "), residual max " + sci(r.deck.residual_max) +
                            ", relation error " + sci(r.deck.relation_error));
+    }
   } else if (!sphere && topology.is_closed() && topology.genus() == 1 && r.geometry == Geometry::Euclidean &&
              r.cut.canonical) {
     r.has_polygon = true;

@@ -230,6 +230,11 @@ struct DomainDeck {
 DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain,
                                std::span<const double> domain_positions, const DeckOptions& options = {});
 
+/// The compact domain's side pairings alone (Ceres fits over all vertex pairs) and the check of
+/// its vertex cycles: status, side_maps, cycle_error (deck has status NotRun; no positions).
+DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> domain_positions,
+                               const DeckOptions& options = {});
+
 // ---- Universal cover ----------------------------------------------------------------------
 
 struct CoverOptions {

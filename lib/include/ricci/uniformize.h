@@ -140,6 +140,8 @@ struct UniformizeResult {
   /// above; H: a canonical cut_surface() laid out through the compact domain's tiles,
   /// deck_through_domain(), its errors measured by measure_layout()).
   bool has_polygon = false;
+  /// Why has_polygon is false for a closed surface of genus ≥ 2 (empty otherwise).
+  std::string polygon_note;
   CutResult polygon_cut;
   Topology polygon_disk;
   std::vector<double> polygon_lengths;
