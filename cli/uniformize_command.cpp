@@ -859,8 +859,9 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--threads", o.threads, "OpenMP threads; 0 uses the OpenMP default. Default: 0.")
       ->check(number_validator(false, true));
   cmd->add_option("--base-candidates", o.base_candidates,
-                  "Hyperbolic: base vertices tried for the cut; the layout that double precision resolves best is "
-                  "kept. Default: 6.")
+                  "Closed genus >= 2: base vertices tried for the canonical polygon; the one whose generators and "
+                  "positions double precision resolves best is "
+                  "kept. Default: 8.")
       ->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks,
                   "Layouts from this many other seed faces are aligned to the first (seed_independence_error). "
@@ -898,7 +899,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("-o,--output", o.output, "Output directory (as for uniformize). Required.")->required()->type_name("OUTDIR");
   cmd->add_option("--geometry", o.geometry, "Geometry of the lengths: auto (the file's). Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
-  cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 6.")->check(number_validator(true, true));
+  cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 3.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");

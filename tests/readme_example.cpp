@@ -1,19 +1,20 @@
-// The library example shown in README.md (a test checks that the two stay identical).
+// The README's library example (tests/test_readme.cpp checks that the README shows this file).
 #include <cstdio>
+#include <ricci/uniformize.h>
 #include <ricci/validate.h>
 
 int main(int argc, char** argv) {
   if (argc < 2) return 2;
-  ricci::LoadOptions options;
-  options.validate.keep_largest_component = true;
-  const ricci::LoadResult r = ricci::load_mesh(argv[1], options);
-  if (r.status != ricci::Status::Ok) {
-    std::fprintf(stderr, "%s\n", r.message.c_str());
+  const ricci::LoadResult in = ricci::load_mesh(argv[1]);  // read + validate (+ repairs)
+  if (in.status != ricci::Status::Ok) {
+    std::fprintf(stderr, "%s\n", in.message.c_str());
     return 1;
   }
-  const ricci::Topology& t = r.validated.topology;
-  std::printf("V=%d E=%d F=%d chi=%lld b=%d genus=%lld\n", t.num_vertices, t.num_edges, t.num_faces,
-              static_cast<long long>(t.euler_characteristic()), t.num_boundary_loops(),
-              static_cast<long long>(t.genus()));
-  for (const ricci::Repair& repair : r.repairs) std::printf("repaired: %s\n", repair.message.c_str());
+  // Flow to the uniformization metric, cut, lay out, fit the deck transformations.
+  const ricci::UniformizeResult r = ricci::uniformize(in.validated.mesh, in.validated.topology);
+  std::printf("%s\n", r.brief_report().c_str());
+  if (r.status != ricci::Status::Ok) return 1;
+  // Per-corner texture coordinates from the layout (plane or Poincare disk), seams on the cut.
+  const ricci::Mesh textured = ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
+  std::printf("%d textured faces, %zu deck generators\n", textured.num_faces(), r.deck.generators.size());
 }
