@@ -1,8 +1,9 @@
 // sweep_uniformize — the main job (uniformize(): flow, cut, layout, seed check, canonical polygon,
 // deck transformations) on every mesh of ../shared/meshes/{genus0,genus1,genus2,genus3plus,boundary},
-// one Markdown table row each. A driver, not a test: a mesh that fails is a row with its status.
+// (and derived/), one Markdown table row each. A driver, not a test: a mesh that fails is a row with its status.
 //
 //   cmake --build build --target sweep_uniformize && build/tools/sweep_uniformize [MESHES_DIR] [--out FILE.md]
+//   --polish-sweeps N   LayoutOptions::polish_sweeps for euclidean layouts (default: the library's)
 //
 // Columns: geometry; #F; Newton iterations (with the polishing steps) and max |K̄ − K|; the
 // layout's max relative edge-length error and flipped faces; the largest deviation between
@@ -11,6 +12,7 @@
 // own edge error (or why there is none); seconds in all.
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -38,12 +40,15 @@ std::string sci(double x) {
 int main(int argc, char** argv) {
   fs::path dir = fs::path(RICCI_SOURCE_DIR).parent_path() / "shared" / "meshes";
   std::string out_path;
+  int polish = -1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--out" && i + 1 < argc) {
       out_path = argv[++i];
+    } else if (a == "--polish-sweeps" && i + 1 < argc) {
+      polish = std::atoi(argv[++i]);
     } else if (a == "--help" || a == "-h") {
-      std::cout << "usage: sweep_uniformize [MESHES_DIR] [--out FILE.md]\n";
+      std::cout << "usage: sweep_uniformize [MESHES_DIR] [--out FILE.md] [--polish-sweeps N]\n";
       return 0;
     } else {
       dir = a;
@@ -58,7 +63,9 @@ int main(int argc, char** argv) {
            "domain cycles | relation error | polygon edge error | s |\n";
   table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::cout << table << std::flush;
-  for (const char* sub : {"genus0", "genus1", "genus2", "genus3plus", "boundary"}) {
+  ricci::UniformizeOptions options;
+  if (polish >= 0) options.layout.polish_sweeps = polish;
+  for (const char* sub : {"genus0", "genus1", "genus2", "genus3plus", "boundary", "derived"}) {
     std::vector<fs::path> files;
     if (!fs::is_directory(dir / sub)) continue;
     for (const auto& e : fs::directory_iterator(dir / sub)) {
@@ -74,7 +81,7 @@ int main(int argc, char** argv) {
       if (lr.status != ricci::Status::Ok) {
         row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | |\n";
       } else {
-        const ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology);
+        const ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const bool ok = r.status == ricci::Status::Ok;
         row += std::string(ricci::geometry_name(r.geometry)) + " | " + std::to_string(lr.validated.topology.num_faces) + " | ";

@@ -402,6 +402,47 @@ void normalize_spherical(const Topology& t, Positions& P, const std::vector<doub
   out.centre_of_mass = norm(centre());
 }
 
+// ---- polishing (E) ----------------------------------------------------------------------------
+
+/// Nonlinear Gauss–Seidel on planar positions: each vertex in turn takes one Gauss–Newton step on
+/// Σ_j ((|x − x_j| − l_j)/l_j)² over its incident edges. The breadth-first propagation leaves its
+/// error where the fronts meet (one seam of mismatched edges); the sweeps spread it.
+void polish_euclidean(const Topology& t, std::span<const double> l, std::vector<double>& x, int sweeps) {
+  const Index nv = t.num_vertices;
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (Index v = 0; v < nv; ++v) {
+      const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
+      if (k0 == k1) continue;
+      double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
+      auto add = [&](Index j, Index e) {
+        const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
+        const double d = std::hypot(dx, dy);
+        if (!(d > 0)) return;
+        const double w = 1 / (l[e] * l[e]), r = d - l[e], ux = dx / d, uy = dy / d;
+        g0 += w * r * ux;
+        g1 += w * r * uy;
+        h00 += w * ux * ux;
+        h01 += w * ux * uy;
+        h11 += w * uy * uy;
+      };
+      // Every incident edge once: the edge to vertex(next(c)) of each corner, and for a boundary
+      // vertex also the edge to vertex(prev(c)) of its last (counter-clockwise) corner.
+      for (Index k = k0; k < k1; ++k) {
+        const Index c = t.vertex_corners[k];
+        add(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
+      }
+      if (t.is_boundary_vertex(v)) {
+        const Index c = t.vertex_corners[k1 - 1];
+        add(t.corner_vertex[prev_corner(c)], t.corner_edge[next_corner(c)]);
+      }
+      const double det = h00 * h11 - h01 * h01;
+      if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) continue;
+      x[2 * v] -= (h11 * g0 - h01 * g1) / det;
+      x[2 * v + 1] -= (h00 * g1 - h01 * g0) / det;
+    }
+  }
+}
+
 // ---- the propagation -----------------------------------------------------------------------
 
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
@@ -466,6 +507,14 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   };
   P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
   if (!propagate()) return out;
+  if (g == Geometry::Euclidean && options.polish_sweeps > 0) {
+    polish_euclidean(t, l, x, options.polish_sweeps);
+    out.polish_sweeps = options.polish_sweeps;
+    // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
+    const Cx o = P.z(s0), d = P.z(s1) - o;
+    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
+    for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
+  }
   const std::vector<double> w = vertex_weights(t, area);
   if (g == Geometry::Hyperbolic && options.normalize) {
     // Second pass in the final frame: the seed face keeps its normalised position and the
@@ -537,6 +586,10 @@ std::string shape(const Topology& t) {
 // ---------------------------------------------------------------------------------------------
 
 bool LayoutOptions::is_valid(std::string* why) const {
+  if (polish_sweeps < 0 || polish_sweeps > 10000) {
+    if (why) *why = "polish_sweeps must be in 0..10000, got " + std::to_string(polish_sweeps);
+    return false;
+  }
   if (seed_face < -1) {
     if (why) *why = "seed_face must be -1 (automatic) or a face index, got " + std::to_string(seed_face);
     return false;

@@ -140,6 +140,11 @@ struct LayoutOptions {
   bool unit_box = false;
   /// S only: with normalize, Möbius-centre the sphere layout (not an isometry); false: rotation only.
   bool sphere_mobius = true;
+  /// E only: sweeps of nonlinear Gauss–Seidel after the propagation — each vertex in turn takes a
+  /// Gauss–Newton step on Σ ((|x − x_j| − l_j)/l_j)² over its edges. The breadth-first front
+  /// leaves its rounding where it closes on itself (one seam of edges); the sweeps spread it,
+  /// which matters on large meshes (tools/sweep_uniformize --polish-sweeps compares). 0: none.
+  int polish_sweeps = 30;
 
   bool is_valid(std::string* why) const;
 };
@@ -181,6 +186,8 @@ struct Layout {
   int normalization_iterations = 0;  ///< S: Möbius centring steps
   /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
   int propagation_passes = 0;
+  /// E: Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
+  int polish_sweeps = 0;
   double seconds = 0;
 
   /// One line: status, geometry, seed, edge error, flips, time.
