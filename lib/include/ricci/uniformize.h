@@ -8,29 +8,35 @@
 //   initial_metric  Step 2 of the paper in the chosen geometry (InitialMetricOptions)
 //   target          the target curvature (uniform_target() for the boundary mode unless given),
 //                   check_target() before any iteration
-//   flow            solve_flow() (Newton by default) to FlowOptions::tolerance
-//   cut             cut_surface(): a canonical polygon (closed genus ≥ 1), arcs to the holes
-//                   (genus 0 with several boundary loops), nothing for a disk; skipped for a
-//                   closed genus-0 surface, which is laid out on the sphere directly
-//   cut_metric      refined_edge_lengths() and disk_edge_lengths(): the metric on the disk
-//   layout          layout_disk() (plane / Poincaré disk) or layout_sphere()
+//   flow            solve_flow() (Newton by default) to FlowOptions::tolerance, then (polish) up
+//                   to two more Newton steps kept only when they lower max |K̄ − K|
+//   cut             closed genus ≥ 2 in H: cut_compact(), a compact fundamental domain; otherwise
+//                   cut_surface(): the canonical polygon (genus 1), arcs to the holes (genus 0
+//                   with several boundary loops, or genus ≥ 1 with boundary), nothing for a disk;
+//                   skipped for a closed genus-0 surface, which is laid out on the sphere directly
+//   layout          refined_edge_lengths() + layout_disk() (plane / Poincaré disk) or
+//                   layout_sphere()
 //   seed_check      the layout again from `seed_checks` other seed faces, aligned to the first by
 //                   the fitted isometry (align_layouts()): seed_independence_error
-//   deck            fit_deck_transformations() for closed genus ≥ 1 (translations / Möbius maps)
+//   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
+//                   domain's tiles (deck_through_domain()), best of several base vertices (below)
+//   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
+//                   the domain's side pairings from the polygon stage (or, when no canonical
+//                   polygon could be laid out, the pairings alone: fit_domain_pairings())
 //   angles          corner angles of the input against those of the metric (angle_distortion)
 //
 // Geometry and boundary mode default to the surface's natural ones (natural_geometry():
 // S for closed genus 0, E for χ = 0 and for genus 0 with boundary, H for χ < 0;
 // natural_boundary_mode(): circles in E, geodesics in H).
 //
-// Base candidates (H only). Poincaré coordinates resolve hyperbolic distance only to about
-// 2^-52 / (1 − |z|²), so a cut polygon that reaches far out — long thin spikes where two sides
-// leave the base vertex together — is laid out less accurately (Layout::rounding_floor). The
-// shape of the canonical polygon depends strongly on the base vertex of its loops, so up to
-// `base_candidates` base vertices are tried: the most central vertex (least max metric distance to
-// the two ends of a double-sweep diameter), then vertices spread over the central quarter by
-// farthest-point sampling. The cut whose layout has the smallest max(rounding_floor,
-// max_edge_length_error) is kept (the search stops early below 1e-12); `candidates` lists them.
+// Base candidates (closed, H). Poincaré coordinates resolve hyperbolic distance only to about
+// 2^-52 / (1 − |z|²), and the relation of generators whose base point lies far from their axes
+// loses digits as e^distance. The canonical polygon's shape depends strongly on the base vertex of
+// its loops, so up to `base_candidates` base vertices are tried: the most central vertex (least
+// max metric distance to the two ends of a double-sweep diameter), then vertices spread over the
+// central quarter by farthest-point sampling. The polygon with the smallest max(relation error,
+// edge error, rounding floor) is kept (the search stops early below 1e-11); `candidates` lists
+// every one tried.
 #pragma once
 
 #include <cmath>
