@@ -64,12 +64,13 @@
 
 namespace ricci {
 
+/// Options of cut_surface().
 struct CutOptions {
   /// Base vertex of the loops (the root of the shortest-path tree). -1: vertex 0 when seed is 0,
   /// else a vertex drawn from `seed` (std::mt19937_64). On a boundary vertex or when the pruned
   /// cut graph misses it, the nearest interior vertex of the cut graph becomes the base.
   Index base_vertex = -1;
-  std::uint64_t seed = 0;
+  std::uint64_t seed = 0;  ///< draws the base vertex when base_vertex is -1; 0: use vertex 0
   /// Optional per-edge weights (#E, in the topology's edge numbering, finite and ≥ 0) for the
   /// shortest-path tree and the loop lengths. Empty: 3D edge lengths (uniform without positions).
   std::vector<double> edge_weights;
@@ -86,6 +87,9 @@ struct CutOptions {
   /// Upper bound on cut-and-paste moves (0: 64 + 40·g).
   Index max_moves = 0;
 
+  /// True when base_vertex ≥ -1, max_moves ≥ 0, edge_weights are finite and ≥ 0 and vertex_scale
+  /// is finite and > 0; otherwise false, with the reason in *why (when why is not null). Sizes are
+  /// checked by cut_surface().
   bool is_valid(std::string* why) const;
 };
 
@@ -97,18 +101,20 @@ enum class SideKind : int {
   Slit,      ///< the single-edge slit of a closed genus-0 surface (s1)
 };
 
+/// What cut_surface() and cut_compact() return: the (refined) surface, the disk it is cut into,
+/// the disk's labelled sides and the generators they come from.
 struct CutResult {
-  /// Ok: every output below is valid. InvalidArgument: options or buffer sizes (message says
-  /// which); MultipleComponents: the surface is not connected; NumericalFailure: an internal
-  /// invariant failed (the message names it; no output).
+  /// Ok: every output below is valid. InvalidArgument: options, buffer sizes or a vertex used by
+  /// no face (message says which); MultipleComponents: the surface is not connected;
+  /// NumericalFailure: an internal invariant failed (the message names it; no output).
   Status status = Status::NotRun;
+  /// What went wrong; on success "cut into a disk with N sides" (cut_surface()) or "ok" (cut_compact()).
   std::string message = "not run";
 
-  Index genus = 0;
-  Index boundary_loops = 0;
-  /// The base vertex actually used (surface numbering) and the one requested.
-  Index base_vertex = -1;
-  Index requested_base_vertex = -1;
+  Index genus = 0;                   ///< total genus of the input surface
+  Index boundary_loops = 0;          ///< number of boundary loops of the input surface
+  Index base_vertex = -1;            ///< the base actually used, surface numbering (-1 for cut_compact())
+  Index requested_base_vertex = -1;  ///< options.base_vertex, or the vertex drawn for -1 (-1 for cut_compact())
   /// The disk boundary reads the canonical word and the independent intersection check agrees.
   bool canonical = false;
   /// Why canonical is false (empty when true).
@@ -119,10 +125,9 @@ struct CutResult {
   // ---- the (refined) surface -------------------------------------------------------------
   /// Number of vertices of the input (vertices < num_input_vertices are the input's own).
   Index num_input_vertices = 0;
-  /// #V'×3 positions (empty when the input had none) and #F'×3 faces of the refined surface.
-  /// With no refinement these equal the input mesh.
-  std::vector<double> surface_positions;
-  std::vector<Index> surface_faces;
+  /// Positions and faces of the refined surface. With no refinement these equal the input mesh.
+  std::vector<double> surface_positions;  ///< #V'×3; empty when the input had no positions
+  std::vector<Index> surface_faces;       ///< #F'×3
   /// #F': refined face → input face.
   std::vector<Index> surface_face_to_input;
   /// For every added vertex v (v ≥ num_input_vertices), record k = v − num_input_vertices:
@@ -130,10 +135,11 @@ struct CutResult {
   /// with respect to that face's corners 0, 1, 2. In E the vertex is the barycentric combination;
   /// In H and S the point is Σ β_k X_k of the corners' points X_k on the hyperboloid / unit
   /// sphere, rescaled onto it (see refined_edge_lengths() in layout.h).
-  std::vector<Index> refined_vertex_face;
-  std::vector<double> refined_vertex_bary;
+  std::vector<Index> refined_vertex_face;   ///< #added: input face of each added vertex
+  std::vector<double> refined_vertex_bary;  ///< #added×3: its barycentric coordinates in that face
   /// The input vertices at that face's corners 0, 1, 2 (#added×3), so records are self-contained.
   std::vector<Index> refined_vertex_corners;
+  /// #added: number of vertices added by refinement (#V' − num_input_vertices).
   Index num_refined_vertices() const { return static_cast<Index>(refined_vertex_face.size()); }
 
   // ---- the disk ----------------------------------------------------------------------------
@@ -141,32 +147,33 @@ struct CutResult {
   std::vector<Index> cut_faces;
   /// #Vc: cut vertex → surface vertex.
   std::vector<Index> cut_to_surface;
+  /// #Vc.
   Index num_cut_vertices() const { return static_cast<Index>(cut_to_surface.size()); }
 
   /// Sides, CSR: side s runs along cut vertices side_vertices[side_offsets[s] .. side_offsets[s+1])
   /// (both end corners included), in disk-boundary order (disk on the left). #S+1, …
-  std::vector<Index> side_offsets;
-  std::vector<Index> side_vertices;
-  /// #S: kind, generator index (into generator_*; -1 for Boundary), orientation (+1: the side
-  /// runs along its generator, −1: against it; 0 for Boundary), partner side (-1 for Boundary),
-  /// boundary loop (for Boundary and Arc sides; -1 otherwise) and label ("a1", "b2^-1", "∂1").
-  std::vector<SideKind> side_kind;
-  std::vector<Index> side_generator;
-  std::vector<int> side_orientation;
-  std::vector<Index> side_partner;
-  std::vector<Index> side_boundary_loop;
-  std::vector<std::string> side_label;
+  std::vector<Index> side_offsets;   ///< #S+1: CSR offsets into side_vertices
+  std::vector<Index> side_vertices;  ///< the sides' cut vertices, side by side (a shared corner appears in both)
+  /// Per side, #S each: kind, generator, orientation, partner, boundary loop and label.
+  std::vector<SideKind> side_kind;         ///< what the side is
+  std::vector<Index> side_generator;       ///< index into generator_*; -1 for Boundary
+  std::vector<int> side_orientation;       ///< +1: runs along its generator, −1: against it; 0 for Boundary
+  std::vector<Index> side_partner;         ///< the side glued to this one (same generator); -1 for Boundary
+  std::vector<Index> side_boundary_loop;   ///< boundary loop (0-based) of a Boundary or Arc side; -1 otherwise
+  std::vector<std::string> side_label;     ///< "a1", "b2^-1", "∂1", … as in `word`
+  /// #S.
   Index num_sides() const { return static_cast<Index>(side_kind.size()); }
 
   /// Generators, CSR over surface vertices: loops start and end at the base vertex; arcs run
   /// from the base to boundary loop generator_boundary_loop[i]. Names "a1", "b1", "t2", "x3", "s1".
   /// Canonical: a1 b1 … ag bg, then the arcs. Otherwise the loop entries are the branches of the
   /// reduced cut graph (x1, x2, …; at least 2g, closed only when their ends coincide).
-  std::vector<Index> generator_offsets;
-  std::vector<Index> generator_vertices;
-  std::vector<SideKind> generator_kind;
-  std::vector<std::string> generator_name;
-  std::vector<Index> generator_boundary_loop;
+  std::vector<Index> generator_offsets;        ///< #generators+1: CSR offsets into generator_vertices
+  std::vector<Index> generator_vertices;       ///< the generators' surface vertices, generator by generator
+  std::vector<SideKind> generator_kind;        ///< Loop, Arc or Slit
+  std::vector<std::string> generator_name;     ///< "a1", "b1", "t2", "x3", "s1"
+  std::vector<Index> generator_boundary_loop;  ///< 0-based boundary loop an Arc runs to; -1 otherwise
+  /// Number of generators.
   Index num_generators() const { return static_cast<Index>(generator_kind.size()); }
 
   /// (2g)×(2g) algebraic intersection numbers of the loops in order a1 b1 a2 b2 … (row-major),
@@ -176,9 +183,9 @@ struct CutResult {
 
   Index moves = 0;        ///< cut-and-paste moves performed (arcs to boundary loops included)
   Index refinements = 0;  ///< local refinements (each along one dual path)
-  double seconds = 0;
+  double seconds = 0;     ///< wall-clock time of the call
 
-  /// One line: g, b, sides, canonical, word length, refined vertices, time.
+  /// One line: status, genus, boundary loops, sides, canonical, added vertices, moves, time.
   std::string brief_report() const;
 };
 

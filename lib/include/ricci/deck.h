@@ -60,8 +60,8 @@ namespace ricci {
 /// Equivalently z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z) with a = e^{iθ/2}/s, b = −e^{iθ/2} z₀/s,
 /// s = √(1 − |z₀|²); z₀ = M^-1(0) is the point sent to the origin.
 struct Moebius {
-  std::complex<double> a{1, 0};
-  std::complex<double> b{0, 0};
+  std::complex<double> a{1, 0};  ///< matrix entry a (the default {1, 0}, {0, 0} is the identity)
+  std::complex<double> b{0, 0};  ///< matrix entry b
 
   /// z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z); requires |z₀| < 1.
   static Moebius from_theta_z0(double theta, std::complex<double> z0);
@@ -72,14 +72,18 @@ struct Moebius {
   /// The map z ↦ (z − p)/(1 − p̄ z) sending p (|p| < 1) to 0.
   static Moebius to_origin(std::complex<double> p);
 
+  /// M(z) = (a z + b)/(b̄ z + ā).
   std::complex<double> apply(std::complex<double> z) const;
   /// 1 − |M(z)|² = (1 − |z|²)/|b̄ z + ā|², exact for |z| near 1 (given 1 − |z|²).
   double one_minus_abs2_of_image(std::complex<double> z, double one_minus_abs2_z) const;
+  /// M^-1 = [[ā, −b], [−b̄, a]] (exact for |a|² − |b|² = 1).
   Moebius inverse() const { return {std::conj(a), -b}; }
-  /// Rescales to |a|² − |b|² = 1 (removes rounding drift after many products).
+  /// Rescales to |a|² − |b|² = 1 (removes rounding drift after many products); unchanged when
+  /// |a|² − |b|² is not positive.
   Moebius normalized() const;
   /// θ ∈ (−π, π] and z₀ of the e^{iθ}(z − z₀)/(1 − z̄₀ z) form.
   double theta() const;
+  /// z₀ = −b/a = M^-1(0) of that form.
   std::complex<double> z0() const;
   /// Translation length 2 arccosh |Re a| of a hyperbolic element (0 when |Re a| ≤ 1).
   double translation_length() const;
@@ -105,68 +109,77 @@ Moebius moebius_from_two_points(std::complex<double> z1, std::complex<double> z2
 
 // ---- Deck transformations -----------------------------------------------------------------
 
+/// Options of the hyperbolic fits of fit_deck_transformations(), deck_through_domain() and
+/// fit_domain_pairings().
 struct DeckOptions {
   /// Ceres: iteration limit and tolerances of the Levenberg–Marquardt fit (H only).
-  int max_iterations = 100;
-  double function_tolerance = 1e-20;
-  double gradient_tolerance = 1e-20;
-  double parameter_tolerance = 1e-18;
+  int max_iterations = 100;            ///< Ceres iteration limit per fit round
+  double function_tolerance = 1e-20;   ///< Ceres Solver::Options::function_tolerance
+  double gradient_tolerance = 1e-20;   ///< Ceres Solver::Options::gradient_tolerance
+  double parameter_tolerance = 1e-18;  ///< Ceres Solver::Options::parameter_tolerance
   /// Fit rounds: each round re-linearises the parametrization M = M_k · N(δ) at the last fit.
   int rounds = 2;
 
+  /// True when max_iterations ≥ 1, the tolerances are finite and ≥ 0 and rounds is in 1..10;
+  /// otherwise false, with the reason in *why (when why is not null).
   bool is_valid(std::string* why) const;
 };
 
+/// One fitted deck generator (or side pairing): the map taking a side onto its partner, and how
+/// well it does.
 struct DeckGenerator {
   std::string name;    ///< "a1", "b1", …
   Index side = -1;     ///< the side labelled `name` (orientation +1)
   Index partner = -1;  ///< the side labelled name^-1; the map sends `side` onto `partner`
-  Geometry geometry = Geometry::Hyperbolic;
+  Geometry geometry = Geometry::Hyperbolic;  ///< geometry of the fit (E or H)
   /// H: z ↦ e^{iθ}(z − z₀)/(1 − z̄₀ z) and the same map as SU(1,1) (a, b); translation_length.
-  double theta = 0;
-  std::complex<double> z0{0, 0};
-  Moebius map;
-  double translation_length = 0;
+  double theta = 0;                 ///< H: θ of the map
+  std::complex<double> z0{0, 0};    ///< H: z₀ of the map (the point it sends to 0)
+  Moebius map;                      ///< H: the map as an SU(1,1) matrix
+  double translation_length = 0;    ///< H: its translation length, map.translation_length()
   /// E: z ↦ z + t, least squares over all pairs (the mean of the differences); `rotation` is the
   /// angle of the rigid-motion (Procrustes) fit, ≈ 0 for a flat torus layout.
-  std::array<double, 2> translation{0, 0};
-  double rotation = 0;
+  std::array<double, 2> translation{0, 0};  ///< E: t = (x, y)
+  double rotation = 0;                      ///< E: angle of the rigid-motion fit, radians
   /// Residuals d(X(z_s[k]), z_p[n−1−k]) over the side's vertex pairs (hyperbolic distance in H,
   /// euclidean in E): max and root mean square, and the number of pairs n.
-  double residual_max = 0;
-  double residual_rms = 0;
-  Index pairs = 0;
+  double residual_max = 0;  ///< max over the pairs
+  double residual_rms = 0;  ///< root mean square over the pairs
+  Index pairs = 0;          ///< n, the number of vertex pairs
   /// The maps fitted from single edges (k, k+1) by moebius_from_two_points (E: the translation of
   /// the edge's two pairs): the largest distance, over edges and over the side's vertices, between
   /// the images under the single-edge map and under the fitted map. Small when they agree.
   double single_edge_spread = 0;
   /// Residuals of the closed-form start (the two-point estimate from the side's end vertices;
   /// E: the translation of the first pair) before the fit.
-  double initial_residual_max = 0;
-  double initial_residual_rms = 0;
+  double initial_residual_max = 0;  ///< max over the pairs, before the fit
+  double initial_residual_rms = 0;  ///< root mean square over the pairs, before the fit
 };
 
+/// What fit_deck_transformations() returns (and DomainDeck::deck): the generators a1 b1 … and
+/// how well they satisfy the relation.
 struct DeckResult {
   /// Ok: generators and relation_error are valid. InvalidArgument: options, buffer sizes, a cut
   /// that is not Ok / canonical / closed, a geometry that does not match the genus (E: g = 1,
   /// H: g ≥ 2), |z| ≥ 1 in H (message names the vertex). NonFiniteCoordinate: a position is NaN
   /// or ∞. NumericalFailure: a side is degenerate (coincident ends) or the fit left the disk.
   Status status = Status::NotRun;
-  std::string message = "not run";
-  Geometry geometry = Geometry::Hyperbolic;
-  Index genus = 0;
+  std::string message = "not run";  ///< what went wrong; on success the generator count, residual and relation error
+  Geometry geometry = Geometry::Hyperbolic;  ///< geometry of the fit (always H in a DomainDeck)
+  Index genus = 0;                           ///< genus of the cut (CutResult::genus)
   /// In canonical order a1 b1 a2 b2 … ag bg.
   std::vector<DeckGenerator> generators;
   /// See the header comment: ‖R ∓ I‖ (H) or the largest vertex displacement by R (E).
   double relation_error = 0;
   /// H: the relator R = Π [A_i^-1, B_i] itself (in double, not conjugated).
   Moebius relator;
-  /// Largest residual_max and single_edge_spread over the generators.
-  double residual_max = 0;
-  double single_edge_spread = 0;
-  int ceres_iterations = 0;
-  double seconds = 0;
+  double residual_max = 0;        ///< max of the generators' residual_max
+  double single_edge_spread = 0;  ///< max of the generators' single_edge_spread
+  int ceres_iterations = 0;       ///< Ceres iterations summed over all fits and rounds (0 in E)
+  double seconds = 0;             ///< wall-clock time of the call (set on success)
 
+  /// One line: status, geometry, genus, generators, residual, spread, relation error, Ceres
+  /// iterations, time.
   std::string brief_report() const;
 };
 
@@ -205,7 +218,7 @@ struct DomainDeck {
   /// domain that is not a cut of the same input surface); NumericalFailure (a fit left the disk,
   /// a refined vertex whose record does not fit its face, or a tile product that is not finite).
   Status status = Status::NotRun;
-  std::string message = "not run";
+  std::string message = "not run";  ///< what went wrong; on success what was fitted
   /// The canonical generators a1 b1 … (map, residuals on canonical_positions), the relation.
   DeckResult deck;
   /// The compact domain's side pairings x1, x2, … (each maps side x_k onto x_k^-1, reversed).
@@ -221,7 +234,7 @@ struct DomainDeck {
   /// pairings crossed compose to the identity. Largest deviation (largest entry of M ∓ I of the
   /// product conjugated to that vertex's position), in long double.
   double cycle_error = 0;
-  double seconds = 0;
+  double seconds = 0;  ///< wall-clock time of the call (set on success)
 };
 
 /// See the block comment above. `domain` is cut_compact() of the same input surface (no
@@ -237,6 +250,7 @@ DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> 
 
 // ---- Universal cover ----------------------------------------------------------------------
 
+/// Options of universal_cover().
 struct CoverOptions {
   /// H: reduced words in A_i^±1, B_i^±1 up to this length. E: a depth×depth block of translates
   /// a1^m b1^n (m, n centred on 0).
@@ -250,21 +264,26 @@ struct CoverOptions {
   /// Stop after this many copies (the result then says truncated).
   Index max_copies = 20000;
 
+  /// True when depth is in 0..64, radius in (0, 1], dedup_tolerance finite and > 0 and
+  /// max_copies ≥ 1; otherwise false, with the reason in *why (when why is not null).
   bool is_valid(std::string* why) const;
 };
 
+/// One element of the deck group: its word in the generators and the map.
 struct CoverElement {
   std::string word;  ///< e.g. "a1 b2^-1"; "" for the identity (E: "a1^2 b1^-1")
   Index length = 0;  ///< word length (E: |m| + |n|)
-  Moebius map;       ///< H
-  std::array<double, 2> translation{0, 0};  ///< E
+  Moebius map;       ///< H: the element as a map of the Poincaré disk (identity in E)
+  std::array<double, 2> translation{0, 0};  ///< E: the element's translation (x, y); (0, 0) in H
 };
 
+/// What universal_cover() returns.
 struct CoverResult {
-  /// Ok: elements are valid. InvalidArgument: options or a deck result that is not Ok.
+  /// Ok: elements are valid. InvalidArgument: options, a deck result that is not Ok, or positions
+  /// that are not #Vc×2 finite values.
   Status status = Status::NotRun;
-  std::string message = "not run";
-  Geometry geometry = Geometry::Hyperbolic;
+  std::string message = "not run";  ///< what went wrong; on success how many elements were found
+  Geometry geometry = Geometry::Hyperbolic;  ///< the deck result's geometry
   /// Distinct group elements, the identity first, then by word length (BFS order).
   std::vector<CoverElement> elements;
   Index words_generated = 0;  ///< reduced words tried (before deduplication)

@@ -32,11 +32,12 @@
 
 namespace ricci {
 
+/// Mesh file format, for reading and writing.
 enum class FileFormat : int {
   Auto = 0,   ///< from the file extension (.obj, .off, .ply; case-insensitive)
-  Obj,
-  Off,
-  PlyAscii,
+  Obj,        ///< Wavefront OBJ (text)
+  Off,        ///< OFF (text)
+  PlyAscii,   ///< PLY, ascii encoding
   PlyBinary,  ///< binary little-endian on write; either endianness on read
 };
 
@@ -44,6 +45,7 @@ enum class FileFormat : int {
 /// For ".ply" returns FileFormat::PlyBinary (writers' default for PLY).
 FileFormat format_from_path(std::string_view path);
 
+/// Options of read_mesh() and read_mesh_from_memory().
 struct ReadOptions {
   /// Format of the file; Auto picks it from the extension (and, for PLY, from the header).
   FileFormat format = FileFormat::Auto;
@@ -53,16 +55,23 @@ struct ReadOptions {
   bool read_texcoords = true;
 };
 
+/// What read_mesh() and read_mesh_from_memory() return.
 struct ReadResult {
+  /// Ok, FileNotFound, FileUnreadable, UnknownFormat, FileTooLarge (also when memory runs out),
+  /// ParseError, IndexOutOfRange (a face names a vertex the file does not have) or
+  /// NonFiniteCoordinate.
   Status status = Status::NotRun;
+  /// "<name>: …" naming the problem, with "line N: " or "byte N: " after the name when the place
+  /// is known; on success "<name>: read V vertices and F triangles" (and the polygons triangulated).
   std::string message = "not run";
   /// 1-based line of a text file, or byte offset of a binary file, where an error was found;
   /// -1 when not applicable.
   std::int64_t line = -1;
   /// Element an error refers to (e.g. Element::Face and its 0-based index in file order).
   Element element = Element::None;
-  std::int64_t element_index = -1;
+  std::int64_t element_index = -1;  ///< index of that element; -1 when element is None
 
+  /// The triangle soup as read (valid only when status is Ok).
   Mesh mesh;
   /// Number of input polygons with more than three sides (each was fan-triangulated).
   std::int64_t polygons_triangulated = 0;
@@ -83,6 +92,7 @@ ReadResult read_mesh(const std::string& path, const ReadOptions& options = {});
 ReadResult read_mesh_from_memory(std::string_view data, const std::string& name,
                                  const ReadOptions& options = {});
 
+/// Options of write_mesh().
 struct WriteOptions {
   /// Format to write; Auto picks it from the extension (.ply → binary little-endian).
   FileFormat format = FileFormat::Auto;
@@ -93,10 +103,11 @@ struct WriteOptions {
   std::vector<std::string> protected_paths;
 };
 
+/// What write_mesh() and write_file_atomic() return.
 struct WriteResult {
-  Status status = Status::NotRun;
-  std::string message = "not run";
-  std::uint64_t bytes_written = 0;
+  Status status = Status::NotRun;   ///< Ok, or a failure as listed at write_mesh()
+  std::string message = "not run";  ///< "<path>: …" naming the problem; "<path>: wrote N bytes" on success
+  std::uint64_t bytes_written = 0;  ///< size of the file written (0 unless status is Ok)
 };
 
 /// Writes a mesh atomically: the data goes to a temporary file in the same directory, which is

@@ -81,15 +81,16 @@ namespace ricci {
 // ---------------------------------------------------------------------------------------------
 // The metric on the refined surface of a cut.
 
+/// What refined_edge_lengths() returns.
 struct RefinedMetric {
   /// Ok; InvalidArgument (cut not Ok, sizes, records inconsistent with `input`);
   /// DegenerateFace (a length not a positive finite number: element Edge); TriangleInequality
   /// (an input face that holds added vertices violates it: element Face); NumericalFailure (an
   /// added vertex's record names vertices that are not corners of a face it lies in).
   Status status = Status::NotRun;
-  std::string message = "not run";
-  Element element = Element::None;
-  std::int64_t element_index = -1;
+  std::string message = "not run";  ///< what went wrong; on success the number of edges copied and computed
+  Element element = Element::None;  ///< Edge (input edge) or Face (input face) the error names, else None
+  std::int64_t element_index = -1;  ///< index of that edge or face; -1 when element is None
   /// build_topology(cut.surface_faces, cut.num_input_vertices + cut.num_refined_vertices()).
   Topology surface;
   /// #E': the length of every edge of `surface`, in the geometry given.
@@ -131,6 +132,7 @@ std::vector<double> disk_edge_lengths(const CutResult& cut, const Topology& surf
 // ---------------------------------------------------------------------------------------------
 // Layouts.
 
+/// Options of layout_disk() and layout_sphere().
 struct LayoutOptions {
   /// Seed face; -1 picks a central face (see the top of this header).
   Index seed_face = -1;
@@ -146,20 +148,25 @@ struct LayoutOptions {
   /// which matters on large meshes (tools/sweep_uniformize --polish-sweeps compares). 0: none.
   int polish_sweeps = 30;
 
+  /// True when seed_face ≥ -1 and polish_sweeps is in 0..10000; otherwise false, with the reason
+  /// in *why (when why is not null). A seed face beyond the mesh is refused by the layout call.
   bool is_valid(std::string* why) const;
 };
 
+/// Positions of a layout and its figures; returned by layout_disk(), layout_sphere() and
+/// measure_layout().
 struct Layout {
   /// Ok: positions are valid (flips are reported, not an error). InvalidArgument: sizes, options,
   /// or a mesh that is not a disk (layout_disk) / not a closed genus-0 surface (layout_sphere);
   /// DegenerateFace: a length is not a positive finite number (element Edge); TriangleInequality:
-  /// a face violates it (or, in S, has perimeter ≥ 2π) (element Face). Otherwise positions empty.
+  /// a face violates it (or, in S, has perimeter ≥ 2π) (element Face); NumericalFailure: a placed
+  /// vertex left the range of double precision (element Vertex). Otherwise positions empty.
   Status status = Status::NotRun;
-  std::string message = "not run";
-  Element element = Element::None;
-  std::int64_t element_index = -1;
+  std::string message = "not run";  ///< what went wrong, naming the element; on success a summary
+  Element element = Element::None;  ///< Edge, Face or Vertex named by the error; None otherwise
+  std::int64_t element_index = -1;  ///< index of that element; -1 when element is None
 
-  Geometry geometry = Geometry::Euclidean;
+  Geometry geometry = Geometry::Euclidean;  ///< geometry of the positions
   int dims = 0;                   ///< 2 (E, H) or 3 (S)
   std::vector<double> positions;  ///< #V×dims (see the top of this header)
   Index seed_face = -1;           ///< the seed face used
@@ -167,7 +174,7 @@ struct Layout {
 
   /// Max over edges of |d(x_i, x_j) − l_ij| / l_ij (S with Möbius centring: before centring).
   double max_edge_length_error = 0;
-  Index worst_edge = kInvalid;
+  Index worst_edge = kInvalid;  ///< the edge where max_edge_length_error occurs
   /// Max over edges of the relative length change that rounding the two ends' coordinates to
   /// double could cause alone (E: 2^-53·√2·(|x_i| + |x_j|) / l_ij; H: 2^-52·√2·Σ 1/(1 − |z|²) / l_ij,
   /// the Poincaré metric's growth; S: 2^-52·√3 / l_ij). No layout stored in these coordinates can be
@@ -176,7 +183,7 @@ struct Layout {
   double rounding_floor = 0;
   /// Faces whose geodesic triangle is negatively oriented in the final positions.
   Index flipped_faces = 0;
-  Index first_flipped_face = kInvalid;
+  Index first_flipped_face = kInvalid;  ///< smallest flipped face; kInvalid when there is none
   /// Vertices used by no face (placed at the origin / north pole).
   Index unplaced_vertices = 0;
 
@@ -188,7 +195,7 @@ struct Layout {
   int propagation_passes = 0;
   /// E: Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
   int polish_sweeps = 0;
-  double seconds = 0;
+  double seconds = 0;  ///< wall-clock time of layout_disk() / layout_sphere(); 0 on failure and for measure_layout()
 
   /// One line: status, geometry, seed, edge error, flips, time.
   std::string brief_report() const;
@@ -211,21 +218,22 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // ---------------------------------------------------------------------------------------------
 // Comparing layouts.
 
+/// What align_layouts() returns: the fitted isometry and the deviation left after it.
 struct LayoutAlignment {
   /// Ok; InvalidArgument (sizes differ or do not match the geometry's dims, no points, a point
   /// outside the disk in H or not a unit vector in S).
   Status status = Status::NotRun;
-  std::string message = "not run";
+  std::string message = "not run";  ///< what went wrong; on success "aligned N points"
   /// Max / root-mean-square distance (of the geometry) between a_i and M(b_i) after alignment.
-  double max_deviation = 0;
-  double rms_deviation = 0;
+  double max_deviation = 0;  ///< max_i d(a_i, M(b_i))
+  double rms_deviation = 0;  ///< √(mean_i d(a_i, M(b_i))²)
   /// The fitted map M taking b onto a:
   ///   E  x ↦ R(angle) x + t  (translation = t, angle)
   ///   H  z ↦ e^{i angle} (z − z0) / (1 − z̄0 z)  (z0 = translation)
   ///   S  x ↦ R x (rotation, 3×3 row-major)
-  double angle = 0;
-  double translation[2] = {0, 0};
-  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  double angle = 0;                                  ///< E, H: rotation angle in radians
+  double translation[2] = {0, 0};                    ///< E: t; H: z0 (real, imaginary part)
+  double rotation[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< S: R, 3×3 row-major
 };
 
 /// Fits the isometry of geometry g that takes layout b onto layout a (same vertices, #V×dims

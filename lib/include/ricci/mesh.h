@@ -22,9 +22,13 @@ struct Mesh {
   /// the same size as `faces` (a file with texture indices on only some faces loads with none).
   std::vector<Index> corner_texcoords;
 
+  /// #V = positions.size() / 3 (rounded down).
   Index num_vertices() const { return static_cast<Index>(positions.size() / 3); }
+  /// #F = faces.size() / 3 (rounded down).
   Index num_faces() const { return static_cast<Index>(faces.size() / 3); }
+  /// #T = texcoords.size() / 2 (rounded down).
   Index num_texcoords() const { return static_cast<Index>(texcoords.size() / 2); }
+  /// True when corner_texcoords is non-empty (the sizes are not checked here).
   bool has_texcoords() const { return !corner_texcoords.empty(); }
 };
 

@@ -44,7 +44,11 @@
 
 namespace ricci {
 
+/// Background geometry of a metric: Euclidean (E, the plane, curvature 0), Hyperbolic (H,
+/// curvature −1) or Spherical (S, curvature +1).
 enum class Geometry : int { Euclidean = 0, Hyperbolic, Spherical };
+/// Discrete conformal scheme (see the top of this header): CirclePacking (ε = 1, η = cos Φ),
+/// InversiveDistance (ε = 1, η = I) or Yamabe, i.e. vertex scaling (ε = 0).
 enum class Scheme : int { CirclePacking = 0, InversiveDistance, Yamabe };
 
 std::string_view geometry_name(Geometry g);  ///< "euclidean", "hyperbolic", "spherical"
@@ -56,15 +60,16 @@ double gauss_bonnet_lambda(Geometry g);
 /// The fixed part of a discrete conformal metric: background geometry, scheme and edge weights.
 /// Together with a vector u (#V) it determines every edge length.
 struct ConformalStructure {
-  Geometry geometry = Geometry::Euclidean;
-  Scheme scheme = Scheme::CirclePacking;
+  Geometry geometry = Geometry::Euclidean;  ///< background geometry
+  Scheme scheme = Scheme::CirclePacking;    ///< the scheme that fixes epsilon and the meaning of eta
   double epsilon = 1;        ///< ε: 1 for circle packing and inversive distance, 0 for Yamabe
   std::vector<double> eta;   ///< #E: η_ij (cos Φ_ij, inversive distance, or the Yamabe weight)
 };
 
+/// Options of initial_metric().
 struct InitialMetricOptions {
-  Geometry geometry = Geometry::Euclidean;
-  Scheme scheme = Scheme::CirclePacking;
+  Geometry geometry = Geometry::Euclidean;  ///< background geometry of the metric
+  Scheme scheme = Scheme::CirclePacking;    ///< conformal scheme
   /// Uniform scale applied to the 3D edge lengths before they are read in H or S; 0 picks the
   /// default: 1 in E; in S the scale making the total area 4π; in H the scale making the total
   /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
@@ -73,15 +78,19 @@ struct InitialMetricOptions {
   /// curvature 0 inside them infeasible (relax_intersection_angles()). Off: Step 2 exactly.
   bool relax_angles = true;
 
+  /// True when length_scale is finite and ≥ 0; otherwise false, with the reason in *why (when why
+  /// is not null).
   bool is_valid(std::string* why) const;
 };
 
+/// What initial_metric() returns: the conformal structure and the starting u (Step 2 of the paper).
 struct InitialMetric {
-  /// Ok, InvalidArgument, DegenerateFace (a 3D triangle violates the triangle inequality or a
-  /// radius comes out non-positive), NumericalFailure (lengths too long for S).
+  /// Ok, InvalidArgument (options), DegenerateFace (a vertex's averaged radius is not a positive
+  /// finite number, or an edge gets an inversive distance ≤ −1),
+  /// NumericalFailure (in S, after scaling, an edge of length ≥ π or a radius ≥ π).
   Status status = Status::NotRun;
-  std::string message = "not run";
-  ConformalStructure structure;
+  std::string message = "not run";  ///< what went wrong, naming the vertex or edge; "ok" on success
+  ConformalStructure structure;     ///< geometry, scheme, ε and η (#E)
   std::vector<double> u;        ///< #V: the starting metric (u = 0 for Yamabe)
   std::vector<double> gamma;    ///< #V: initial radii γ_i (circle schemes; empty for Yamabe)
   std::vector<double> l0;       ///< #E: the scaled 3D edge lengths the metric approximates
@@ -125,9 +134,10 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& topology, const I
 Index edge_lengths(const Topology& topology, const ConformalStructure& structure, std::span<const double> u,
                    std::span<double> l);
 
+/// What corner_angles() found.
 struct AngleReport {
   Index violations = 0;         ///< faces that violate the triangle inequality (or S perimeter)
-  Index first_violation = kInvalid;
+  Index first_violation = kInvalid;  ///< smallest such face, kInvalid when there is none
 };
 
 /// Corner angles theta[c] from edge lengths (per-face edge k opposite corner k).

@@ -11,8 +11,10 @@
 
 namespace ricci {
 
+/// Outcome of a driver, stored in the `status` field of every result struct. Only Ok means the
+/// outputs are valid; the value names the first problem found. status_name() gives its JSON name.
 enum class Status : int {
-  Ok = 0,
+  Ok = 0,                   ///< success: the outputs of the result are valid
   NotRun,                   ///< the driver has not been run
   InvalidArgument,          ///< an option or argument is out of its documented range
   OutOfMemory,              ///< an allocation failed; nothing was returned
@@ -46,7 +48,11 @@ enum class Status : int {
 /// Stable snake_case name of a status ("non_manifold_edge"), used in JSON reports.
 std::string_view status_name(Status s);
 
-/// Kind of mesh element an error or repair refers to.
+/// Kind of element an error refers to, stored next to a 0-based `element_index` in result
+/// structs. None: no single element (then element_index is -1); Vertex, Face, Edge, Corner: a mesh
+/// element in the numbering stated by the result (corner c = 3f + k). Line and Byte name a position
+/// in a file; the readers report that position in ReadResult::line instead and set `element` to the
+/// mesh element (or None).
 enum class Element : int { None = 0, Vertex, Face, Edge, Corner, Line, Byte };
 
 /// Stable name of an element kind ("vertex", "face", …).

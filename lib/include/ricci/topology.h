@@ -14,10 +14,12 @@
 
 namespace ricci {
 
+/// Connectivity of a manifold, consistently oriented triangle mesh (see the top of this header).
+/// Plain data filled by build_topology(); #V, #E, #F below are num_vertices, num_edges, num_faces.
 struct Topology {
-  Index num_vertices = 0;
-  Index num_edges = 0;
-  Index num_faces = 0;
+  Index num_vertices = 0;  ///< #V, including vertices used by no face
+  Index num_edges = 0;     ///< #E; edges are numbered in the order of (smaller, larger) end vertex
+  Index num_faces = 0;     ///< #F
 
   /// #F×3: corner → vertex (a copy of the face buffer, so kernels need the topology alone).
   std::vector<Index> corner_vertex;
@@ -35,24 +37,27 @@ struct Topology {
   /// vertex_corners[vertex_corner_offsets[v] .. vertex_corner_offsets[v+1]), in counter-clockwise
   /// order. An interior vertex's cycle starts at its smallest corner; a boundary vertex's fan
   /// starts at the corner with no clockwise neighbour (see conventions.h). #V+1 and #F×3.
-  std::vector<Index> vertex_corner_offsets;
-  std::vector<Index> vertex_corners;
+  std::vector<Index> vertex_corner_offsets;  ///< #V+1: CSR offsets into vertex_corners
+  std::vector<Index> vertex_corners;         ///< #F×3: the corners of every vertex, vertex by vertex
   /// CSR boundary loops: loop i has vertices boundary_vertices[boundary_offsets[i] ..
   /// boundary_offsets[i+1]) in the order the loop runs (surface on the left), and
   /// boundary_corners[j] is the corner opposite the edge from boundary_vertices[j] to the next
   /// vertex of the loop. Loops are ordered by their smallest boundary corner; each loop starts at
   /// the edge of its smallest corner. #b+1, #boundary edges, #boundary edges.
-  std::vector<Index> boundary_offsets;
-  std::vector<Index> boundary_vertices;
-  std::vector<Index> boundary_corners;
+  std::vector<Index> boundary_offsets;   ///< #b+1: CSR offsets of the loops (just {0} when closed)
+  std::vector<Index> boundary_vertices;  ///< #boundary edges: the loops' vertices, loop by loop
+  std::vector<Index> boundary_corners;   ///< #boundary edges: corner opposite each boundary edge
   /// #F: face → connected component (components numbered by their smallest face).
   std::vector<Index> face_component;
-  Index num_components = 0;
+  Index num_components = 0;  ///< number of edge-connected components of faces
 
+  /// #F×3.
   Index num_corners() const { return 3 * num_faces; }
+  /// b: the number of boundary loops (0 for a closed surface).
   Index num_boundary_loops() const {
     return boundary_offsets.empty() ? 0 : static_cast<Index>(boundary_offsets.size() - 1);
   }
+  /// Number of boundary edges (edges with one face).
   Index num_boundary_edges() const { return static_cast<Index>(boundary_corners.size()); }
   /// χ = V − E + F.
   std::int64_t euler_characteristic() const {
@@ -75,14 +80,15 @@ struct Topology {
   Index valence(Index v) const { return vertex_corner_offsets[v + 1] - vertex_corner_offsets[v]; }
 };
 
+/// What build_topology() returns.
 struct TopologyResult {
   /// Ok, or one of IndexOutOfRange, DegenerateFace (a face repeats a vertex), NonManifoldEdge,
   /// InconsistentOrientation, NonManifoldVertex, InvalidArgument (buffer sizes).
   Status status = Status::NotRun;
-  std::string message = "not run";
-  Element element = Element::None;
-  std::int64_t element_index = -1;
-  Topology topology;
+  std::string message = "not run";   ///< what went wrong, naming the face or vertex; "ok" on success
+  Element element = Element::None;   ///< Face or Vertex the error names; None for InvalidArgument
+  std::int64_t element_index = -1;   ///< index of that face or vertex; -1 when element is None
+  Topology topology;                 ///< the connectivity (valid only when status is Ok)
 };
 
 /// Builds the connectivity of a triangle mesh. Preconditions (each checked, each a status):

@@ -59,11 +59,13 @@ namespace ricci {
 
 /// What on_stage receives when a stage ends.
 struct StageRecord {
-  std::string_view stage;  ///< "initial_metric", "target", "flow", "cut", "cut_metric", "layout", …
+  /// "initial_metric", "target", "flow", "cut", "layout", "seed_check", "polygon", "deck" or "angles".
+  std::string_view stage;
   double seconds = 0;      ///< time the stage took
   std::string summary;     ///< one line: what it found (e.g. the layout's edge error)
 };
 
+/// Options of uniformize() and lay_out_metric().
 struct UniformizeOptions {
   /// Background geometry; empty: natural_geometry(topology).
   std::optional<Geometry> geometry;
@@ -77,62 +79,74 @@ struct UniformizeOptions {
     f.tolerance = 1e-12;
     return f;
   }();
+  /// cut_surface() options, also for the canonical polygon of a closed H surface (base_vertex ≥ 0
+  /// there replaces the base candidates). Not used by cut_compact().
   CutOptions cut;
   /// After the flow converged, up to two more Newton steps, kept when they lower max |K̄ − K|.
   bool polish = true;
   /// H (closed): base vertices tried for the canonical polygon (see the header comment).
   int base_candidates = 8;
+  /// Options of every layout; the seed check runs them with normalize off and its own seed faces.
   LayoutOptions layout;
   /// Extra seed faces (0, F/2, F−1, …) whose layouts are compared with the first.
   int seed_checks = 3;
-  DeckOptions deck;
+  DeckOptions deck;  ///< options of the deck and side-pairing fits
   /// Called when each stage ends (the library never prints). Flow iterations: flow.on_iteration.
   std::function<void(const StageRecord&)> on_stage;
 
+  /// True when base_candidates ≥ 1, seed_checks ≥ 0 and flow, cut, layout and deck are valid;
+  /// otherwise false, with the reason in *why (when why is not null). `metric` is checked by
+  /// initial_metric().
   bool is_valid(std::string* why) const;
 };
 
 /// One base vertex tried for the canonical polygon (H, closed).
 struct BaseCandidate {
-  Index base_vertex = -1;                              ///< the base actually used by the cut
+  Index base_vertex = -1;                              ///< the base used by the cut (the one tried if it failed)
   Index refined_vertices = 0;                          ///< vertices the cut added
   double relation_error = INFINITY;                    ///< of its generators (∞: failed)
   double rounding_floor = INFINITY;                    ///< of its polygon's positions
   double max_edge_length_error = INFINITY;             ///< of its polygon's positions
-  double seconds = 0;
+  double seconds = 0;                                  ///< time spent on this candidate
 };
 
+/// Corner angles of a metric compared with the mesh's own 3D angles (angle_distortion()).
 struct AngleDistortion {
   /// Per corner of the input (#F×3): θ_input / θ_metric, the 3D corner angle over the angle of
-  /// the conformal metric (the mapped angle: layouts are isometric to the metric). 1 is perfect.
+  /// the conformal metric (the mapped angle: layouts are isometric to the metric). 1 is perfect;
+  /// +∞ where the metric's angle is 0 (such corners are left out of the two means). Empty when
+  /// the sizes do not match.
   std::vector<double> ratio;
   double mean_abs_log = 0;  ///< mean over corners of |log ratio|
   double max_abs_log = 0;   ///< max over corners of |log ratio|
 };
 
+/// What uniformize() and lay_out_metric() return: every stage's result.
 struct UniformizeResult {
   /// Ok when every stage that applies succeeded. Otherwise the status of the first stage that
   /// failed (`failed_stage` names it; `message` is its message), and the results of the stages
   /// before it stay filled in.
   Status status = Status::NotRun;
-  std::string message = "not run";
+  std::string message = "not run";  ///< "<stage>: <the stage's message>" on failure; "ok" on success
+  /// "options", "initial_metric", "target", "flow", "cut", "cut_metric", "layout", "seed_check" or
+  /// "deck"; empty unless a stage failed.
   std::string failed_stage;
 
-  Geometry geometry = Geometry::Euclidean;
+  Geometry geometry = Geometry::Euclidean;  ///< the geometry used
   BoundaryMode boundary = BoundaryMode::Free;  ///< Free for a closed surface
 
-  InitialMetric metric;
-  Target target;
-  FlowResult flow;
+  InitialMetric metric;  ///< initial_metric() (status NotRun for lay_out_metric())
+  Target target;         ///< the target curvature the flow ran to (empty for lay_out_metric())
+  FlowResult flow;       ///< solve_flow() with any kept polish steps (lay_out_metric(): NotRun, l = lengths)
 
   /// Cut (not for a closed genus-0 surface: has_cut false). The disk is
   /// build_topology(cut.cut_faces, cut.num_cut_vertices()) with lengths disk_lengths.
   bool has_cut = false;
-  CutResult cut;
-  RefinedMetric cut_metric;
-  Topology disk;
-  std::vector<double> disk_lengths;
-  std::vector<BaseCandidate> candidates;
+  CutResult cut;                          ///< cut_surface(), or cut_compact() for closed genus ≥ 2 in H
+  RefinedMetric cut_metric;               ///< the metric on cut's refined surface (refined_edge_lengths())
+  Topology disk;                          ///< connectivity of the cut disk
+  std::vector<double> disk_lengths;       ///< #E(disk): the disk's edge lengths (disk_edge_lengths())
+  std::vector<BaseCandidate> candidates;  ///< closed genus ≥ 2 in H: every base vertex tried
 
   /// The layout: of the disk (positions per cut vertex, dims 2) or, for a closed genus-0
   /// surface, of the surface on the unit sphere (positions per vertex, dims 3).
@@ -140,7 +154,7 @@ struct UniformizeResult {
   /// Max over the extra seeds of the deviation after alignment (distance of the geometry;
   /// layouts without normalisation). 0 when seed_checks is 0.
   double seed_independence_error = 0;
-  std::vector<Index> seed_faces_checked;
+  std::vector<Index> seed_faces_checked;  ///< the extra seed faces, in the order they were laid out
 
   /// Closed genus ≥ 1: the canonical polygon a1 b1 a1^-1 b1^-1 … laid out (E: the cut and layout
   /// above; H: a canonical cut_surface() laid out through the compact domain's tiles,
@@ -148,25 +162,25 @@ struct UniformizeResult {
   bool has_polygon = false;
   /// Why has_polygon is false for a closed surface of genus ≥ 2 (empty otherwise).
   std::string polygon_note;
-  CutResult polygon_cut;
-  Topology polygon_disk;
-  std::vector<double> polygon_lengths;
-  Layout polygon;
+  CutResult polygon_cut;                ///< the canonical cut (E: a copy of cut)
+  Topology polygon_disk;                ///< connectivity of its disk
+  std::vector<double> polygon_lengths;  ///< #E(polygon_disk): its edge lengths
+  Layout polygon;                       ///< its positions and figures (E: a copy of layout)
 
   /// Deck transformations of the canonical polygon (closed genus ≥ 1), in the frame of `layout`.
   bool has_deck = false;
-  DeckResult deck;
+  DeckResult deck;  ///< valid when has_deck
   /// H: the compact domain's side pairings (Ceres fits), the largest deviation from the identity
   /// of their products around the domain's vertex cycles, and the tile consistency.
-  std::vector<DeckGenerator> domain_maps;
-  double domain_cycle_error = 0;
-  double tile_consistency = 0;
+  std::vector<DeckGenerator> domain_maps;  ///< H: the side pairings x1, x2, … (DomainDeck::side_maps)
+  double domain_cycle_error = 0;           ///< H: DomainDeck::cycle_error
+  double tile_consistency = 0;             ///< H with a polygon: DomainDeck::tile_consistency
 
-  AngleDistortion angles;
+  AngleDistortion angles;  ///< angle_distortion() of the final metric
 
   /// Seconds per stage, in order.
   std::vector<std::pair<std::string, double>> timings;
-  double seconds = 0;
+  double seconds = 0;  ///< wall-clock time of the whole call
 
   /// One line: status, geometry, iterations, curvature error, layout error, flips, relation.
   std::string brief_report() const;

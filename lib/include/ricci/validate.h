@@ -70,6 +70,7 @@ struct MeshDiagnostics {
 /// `degenerate_tolerance` as in ValidateOptions.
 MeshDiagnostics diagnose(const Mesh& mesh, double degenerate_tolerance = 1e-12);
 
+/// Options of validate_mesh() (and of validate_read(), load_mesh() through LoadOptions).
 struct ValidateOptions {
   /// Keep the largest component instead of failing with MultipleComponents.
   bool keep_largest_component = false;
@@ -79,39 +80,45 @@ struct ValidateOptions {
   /// A face is degenerate when 2·area ≤ degenerate_tolerance · (longest edge)². In [0, 1).
   double degenerate_tolerance = 1e-12;
 
+  /// True when degenerate_tolerance is in [0, 1); otherwise false, with the reason in *why (when
+  /// why is not null).
   bool is_valid(std::string* why) const;
 };
 
+/// Kind of change made to a mesh while loading and validating it.
 enum class RepairKind : int {
-  UnreferencedVerticesDropped,
-  FacesFlipped,
-  ComponentsDropped,
-  PolygonsTriangulated,
+  UnreferencedVerticesDropped,  ///< vertices used by no face were removed
+  FacesFlipped,                 ///< faces were reversed to orient the surface consistently
+  ComponentsDropped,            ///< components other than the largest were removed (keep_largest_component)
+  PolygonsTriangulated,         ///< the reader fan-triangulated polygons with more than three sides
 };
 
 /// Stable snake_case name of a repair ("faces_flipped", …).
 std::string_view repair_name(RepairKind k);
 
+/// One change made to a mesh, as listed in ValidateResult::repairs and LoadResult::repairs.
 struct Repair {
-  RepairKind kind;
+  RepairKind kind;         ///< what was changed
   std::int64_t count = 0;  ///< vertices dropped, faces flipped, components dropped, polygons split
   std::string message;     ///< a full sentence, e.g. "dropped 1113 vertices used by no face (first: 34835)"
 };
 
+/// What validate_mesh() returns.
 struct ValidateResult {
+  /// Ok, a check's status from the list at the top of this header, InconsistentOrientation (when
+  /// repair_orientation is false), InvalidArgument (options, buffer sizes) or OutOfMemory.
   Status status = Status::NotRun;
-  std::string message = "not run";
+  std::string message = "not run";  ///< what went wrong, naming the element; "ok" on success
   /// Element the error refers to, with its index in the *input* numbering.
   Element element = Element::None;
-  std::int64_t element_index = -1;
+  std::int64_t element_index = -1;  ///< index of that element (input numbering); -1 when element is None
 
   /// The clean mesh (valid only when status is Ok). Texture coordinates are carried along.
   Mesh mesh;
   /// Its connectivity (valid only when status is Ok).
   Topology topology;
-  /// #V_out: output vertex → input vertex; #F_out: output face → input face.
-  std::vector<Index> vertex_to_input;
-  std::vector<Index> face_to_input;
+  std::vector<Index> vertex_to_input;  ///< #V_out: output vertex → input vertex
+  std::vector<Index> face_to_input;    ///< #F_out: output face → input face
   /// What was changed, in the order it was done.
   std::vector<Repair> repairs;
 };
@@ -119,17 +126,21 @@ struct ValidateResult {
 /// Checks and repairs a mesh; see the list at the top of this header.
 ValidateResult validate_mesh(const Mesh& mesh, const ValidateOptions& options = {});
 
+/// Options of load_mesh().
 struct LoadOptions {
-  ReadOptions read;
-  ValidateOptions validate;
+  ReadOptions read;          ///< passed to read_mesh()
+  ValidateOptions validate;  ///< passed to validate_mesh()
 };
 
+/// What load_mesh() and validate_read() return.
 struct LoadResult {
   /// Status of reading or, if reading succeeded, of validating. Messages name the file.
   Status status = Status::NotRun;
-  std::string message = "not run";
-  std::int64_t line = -1;  ///< as ReadResult::line
-  Element element = Element::None;
+  std::string message = "not run";  ///< the reader's message, or "<name>: " + validation message; "ok" on success
+  std::int64_t line = -1;  ///< as ReadResult::line (-1 for validation errors)
+  Element element = Element::None;  ///< as ReadResult::element or ValidateResult::element
+  /// Index of that element; a face named by validation is given as the polygon of the file it
+  /// came from when the reader triangulated polygons. -1 when element is None.
   std::int64_t element_index = -1;
 
   ReadResult read;          ///< the raw file content, unchanged (diagnose() it for reports)
