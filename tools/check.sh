@@ -17,3 +17,7 @@ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O
 cmake --build build-asan -j"$jobs"
 ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-asan --output-on-failure -j"$jobs"
+
+# libFuzzer smoke: every reader and load→validate, 15 s each under clang + ASan/UBSan
+# (tools/fuzz/README.md); a crash fails the run and leaves its input in build-fuzz/fuzz-artifacts/.
+bash tools/fuzz_smoke.sh 15

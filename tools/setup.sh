@@ -16,6 +16,10 @@ packages=(
   libcairo2-dev           # cairo: PNG and SVG pictures
   libfontconfig-dev       # fontconfig: fonts for the pictures' text (released at exit)
   chromium                # headless browser: the report.html test
+  clang-14                # clang: builds the libFuzzer targets (tools/fuzz_smoke.sh)
+  libclang-rt-14-dev      # clang runtimes: AddressSanitizer, UBSan for the fuzz build
+  libfuzzer-14-dev        # libFuzzer: the fuzzing engine of tools/fuzz
+  libomp-14-dev           # OpenMP for clang (libgomp serves g++ only): the fuzz build
 )
 
 missing=()

@@ -143,7 +143,9 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     const double chi = static_cast<double>(t.euler_characteristic());
     double target = 0;
     if (g == Geometry::Spherical) target = 4 * kPi;
-    if (g == Geometry::Hyperbolic && chi < 0) target = -2 * kPi * chi;
+    // H: the area Gauss–Bonnet gives a closed surface (2π|χ|); surfaces with χ ≥ 0 (a disk or an
+    // annulus forced into H) get 2π, so that lengths in any unit stay far from sinh² overflow.
+    if (g == Geometry::Hyperbolic) target = 2 * kPi * std::max(1.0, -chi);
     scale = (target > 0 && area > 0) ? std::sqrt(target / area) : 1;
   }
   r.length_scale = scale;
@@ -160,6 +162,12 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     for (Index e = 0; e < ne; ++e)
       if (!(r.l0[e] < kPi))
         return fail(Status::NumericalFailure, "edge " + std::to_string(e) + " is longer than π after scaling to the unit sphere");
+  if (g == Geometry::Hyperbolic)
+    for (Index e = 0; e < ne; ++e)
+      if (!(r.l0[e] < 700))  // sinh²(l/2) overflows near l = 1419; radii near 700 saturate tanh
+        return fail(Status::NumericalFailure, "edge " + std::to_string(e) +
+                                                  " is too long for the hyperbolic plane after scaling (length " +
+                                                  std::to_string(r.l0[e]) + "); give a smaller length_scale");
 
   s.eta.resize(static_cast<std::size_t>(ne));
   r.u.assign(static_cast<std::size_t>(nv), 0.0);
@@ -187,7 +195,12 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     r.gamma[v] = gamma;
     switch (g) {
       case Geometry::Euclidean: r.u[v] = std::log(gamma); break;
-      case Geometry::Hyperbolic: r.u[v] = std::log(std::tanh(gamma / 2)); break;
+      case Geometry::Hyperbolic:
+        if (!(std::tanh(gamma / 2) < 1))
+          return fail(Status::NumericalFailure, "vertex " + std::to_string(v) +
+                                                    " gets an initial radius too large for the hyperbolic plane");
+        r.u[v] = std::log(std::tanh(gamma / 2));
+        break;
       case Geometry::Spherical:
         if (!(gamma < kPi)) return fail(Status::NumericalFailure, "vertex " + std::to_string(v) + " radius exceeds π");
         r.u[v] = std::log(std::tan(gamma / 2));
@@ -212,6 +225,8 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     } else if (!(eta > -1)) {
       return fail(Status::DegenerateFace, "edge " + std::to_string(e) + " gets an inversive distance ≤ −1");
     }
+    if (!std::isfinite(eta))
+      return fail(Status::NumericalFailure, "edge " + std::to_string(e) + " gets a non-finite weight η");
     s.eta[e] = eta;
   }
   if (options.scheme == Scheme::CirclePacking && options.relax_angles) {

@@ -247,7 +247,7 @@ bool is_integer_like(std::string_view token) {
          std::all_of(token.begin(), token.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
-bool parse_target_text(std::string_view data, const std::string& path, const Topology& t, BoundaryMode mode,
+bool parse_target_into(std::string_view data, const std::string& path, const Topology& t, BoundaryMode mode,
                        TargetFileResult& r) {
   Target target = base_target(t, mode);
   const Index nv = t.num_vertices;
@@ -327,11 +327,24 @@ TargetFileResult read_target_file(const std::string& path, const Topology& t, Bo
   try {
     std::string data;
     if (!load_text(path, data, r)) return r;
-    parse_target_text(data, path, t, mode, r);
+    parse_target_into(data, path, t, mode, r);
   } catch (const std::bad_alloc&) {
     fail_file(r, path, Status::FileUnreadable, "not enough memory to read the target file");
   } catch (const std::length_error&) {
     fail_file(r, path, Status::FileUnreadable, "the target file is too large to hold in memory");
+  }
+  return r;
+}
+
+TargetFileResult parse_target_text(std::string_view text, const Topology& t, BoundaryMode mode,
+                                   const std::string& name) {
+  TargetFileResult r;
+  try {
+    parse_target_into(text, name, t, mode, r);
+  } catch (const std::bad_alloc&) {
+    fail_file(r, name, Status::FileUnreadable, "not enough memory to read the target curvatures");
+  } catch (const std::length_error&) {
+    fail_file(r, name, Status::FileUnreadable, "the target curvatures are too large to hold in memory");
   }
   return r;
 }

@@ -414,6 +414,9 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     double best_score = kInf;
     std::string last_error = "no base vertex tried";
     for (Index base : bases) {
+      // Three bases none of which could be laid out: the surface's canonical polygons reach beyond
+      // double range (long loops); more bases cost a cut each and have not helped in practice.
+      if (!std::isfinite(best_score) && r.candidates.size() >= 3) break;
       const Clock::time_point tc = Clock::now();
       BaseCandidate bc;
       bc.base_vertex = base;

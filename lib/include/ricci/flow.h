@@ -12,6 +12,7 @@
 #include <functional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ricci/metric.h"
@@ -70,6 +71,12 @@ struct TargetFileResult {
 /// twice is a ParseError.
 TargetFileResult read_target_file(const std::string& path, const Topology& topology,
                                   BoundaryMode mode = BoundaryMode::Free);
+/// read_target_file() on text already in memory: the same syntax and checks; statuses Ok,
+/// ParseError, IndexOutOfRange (FileUnreadable only when memory runs out). `name` stands for the
+/// path in messages ("name: line N: …"). Never throws. read_target_file() loads the file, then
+/// parses it with this.
+TargetFileResult parse_target_text(std::string_view text, const Topology& topology,
+                                   BoundaryMode mode = BoundaryMode::Free, const std::string& name = "target");
 
 /// The effective K̄ for the current edge lengths l (#E): target.K, except that boundary
 /// vertices of Circle / LoopTotals targets get loop_total[loop] · (½ of their two boundary edge

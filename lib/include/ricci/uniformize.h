@@ -35,8 +35,8 @@
 // its loops, so up to `base_candidates` base vertices are tried: the most central vertex (least
 // max metric distance to the two ends of a double-sweep diameter), then vertices spread over the
 // central quarter by farthest-point sampling. The polygon with the smallest max(relation error,
-// edge error, rounding floor) is kept (the search stops early below 1e-11); `candidates` lists
-// every one tried.
+// edge error, rounding floor) is kept (the search stops early below 1e-11, and gives up after
+// three bases none of which could be laid out); `candidates` lists every one tried.
 #pragma once
 
 #include <cmath>
