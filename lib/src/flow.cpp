@@ -289,6 +289,21 @@ class FlowSolver {
     r_.message = std::move(message);
   }
   double seconds() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
+  // Seconds since `mark`, which moves to now.
+  static double lap(Clock::time_point& mark) {
+    const Clock::time_point now = Clock::now();
+    const double s = std::chrono::duration<double>(now - mark).count();
+    mark = now;
+    return s;
+  }
+  void add_timings(const FlowTimings& t) {
+    FlowTimings& r = r_.timings;
+    r.derivatives += t.derivatives;
+    r.assembly += t.assembly;
+    r.factorization += t.factorization;
+    r.solve += t.solve;
+    r.line_search += t.line_search;
+  }
   static std::string validity_text(Validity v) {
     switch (v) {
       case Validity::OutOfRange:
@@ -366,6 +381,11 @@ class FlowSolver {
   std::vector<double> blocks_, rhs_, x_, x2_, tmp_;
   double slope_ = 0;  // derivative of the merit function along step_ at t = 0
   double shift_ = 0;  // μ of the last factorization
+
+  // Timings of the current iteration (see FlowTimings); the line search started at search_start_.
+  FlowTimings iter_;
+  Clock::time_point search_start_;
+  bool iteration_recorded_ = false;
 
   // Counters for the notes.
   int shifted_ = 0, gradient_fallbacks_ = 0, noise_accepts_ = 0, damped_ = 0, projection_skipped_ = 0;
@@ -974,7 +994,9 @@ bool FlowSolver::compute_direction() {
   const Index nv = t_.num_vertices;
   const Index n = pattern_.num_unknowns;
 
+  Clock::time_point mark = Clock::now();
   angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+  iter_.derivatives += lap(mark);
   const std::span<double> values = solver_.values();
   assemble_hessian(t_, pattern_, blocks_, values);
   // The right-hand side K̄ − K. On an E gauge component its mean is removed: it is zero in exact
@@ -990,6 +1012,7 @@ bool FlowSolver::compute_direction() {
   for (Index j = 0; j < n; ++j)
     max_diagonal = std::max(max_diagonal, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
   if (!std::isfinite(max_diagonal) || max_diagonal <= 0) max_diagonal = 1;
+  iter_.assembly += lap(mark);
   shift_ = 0;
   detail::FactorOutcome outcome = solver_.factorize(0);
   if (outcome == detail::FactorOutcome::NotPositiveDefinite || outcome == detail::FactorOutcome::Failed) {
@@ -1005,6 +1028,7 @@ bool FlowSolver::compute_direction() {
       if (outcome == detail::FactorOutcome::OutOfMemory) break;
     }
   }
+  iter_.factorization += lap(mark);
   if (outcome == detail::FactorOutcome::OutOfMemory) {
     fail(Status::OutOfMemory,
          "out of memory in the sparse Cholesky factorization at Newton step " + std::to_string(iteration_));
@@ -1192,15 +1216,33 @@ void FlowSolver::accept(double step_length, double dE) {
   record.energy = energy_;
   record.step = step_length;
   record.seconds = seconds();
+  iter_.line_search = std::chrono::duration<double>(Clock::now() - search_start_).count();
+  record.timings = iter_;
+  add_timings(iter_);
+  iteration_recorded_ = true;
   r_.history.push_back(record);
   if (options_.on_iteration) options_.on_iteration(record);
 }
 
 bool FlowSolver::newton_step() {
-  return compute_direction() && line_search();
+  iter_ = FlowTimings{};
+  iteration_recorded_ = false;
+  Clock::time_point mark = Clock::now();
+  const bool direction = compute_direction();
+  // Whatever compute_direction() spent outside the kernels, assembly and factorization: solves.
+  iter_.solve = std::max(0.0, lap(mark) - iter_.derivatives - iter_.assembly - iter_.factorization);
+  search_start_ = mark;
+  const bool ok = direction && line_search();
+  if (!iteration_recorded_) {
+    iter_.line_search = lap(mark);
+    add_timings(iter_);
+  }
+  return ok;
 }
 
 bool FlowSolver::gradient_step() {
+  iter_ = FlowTimings{};
+  search_start_ = Clock::now();
   const Index nv = t_.num_vertices;
   const double eps = options_.gradient_step;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
@@ -1259,6 +1301,7 @@ void FlowSolver::run() {
     return;
   }
 
+  Clock::time_point mark = Clock::now();
   if (newton) {
     pattern_ = detail::build_hessian_pattern(t_, unknown_);
     const Index n = pattern_.num_unknowns;
@@ -1299,7 +1342,9 @@ void FlowSolver::run() {
     residual_merit_ = s_.geometry == Geometry::Spherical || coupled_;
     const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                        : detail::FactorKind::PositiveDefinite;
+    r_.timings.setup += std::chrono::duration<double>(mark - start_).count() + lap(mark);
     const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind);
+    r_.timings.analysis += lap(mark);
     if (analysis != detail::FactorOutcome::Ok) {
       fail(analysis == detail::FactorOutcome::OutOfMemory ? Status::OutOfMemory : Status::NumericalFailure,
            "the symbolic analysis of the " + std::to_string(n) + "×" + std::to_string(n) +
@@ -1351,6 +1396,7 @@ void FlowSolver::finish() {
     face_areas(t_, g, cur_.l, cur_.theta, area_);
     r_.gauss_bonnet_error = std::abs(gauss_bonnet_defect(t_, g, cur_.K, area_));
   }
+  r_.factor_nonzeros = solver_.factor_nonzeros();
   if (spherical_gauge_) {
     r_.notes.push_back(
         "spherical gauge: the round-sphere target is unique only up to Möbius transformations; "
@@ -1623,6 +1669,7 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
 
   const std::string direct = failed.message;
   FlowResult best = std::move(failed);
+  FlowTimings timings = best.timings;
   std::vector<IterationRecord> history = best.history;
   int used = best.iterations;
   int stages = 0;
@@ -1653,6 +1700,13 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
     }
     ++stages;
     used += last.iterations;
+    timings.setup += last.timings.setup;
+    timings.analysis += last.timings.analysis;
+    timings.derivatives += last.timings.derivatives;
+    timings.assembly += last.timings.assembly;
+    timings.factorization += last.timings.factorization;
+    timings.solve += last.timings.solve;
+    timings.line_search += last.timings.line_search;
     for (IterationRecord record : last.history) {
       record.iteration += offset;
       record.seconds += elapsed;
@@ -1671,6 +1725,7 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
     if (used >= options.max_iterations) break;
   }
   FlowResult r = std::move(last);
+  r.timings = timings;
   r.history = std::move(history);
   r.iterations = used;
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -5,12 +5,20 @@
 #include <algorithm>
 #include <cfenv>
 #include <cmath>
+#include <vector>
 
 namespace ricci::detail {
 
 namespace {
 
 constexpr std::int64_t kNestedDissectionThreshold = 20000;
+
+// Indefinite matrices (see sparse_solver.h): soft pins on k spread-out unknowns, k doubling from
+// kFirstPins to kMaxPins while the pinned matrix is not positive definite; each pin adds
+// kPinWeight × (its diagonal entry) to the diagonal.
+constexpr std::int64_t kFirstPins = 32;
+constexpr std::int64_t kMaxPins = 512;
+constexpr double kPinWeight = 8;
 
 // CHOLMOD detects zero and negative pivots itself and reports them in Common->status; the
 // floating-point exceptions it may raise on the way (1/0 of a zero pivot, say) are not the
@@ -38,6 +46,21 @@ struct SymmetricSolver::Impl {
   cholmod_dense* Y = nullptr;
   cholmod_dense* E = nullptr;
   std::int64_t n = 0;
+  FactorKind kind = FactorKind::PositiveDefinite;
+  // Indefinite kind by pinned LLᵀ + Woodbury (see sparse_solver.h): the pins, their weights ρ,
+  // the k×k capacitance matrix C = R⁻¹ − Eᵀ M⁻¹ E in LU form (row-major, with its row pivots),
+  // and dense workspaces for the batched solves M⁻¹E. `simplicial`: given up on pins (LDLᵀ).
+  bool simplicial = false;
+  std::vector<std::int64_t> pins;
+  std::vector<double> pin_weight, pin_saved, capacitance, pin_rhs;
+  std::vector<double> Z;  // n×k row-major: L⁻¹ P E (row i holds the k values of unknown i)
+  std::vector<std::int64_t> capacitance_pivot;
+  cholmod_dense* Bk = nullptr;
+  cholmod_dense* Xk = nullptr;
+  cholmod_dense* Yk = nullptr;
+  cholmod_dense* Ek = nullptr;
+  cholmod_dense* Zk = nullptr;
+  cholmod_dense* W = nullptr;
   bool analyzed = false;
   bool factored = false;
   double rcond = 0;
@@ -56,8 +79,24 @@ struct SymmetricSolver::Impl {
     if (X) cholmod_l_free_dense(&X, &common);
     if (Y) cholmod_l_free_dense(&Y, &common);
     if (E) cholmod_l_free_dense(&E, &common);
+    free_batch();
     cholmod_l_finish(&common);
   }
+
+  void free_batch() {
+    if (Bk) cholmod_l_free_dense(&Bk, &common);
+    if (Xk) cholmod_l_free_dense(&Xk, &common);
+    if (Yk) cholmod_l_free_dense(&Yk, &common);
+    if (Ek) cholmod_l_free_dense(&Ek, &common);
+    if (Zk) cholmod_l_free_dense(&Zk, &common);
+    if (W) cholmod_l_free_dense(&W, &common);
+  }
+
+  std::int64_t diagonal_position(std::int64_t j) const { return static_cast<SuiteSparse_long*>(A->p)[j + 1] - 1; }
+
+  FactorOutcome pinned_factorize(double shift);
+  FactorOutcome build_capacitance();
+  bool pinned_solve(double* x);
 
   FactorOutcome status_outcome() const {
     if (common.status == CHOLMOD_OUT_OF_MEMORY) return FactorOutcome::OutOfMemory;
@@ -66,6 +105,158 @@ struct SymmetricSolver::Impl {
     return FactorOutcome::Ok;
   }
 };
+
+// Indefinite matrices with few negative eigenvalues (the spherical Hessian: one, the scaling
+// direction). With E the n×k selection of the pins and R = diag(ρ), M = A + E R Eᵀ is positive
+// definite once the pins are dense enough to block the negative directions, and
+//     A⁻¹ = M⁻¹ + M⁻¹ E C⁻¹ Eᵀ M⁻¹,   C = R⁻¹ − Eᵀ M⁻¹ E   (Woodbury).
+// With M = Pᵀ L Lᵀ P and Z = L⁻¹ P E (k forward solves per factorization, kept: n×k values),
+// C = R⁻¹ − ZᵀZ and A⁻¹ b = Pᵀ L⁻ᵀ (y + Z C⁻¹ Zᵀ y) with y = L⁻¹ P b: one forward and one
+// backward solve per right-hand side, as for a positive definite A, plus O(nk) work; C is
+// indefinite and solved by LU with partial pivoting. The pins are spread evenly over the unknowns' order; when M is not
+// positive definite their number doubles. Failed: out of pins (the caller's factorize() then
+// switches to simplicial LDLᵀ).
+FactorOutcome SymmetricSolver::Impl::pinned_factorize(double shift) {
+  double* x = static_cast<double*>(A->x);
+  std::int64_t k = pins.empty() ? std::min(kFirstPins, n) : static_cast<std::int64_t>(pins.size());
+  while (true) {
+    if (static_cast<std::int64_t>(pins.size()) != k) {
+      pins.resize(static_cast<std::size_t>(k));
+      for (std::int64_t i = 0; i < k; ++i) pins[i] = ((2 * i + 1) * n) / (2 * k);
+    }
+    pin_weight.resize(static_cast<std::size_t>(k));
+    pin_saved.resize(static_cast<std::size_t>(k));
+    for (std::int64_t i = 0; i < k; ++i) {
+      const std::int64_t q = diagonal_position(pins[i]);
+      pin_saved[i] = x[q];
+      const double d = std::abs(x[q]);
+      pin_weight[i] = kPinWeight * (std::isfinite(d) && d > 0 ? d : 1.0);
+      x[q] += pin_weight[i];
+    }
+    double beta[2] = {shift, 0};
+    common.status = CHOLMOD_OK;
+    const int ok = cholmod_l_factorize_p(A, beta, nullptr, 0, L, &common);
+    for (std::int64_t i = 0; i < k; ++i) x[diagonal_position(pins[i])] = pin_saved[i];
+    FactorOutcome outcome = status_outcome();
+    if (outcome == FactorOutcome::Ok && !ok) outcome = FactorOutcome::Failed;
+    if (outcome == FactorOutcome::OutOfMemory) return outcome;
+    if (outcome == FactorOutcome::Ok) {
+      rcond = cholmod_l_rcond(L, &common);
+      if (std::isfinite(rcond) && rcond > 0) return build_capacitance();
+      outcome = FactorOutcome::NotPositiveDefinite;
+    }
+    if (outcome == FactorOutcome::NotPositiveDefinite && k < std::min(kMaxPins, n)) {
+      k = std::min(2 * k, n);
+      continue;
+    }
+    pins.clear();
+    std::vector<double>().swap(Z);
+    return FactorOutcome::Failed;
+  }
+}
+
+FactorOutcome SymmetricSolver::Impl::build_capacitance() {
+  const auto k = static_cast<std::int64_t>(pins.size());
+  // Columns per batched solve: at most about 2M doubles per workspace.
+  const std::int64_t batch =
+      std::min<std::int64_t>(k, std::clamp<std::int64_t>((std::int64_t{1} << 21) / std::max<std::int64_t>(n, 1), 4, 32));
+  if (!Bk || static_cast<std::int64_t>(Bk->ncol) != batch) {
+    free_batch();
+    Bk = cholmod_l_zeros(static_cast<std::size_t>(n), static_cast<std::size_t>(batch), CHOLMOD_REAL, &common);
+    if (!Bk) return status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : status_outcome();
+  }
+  Z.resize(static_cast<std::size_t>(n * k));
+  auto* b = static_cast<double*>(Bk->x);
+  const auto ld = static_cast<std::int64_t>(Bk->d);
+  for (std::int64_t start = 0; start < k; start += batch) {
+    const std::int64_t m = std::min(batch, k - start);
+    for (std::int64_t c = 0; c < m; ++c) b[c * ld + pins[start + c]] = 1;
+    int ok = cholmod_l_solve2(CHOLMOD_P, L, Bk, nullptr, &Xk, nullptr, &Yk, &Ek, &common);
+    for (std::int64_t c = 0; c < m; ++c) b[c * ld + pins[start + c]] = 0;
+    ok = ok && Xk && cholmod_l_solve2(CHOLMOD_L, L, Xk, nullptr, &Zk, nullptr, &Yk, &Ek, &common);
+    if (!ok || !Zk || common.status < CHOLMOD_OK)
+      return status_outcome() == FactorOutcome::OutOfMemory ? FactorOutcome::OutOfMemory : FactorOutcome::Failed;
+    const auto* z = static_cast<const double*>(Zk->x);
+    const auto lz = static_cast<std::int64_t>(Zk->d);
+    for (std::int64_t c = 0; c < m; ++c)
+      for (std::int64_t i = 0; i < n; ++i) Z[i * k + start + c] = z[c * lz + i];
+  }
+  // C = R⁻¹ − ZᵀZ, accumulated row by row of Z (lower triangle, then mirrored).
+  capacitance.assign(static_cast<std::size_t>(k * k), 0.0);
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double* zi = Z.data() + i * k;
+    for (std::int64_t a = 0; a < k; ++a) {
+      const double za = zi[a];
+      if (za == 0) continue;
+      double* row = capacitance.data() + a * k;
+      for (std::int64_t c = 0; c <= a; ++c) row[c] -= za * zi[c];
+    }
+  }
+  for (std::int64_t a = 0; a < k; ++a) {
+    capacitance[a * k + a] += 1 / pin_weight[a];
+    for (std::int64_t c = 0; c < a; ++c) capacitance[c * k + a] = capacitance[a * k + c];
+  }
+  double largest = 0;
+  for (const double v : capacitance) largest = std::max(largest, std::abs(v));
+  if (!std::isfinite(largest) || largest <= 0) return FactorOutcome::NotPositiveDefinite;
+  // LU with partial pivoting, in place.
+  capacitance_pivot.resize(static_cast<std::size_t>(k));
+  pin_rhs.resize(static_cast<std::size_t>(k));
+  for (std::int64_t j = 0; j < k; ++j) {
+    std::int64_t p = j;
+    for (std::int64_t i = j + 1; i < k; ++i)
+      if (std::abs(capacitance[i * k + j]) > std::abs(capacitance[p * k + j])) p = i;
+    const double pivot = capacitance[p * k + j];
+    if (!(std::abs(pivot) > 1e-15 * largest)) return FactorOutcome::NotPositiveDefinite;
+    capacitance_pivot[j] = p;
+    if (p != j)
+      for (std::int64_t c = 0; c < k; ++c) std::swap(capacitance[j * k + c], capacitance[p * k + c]);
+    for (std::int64_t i = j + 1; i < k; ++i) {
+      const double f = capacitance[i * k + j] / pivot;
+      capacitance[i * k + j] = f;
+      if (f != 0)
+        for (std::int64_t c = j + 1; c < k; ++c) capacitance[i * k + c] -= f * capacitance[j * k + c];
+    }
+  }
+  return FactorOutcome::Ok;
+}
+
+// A⁻¹ b into out, b in B (see above).
+bool SymmetricSolver::Impl::pinned_solve(double* out) {
+  const auto k = static_cast<std::int64_t>(pins.size());
+  if (!cholmod_l_solve2(CHOLMOD_P, L, B, nullptr, &X, nullptr, &Y, &E, &common) || !X ||
+      !cholmod_l_solve2(CHOLMOD_L, L, X, nullptr, &W, nullptr, &Y, &E, &common) || !W ||
+      common.status < CHOLMOD_OK)
+    return false;
+  auto* y = static_cast<double*>(W->x);
+  std::fill(pin_rhs.begin(), pin_rhs.end(), 0.0);
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double yi = y[i];
+    if (yi == 0) continue;
+    const double* zi = Z.data() + i * k;
+    for (std::int64_t a = 0; a < k; ++a) pin_rhs[a] += zi[a] * yi;
+  }
+  for (std::int64_t j = 0; j < k; ++j) std::swap(pin_rhs[j], pin_rhs[capacitance_pivot[j]]);
+  for (std::int64_t i = 0; i < k; ++i)
+    for (std::int64_t c = 0; c < i; ++c) pin_rhs[i] -= capacitance[i * k + c] * pin_rhs[c];
+  for (std::int64_t i = k; i-- > 0;) {
+    for (std::int64_t c = i + 1; c < k; ++c) pin_rhs[i] -= capacitance[i * k + c] * pin_rhs[c];
+    pin_rhs[i] /= capacitance[i * k + i];
+  }
+  for (std::int64_t i = 0; i < n; ++i) {
+    const double* zi = Z.data() + i * k;
+    double sum = 0;
+    for (std::int64_t a = 0; a < k; ++a) sum += zi[a] * pin_rhs[a];
+    y[i] += sum;
+  }
+  if (!cholmod_l_solve2(CHOLMOD_Lt, L, W, nullptr, &X, nullptr, &Y, &E, &common) || !X ||
+      !cholmod_l_solve2(CHOLMOD_Pt, L, X, nullptr, &B, nullptr, &Y, &E, &common) || !B ||
+      common.status < CHOLMOD_OK)
+    return false;
+  const auto* x = static_cast<const double*>(B->x);
+  std::copy(x, x + n, out);
+  return true;
+}
 
 SymmetricSolver::SymmetricSolver() : impl_(std::make_unique<Impl>()) {}
 SymmetricSolver::~SymmetricSolver() = default;
@@ -99,7 +290,8 @@ FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int6
     c.nmethods = 1;
     c.method[0].ordering = CHOLMOD_METIS;
   }
-  c.supernodal = kind == FactorKind::PositiveDefinite ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+  s.kind = kind;
+  c.supernodal = CHOLMOD_SUPERNODAL;  // Indefinite: pinned LLᵀ (see Impl::pinned_factorize)
   c.final_asis = 1;  // supernodal stays LLᵀ, simplicial stays LDLᵀ
   c.grow0 = 0;       // no slack for updates/downdates: exact space
   c.grow2 = 0;
@@ -132,6 +324,22 @@ FactorOutcome SymmetricSolver::factorize(double shift) {
     return FactorOutcome::Ok;
   }
   FloatingPointHold hold;
+  if (s.kind == FactorKind::Indefinite && !s.simplicial) {
+    const FactorOutcome pinned = s.pinned_factorize(shift);
+    if (pinned != FactorOutcome::Failed) {
+      s.factored = pinned == FactorOutcome::Ok;
+      return pinned;
+    }
+    // Out of pins: simplicial LDLᵀ from here on (a new analysis, once).
+    cholmod_common& c = s.common;
+    cholmod_l_free_factor(&s.L, &c);
+    c.supernodal = CHOLMOD_SIMPLICIAL;
+    c.status = CHOLMOD_OK;
+    s.L = cholmod_l_analyze(s.A, &c);
+    if (!s.L) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
+    s.simplicial = true;
+    s.free_batch();
+  }
   cholmod_common& c = s.common;
   double beta[2] = {shift, 0};
   const int ok = cholmod_l_factorize_p(s.A, beta, nullptr, 0, s.L, &c);
@@ -152,14 +360,17 @@ bool SymmetricSolver::solve(std::span<const double> b, std::span<double> x) {
   if (s.n == 0) return true;
   FloatingPointHold hold;
   std::copy(b.begin(), b.end(), static_cast<double*>(s.B->x));
-  const int ok = cholmod_l_solve2(CHOLMOD_A, s.L, s.B, nullptr, &s.X, nullptr, &s.Y, &s.E, &s.common);
-  if (!ok || !s.X || s.common.status < CHOLMOD_OK) return false;
-  const double* r = static_cast<const double*>(s.X->x);
+  if (!s.pins.empty()) {
+    if (!s.pinned_solve(x.data())) return false;
+  } else {
+    const int ok = cholmod_l_solve2(CHOLMOD_A, s.L, s.B, nullptr, &s.X, nullptr, &s.Y, &s.E, &s.common);
+    if (!ok || !s.X || s.common.status < CHOLMOD_OK) return false;
+    const double* r = static_cast<const double*>(s.X->x);
+    std::copy(r, r + s.n, x.begin());
+  }
   bool finite = true;
-  for (std::int64_t k = 0; k < s.n; ++k) finite = finite && std::isfinite(r[k]);
-  if (!finite) return false;
-  std::copy(r, r + s.n, x.begin());
-  return true;
+  for (std::int64_t k = 0; k < s.n; ++k) finite = finite && std::isfinite(x[k]);
+  return finite;
 }
 
 double SymmetricSolver::rcond() const {

@@ -9,8 +9,12 @@
 // itself still takes short-lived workspace inside its supernodal factorization).
 //
 // Two kinds: PositiveDefinite (supernodal LLᵀ; fails with NotPositiveDefinite when a pivot is not
-// positive) and Indefinite (simplicial LDLᵀ without pivoting, for matrices whose leading minors
-// are nonzero; fails with NotPositiveDefinite only on a zero or non-finite pivot).
+// positive) and Indefinite, for symmetric matrices with a few negative eigenvalues (the spherical
+// Newton matrix has one): supernodal LLᵀ of A + Σ ρ_p e_p e_pᵀ with soft pins on 32 … 512 unknowns
+// spread over the index range, corrected exactly by the Woodbury formula (a k×k LU solve per
+// right-hand side; see sparse_solver.cpp). When even 512 pins do not make the matrix positive
+// definite, the solver switches for good to simplicial LDLᵀ without pivoting (for matrices whose
+// leading minors are nonzero; NotPositiveDefinite only on a zero or non-finite pivot).
 //
 // The library never prints: CHOLMOD's own messages are switched off. Not thread-safe; call from
 // outside OpenMP regions (CHOLMOD and the BLAS may use threads of their own).

@@ -132,12 +132,28 @@ struct FlowOptions {
   bool is_valid(std::string* why) const;
 };
 
+/// Wall-clock seconds spent in each part of a solve (for benchmarks; sums over iterations).
+/// Newton's work per iteration splits into `derivatives` + `assembly` + `factorization` + `solve`
+/// + `line_search`; gradient descent puts its curvature evaluations into `line_search`.
+struct FlowTimings {
+  double setup = 0;          ///< vertex classes, first curvature evaluation, Hessian pattern
+  double analysis = 0;       ///< symbolic analysis of the sparse factorization (once per solve)
+  double derivatives = 0;    ///< per-face kernel: the 3×3 blocks of ∂θ/∂u (angle_derivative_blocks)
+  double assembly = 0;       ///< Hessian values into the fixed pattern, right-hand side
+  double factorization = 0;  ///< numeric factorizations (including shifted retries)
+  double solve = 0;          ///< triangular solves and what is built on them (Möbius projection,
+                             ///< boundary GMRES, circle-domain modes)
+  double line_search = 0;    ///< trial points: lengths, angles, curvature, energy quadrature
+};
+
 struct IterationRecord {
   int iteration = 0;
   double max_error = 0;   ///< max |K̄ − K| after the step
   double energy = 0;      ///< E(u) − E(u_start)
   double step = 0;        ///< accepted step length (Newton: fraction of the Newton step)
   double seconds = 0;     ///< time since the start of the solve
+  /// This iteration's share of FlowResult::timings (setup and analysis stay 0 here).
+  FlowTimings timings;
 };
 
 struct FlowResult {
@@ -155,6 +171,11 @@ struct FlowResult {
   double max_curvature_error = 0;
   double gauss_bonnet_error = 0;  ///< |Σ K + λ Σ A − 2πχ|
   double seconds = 0;
+  /// Where `seconds` went, summed over every Newton (or gradient) run of the solve (the spherical
+  /// safeguards may run several; the planar start of the round sphere is not included).
+  FlowTimings timings;
+  /// Nonzeros of the Cholesky factor of the last Newton run (0 for gradient descent).
+  double factor_nonzeros = 0;
   std::vector<IterationRecord> history;
   /// Notes on safeguards that acted (spherical damping, fallback to the flow, …).
   std::vector<std::string> notes;

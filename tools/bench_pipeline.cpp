@@ -1,0 +1,671 @@
+// bench_pipeline — the whole uniformization per input, stage by stage, against the least work a
+// linear conformal method does: one sparse Cholesky analysis + factorization + solve of the
+// cotangent Laplacian of the same mesh with the same solver (lib/src/sparse_solver.h, CHOLMOD).
+// A driver, not a test: it never fails on a slow or non-converging input, it reports it.
+//
+// How to run (Release build; the one command the README documents):
+//   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release && cmake --build build -j --target bench_pipeline
+//   build/tools/bench_pipeline --out tools/BENCHMARK-pipeline.md
+// Options:
+//   MESHES_DIR         the shared meshes (default ../shared/meshes beside the repository)
+//   --out FILE.md      also write the tables to FILE.md (atomically)
+//   --only TEXT        only inputs whose name contains TEXT (repeatable)
+//   --max-faces N      skip generated inputs above N faces (default: all, up to 2M)
+//   --sphere           also generated icospheres (S, 20k … 1.3M faces)
+//   --threads N        OpenMP threads (default 0: the OpenMP default, all cores)
+//   --gd-seconds S     cap of the gradient-descent comparison per input (default 20; 0 skips it)
+//   --flow-only        skip the stages after the flow (cut, layout, deck, angles, writing)
+//
+// Every input runs in a child process (fork), so that its peak resident memory is its own: the
+// peak of each stage is read from /proc/self/status (VmHWM), reset between stages by writing 5 to
+// /proc/self/clear_refs. Timings are wall-clock; ratios are measured in the same process, minutes
+// apart at most, so they are less sensitive to other load than absolute seconds.
+#include <omp.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hessian.h"
+#include "ricci/flow.h"
+#include "ricci/io.h"
+#include "ricci/metric.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "sparse_solver.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using ricci::Index;
+
+struct Settings {
+  fs::path meshes;
+  std::string out;
+  std::vector<std::string> only;
+  std::int64_t max_faces = -1;
+  bool sphere = false;
+  int threads = 0;
+  double gd_seconds = 20;
+  bool flow_only = false;
+};
+
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+std::string fmt(const char* f, double x) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, f, x);
+  return buf;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) {
+      const std::size_t colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+  return "unknown";
+}
+
+std::string compiler_name() {
+#if defined(__clang__)
+  return std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "unknown";
+#endif
+}
+
+/// Peak resident set since the last reset_peak(), in bytes (VmHWM).
+double peak_bytes() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("VmHWM:", 0) == 0) return 1024.0 * std::strtod(line.c_str() + 6, nullptr);
+  return 0;
+}
+void reset_peak() {
+  std::ofstream out("/proc/self/clear_refs");
+  out << "5";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs.
+
+struct Input {
+  std::string name;
+  std::int64_t approx_faces = 0;  ///< generated only (for --max-faces)
+  std::function<ricci::Mesh()> generate;  ///< generated inputs
+  std::string path;                       ///< file inputs
+};
+
+std::vector<Input> inputs(const Settings& s) {
+  using namespace ricci_shapes;
+  std::vector<Input> in;
+  const fs::path m = s.meshes;
+  for (const char* f : {"boundary/face.obj", "genus1/kitten-106k.obj", "genus0/brain-conte69-32k-lh.off",
+                        "genus3plus/botijo.obj", "derived/kitten-425k-midpoint-subdiv.off"})
+    if (fs::exists(m / f)) in.push_back({f, 0, {}, (m / f).string()});
+  // Torus: 2·(2m)·m faces. Genus 2: pretzel(2, c) has 100·c² faces, ×4 per midpoint subdivision.
+  struct Size {
+    const char* label;
+    int torus_m, cells, subdiv;
+    std::int64_t faces;
+  };
+  const Size sizes[] = {{"10k", 50, 10, 0, 10000},
+                        {"100k", 158, 32, 0, 100000},
+                        {"1M", 500, 25, 2, 1000000},
+                        {"2M", 707, 18, 3, 2000000}};
+  for (const Size& z : sizes) {
+    const int tm = z.torus_m, c = z.cells, k = z.subdiv;
+    in.push_back({std::string("generated/torus-") + z.label, z.faces, [tm] { return torus(2 * tm, tm, 1.0, 0.5); }, {}});
+    in.push_back({std::string("generated/genus2-") + z.label, z.faces, [c, k] {
+                    ricci::Mesh mesh = pretzel(2, c);
+                    for (int i = 0; i < k; ++i) mesh = subdivide_midpoint(mesh);
+                    return mesh;
+                  },
+                  {}});
+  }
+  if (s.sphere)
+    for (const auto& [label, sub, faces] : {std::tuple{"20k", 5, 20480}, std::tuple{"328k", 7, 327680},
+                                           std::tuple{"1.3M", 8, 1310720}}) {
+      const int subdivisions = sub;
+      in.push_back({std::string("generated/icosphere-") + label, faces,
+                    [subdivisions] { return icosphere(subdivisions); }, {}});
+    }
+  std::vector<Input> kept;
+  for (Input& i : in) {
+    if (s.max_faces >= 0 && i.approx_faces > s.max_faces) continue;
+    bool match = s.only.empty();
+    for (const std::string& o : s.only) match = match || i.name.find(o) != std::string::npos;
+    if (match) kept.push_back(std::move(i));
+  }
+  return kept;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The reference: analysis + factorization + solve of the cotangent Laplacian (one vertex pinned,
+// as the flow pins one per gauge component), with the solver and pattern the flow uses.
+
+struct Reference {
+  double analysis = 0, factor = 0, solve = 0;
+  double total() const { return analysis + factor + solve; }
+  bool ok = false;
+};
+
+Reference laplacian_reference(const ricci::Mesh& mesh, const ricci::Topology& t) {
+  Reference r;
+  const Index nv = t.num_vertices, nf = t.num_faces, ne = t.num_edges;
+  std::vector<std::uint8_t> unknown(static_cast<std::size_t>(nv), 1);
+  for (Index v = 0; v < nv; ++v) unknown[v] = t.valence(v) > 0;
+  for (Index v = 0; v < nv; ++v)
+    if (unknown[v]) {
+      unknown[v] = 0;  // the pinned vertex
+      break;
+    }
+  // Cotangent weights w_e = ½ Σ cot(opposite corners), from the 3D positions.
+  std::vector<double> w(static_cast<std::size_t>(ne), 0.0);
+  const double* x = mesh.positions.data();
+  for (Index f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const Index c = 3 * f + k;
+      const Index a = t.corner_vertex[c], b = t.corner_vertex[ricci::next_corner(c)],
+                  d = t.corner_vertex[ricci::prev_corner(c)];
+      double u[3], v[3];
+      for (int i = 0; i < 3; ++i) {
+        u[i] = x[3 * b + i] - x[3 * a + i];
+        v[i] = x[3 * d + i] - x[3 * a + i];
+      }
+      const double dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+      const double cx = u[1] * v[2] - u[2] * v[1], cy = u[2] * v[0] - u[0] * v[2], cz = u[0] * v[1] - u[1] * v[0];
+      w[t.corner_edge[c]] += 0.5 * dot / std::max(std::sqrt(cx * cx + cy * cy + cz * cz), 1e-300);
+    }
+  const ricci::detail::HessianPattern p = ricci::detail::build_hessian_pattern(t, unknown);
+  const Index n = p.num_unknowns;
+  ricci::detail::SymmetricSolver solver;
+  Clock::time_point t0 = Clock::now();
+  if (solver.analyze(n, p.col_ptr, p.row, ricci::detail::FactorKind::PositiveDefinite) !=
+      ricci::detail::FactorOutcome::Ok)
+    return r;
+  r.analysis = since(t0);
+  const std::span<double> values = solver.values();
+  std::vector<double> diag(static_cast<std::size_t>(nv), 0.0);
+  for (Index e = 0; e < ne; ++e) {
+    diag[t.edge_vertices[2 * e]] += w[e];
+    diag[t.edge_vertices[2 * e + 1]] += w[e];
+  }
+  for (Index j = 0; j < n; ++j) {
+    const std::int64_t end = p.col_ptr[j + 1] - 1;
+    for (std::int64_t k = p.col_ptr[j]; k < end; ++k) values[k] = -w[p.entry_edge[k]];
+    values[end] = diag[p.unknown_vertex[j]];
+  }
+  std::vector<double> b(static_cast<std::size_t>(n), 1.0), sol(static_cast<std::size_t>(n), 0.0);
+  t0 = Clock::now();
+  if (solver.factorize() != ricci::detail::FactorOutcome::Ok) return r;
+  r.factor = since(t0);
+  t0 = Clock::now();
+  if (!solver.solve(b, sol)) return r;
+  r.solve = since(t0);
+  r.ok = true;
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Kernel scaling: lengths, angles, curvature and the Hessian blocks at the solution, with 1 and
+// with 2 (or --threads) OpenMP threads; the best of several repetitions.
+
+double kernel_seconds(const ricci::Topology& t, const ricci::ConformalStructure& s, const std::vector<double>& u,
+                      int threads) {
+  const auto ne = static_cast<std::size_t>(t.num_edges), nc = 3 * static_cast<std::size_t>(t.num_faces);
+  std::vector<double> l(ne), theta(nc), K(static_cast<std::size_t>(t.num_vertices)), blocks(3 * nc);
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(threads);
+  double best = 1e300;
+  const int reps = t.num_faces > 500000 ? 3 : (t.num_faces > 50000 ? 7 : 25);
+  for (int r = 0; r < reps; ++r) {
+    const Clock::time_point t0 = Clock::now();
+    ricci::edge_lengths(t, s, u, l);
+    ricci::corner_angles(t, s.geometry, l, theta);
+    ricci::vertex_curvature(t, theta, K);
+    ricci::angle_derivative_blocks(t, s, u, l, theta, blocks);
+    best = std::min(best, since(t0));
+  }
+  omp_set_num_threads(saved);
+  return best;
+}
+
+// ---------------------------------------------------------------------------------------------
+// One input (in a child process): key → value pairs.
+
+using Row = std::map<std::string, std::string>;
+
+double time_to(const ricci::FlowResult& r, double tol) {
+  for (const ricci::IterationRecord& h : r.history)
+    if (h.max_error < tol) return h.seconds;
+  return -1;
+}
+
+Row run_input(const Input& input, const Settings& s) {
+  Row row;
+  reset_peak();
+  Clock::time_point t0 = Clock::now();
+  ricci::Mesh raw;
+  if (input.generate) {
+    raw = input.generate();
+  } else {
+    ricci::ReadResult read = ricci::read_mesh(input.path);
+    if (read.status != ricci::Status::Ok) {
+      row["error"] = read.message;
+      return row;
+    }
+    raw = std::move(read.mesh);
+  }
+  row["load"] = fmt("%.3f", since(t0));
+  t0 = Clock::now();
+  ricci::ValidateResult v = ricci::validate_mesh(raw);
+  row["validate"] = fmt("%.3f", since(t0));
+  if (v.status != ricci::Status::Ok) {
+    row["error"] = v.message;
+    return row;
+  }
+  raw = ricci::Mesh{};
+  // validate_mesh() builds the topology; build it again on its own to time that stage.
+  t0 = Clock::now();
+  {
+    const ricci::TopologyResult again = ricci::build_topology(v.mesh.faces, v.mesh.num_vertices());
+    (void)again;
+  }
+  row["topology"] = fmt("%.3f", since(t0));
+  const ricci::Topology& topo = v.topology;
+  const double F = static_cast<double>(topo.num_faces);
+  row["faces"] = std::to_string(topo.num_faces);
+  row["genus"] = std::to_string(topo.genus());
+  row["loops"] = std::to_string(topo.num_boundary_loops());
+  row["peak_load"] = fmt("%.0f", peak_bytes());
+
+  const Reference ref = laplacian_reference(v.mesh, topo);
+  if (ref.ok) {
+    row["ref_analysis"] = fmt("%.3f", ref.analysis);
+    row["ref_factor"] = fmt("%.3f", ref.factor);
+    row["ref_solve"] = fmt("%.3f", ref.solve);
+    row["ref"] = fmt("%.4f", ref.total());
+  }
+
+  ricci::UniformizeOptions o;
+  o.flow.tolerance = 1e-10;
+  o.flow.threads = s.threads;
+  std::map<std::string, double> stage_peak;
+  std::map<std::string, double> stage_seconds;
+  bool stop_after_flow = s.flow_only;
+  o.on_stage = [&](const ricci::StageRecord& r) {
+    stage_peak[std::string(r.stage)] = peak_bytes();
+    stage_seconds[std::string(r.stage)] = r.seconds;
+    reset_peak();
+  };
+  if (stop_after_flow) {
+    o.seed_checks = 0;
+    o.base_candidates = 1;
+  }
+  reset_peak();
+  ricci::UniformizeResult u;
+  if (stop_after_flow) {
+    // Only initial metric, target and flow (the same calls uniformize() makes).
+    const ricci::Geometry g = ricci::natural_geometry(topo);
+    ricci::InitialMetricOptions mo;
+    mo.geometry = g;
+    t0 = Clock::now();
+    u.metric = ricci::initial_metric(v.mesh, topo, mo);
+    stage_seconds["initial_metric"] = since(t0);
+    u.target = ricci::uniform_target(topo, ricci::natural_boundary_mode(topo, g));
+    u.geometry = g;
+    reset_peak();
+    if (u.metric.status == ricci::Status::Ok) {
+      t0 = Clock::now();
+      u.flow = ricci::solve_flow(topo, u.metric.structure, u.metric.u, u.target, o.flow);
+      stage_seconds["flow"] = since(t0);
+      stage_peak["flow"] = peak_bytes();
+      u.status = u.flow.status;
+      u.message = u.flow.message;
+    } else {
+      u.status = u.metric.status;
+      u.message = u.metric.message;
+    }
+  } else {
+    u = ricci::uniformize(v.mesh, topo, o);
+  }
+  row["geometry"] = std::string(ricci::geometry_name(u.geometry));
+  row["status"] = std::string(ricci::status_name(u.status));
+  if (u.status != ricci::Status::Ok) row["message"] = u.message;
+  for (const auto& [name, sec] : stage_seconds) row["stage_" + name] = fmt("%.3f", sec);
+  for (const auto& [name, peak] : stage_peak) row["peak_" + name] = fmt("%.0f", peak);
+  const ricci::FlowResult& f = u.flow;
+  if (f.status != ricci::Status::NotRun) {
+    row["iterations"] = std::to_string(f.iterations);
+    row["flow_status"] = std::string(ricci::status_name(f.status));
+    row["error"] = fmt("%.1e", f.max_curvature_error);
+    row["flow"] = fmt("%.4f", f.seconds);
+    const ricci::FlowTimings& ft = f.timings;
+    const double per_iter =
+        f.iterations > 0 ? (ft.derivatives + ft.assembly + ft.factorization + ft.solve + ft.line_search) / f.iterations
+                         : 0;
+    row["per_iter"] = fmt("%.4f", per_iter);
+    for (const auto& [k, x] : {std::pair{"setup", ft.setup}, std::pair{"analysis", ft.analysis},
+                               std::pair{"derivatives", ft.derivatives}, std::pair{"assembly", ft.assembly},
+                               std::pair{"factorization", ft.factorization}, std::pair{"solve", ft.solve},
+                               std::pair{"line_search", ft.line_search}})
+      row[std::string("t_") + k] = fmt("%.4f", f.iterations > 0 && std::string(k) != "setup" && std::string(k) != "analysis"
+                                                    ? x / f.iterations
+                                                    : x);
+    row["lnz"] = fmt("%.0f", f.factor_nonzeros);
+    if (ref.ok && ref.total() > 0) {
+      row["ratio_flow"] = fmt("%.2f", f.seconds / ref.total());
+      row["ratio_iter"] = fmt("%.2f", per_iter / ref.total());
+    }
+    const double n6 = time_to(f, 1e-6);
+    if (n6 >= 0) row["newton_1e6"] = fmt("%.3f", n6);
+    if (stage_peak.count("flow")) row["bytes_per_face"] = fmt("%.0f", stage_peak["flow"] / F);
+    // Kernel scaling at the solution.
+    if (!f.u.empty()) {
+      const int many = s.threads > 0 ? s.threads : std::max(2, omp_get_num_procs());
+      const double one = kernel_seconds(topo, u.metric.structure, f.u, 1);
+      const double more = kernel_seconds(topo, u.metric.structure, f.u, many);
+      row["kernel_1"] = fmt("%.4f", one);
+      row["kernel_n"] = fmt("%.4f", more);
+      row["kernel_speedup"] = fmt("%.2f", one / more);
+    }
+  }
+  // Writing: the layout as a mesh (positions of the laid-out disk, or of the sphere).
+  if (!stop_after_flow && u.layout.status == ricci::Status::Ok && !u.layout.positions.empty()) {
+    ricci::Mesh out;
+    const int dims = u.layout.dims;
+    const std::size_t count = u.layout.positions.size() / static_cast<std::size_t>(dims);
+    out.positions.assign(3 * count, 0.0);
+    for (std::size_t i = 0; i < count; ++i)
+      for (int d = 0; d < dims; ++d) out.positions[3 * i + d] = u.layout.positions[dims * i + d];
+    out.faces = u.has_cut ? u.cut.cut_faces : v.mesh.faces;
+    const std::string path = "/tmp/bench_pipeline_" + std::to_string(getpid()) + ".ply";
+    t0 = Clock::now();
+    const ricci::WriteResult w = ricci::write_mesh(path, out);
+    row["stage_write"] = fmt("%.3f", since(t0));
+    std::error_code ec;
+    fs::remove(path, ec);
+    if (w.status != ricci::Status::Ok) row["write_error"] = w.message;
+  }
+  // Time to 1e-6: the paper's gradient descent (step 0.05), capped.
+  if (s.gd_seconds > 0 && u.metric.status == ricci::Status::Ok) {
+    ricci::FlowOptions gd;
+    gd.method = ricci::Method::GradientDescent;
+    gd.tolerance = 1e-6;
+    gd.threads = s.threads;
+    std::vector<double> uu = u.metric.u;
+    double seconds = 0;
+    int iterations = 0, chunk = 16;
+    ricci::Status status = ricci::Status::NotRun;
+    double err = 0;
+    while (true) {
+      gd.max_iterations = chunk;
+      const ricci::FlowResult g = ricci::solve_flow(topo, u.metric.structure, uu, u.target, gd);
+      seconds += g.seconds;
+      iterations += g.iterations;
+      status = g.status;
+      err = g.max_curvature_error;
+      if (g.status != ricci::Status::NotConverged || seconds >= s.gd_seconds) break;
+      uu = g.u;
+      const double per = g.seconds / std::max(1, g.iterations);
+      chunk = static_cast<int>(std::max(1.0, std::min(2.0 * chunk, 0.25 * (s.gd_seconds - seconds) / std::max(per, 1e-9))));
+    }
+    row["gd_seconds"] = fmt("%.2f", seconds);
+    row["gd_iterations"] = std::to_string(iterations);
+    row["gd_status"] = status == ricci::Status::Ok ? "ok" : (status == ricci::Status::NotConverged ? "capped" : std::string(ricci::status_name(status)));
+    row["gd_error"] = fmt("%.1e", err);
+  }
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  row["maxrss"] = fmt("%.0f", 1024.0 * static_cast<double>(usage.ru_maxrss));
+  return row;
+}
+
+std::string serialize(const Row& r) {
+  std::string s;
+  for (const auto& [k, v] : r) {
+    std::string clean = v;
+    std::replace(clean.begin(), clean.end(), '\n', ' ');
+    s += k + "\t" + clean + "\n";
+  }
+  return s;
+}
+
+Row deserialize(const std::string& s) {
+  Row r;
+  std::istringstream in(s);
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::size_t tab = line.find('\t');
+    if (tab != std::string::npos) r[line.substr(0, tab)] = line.substr(tab + 1);
+  }
+  return r;
+}
+
+/// Runs run_input() in a child process; its rows come back through a pipe.
+Row run_isolated(const Input& input, const Settings& s) {
+  int fd[2];
+  if (pipe(fd) != 0) return run_input(input, s);
+  std::cout << std::flush;
+  std::cerr << std::flush;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    const std::string text = serialize(run_input(input, s));
+    std::size_t done = 0;
+    while (done < text.size()) {
+      const ssize_t k = write(fd[1], text.data() + done, text.size() - done);
+      if (k <= 0) break;
+      done += static_cast<std::size_t>(k);
+    }
+    close(fd[1]);
+    _exit(0);
+  }
+  close(fd[1]);
+  std::string text;
+  char buf[4096];
+  ssize_t k;
+  while ((k = read(fd[0], buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(k));
+  close(fd[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  Row r = deserialize(text);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    r["error"] = WIFSIGNALED(status) ? "child killed by signal " + std::to_string(WTERMSIG(status)) : "child failed";
+  return r;
+}
+
+std::string get(const Row& r, const std::string& k, const std::string& fallback = "—") {
+  const auto it = r.find(k);
+  return it == r.end() ? fallback : it->second;
+}
+
+double num(const Row& r, const std::string& k) {
+  const auto it = r.find(k);
+  return it == r.end() ? std::nan("") : std::strtod(it->second.c_str(), nullptr);
+}
+
+std::string mb(const Row& r, const std::string& k) {
+  const double x = num(r, k);
+  return std::isnan(x) ? "—" : fmt("%.0f", x / 1048576.0);
+}
+
+int usage(const char* argv0) {
+  std::cerr << "usage: " << argv0
+            << " [MESHES_DIR] [--out FILE.md] [--only TEXT]… [--max-faces N] [--sphere] [--threads N] "
+               "[--gd-seconds S] [--flow-only]\n";
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings s;
+  s.meshes = fs::path(RICCI_SOURCE_DIR).parent_path() / "shared" / "meshes";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
+    if (a == "--sphere") {
+      s.sphere = true;
+    } else if (a == "--flow-only") {
+      s.flow_only = true;
+    } else if (a == "--out" || a == "--only") {
+      const char* v = value();
+      if (!v) return usage(argv[0]);
+      if (a == "--out") s.out = v;
+      else s.only.emplace_back(v);
+    } else if (a == "--threads" || a == "--gd-seconds" || a == "--max-faces") {
+      const char* v = value();
+      if (!v) return usage(argv[0]);
+      char* end = nullptr;
+      const double x = std::strtod(v, &end);
+      if (*end != '\0' || !(x >= 0)) return usage(argv[0]);
+      if (a == "--threads") s.threads = static_cast<int>(x);
+      if (a == "--gd-seconds") s.gd_seconds = x;
+      if (a == "--max-faces") s.max_faces = static_cast<std::int64_t>(x);
+    } else if (a == "-h" || a == "--help") {
+      usage(argv[0]);
+      return 0;
+    } else if (!a.empty() && a[0] == '-') {
+      return usage(argv[0]);
+    } else {
+      s.meshes = a;
+    }
+  }
+  const std::vector<Input> list = inputs(s);
+  std::vector<std::pair<std::string, Row>> rows;
+  for (const Input& in : list) {
+    std::cerr << "bench_pipeline: " << in.name << " …" << std::endl;
+    const Clock::time_point t0 = Clock::now();
+    rows.emplace_back(in.name, run_isolated(in, s));
+    std::cerr << "bench_pipeline: " << in.name << " done in " << fmt("%.1f", since(t0)) << " s: flow "
+              << get(rows.back().second, "flow") << " s, ref " << get(rows.back().second, "ref") << " s, "
+              << get(rows.back().second, "iterations") << " it, ratio " << get(rows.back().second, "ratio_flow")
+              << std::endl;
+  }
+
+  std::string doc = "# ricci pipeline benchmark\n\n";
+  doc += "Machine: " + cpu_model() + ", " + std::to_string(std::thread::hardware_concurrency()) +
+         " hardware threads; compiler: " + compiler_name() + "; OpenMP threads: " +
+         (s.threads > 0 ? std::to_string(s.threads) : std::string("default")) + (s.flow_only ? "; --flow-only" : "") +
+         ".\n\n";
+  doc += "Uniformization with `uniformize()` defaults (geometry by topology, circle packing, circle boundary in E, "
+         "geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "
+         "the cotangent Laplacian (one vertex pinned) with the flow's own solver and pattern (CHOLMOD supernodal "
+         "LLᵀ, METIS ≥ 20k unknowns); *flow/ref* and *it/ref* are the whole flow and one mean Newton iteration "
+         "(kernels + assembly + factorization + solve + line search) over it. Each input runs in its own process; "
+         "peaks are VmHWM per stage.\n\n";
+  doc += "## Flow against the reference\n\n";
+  doc += "| input | geometry | #F | Newton it. | max error | flow s | ref s | flow/ref | it/ref | kernels 1→N thr | "
+         "flow peak MB | bytes/face |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [name, r] : rows) {
+    std::string it = get(r, "iterations");
+    if (get(r, "flow_status", "ok") != "ok") it += " (" + get(r, "flow_status") + ")";
+    doc += "| " + name + " | " + get(r, "geometry") + " | " + get(r, "faces") + " | " + it + " | " + get(r, "error") +
+           " | " + get(r, "flow") + " | " + get(r, "ref") + " | " + get(r, "ratio_flow") + " | " + get(r, "ratio_iter") +
+           " | " + get(r, "kernel_speedup") + "× | " + mb(r, "peak_flow") + " | " + get(r, "bytes_per_face") + " |\n";
+  }
+  doc += "\n## Newton iteration, mean seconds per iteration\n\n";
+  doc += "| input | setup s | analysis s | kernels | assembly | factorization | solve | line search | L nnz | ref "
+         "analysis | ref factor | ref solve |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [name, r] : rows)
+    doc += "| " + name + " | " + get(r, "t_setup") + " | " + get(r, "t_analysis") + " | " + get(r, "t_derivatives") +
+           " | " + get(r, "t_assembly") + " | " + get(r, "t_factorization") + " | " + get(r, "t_solve") + " | " +
+           get(r, "t_line_search") + " | " + fmt("%.3gM", num(r, "lnz") / 1e6) + " | " + get(r, "ref_analysis") + " | " +
+           get(r, "ref_factor") + " | " + get(r, "ref_solve") + " |\n";
+  doc += "\n## Stages, seconds (peak MB of the process during the stage)\n\n";
+  const std::vector<std::string> stages = {"initial_metric", "target", "flow", "cut", "cut_metric", "layout",
+                                           "seed_check", "deck", "angles"};
+  doc += "| input | load | validate | topology |";
+  for (const std::string& st : stages) doc += " " + st + " |";
+  doc += " write | status |\n|---|---:|---:|---:|";
+  for (std::size_t i = 0; i < stages.size(); ++i) doc += "---:|";
+  doc += "---:|---|\n";
+  for (const auto& [name, r] : rows) {
+    doc += "| " + name + " | " + get(r, "load") + " | " + get(r, "validate") + " | " + get(r, "topology") + " |";
+    for (const std::string& st : stages) {
+      const std::string sec = get(r, "stage_" + st);
+      doc += " " + sec + (sec != "—" && r.count("peak_" + st) ? " (" + mb(r, "peak_" + st) + ")" : "") + " |";
+    }
+    std::string status = get(r, "status");
+    if (r.count("message")) status += ": " + get(r, "message");
+    if (r.count("error") && !r.count("faces")) status = get(r, "error");
+    doc += " " + get(r, "stage_write") + " | " + status + " |\n";
+  }
+  doc += "\n## Time to max |K̄ − K| < 1e-6: Newton against the paper's gradient descent (step 0.05)\n\n";
+  doc += "| input | Newton s | gradient descent | GD/Newton |\n|---|---:|---|---:|\n";
+  for (const auto& [name, r] : rows) {
+    const std::string gs = get(r, "gd_status");
+    std::string g = gs == "—" ? "—"
+                              : get(r, "gd_seconds") + " s, " + get(r, "gd_iterations") + " it" +
+                                    (gs == "ok" ? "" : " (" + gs + " at error " + get(r, "gd_error") + ")");
+    const double ratio = num(r, "gd_seconds") / num(r, "newton_1e6");
+    std::string rs = std::isfinite(ratio) ? (gs == "ok" ? "" : "> ") + fmt("%.0f", ratio) : "—";
+    doc += "| " + name + " | " + get(r, "newton_1e6") + " | " + g + " | " + rs + " |\n";
+  }
+  // Growth: log–log slope of flow seconds against #F over the generated inputs of each family.
+  doc += "\n## Growth with size (least-squares log–log slope of flow seconds and flow peak against #F)\n\n";
+  doc += "| family | sizes | time slope | peak-memory slope |\n|---|---|---:|---:|\n";
+  for (const std::string family : {"generated/torus-", "generated/genus2-", "generated/icosphere-"}) {
+    std::vector<double> lx, lt, lm;
+    std::string sizes;
+    for (const auto& [name, r] : rows)
+      if (name.rfind(family, 0) == 0 && !std::isnan(num(r, "flow"))) {
+        lx.push_back(std::log(num(r, "faces")));
+        lt.push_back(std::log(num(r, "flow")));
+        lm.push_back(std::log(num(r, "peak_flow")));
+        sizes += (sizes.empty() ? "" : ", ") + name.substr(family.size());
+      }
+    if (lx.size() < 2) continue;
+    auto slope = [&](const std::vector<double>& y) {
+      double mx = 0, my = 0;
+      for (std::size_t i = 0; i < lx.size(); ++i) {
+        mx += lx[i];
+        my += y[i];
+      }
+      mx /= lx.size();
+      my /= lx.size();
+      double sxy = 0, sxx = 0;
+      for (std::size_t i = 0; i < lx.size(); ++i) {
+        sxy += (lx[i] - mx) * (y[i] - my);
+        sxx += (lx[i] - mx) * (lx[i] - mx);
+      }
+      return sxy / sxx;
+    };
+    doc += "| " + family.substr(10, family.size() - 11) + " | " + sizes + " | " + fmt("%.2f", slope(lt)) + " | " +
+           fmt("%.2f", slope(lm)) + " |\n";
+  }
+  std::cout << doc << std::flush;
+  if (!s.out.empty()) {
+    const ricci::WriteResult w = ricci::write_file_atomic(s.out, doc);
+    if (w.status != ricci::Status::Ok) {
+      std::cerr << "bench_pipeline: " << w.message << '\n';
+      return 1;
+    }
+  }
+  return 0;
+}
