@@ -18,6 +18,11 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
+#include <thread>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -125,7 +130,37 @@ std::string check_output_dir(const fs::path& out, const std::vector<std::string>
   return {};
 }
 
-/// Writes the files into a staging directory beside OUTDIR, then renames it into place.
+// ---- interruption while writing ------------------------------------------------------------
+//
+// While OUTDIR is being written, SIGINT, SIGTERM and SIGHUP remove what was staged so far and
+// put a replaced OUTDIR back, using only async-signal-safe calls on paths prepared beforehand,
+// then end the process with the signal. Before that nothing is on disk; after the final rename
+// the result is complete.
+
+constexpr std::size_t kMaxStaged = 64;
+char g_files[kMaxStaged][4096];             // staged files, in the order they are created
+volatile std::sig_atomic_t g_nfiles = 0;    // files created (or being created) so far
+char g_dir[4096];                           // the staging directory
+volatile std::sig_atomic_t g_dir_made = 0;  // it exists
+char g_old[4096], g_out[4096];              // a replaced OUTDIR moved aside, and where it belongs
+volatile std::sig_atomic_t g_old_moved = 0;
+
+extern "C" void on_interrupt(int sig) {
+  for (int i = 0; i < g_nfiles; ++i) ::unlink(g_files[i]);
+  if (g_dir_made) ::rmdir(g_dir);
+  if (g_old_moved) ::rename(g_old, g_out);
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
+bool copy_path(char (&dst)[4096], const std::string& src) {
+  if (src.size() >= sizeof dst) return false;
+  std::memcpy(dst, src.c_str(), src.size() + 1);
+  return true;
+}
+
+/// Writes the files into a staging directory beside OUTDIR, then renames it into place (see
+/// above for interruptions). RICCI_WRITE_PAUSE_MS (a test aid) pauses after every file.
 std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& files) {
   std::error_code ec;
   const fs::path abs = fs::absolute(out, ec);
@@ -133,30 +168,71 @@ std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& fi
   const std::string base = abs.filename().string();
   const fs::path staging = parent / ("." + base + ".ricci-tmp-" + std::to_string(::getpid()));
   const fs::path old = parent / ("." + base + ".ricci-old-" + std::to_string(::getpid()));
+  if (files.size() > kMaxStaged) return "too many output files";
+  for (std::size_t i = 0; i < files.size(); ++i)
+    if (!copy_path(g_files[i], (staging / files[i].name).string())) return "output path too long: " + out.string();
+  if (!copy_path(g_dir, staging.string()) || !copy_path(g_old, old.string()) || !copy_path(g_out, abs.string()))
+    return "output path too long: " + out.string();
+  int pause_ms = 0;
+  if (const char* p = std::getenv("RICCI_WRITE_PAUSE_MS")) pause_ms = std::max(0, std::min(std::atoi(p), 10000));
+  struct Guard {
+    void (*prev[3])(int);
+    Guard() {
+      g_nfiles = 0;
+      g_dir_made = 0;
+      g_old_moved = 0;
+      prev[0] = std::signal(SIGINT, on_interrupt);
+      prev[1] = std::signal(SIGTERM, on_interrupt);
+      prev[2] = std::signal(SIGHUP, on_interrupt);
+    }
+    ~Guard() {
+      g_nfiles = 0;
+      g_dir_made = 0;
+      g_old_moved = 0;
+      std::signal(SIGINT, prev[0]);
+      std::signal(SIGTERM, prev[1]);
+      std::signal(SIGHUP, prev[2]);
+    }
+  } guard;
   fs::remove_all(staging, ec);
+  g_dir_made = 1;  // set before creating: rmdir of a directory that is not there is harmless
   if (!fs::create_directory(staging, ec)) return "cannot create " + staging.string() + ": " + ec.message();
   auto abandon = [&](const std::string& m) {
+    g_nfiles = 0;
+    g_dir_made = 0;
     std::error_code e2;
     fs::remove_all(staging, e2);
     return m;
   };
-  for (const OutFile& f : files) {
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const OutFile& f = files[i];
+    g_nfiles = static_cast<std::sig_atomic_t>(i + 1);  // before the file exists
     std::ofstream os(staging / f.name, std::ios::binary);
     os.write(f.data.data(), static_cast<std::streamsize>(f.data.size()));
     os.close();
     if (!os) return abandon("cannot write " + (out / f.name).string());
+    if (pause_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(pause_ms));
   }
   const bool existed = fs::exists(abs, ec);
   if (existed) {
+    g_old_moved = 1;  // before the rename: renaming a missing OLD back fails harmlessly
     fs::rename(abs, old, ec);
-    if (ec) return abandon("cannot replace " + out.string() + ": " + ec.message());
+    if (ec) {
+      g_old_moved = 0;
+      return abandon("cannot replace " + out.string() + ": " + ec.message());
+    }
   }
   fs::rename(staging, abs, ec);
   if (ec) {
     std::error_code e2;
     if (existed) fs::rename(old, abs, e2);
+    g_old_moved = 0;
     return abandon("cannot create " + out.string() + ": " + ec.message());
   }
+  // OUTDIR is complete: nothing is left to undo.
+  g_nfiles = 0;
+  g_dir_made = 0;
+  g_old_moved = 0;
   if (existed) fs::remove_all(old, ec);
   return {};
 }

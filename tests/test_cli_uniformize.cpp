@@ -3,6 +3,14 @@
 // holds), the output directory's all-or-nothing replacement rules, a stored metric laid out
 // again, the cover tiling, and exit codes for bad input.
 #include <doctest/doctest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
 
 #include <cmath>
 #include <complex>
@@ -270,4 +278,78 @@ TEST_CASE("cli cover: the tiling as SVG or mesh; surfaces without a cover are re
   CHECK(disk.exit_code == 2);
   CHECK(disk.err.find("genus >= 1") != std::string::npos);
   CHECK(run_cli({"cover", "-o", (tmp / "c.txt").string()}).exit_code == 2);
+}
+
+namespace {
+
+extern "C" char** environ;
+
+/// Starts `ricci uniformize ... -o out` with RICCI_WRITE_PAUSE_MS=150, waits until its staging
+/// directory appears beside `out`, lets it write a few files, sends `sig`, and returns the wait
+/// status (or -1 when the staging directory never appeared).
+int interrupt_while_writing(const fs::path& out, int sig) {
+  const std::string cli = RICCI_CLI_PATH;
+  std::vector<std::string> args = {cli, "uniformize", "-o", out.string(), "-q"};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env_store;
+  for (char** e = environ; *e != nullptr; ++e) env_store.emplace_back(*e);
+  env_store.emplace_back("RICCI_WRITE_PAUSE_MS=150");
+  std::vector<char*> envp;
+  for (auto& e : env_store) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, cli.c_str(), &actions, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) return -1;
+  std::string staging_name = ".";
+  staging_name += out.filename().string();
+  staging_name += ".ricci-tmp-";
+  staging_name += std::to_string(pid);
+  const fs::path staging = out.parent_path() / staging_name;
+  bool seen = false;
+  for (int i = 0; i < 600 && !seen; ++i) {  // up to 60 s
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    seen = fs::exists(staging);
+  }
+  if (seen) std::this_thread::sleep_for(std::chrono::milliseconds(400));  // a few files written
+  kill(pid, sig);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+  }
+  return seen ? status : -1;
+}
+
+}  // namespace
+
+TEST_CASE("cli uniformize: an interrupted run leaves no partial output and keeps the previous OUTDIR") {
+  TempDir tmp;
+  for (int sig : {SIGINT, SIGTERM}) {
+    CAPTURE(sig);
+    // No previous OUTDIR: nothing at all is left.
+    const fs::path out = tmp / ("fresh-" + std::to_string(sig));
+    const int status = interrupt_while_writing(out, sig);
+    REQUIRE(status != -1);
+    CHECK(WIFSIGNALED(status));
+    CHECK(WTERMSIG(status) == sig);
+    CHECK(!fs::exists(out));
+    // A previous OUTDIR: still there, unchanged.
+    const fs::path prev = tmp / ("previous-" + std::to_string(sig));
+    REQUIRE(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", prev.string(), "-q",
+                     "--no-pictures"})
+                .exit_code == 0);
+    const std::string before = ricci_test::read_bytes(prev / "report.json");
+    const int status2 = interrupt_while_writing(prev, sig);
+    REQUIRE(status2 != -1);
+    CHECK(WIFSIGNALED(status2));
+    CHECK(ricci_test::read_bytes(prev / "report.json") == before);
+    CHECK(!fs::exists(prev / "polygon.obj"));  // the genus-2 run's files never arrived
+  }
+  // No staging or set-aside directories are left behind.
+  for (const std::string& name : listing(tmp.path())) CHECK_MESSAGE(name.rfind(".", 0) != 0, name);
 }
