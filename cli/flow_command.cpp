@@ -360,22 +360,43 @@ Json flow_json(const FlowReport& r) {
   return j;
 }
 
-/// The metric file content (layouts at the top of this file).
-std::string metric_file(const FlowReport& r, const ricci::Topology& t, std::span<const Index> vertex_to_input,
-                        bool json) {
-  const ricci::FlowResult& f = r.flow;
-  const std::string geometry = r.geometry ? std::string(ricci::geometry_name(*r.geometry)) : std::string();
+
+/// Prints the summary (text or JSON) and returns the exit code for the report's status, or
+/// `code` when given (for outcomes that have no status of their own).
+int finish(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
+           std::optional<int> code = std::nullopt) {
+  r.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (options.json) {
+    std::cout << flow_json(r).dump(2) << '\n';
+  } else if (r.have_flow) {
+    std::cout << r.flow.brief_report() << '\n';
+  }
+  return finish_stdout(code ? *code : exit_code(r.status));
+}
+
+/// Records a failure: the status and message in the report and an error line on stderr.
+void fail(FlowReport& r, Status status, const std::string& message) {
+  r.status = status;
+  r.message = message;
+  print_error(message);
+}
+
+}  // namespace
+
+std::string metric_file_text(const MetricHeader& h, const ricci::FlowResult& f, const ricci::Topology& t,
+                             std::span<const Index> vertex_to_input, bool json) {
+  const std::string& geometry = h.geometry;
   if (json) {
     Json j;
     j["format"] = "ricci-flow-metric";
     j["version"] = 1;
     j["vertex_numbering"] = kVertexNumberingNote;
-    j["mesh"] = r.file;
+    j["mesh"] = h.mesh;
     j["geometry"] = geometry;
-    j["scheme"] = std::string(ricci::scheme_name(r.scheme));
-    j["boundary"] = r.boundary;
-    j["target"] = r.target;
-    j["method"] = std::string(method_name(r.method));
+    j["scheme"] = h.scheme;
+    j["boundary"] = h.boundary;
+    j["target"] = h.target;
+    j["method"] = h.method;
     j["iterations"] = f.iterations;
     j["max_curvature_error"] = real(f.max_curvature_error);
     j["gauss_bonnet_error"] = real(f.gauss_bonnet_error);
@@ -402,9 +423,9 @@ std::string metric_file(const FlowReport& r, const ricci::Topology& t, std::span
   }
   std::string s;
   s.reserve(static_cast<std::size_t>(t.num_vertices) * 80 + static_cast<std::size_t>(t.num_edges) * 48 + 1024);
-  s += "# ricci flow metric of " + r.file + '\n';
-  s += "# geometry=" + geometry + " scheme=" + std::string(ricci::scheme_name(r.scheme)) + " boundary=" +
-       r.boundary + " target=" + r.target + " method=" + std::string(method_name(r.method)) + '\n';
+  s += "# ricci flow metric of " + h.mesh + '\n';
+  s += "# geometry=" + geometry + " scheme=" + h.scheme + " boundary=" +
+       h.boundary + " target=" + h.target + " method=" + h.method + '\n';
   s += "# iterations=" + std::to_string(f.iterations) + " max_curvature_error=";
   append_number(s, f.max_curvature_error);
   s += " gauss_bonnet_error=";
@@ -439,28 +460,6 @@ std::string metric_file(const FlowReport& r, const ricci::Topology& t, std::span
   }
   return s;
 }
-
-/// Prints the summary (text or JSON) and returns the exit code for the report's status, or
-/// `code` when given (for outcomes that have no status of their own).
-int finish(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
-           std::optional<int> code = std::nullopt) {
-  r.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  if (options.json) {
-    std::cout << flow_json(r).dump(2) << '\n';
-  } else if (r.have_flow) {
-    std::cout << r.flow.brief_report() << '\n';
-  }
-  return finish_stdout(code ? *code : exit_code(r.status));
-}
-
-/// Records a failure: the status and message in the report and an error line on stderr.
-void fail(FlowReport& r, Status status, const std::string& message) {
-  r.status = status;
-  r.message = message;
-  print_error(message);
-}
-
-}  // namespace
 
 int run_flow(const FlowCommandOptions& options) {
   const Clock::time_point start = Clock::now();
@@ -648,7 +647,10 @@ int run_flow(const FlowCommandOptions& options) {
   // ---- output ----
   if (!options.output.empty()) {
     const bool json = has_extension(options.output, {".json"});
-    const std::string data = metric_file(r, topo, validated.vertex_to_input, json);
+    const MetricHeader header{r.file, r.geometry ? std::string(ricci::geometry_name(*r.geometry)) : std::string(),
+                              std::string(ricci::scheme_name(r.scheme)), r.boundary, r.target,
+                              std::string(method_name(r.method))};
+    const std::string data = metric_file_text(header, r.flow, topo, validated.vertex_to_input, json);
     const ricci::WriteResult w = ricci::write_file_atomic(options.output, data, protected_paths);
     if (w.status != Status::Ok) {
       print_error(w.message);

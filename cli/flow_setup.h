@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -69,5 +70,21 @@ struct TargetBuild {
 TargetBuild build_target(const ricci::Topology& topo, ricci::BoundaryMode mode, const TargetSpec& target_spec,
                          const BoundarySpec& boundary_spec, const std::string& target_text,
                          const std::string& boundary_text);
+
+/// What the metric file says about the run that made it.
+struct MetricHeader {
+  std::string mesh;      ///< the input's name
+  std::string geometry;  ///< geometry_name()
+  std::string scheme;    ///< scheme_name()
+  std::string boundary;  ///< boundary_mode_name(), or "none" for a closed surface
+  std::string target;    ///< "uniform", "cones=FILE", "single-vertex=I"
+  std::string method;    ///< "newton" or "gradient"
+};
+
+/// The metric file written by `ricci flow -o` and `ricci uniformize` (format at the top of
+/// flow_command.cpp): JSON when `json`, else CSV. `vertex_to_input` maps validated vertices to the
+/// input file's (−1 for none).
+std::string metric_file_text(const MetricHeader& header, const ricci::FlowResult& flow, const ricci::Topology& t,
+                             std::span<const ricci::Index> vertex_to_input, bool json);
 
 }  // namespace ricci_cli

@@ -315,38 +315,6 @@ std::string generators_json(const ricci::UniformizeResult& r, const std::string&
   return j.dump(2) + '\n';
 }
 
-std::string metric_csv(const ricci::UniformizeResult& r, const ricci::Topology& t, std::span<const Index> to_input,
-                       const std::string& source, const std::string& scheme) {
-  const ricci::FlowResult& f = r.flow;
-  std::string s;
-  s += "# ricci flow metric of " + source + '\n';
-  s += "# geometry=" + std::string(ricci::geometry_name(r.geometry)) + " scheme=" + scheme + " boundary=" +
-       (t.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary))) +
-       " target=uniform method=newton\n";
-  s += "# iterations=" + std::to_string(f.iterations) + " max_curvature_error=";
-  append_number(s, f.max_curvature_error);
-  s += " gauss_bonnet_error=";
-  append_number(s, f.gauss_bonnet_error);
-  s += "\n# vertex,input_vertex,u,K,K_target\n";
-  for (Index v = 0; v < t.num_vertices; ++v) {
-    s += std::to_string(v) + ',' + std::to_string(to_input[v]) + ',';
-    append_number(s, f.u[v]);
-    s += ',';
-    append_number(s, f.K[v]);
-    s += ',';
-    append_number(s, f.K_target[v]);
-    s += '\n';
-  }
-  s += "# edge,v0,v1,length\n";
-  for (Index e = 0; e < t.num_edges; ++e) {
-    s += std::to_string(e) + ',' + std::to_string(t.edge_vertices[2 * e]) + ',' +
-         std::to_string(t.edge_vertices[2 * e + 1]) + ',';
-    append_number(s, f.l[e]);
-    s += '\n';
-  }
-  return s;
-}
-
 // ---- stored metrics (`ricci layout`) ------------------------------------------------------------
 
 struct StoredMetric {
@@ -758,7 +726,15 @@ int run_uniformize(const UniformizeCommandOptions& o) {
       files.push_back({"polygon.obj", disk_obj(r.polygon_cut, r.polygon.positions, r.geometry,
                                                "the canonical fundamental polygon", run.file)});
   }
-  if (!run.from_metric) files.push_back({"metric.csv", metric_csv(r, topo, v.vertex_to_input, run.file, o.scheme)});
+  if (!run.from_metric) {
+    const MetricHeader header{run.file,
+                              std::string(ricci::geometry_name(r.geometry)),
+                              o.scheme,
+                              topo.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary)),
+                              target_spec->kind == TargetSpec::Kind::Uniform ? std::string("uniform") : o.target,
+                              "newton"};
+    files.push_back({"metric.csv", metric_file_text(header, r.flow, topo, v.vertex_to_input, false)});
+  }
   ricci::CoverResult cover;
   if (!r.polygon_note.empty()) {
     run.notes.push_back(r.polygon_note);

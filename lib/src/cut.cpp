@@ -36,8 +36,6 @@ bool CutOptions::is_valid(std::string* why) const {
   if (max_moves < 0) return fail("max_moves must be >= 0");
   for (double w : edge_weights)
     if (!std::isfinite(w) || w < 0) return fail("edge_weights must be finite and >= 0");
-  for (double w : vertex_scale)
-    if (!std::isfinite(w) || !(w > 0)) return fail("vertex_scale must be finite and > 0");
   return true;
 }
 
@@ -71,17 +69,14 @@ struct Surface {
   std::vector<Index> rec_face;
   std::vector<double> rec_bary;
   std::vector<Index> vertex_loop;  ///< input boundary loop of a vertex, -1 if interior
-  /// Optional metric scale per vertex (CutOptions::vertex_scale; added vertices interpolated).
-  std::vector<double> scale;
   Topology topo;
 
   Index nv() const { return topo.num_vertices; }
   double length(Index u, Index v) const {
-    const double f = scale.empty() ? 1.0 : 0.5 * (scale[u] + scale[v]);
-    if (!has_pos) return f;
+    if (!has_pos) return 1.0;
     const double dx = pos[3 * u] - pos[3 * v], dy = pos[3 * u + 1] - pos[3 * v + 1],
                  dz = pos[3 * u + 2] - pos[3 * v + 2];
-    return f * std::sqrt(dx * dx + dy * dy + dz * dz);
+    return std::sqrt(dx * dx + dy * dy + dz * dz);
   }
   /// Class of a vertex in Ŝ.
   Index cls(Index v) const { return vertex_loop[v] >= 0 ? nv() + vertex_loop[v] : v; }
@@ -144,11 +139,6 @@ Index add_vertex(Surface& S, Index O, const std::array<double, 3>& bary) {
     }
   }
   S.vertex_loop.push_back(-1);
-  if (!S.scale.empty()) {
-    double x = 0;
-    for (int j = 0; j < 3; ++j) x += bary[j] * S.scale[S.input->faces[3 * O + j]];
-    S.scale.push_back(x);
-  }
   return id;
 }
 
@@ -525,18 +515,6 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
     }
   };
   const double penalty = 20 * S.mean_length;
-  // Metric scale of a node (vertex, face centroid, edge midpoint) when a vertex scale is given.
-  auto node_scale = [&](Index node) {
-    if (node < n) return S.scale[R.to_surface[node]];
-    double x = 0;
-    if (node < n + nf) {
-      for (int k = 0; k < 3; ++k) x += S.scale[R.to_surface[R.faces[3 * (node - n) + k]]] / 3;
-    } else {
-      const Index c = rt.edge_corners[2 * (node - n - nf)];
-      x = 0.5 * (S.scale[R.to_surface[R.faces[next_corner(c)]]] + S.scale[R.to_surface[R.faces[prev_corner(c)]]]);
-    }
-    return x;
-  };
   std::vector<Index> own_hops;
   if (!hops_in) {
     own_hops = boundary_hops(R);
@@ -599,7 +577,6 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
         len = std::sqrt((pu[0] - pw[0]) * (pu[0] - pw[0]) + (pu[1] - pw[1]) * (pu[1] - pw[1]) +
                         (pu[2] - pw[2]) * (pu[2] - pw[2]));
       }
-      if (!S.scale.empty()) len *= 0.5 * (node_scale(u) + node_scale(w));
       const double nd = d + len * factor(w) + (w >= n ? penalty : 0);
       if (nd < dist[w]) {
         dist[w] = nd;
@@ -1017,12 +994,6 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
     return fail(Status::InvalidArgument, "cut: the topology does not match the mesh's faces");
   if (!mesh.positions.empty() && mesh.positions.size() != static_cast<std::size_t>(V) * 3)
     return fail(Status::InvalidArgument, "cut: positions must be #V x 3 or empty");
-  if (!options.vertex_scale.empty() && options.vertex_scale.size() != static_cast<std::size_t>(V))
-    return fail(Status::InvalidArgument, "cut: vertex_scale must have one value per vertex (" + std::to_string(V) + ")");
-  if (!options.initial_cut.empty() && (options.initial_cut.size() != static_cast<std::size_t>(topo.num_edges) ||
-                                      !topo.is_closed()))
-    return fail(Status::InvalidArgument, "cut: initial_cut must have one flag per edge of a closed surface (" +
-                                             std::to_string(topo.num_edges) + " edges)");
   if (!options.edge_weights.empty() &&
       options.edge_weights.size() != static_cast<std::size_t>(topo.num_edges))
     return fail(Status::InvalidArgument, "cut: edge_weights must have one value per edge (" +
@@ -1063,7 +1034,6 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   S.face_origin.resize(static_cast<std::size_t>(topo.num_faces));
   std::iota(S.face_origin.begin(), S.face_origin.end(), 0);
   S.vertex_loop.assign(static_cast<std::size_t>(V), -1);
-  S.scale = options.vertex_scale;
   for (Index L = 0; L < b; ++L)
     for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
       S.vertex_loop[topo.boundary_vertices[k]] = L;
@@ -1167,32 +1137,7 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
     word_canonical = true;
   } else {
     std::vector<double> dhat;
-    if (!options.initial_cut.empty()) {
-      // A given cut graph (e.g. a compact domain's) replaces tree–cotree; dhat: distance from x.
-      for (Index e = 0; e < topo.num_edges; ++e) C.st.cut[e] = options.initial_cut[e] ? 1 : 0;
-      dhat.assign(static_cast<std::size_t>(V), kInf);
-      using Item = std::pair<double, Index>;
-      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
-      dhat[x] = 0;
-      pq.push({0.0, x});
-      while (!pq.empty()) {
-        const auto [dd, u] = pq.top();
-        pq.pop();
-        if (dd > dhat[u]) continue;
-        for (Index k = topo.vertex_corner_offsets[u]; k < topo.vertex_corner_offsets[u + 1]; ++k) {
-          const Index c = topo.vertex_corners[k];
-          const Index z = topo.corner_vertex[next_corner(c)];
-          const double l = options.edge_weights.empty() ? S.length(u, z)
-                                                        : options.edge_weights[topo.corner_edge[prev_corner(c)]];
-          if (dd + l < dhat[z]) {
-            dhat[z] = dd + l;
-            pq.push({dhat[z], z});
-          }
-        }
-      }
-    } else if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &why)) {
-      return internal(why);
-    }
+    if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &why)) return internal(why);
     const std::vector<Index> deg = cut_degree(S, C.st);
     Index P = kInvalid;
     for (Index v = 0; v < V; ++v) {

@@ -318,6 +318,30 @@ DeckResult fail(DeckResult r, Status s, std::string msg) {
   return r;
 }
 
+/// The relator R = [A_1^-1, B_1] … [A_g^-1, B_g] of the generators (in double, into r.relator)
+/// and relation_error: R conjugated by the map moving the polygon corner v0 to the origin, from
+/// `gens` (the same maps in long double, order a1 b1 a2 b2 …), its distance to the identity.
+/// Conjugating first keeps every partial product a map between tiles around the origin.
+void set_relation(DeckResult& r, const std::vector<MoebiusL>& gens, cplx v0) {
+  const std::size_t g = gens.size() / 2;
+  Moebius R;
+  for (std::size_t i = 0; i < g; ++i) {
+    const Moebius& A = r.generators[2 * i].map;
+    const Moebius& B = r.generators[2 * i + 1].map;
+    R = R * A.inverse() * B * A * B.inverse();
+  }
+  r.relator = R;
+  const MoebiusL C = MoebiusL::to_origin(v0);
+  const MoebiusL Ci = C.inverse();
+  MoebiusL RL;
+  for (std::size_t i = 0; i < g; ++i) {
+    const MoebiusL A = C * gens[2 * i] * Ci;
+    const MoebiusL B = C * gens[2 * i + 1] * Ci;
+    RL = RL * A.inverse() * B * A * B.inverse();
+  }
+  r.relation_error = RL.distance_to_identity();
+}
+
 /// Finds the side labelled `name` and its partner labelled name^-1 in a canonical cut.
 bool find_side_pair(const CutResult& cut, const std::string& name, Index* side, Index* partner) {
   *side = *partner = kInvalid;
@@ -454,25 +478,9 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry, std
 
   // The relation Π [A_i^-1, B_i] = 1.
   if (geometry == Geometry::Hyperbolic) {
-    Moebius R;
-    for (Index i = 0; i < g; ++i) {
-      const Moebius& A = r.generators[2 * i].map;
-      const Moebius& B = r.generators[2 * i + 1].map;
-      R = R * A.inverse() * B * A * B.inverse();
-    }
-    r.relator = R;
-    // The error is measured on C R C^-1, C moving R's fixed point (corner v0) to the origin, in
-    // long double: the partial products then stay among the tiles around the origin and keep
-    // small norms (see the header).
-    const MoebiusL C = MoebiusL::to_origin(pos(cut.side_vertices[cut.side_offsets[0]]));
-    const MoebiusL Ci = C.inverse();
-    MoebiusL RL;
-    for (Index i = 0; i < g; ++i) {
-      const MoebiusL A = C * MoebiusL(r.generators[2 * i].map) * Ci;
-      const MoebiusL B = C * MoebiusL(r.generators[2 * i + 1].map) * Ci;
-      RL = RL * A.inverse() * B * A * B.inverse();
-    }
-    r.relation_error = RL.distance_to_identity();
+    std::vector<MoebiusL> gens;
+    for (const DeckGenerator& G : r.generators) gens.push_back(MoebiusL(G.map));
+    set_relation(r, gens, pos(cut.side_vertices[cut.side_offsets[0]]));
   } else {
     // Rigid motions (Procrustes) so that a rotation in the layout shows up in the relation.
     std::vector<Rigid> rig;
@@ -840,24 +848,7 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     }
 
   // 7. The relation, conjugated to the corner v0, in long double.
-  {
-    Moebius R;
-    for (Index i = 0; i < g; ++i) {
-      const Moebius& A = r.generators[2 * i].map;
-      const Moebius& B = r.generators[2 * i + 1].map;
-      R = R * A.inverse() * B * A * B.inverse();
-    }
-    r.relator = R;
-    const MoebiusL C = MoebiusL::to_origin(cpos(canonical.side_vertices[canonical.side_offsets[0]]));
-    const MoebiusL Ci = C.inverse();
-    MoebiusL RL;
-    for (Index i = 0; i < g; ++i) {
-      const MoebiusL A = C * XL[2 * i] * Ci;
-      const MoebiusL B = C * XL[2 * i + 1] * Ci;
-      RL = RL * A.inverse() * B * A * B.inverse();
-    }
-    r.relation_error = RL.distance_to_identity();
-  }
+  set_relation(r, XL, cpos(canonical.side_vertices[canonical.side_offsets[0]]));
   if (!std::isfinite(r.relation_error)) return bad(Status::NumericalFailure, "the relation check is not finite.");
   r.status = Status::Ok;
   char buf[200];

@@ -74,22 +74,13 @@ struct CutOptions {
   /// Optional per-edge weights (#E, in the topology's edge numbering, finite and ≥ 0) for the
   /// shortest-path tree and the loop lengths. Empty: 3D edge lengths (uniform without positions).
   std::vector<double> edge_weights;
-  /// Optional metric scale per vertex (#V, finite and > 0): every length the cut measures (tree,
-  /// loop lengths, cut-and-paste paths) is the 3D length times the mean scale of its ends, so
-  /// that loops are short in a conformal metric (scale = its length over the 3D length).
-  std::vector<double> vertex_scale;
-  /// Optional cut graph to start from instead of tree–cotree (#E flags, closed surfaces only),
-  /// e.g. the edges of a compact domain's sides: it must cut the surface into one disk (else the
-  /// result is NumericalFailure). The base is its interior vertex nearest to base_vertex.
-  std::vector<std::uint8_t> initial_cut;
   /// Run the cut-and-paste canonicalisation (else: the tree–cotree polygon, canonical = false).
   bool canonicalize = true;
   /// Upper bound on cut-and-paste moves (0: 64 + 40·g).
   Index max_moves = 0;
 
-  /// True when base_vertex ≥ -1, max_moves ≥ 0, edge_weights are finite and ≥ 0 and vertex_scale
-  /// is finite and > 0; otherwise false, with the reason in *why (when why is not null). Sizes are
-  /// checked by cut_surface().
+  /// True when base_vertex ≥ -1, max_moves ≥ 0 and edge_weights are finite and ≥ 0; otherwise
+  /// false, with the reason in *why (when why is not null). Sizes are checked by cut_surface().
   bool is_valid(std::string* why) const;
 };
 
