@@ -377,6 +377,79 @@ TEST_CASE("layout: alignment recovers known isometries") {
   }
 }
 
+TEST_CASE("layout: divide and conquer matches the metric, the single propagation and its own seams") {
+  // E: a fine torus cut open (a long propagation); H: the genus-2 fixture's compact domain.
+  struct Case {
+    const char* name;
+    Mesh mesh;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"torus 160x80", ricci_shapes::torus(160, 80, 3.0, 1.0)});
+  cases.push_back({"pretzel(2, 8)", ricci_shapes::pretzel(2, 8)});
+  for (const Case& c : cases) {
+    INFO(std::string(c.name));
+    const TopologyResult tr = build_topology(c.mesh.faces, c.mesh.num_vertices());
+    REQUIRE(tr.status == Status::Ok);
+    const Uniformized u = uniformize(c.mesh, tr.topology);
+    REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
+    Disk d;
+    if (u.geometry == Geometry::Euclidean) {
+      d = cut_disk(u);
+    } else {
+      d.cut = cut_compact(u.mesh, u.topo, u.flow.l);
+      REQUIRE_MESSAGE(d.cut.status == Status::Ok, d.cut.message);
+      const TopologyResult dt = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+      REQUIRE(dt.status == Status::Ok);
+      d.topo = dt.topology;
+      d.refined = refined_edge_lengths(d.cut, u.topo, u.geometry, u.flow.l);
+      REQUIRE(d.refined.status == Status::Ok);
+      d.l = disk_edge_lengths(d.cut, d.refined.surface, d.refined.l, d.topo);
+    }
+    LayoutOptions single;
+    single.patches = 0;
+    single.polish_sweeps = 0;
+    LayoutOptions split = single;
+    split.patches = 12;
+    const Layout a = layout_disk(d.topo, u.geometry, d.l, single);
+    const Layout b = layout_disk(d.topo, u.geometry, d.l, split);
+    REQUIRE(a.status == Status::Ok);
+    REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+    CHECK(a.patches == 0);
+    CHECK(b.patches == 12);  // kept: not worse than the single propagation
+    CHECK(b.patch_fit_iterations > 0);
+    CHECK(b.max_edge_length_error <= a.max_edge_length_error);
+    // E: far below the 1e-9 bound. H: the single propagation's error grows along its depth
+    // (Newton's residual curvature, ≈1e-13 here, amplified by the hyperbolic plane's divergence);
+    // patches cut the depth, and the error by a factor of 9 on this domain.
+    if (u.geometry == Geometry::Euclidean) CHECK(b.max_edge_length_error < 1e-11);
+    else CHECK(b.max_edge_length_error < 0.25 * a.max_edge_length_error);
+    CHECK(b.max_edge_length_error < 1e-9);
+    CHECK(b.patch_seam_error < 1e-9);
+    CHECK(b.flipped_faces == 0);
+    CHECK(b.unplaced_vertices == 0);
+    CHECK(layout_alignment_error(u.geometry, a.positions, b.positions) < 1e-9);
+    if (u.geometry == Geometry::Hyperbolic) CHECK(b.centre_of_mass < 1e-9);
+    MESSAGE(std::string(c.name) << ": " << d.topo.num_faces << " faces, single propagation " << a.max_edge_length_error
+                   << ", 12 patches " << b.max_edge_length_error << " (seams " << b.patch_seam_error << ", "
+                   << b.patch_fit_iterations << " Ceres iterations), rounding floor " << b.rounding_floor);
+    // More patches than faces: one patch per face at most, still exact.
+    if (d.topo.num_faces < 256) {
+      LayoutOptions many = single;
+      many.patches = 256;
+      const Layout m = layout_disk(d.topo, u.geometry, d.l, many);
+      REQUIRE(m.status == Status::Ok);
+      CHECK(m.max_edge_length_error < 1e-9);
+    }
+  }
+  LayoutOptions bad;
+  bad.patches = 257;
+  std::string why;
+  CHECK_FALSE(bad.is_valid(&why));
+  CHECK(why.find("patches") != std::string::npos);
+  bad.patches = -2;
+  CHECK_FALSE(bad.is_valid(nullptr));
+}
+
 TEST_CASE("layout: bad input gives a status naming the element, never NaN") {
   const Mesh m = ricci_shapes::disk(4);
   const TopologyResult tr = build_topology(m.faces, m.num_vertices());

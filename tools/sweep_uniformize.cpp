@@ -4,6 +4,8 @@
 //
 //   cmake --build build --target sweep_uniformize && build/tools/sweep_uniformize [MESHES_DIR] [--out FILE.md]
 //   --polish-sweeps N   LayoutOptions::polish_sweeps for euclidean layouts (default: the library's)
+//   --patches N         LayoutOptions::patches: divide-and-conquer layouts with N patches (default: off)
+//   --only TEXT         only the meshes whose path (e.g. "genus1/kitten") contains TEXT
 //
 // Columns: geometry; #F; Newton iterations (with the polishing steps) and max |K̄ − K|; the
 // layout's max relative edge-length error and flipped faces; the largest deviation between
@@ -40,15 +42,20 @@ std::string sci(double x) {
 int main(int argc, char** argv) {
   fs::path dir = fs::path(RICCI_SOURCE_DIR).parent_path() / "shared" / "meshes";
   std::string out_path;
-  int polish = -1;
+  int polish = -1, patches = -1;
+  std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--out" && i + 1 < argc) {
       out_path = argv[++i];
     } else if (a == "--polish-sweeps" && i + 1 < argc) {
       polish = std::atoi(argv[++i]);
+    } else if (a == "--patches" && i + 1 < argc) {
+      patches = std::atoi(argv[++i]);
+    } else if (a == "--only" && i + 1 < argc) {
+      only = argv[++i];
     } else if (a == "--help" || a == "-h") {
-      std::cout << "usage: sweep_uniformize [MESHES_DIR] [--out FILE.md] [--polish-sweeps N]\n";
+      std::cout << "usage: sweep_uniformize [MESHES_DIR] [--out FILE.md] [--polish-sweeps N] [--patches N] [--only TEXT]\n";
       return 0;
     } else {
       dir = a;
@@ -65,6 +72,7 @@ int main(int argc, char** argv) {
   std::cout << table << std::flush;
   ricci::UniformizeOptions options;
   if (polish >= 0) options.layout.polish_sweeps = polish;
+  if (patches >= 0) options.layout.patches = patches;
   for (const char* sub : {"genus0", "genus1", "genus2", "genus3plus", "boundary", "derived"}) {
     std::vector<fs::path> files;
     if (!fs::is_directory(dir / sub)) continue;
@@ -74,6 +82,7 @@ int main(int argc, char** argv) {
     }
     std::sort(files.begin(), files.end());
     for (const fs::path& p : files) {
+      if (!only.empty() && (std::string(sub) + "/" + p.filename().string()).find(only) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
       const std::string name = std::string(sub) + "/" + p.filename().string();
       std::string row = "| " + name + " | ";

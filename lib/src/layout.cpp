@@ -3,6 +3,9 @@
 #include "ricci/layout.h"
 
 #include <Eigen/Dense>
+#include <ceres/ceres.h>
+
+#include <cfenv>
 
 #include <algorithm>
 #include <array>
@@ -402,6 +405,305 @@ void normalize_spherical(const Topology& t, Positions& P, const std::vector<doub
   out.centre_of_mass = norm(centre());
 }
 
+// ---- divide and conquer (E, H) ---------------------------------------------------------------
+
+/// A disk automorphism z ↦ (a z + b)/(b̄ z + ā), |a|² − |b|² = 1 (E: unused).
+struct Su11 {
+  Cx a{1, 0}, b{0, 0};
+  Su11 operator*(const Su11& n) const { return {a * n.a + b * std::conj(n.b), a * n.b + b * std::conj(n.a)}; }
+  Cx apply(Cx z) const { return (a * z + b) / (std::conj(b) * z + std::conj(a)); }
+  static Su11 to_origin(Cx p) {
+    const double s = std::sqrt(1 - std::norm(p));
+    return {Cx(1 / s, 0), -p / s};
+  }
+  static Su11 rotation(double psi) { return {std::polar(1.0, psi / 2), Cx(0, 0)}; }
+  Su11 inverse() const { return {std::conj(a), -b}; }
+};
+
+/// Complex arithmetic on Ceres jets (std::complex<Jet> is not supported).
+template <typename T>
+struct Cj {
+  T r, i;
+};
+template <typename T>
+Cj<T> operator*(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r * y.r - x.i * y.i, x.r * y.i + x.i * y.r};
+}
+template <typename T>
+Cj<T> operator+(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r + y.r, x.i + y.i};
+}
+template <typename T>
+Cj<T> operator-(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r - y.r, x.i - y.i};
+}
+template <typename T>
+Cj<T> operator/(const Cj<T>& x, const Cj<T>& y) {
+  const T d = y.r * y.r + y.i * y.i;
+  return {(x.r * y.r + x.i * y.i) / d, (x.i * y.r - x.r * y.i) / d};
+}
+template <typename T>
+Cj<T> cj(Cx z) {
+  return {T(z.real()), T(z.imag())};
+}
+
+/// The map of one patch into the common frame: T0 ∘ D(δ), D a small isometry near the identity
+/// (E: rotation by δ0 and translation L·(δ1, δ2); H: z ↦ e^{iδ0}(z − δ)/(1 − δ̄ z)), T0 the
+/// closed-form start (E: rotation rot0 then translation t0; H: the SU(1,1) map m0).
+struct PatchMap {
+  Geometry g = Geometry::Euclidean;
+  Cx rot0{1, 0}, t0{0, 0};
+  Su11 m0;
+  double scale = 1;
+
+  template <typename T>
+  Cj<T> apply(const T* d, Cx x) const {
+    const Cj<T> e{cos(d[0]), sin(d[0])};
+    if (g == Geometry::Euclidean) {
+      const Cj<T> y = e * cj<T>(x) + Cj<T>{T(scale) * d[1], T(scale) * d[2]};
+      return cj<T>(rot0) * y + cj<T>(t0);
+    }
+    const Cj<T> z0{d[1], d[2]};
+    const Cj<T> z0c{d[1], -d[2]};
+    const Cj<T> one{T(1), T(0)};
+    const Cj<T> y = e * (cj<T>(x) - z0) / (one - z0c * cj<T>(x));
+    return (cj<T>(m0.a) * y + cj<T>(m0.b)) / (cj<T>(std::conj(m0.b)) * y + cj<T>(std::conj(m0.a)));
+  }
+  Cx map(const double* d, Cx x) const {
+    const Cj<double> w = apply<double>(d, x);
+    return {w.r, w.i};
+  }
+};
+
+/// A vertex shared by two patches: both copies mapped to the common frame must agree.
+struct SeamResidual {
+  const PatchMap* p;
+  const PatchMap* q;
+  Cx xp, xq;
+  double weight;  // 1/(local edge length · the frame's length scale at the vertex)
+  template <typename T>
+  bool operator()(const T* dp, const T* dq, T* residual) const {
+    const Cj<T> a = p->template apply<T>(dp, xp), b = q->template apply<T>(dq, xq);
+    residual[0] = T(weight) * (a.r - b.r);
+    residual[1] = T(weight) * (a.i - b.i);
+    return true;
+  }
+};
+
+/// Divide and conquer (LayoutOptions::patches): the faces are split into `count` patches grown
+/// breadth-first over the dual graph from farthest-point seeds (the first is `seed`); each patch
+/// is laid out on its own by the same propagation from its seed, in a frame of its own; each
+/// patch's isometry into the common frame starts from the closed-form fit to the current positions
+/// `x` (E: Procrustes; H: centroids on the hyperboloid and a rotation) and all of them are then
+/// fitted jointly by Ceres over every vertex two patches share (the seed's patch fixed), the seam
+/// residual being the relative distance of the two copies. Each vertex ends at the mean of its
+/// copies (H: on the hyperboloid). Returns false with `out` set on a failed patch propagation.
+bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count,
+                     std::vector<double>& x, Layout& out) {
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  const Index k = std::min<Index>(count, nf);
+  // Seeds by farthest-point sampling, then a simultaneous breadth-first growth.
+  std::vector<Index> seeds{seed}, near, d;
+  dual_bfs(t, seed, near);
+  while (static_cast<Index>(seeds.size()) < k) {
+    Index best = kInvalid;
+    for (Index f = 0; f < nf; ++f)
+      if (near[f] > 0 && (best == kInvalid || near[f] > near[best])) best = f;
+    if (best == kInvalid) break;
+    seeds.push_back(best);
+    dual_bfs(t, best, d);
+    for (Index f = 0; f < nf; ++f)
+      if (d[f] >= 0 && (near[f] < 0 || d[f] < near[f])) near[f] = d[f];
+  }
+  const Index np = static_cast<Index>(seeds.size());
+  std::vector<Index> owner(static_cast<std::size_t>(nf), kInvalid), queue;
+  queue.reserve(static_cast<std::size_t>(nf));
+  for (Index p = 0; p < np; ++p) {
+    owner[seeds[p]] = p;
+    queue.push_back(seeds[p]);
+  }
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const Index f = queue[h];
+    for (int c = 0; c < 3; ++c) {
+      const Index o = t.opposite[3 * f + c];
+      if (o == kInvalid || owner[corner_face(o)] != kInvalid) continue;
+      owner[corner_face(o)] = owner[f];
+      queue.push_back(corner_face(o));
+    }
+  }
+
+  // Each patch on its own: local positions per (patch, vertex) copy.
+  struct Copy {
+    Index patch, vertex;
+    Cx z;
+  };
+  std::vector<Copy> copies;
+  std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
+  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+  std::vector<Index> touched, pq;
+  Positions L{g, 2, lx};
+  std::vector<PatchMap> maps(static_cast<std::size_t>(np));
+  for (Index p = 0; p < np; ++p) {
+    const Index s = seeds[p];
+    const Index s0 = t.corner_vertex[3 * s], s1 = t.corner_vertex[3 * s + 1], s2 = t.corner_vertex[3 * s + 2];
+    L.place_seed(s0, s1, s2, l[t.corner_edge[3 * s]], l[t.corner_edge[3 * s + 1]], l[t.corner_edge[3 * s + 2]]);
+    touched.assign({s0, s1, s2});
+    placed[s0] = placed[s1] = placed[s2] = 1;
+    pq.assign({s});
+    owner[s] = -2 - p;
+    for (std::size_t h = 0; h < pq.size(); ++h) {
+      const Index f = pq[h];
+      for (int c = 0; c < 3; ++c) {
+        const Index o = t.opposite[3 * f + c];
+        if (o == kInvalid || owner[corner_face(o)] != p) continue;
+        const Index nb = corner_face(o);
+        owner[nb] = -2 - p;
+        pq.push_back(nb);
+        const Index v = t.corner_vertex[o];
+        if (placed[v]) continue;
+        const Index pv = t.corner_vertex[next_corner(o)], qv = t.corner_vertex[prev_corner(o)];
+        L.place(v, pv, qv, l[t.corner_edge[prev_corner(o)]], l[t.corner_edge[next_corner(o)]]);
+        placed[v] = 1;
+        touched.push_back(v);
+        if (!L.finite(v)) {
+          out.status = Status::NumericalFailure;
+          out.element = Element::Vertex;
+          out.element_index = v;
+          out.message = "vertex " + std::to_string(v) + " left the range of double precision in the layout of patch " +
+                        std::to_string(p);
+          return false;
+        }
+      }
+    }
+    // Closed-form start: the isometry taking the local copies onto the current positions.
+    Positions X{g, 2, x};
+    PatchMap& m = maps[p];
+    m.g = g;
+    double extent = 0;
+    if (g == Geometry::Euclidean) {
+      Cx ca(0, 0), cb(0, 0);
+      for (Index v : touched) {
+        ca += X.z(v);
+        cb += L.z(v);
+      }
+      ca /= static_cast<double>(touched.size());
+      cb /= static_cast<double>(touched.size());
+      Cx acc(0, 0);
+      for (Index v : touched) {
+        acc += (X.z(v) - ca) * std::conj(L.z(v) - cb);
+        extent = std::max(extent, std::abs(L.z(v) - cb));
+      }
+      m.rot0 = std::abs(acc) > 0 ? acc / std::abs(acc) : Cx(1, 0);
+      m.t0 = ca - m.rot0 * cb;
+      m.scale = extent > 0 ? extent : 1;
+    } else {
+      V3 CA{0, 0, 0}, CB{0, 0, 0};
+      for (Index v : touched) {
+        const V3 A = hyperboloid(X.z(v)), B = hyperboloid(L.z(v));
+        for (int dd = 0; dd < 3; ++dd) {
+          CA[dd] += A[dd];
+          CB[dd] += B[dd];
+        }
+      }
+      const Cx ca = poincare(CA), cb = poincare(CB);
+      Cx acc(0, 0);
+      for (Index v : touched) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
+      const double psi = std::abs(acc) > 0 ? std::arg(acc) : 0.0;
+      m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
+    }
+    for (Index v : touched) {
+      copies.push_back({p, v, L.z(v)});
+      placed[v] = 0;
+    }
+  }
+  for (Index f = 0; f < nf; ++f) owner[f] = -2 - owner[f];
+
+  // Copies grouped by vertex.
+  std::vector<Index> first(static_cast<std::size_t>(nv) + 1, 0);
+  for (const Copy& c : copies) ++first[c.vertex + 1];
+  for (Index v = 0; v < nv; ++v) first[v + 1] += first[v];
+  std::vector<Index> order(copies.size()), fill(first.begin(), first.end() - 1);
+  for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) order[fill[copies[c].vertex]++] = c;
+
+  // Joint fit of the patch maps over the seams.
+  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
+  std::vector<double> h(static_cast<std::size_t>(nv), 0.0);
+  std::vector<int> hn(static_cast<std::size_t>(nv), 0);
+  for (Index e = 0; e < t.num_edges; ++e)
+    for (Index v : {t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]}) {
+      h[v] += l[e];
+      ++hn[v];
+    }
+  ceres::Problem::Options popts;
+  ceres::Problem problem(popts);
+  Index seams = 0;
+  for (Index v = 0; v < nv; ++v) {
+    if (first[v + 1] - first[v] < 2) continue;
+    const Copy& a = copies[order[first[v]]];
+    const double hv = h[v] / std::max(1, hn[v]);
+    double frame = 1;
+    if (g == Geometry::Hyperbolic) frame = 2 / (1 - std::norm(Cx(x[2 * v], x[2 * v + 1])));
+    for (Index j = first[v] + 1; j < first[v + 1]; ++j) {
+      const Copy& b = copies[order[j]];
+      auto* cost = new ceres::AutoDiffCostFunction<SeamResidual, 2, 3, 3>(
+          new SeamResidual{&maps[a.patch], &maps[b.patch], a.z, b.z, frame / hv});
+      problem.AddResidualBlock(cost, nullptr, delta[a.patch].data(), delta[b.patch].data());
+      ++seams;
+    }
+  }
+  if (np > 1 && seams > 0) {
+    const Index fixed = owner[seed];
+    if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+    so.max_num_iterations = 50;
+    so.function_tolerance = 1e-20;
+    so.gradient_tolerance = 1e-30;
+    so.parameter_tolerance = 1e-20;
+    so.logging_type = ceres::SILENT;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    std::fenv_t env;
+    std::feholdexcept(&env);
+    ceres::Solve(so, &problem, &summary);
+    std::fesetenv(&env);
+    out.patch_fit_iterations = static_cast<int>(summary.iterations.size());
+  }
+
+  // Each vertex at the mean of its mapped copies; the seam error is their largest spread.
+  out.patches = static_cast<int>(np);
+  out.patch_seam_error = 0;
+  for (Index v = 0; v < nv; ++v) {
+    const Index n = first[v + 1] - first[v];
+    if (n == 0) continue;
+    std::vector<Cx> w;
+    for (Index j = first[v]; j < first[v + 1]; ++j) {
+      const Copy& c = copies[order[j]];
+      w.push_back(maps[c.patch].map(delta[c.patch].data(), c.z));
+    }
+    Cx mean(0, 0);
+    if (g == Geometry::Euclidean) {
+      for (const Cx& z : w) mean += z;
+      mean /= static_cast<double>(n);
+    } else {
+      V3 S{0, 0, 0};
+      for (const Cx& z : w) {
+        const V3 X = hyperboloid(z);
+        for (int dd = 0; dd < 3; ++dd) S[dd] += X[dd];
+      }
+      mean = poincare(S);
+    }
+    const double hv = h[v] / std::max(1, hn[v]);
+    for (const Cx& z : w) {
+      const double dist = g == Geometry::Euclidean ? std::abs(z - mean) : disk_distance(z, mean);
+      out.patch_seam_error = std::max(out.patch_seam_error, hv > 0 ? dist / hv : dist);
+    }
+    x[2 * v] = mean.real();
+    x[2 * v + 1] = mean.imag();
+  }
+  return true;
+}
+
 // ---- polishing (E) ----------------------------------------------------------------------------
 
 /// Nonlinear Gauss–Seidel on planar positions: each vertex in turn takes one Gauss–Newton step on
@@ -507,14 +809,6 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   };
   P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
   if (!propagate()) return out;
-  if (g == Geometry::Euclidean && options.polish_sweeps > 0) {
-    polish_euclidean(t, l, x, options.polish_sweeps);
-    out.polish_sweeps = options.polish_sweeps;
-    // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
-    const Cx o = P.z(s0), d = P.z(s1) - o;
-    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
-    for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
-  }
   const std::vector<double> w = vertex_weights(t, area);
   if (g == Geometry::Hyperbolic && options.normalize) {
     // Second pass in the final frame: the seed face keeps its normalised position and the
@@ -527,6 +821,36 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
       ++out.propagation_passes;
       if (moved < 1e-6) break;
     }
+  }
+  // Divide and conquer: kept only when it does not raise the edge-length error of the single
+  // propagation (a patch that leaves double range, or a fit that fails, leaves that layout as it was).
+  const int patches = options.patches >= 0 ? options.patches : static_cast<int>(std::min<Index>(32, nf / 4000));
+  if (patches > 1 && g != Geometry::Spherical) {
+    Layout before;
+    measure_edges(t, g, l, P, before);
+    const std::vector<double> kept = x;
+    Layout trial;
+    if (lay_out_patches(t, g, l, seed, patches, x, trial)) {
+      Layout after;
+      measure_edges(t, g, l, P, after);
+      if (std::isfinite(after.max_edge_length_error) && after.max_edge_length_error <= before.max_edge_length_error) {
+        out.patches = trial.patches;
+        out.patch_fit_iterations = trial.patch_fit_iterations;
+        out.patch_seam_error = trial.patch_seam_error;
+      } else {
+        x = kept;
+      }
+    } else {
+      x = kept;
+    }
+  }
+  if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.patches > 1)) {
+    polish_euclidean(t, l, x, options.polish_sweeps);
+    out.polish_sweeps = options.polish_sweeps;
+    // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
+    const Cx o = P.z(s0), d = P.z(s1) - o;
+    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
+    for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
   }
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
 
@@ -586,6 +910,10 @@ std::string shape(const Topology& t) {
 // ---------------------------------------------------------------------------------------------
 
 bool LayoutOptions::is_valid(std::string* why) const {
+  if (patches < -1 || patches > 256) {
+    if (why) *why = "patches must be -1 (automatic) or in 0..256, got " + std::to_string(patches);
+    return false;
+  }
   if (polish_sweeps < 0 || polish_sweeps > 10000) {
     if (why) *why = "polish_sweeps must be in 0..10000, got " + std::to_string(polish_sweeps);
     return false;

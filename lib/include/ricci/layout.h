@@ -147,6 +147,14 @@ struct LayoutOptions {
   /// leaves its rounding where it closes on itself (one seam of edges); the sweeps spread it,
   /// which matters on large meshes (tools/sweep_uniformize --polish-sweeps compares). 0: none.
   int polish_sweeps = 30;
+  /// E and H: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
+  /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
+  /// over the dual graph, each patch is laid out by its own propagation, and the patches' isometries
+  /// into one frame are fitted jointly with Ceres over every vertex two patches share (each vertex
+  /// then sits at the mean of its copies). The result is kept only when its max edge-length error
+  /// is not above the single propagation's (Layout::patches says whether it was). Ignored in S.
+  /// -1 (default): automatic, min(32, #F / 4000) patches (off below 8000 faces). At most 256.
+  int patches = -1;
 
   /// True when seed_face ≥ -1 and polish_sweeps is in 0..10000; otherwise false, with the reason
   /// in *why (when why is not null). A seed face beyond the mesh is refused by the layout call.
@@ -195,6 +203,12 @@ struct Layout {
   int propagation_passes = 0;
   /// E: Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
   int polish_sweeps = 0;
+  /// Divide and conquer: patches used (0: off, or not kept), Ceres iterations of the joint fit,
+  /// and the largest distance between two fitted copies of a shared vertex relative to its mean
+  /// edge length.
+  int patches = 0;
+  int patch_fit_iterations = 0;   ///< Ceres iterations of the joint patch fit
+  double patch_seam_error = 0;    ///< largest spread of a shared vertex's copies / its mean edge length
   double seconds = 0;  ///< wall-clock time of layout_disk() / layout_sphere(); 0 on failure and for measure_layout()
 
   /// One line: status, geometry, seed, edge error, flips, time.
