@@ -353,7 +353,7 @@ TEST_CASE("cli flow: an infeasible target exits 8 and writes nothing") {
   CHECK(directory_entries(dir.path()) == std::vector<std::string>{"cones.txt"});
 }
 
-TEST_CASE("cli flow: circle domains are Möbius-normalized by default; --no-circle-normalization is exact") {
+TEST_CASE("cli flow: circle domains are Möbius-normalized by default, --no-circle-normalization is exact") {
   // A bent disk: its map to the unit disk is far from the identity.
   TempDir dir;
   ricci::Mesh bent = ricci_shapes::disk(20);
@@ -379,7 +379,7 @@ TEST_CASE("cli flow: circle domains are Möbius-normalized by default; --no-circ
   CHECK(exact.j["iterations"].get<int>() > normalized.j["iterations"].get<int>());
 }
 
-TEST_CASE("cli flow: separating cycles get relaxed angles by default; --no-angle-relax keeps Step 2's") {
+TEST_CASE("cli flow: separating cycles get relaxed angles by default, --no-angle-relax keeps Step 2's") {
   // A torus whose split faces are split again has valence-3 vertices in thin, obtuse triangles,
   // where Step 2's angles violate Theorem 4 for uniformization.
   TempDir dir;

@@ -158,7 +158,7 @@ TEST_CASE(
   }
 }
 
-TEST_CASE("flow: the E gauge holds Σu at its start; the S gauge keeps three pinned vertices at their start") {
+TEST_CASE("flow: the E gauge holds Σu at its start, the S gauge keeps three pinned vertices at their start") {
   const std::vector<Problem> problems = closed_problems();
   const Problem& torus = problems[0];
   const FlowResult e = solve(torus);
@@ -166,9 +166,12 @@ TEST_CASE("flow: the E gauge holds Σu at its start; the S gauge keeps three pin
   CHECK(std::abs(sum(e.u) - sum(torus.metric.u)) < 1e-9);
   CHECK(e.notes.empty());
 
+  // Newton from u0 itself (no planar start): three vertices keep u0, the rest is free.
   const Problem& sphere = problems[3];
-  const FlowResult s = solve(sphere);
-  REQUIRE(s.status == Status::Ok);
+  FlowOptions direct;
+  direct.spherical_safeguards = false;
+  const FlowResult s = solve(sphere, direct);
+  REQUIRE_MESSAGE(s.status == Status::Ok, s.message);
   REQUIRE(s.notes.size() >= 1);
   CHECK(s.notes[0].find("Möbius") != std::string::npos);
   Index kept = 0;
@@ -176,6 +179,14 @@ TEST_CASE("flow: the E gauge holds Σu at its start; the S gauge keeps three pin
   CHECK(kept == 3);
   // Every vertex, pinned or not, meets its curvature condition.
   for (Index v = 0; v < sphere.topology.num_vertices; ++v) CHECK(std::abs(s.K[v]) < 1e-10);
+
+  // The default round-sphere start (the stereographic image of a planar solution) is noted, and
+  // it converges at every vertex too.
+  const FlowResult d = solve(sphere);
+  REQUIRE_MESSAGE(d.status == Status::Ok, d.message);
+  REQUIRE(d.notes.size() >= 1);
+  CHECK(d.notes[0].find("stereographic") != std::string::npos);
+  for (Index v = 0; v < sphere.topology.num_vertices; ++v) CHECK(std::abs(d.K[v]) < 1e-10);
 }
 
 TEST_CASE("flow: Newton converges on a disk whose boundary u is held and with circular boundaries") {

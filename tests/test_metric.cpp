@@ -184,7 +184,7 @@ TEST_CASE("metric: the Hessian matches finite differences of K for every scheme 
   }
 }
 
-TEST_CASE("metric: the E Hessian of a closed surface is PSD with the constants as null space; H is PD") {
+TEST_CASE("metric: the E Hessian of a closed surface is PSD with the constants as null space, H is PD") {
   for (const auto& s : small_surfaces()) {
     for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
       INFO(s.name << " " << geometry_name(g));
