@@ -340,6 +340,18 @@ AngleRelaxation relax_intersection_angles(const Topology& t, std::span<double> e
       }
     }
   }
+  // Boundary vertices in two faces: their angle is below 2π − (Φ of the two edges opposite them),
+  // so Φ = π/2 on both (clamped, as Step 2 gives after an ear split) caps it at π and makes a
+  // boundary target K̄ ≤ 0 (inner circle loops, geodesic loops) infeasible. Same trigger and goal
+  // as a 3-cycle: the angle may then reach 4π/3.
+  for (Index v = 0; v < nv; ++v) {
+    if (t.valence(v) != 2 || !t.is_boundary_vertex(v)) continue;
+    const Index o = t.vertex_corner_offsets[v];
+    const Index edges[2] = {t.corner_edge[t.vertex_corners[o]], t.corner_edge[t.vertex_corners[o + 1]]};
+    const double a0 = angle(edges[0]), a1 = angle(edges[1]);
+    if (a0 < 0 || a1 < 0 || !(a0 + a1 > kTrigger3)) continue;
+    scale_cycle(edges, 2, a0 + a1, kGoal3);
+  }
   for (Index e = 0; e < ne; ++e) r.edges += changed[e];
   return r;
 }

@@ -528,7 +528,8 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
       return make_check(Status::InfeasibleTarget,
                         "boundary vertex " + std::to_string(v) + " lies in a single triangle (an ear of boundary loop " +
                             std::to_string(i) + "): its angle is below π, so its curvature π − θ is positive, but " +
-                            given + " (remove or split the ear triangle, or give it a positive target)",
+                            given + " (split the interior edge opposite it at its midpoint, see split_ears() and "
+                            "ValidateOptions::split_ears; remove the ear triangle; or give it a positive target)",
                         Element::Vertex, v);
     }
   }

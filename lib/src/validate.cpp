@@ -15,6 +15,7 @@ std::string_view repair_name(RepairKind k) {
     case RepairKind::FacesFlipped: return "faces_flipped";
     case RepairKind::ComponentsDropped: return "components_dropped";
     case RepairKind::PolygonsTriangulated: return "polygons_triangulated";
+    case RepairKind::EarsSplit: return "ears_split";
   }
   return "unknown_repair";
 }
@@ -306,6 +307,13 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
     return e;
   }
   r.topology = std::move(topo.topology);
+
+  // Option: split ears (new vertices and faces are appended; see repair_ears.cpp).
+  if (options.split_ears) {
+    const std::vector<Index> ears = find_ears(r.topology);
+    std::string why;
+    if (const Status s = split_ears(r, ears, &why); s != Status::Ok) return fail(s, Element::None, -1, why);
+  }
   r.status = Status::Ok;
   r.message = "ok";
   return r;

@@ -114,9 +114,13 @@ struct AngleRelaxation {
 /// cycles always pass). Step 2 breaks them where the mesh has valence-3 or valence-4 vertices in
 /// triangles with obtuse or right angles (the link of such a vertex is such a cycle). This lowers
 /// Φ on every 3-cycle that is not a face with Σ Φ > 5π/6 (scaled so that Σ Φ = 2π/3) and on every
-/// 4-cycle that is not the outline of two faces with Σ Φ > 11π/6 (scaled to 7π/4), in a fixed
-/// order; lowering Φ never breaks a condition that held. eta holds η = cos Φ per edge (#E, values
-/// in [0, 1]; edges outside are left alone). Deterministic; linear in the mesh for bounded valence.
+/// 4-cycle that is not the outline of two faces with Σ Φ > 11π/6 (scaled to 7π/4), and then on the
+/// two edges opposite a boundary vertex in two faces with Σ Φ > 5π/6 (scaled to 2π/3: that
+/// vertex's angle is below 2π − Σ Φ, so Φ = π/2 on both, as Step 2 gives after an ear split, would
+/// cap it at π and rule out K̄ ≤ 0 on inner circle and geodesic loops; `edges` counts these too),
+/// in a fixed order; lowering Φ never breaks a condition that held. eta holds η = cos Φ per edge
+/// (#E, values in [0, 1]; edges outside are left alone). Deterministic; linear in the mesh for
+/// bounded valence.
 AngleRelaxation relax_intersection_angles(const Topology& topology, std::span<double> eta);
 
 /// Step 2 of the paper for circle packing: radii γ_i^{jk} = (l_ki + l_ij − l_jk)/2 per face,

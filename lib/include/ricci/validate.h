@@ -23,11 +23,17 @@
 //                               orientation is repaired by flipping faces (breadth-first), keeping
 //                               the orientation of the majority of the area
 //  10. NonManifoldVertex        the faces around a vertex form several fans (pinched vertex)
-// Repairs: unused vertices are dropped, faces are flipped, components dropped (option); each is
-// reported in ValidateResult::repairs. A consistently oriented input keeps its orientation.
+// Repairs: unused vertices are dropped, faces are flipped, components dropped (option), ears split
+// (option, see split_ears()); each is reported in ValidateResult::repairs. A consistently oriented
+// input keeps its orientation.
+//
+// find_ears()     the boundary vertices that lie in a single triangle ("ears").
+// split_ears()    splits the interior edge opposite each ear at its midpoint, so the ear lies in two
+//                 triangles; new vertices are appended, so every earlier vertex keeps its index.
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -79,6 +85,11 @@ struct ValidateOptions {
   bool repair_orientation = true;
   /// A face is degenerate when 2·area ≤ degenerate_tolerance · (longest edge)². In [0, 1).
   double degenerate_tolerance = 1e-12;
+  /// After all checks passed, split every ear with split_ears() (reported as RepairKind::EarsSplit).
+  /// Off by default: the mesh is then changed only where a check requires it. An ear's angle is
+  /// below π whatever the metric, so a boundary target giving it a curvature ≤ 0 (the inner loops
+  /// of a circle domain, geodesic boundaries) is infeasible unless the ear is split.
+  bool split_ears = false;
 
   /// True when degenerate_tolerance is in [0, 1); otherwise false, with the reason in *why (when
   /// why is not null).
@@ -91,6 +102,7 @@ enum class RepairKind : int {
   FacesFlipped,                 ///< faces were reversed to orient the surface consistently
   ComponentsDropped,            ///< components other than the largest were removed (keep_largest_component)
   PolygonsTriangulated,         ///< the reader fan-triangulated polygons with more than three sides
+  EarsSplit,                    ///< the edge opposite each ear was split at its midpoint (split_ears)
 };
 
 /// Stable snake_case name of a repair ("faces_flipped", …).
@@ -99,7 +111,8 @@ std::string_view repair_name(RepairKind k);
 /// One change made to a mesh, as listed in ValidateResult::repairs and LoadResult::repairs.
 struct Repair {
   RepairKind kind;         ///< what was changed
-  std::int64_t count = 0;  ///< vertices dropped, faces flipped, components dropped, polygons split
+  /// vertices dropped, faces flipped, components dropped, polygons split or ears split
+  std::int64_t count = 0;
   std::string message;     ///< a full sentence, e.g. "dropped 1113 vertices used by no face (first: 34835)"
 };
 
@@ -117,14 +130,63 @@ struct ValidateResult {
   Mesh mesh;
   /// Its connectivity (valid only when status is Ok).
   Topology topology;
-  std::vector<Index> vertex_to_input;  ///< #V_out: output vertex → input vertex
-  std::vector<Index> face_to_input;    ///< #F_out: output face → input face
+  /// #V_out: output vertex → input vertex; kInvalid for a vertex added by split_ears (those come
+  /// last, after the input's vertices in their input order).
+  std::vector<Index> vertex_to_input;
+  /// #F_out: output face → input face (for a face made by split_ears: the face it is part of).
+  std::vector<Index> face_to_input;
   /// What was changed, in the order it was done.
   std::vector<Repair> repairs;
 };
 
 /// Checks and repairs a mesh; see the list at the top of this header.
 ValidateResult validate_mesh(const Mesh& mesh, const ValidateOptions& options = {});
+
+/// The ears of a surface: boundary vertices that lie in exactly one face, ascending. An ear's
+/// angle is below π in every metric. Linear time.
+std::vector<Index> find_ears(const Topology& topology);
+
+/// What split_ears() returns.
+struct SplitEarsResult {
+  /// Ok (also when nothing was split), InvalidArgument (mesh and topology disagree in size, or an
+  /// ear index is outside [0, #V)), OutOfMemory, or NumericalFailure (an internal invariant broke:
+  /// the split surface failed build_topology(); not expected). Outputs are valid only when Ok.
+  Status status = Status::NotRun;
+  std::string message = "not run";  ///< what went wrong; "ok" on success
+  /// The mesh with the ears split (valid when status is Ok; a copy of the input when nothing was
+  /// split). Vertices 0 … #V_in−1 and their positions are the input's; split i added vertex
+  /// #V_in + i. Texture coordinates are carried along (midpoints appended to `texcoords`).
+  Mesh mesh;
+  Topology topology;                ///< its connectivity (valid when status is Ok)
+  std::vector<Index> face_to_input; ///< #F_out: output face → the input face it is part of
+  std::vector<Index> split;         ///< the ears split, in the order of the vertices they added
+  /// Ears left alone because the edge opposite them is on the boundary too (an isolated triangle).
+  std::vector<Index> unsplittable;
+  /// The change as a Repair (kind EarsSplit, count = split.size(), a message naming the ears).
+  Repair repair{RepairKind::EarsSplit, 0, "no ears were split"};
+};
+
+/// Splits ears. For an ear b in the single triangle (b, a, c) whose edge (a, c) is interior,
+/// shared with the triangle (d, c, a), the edge (a, c) is split at its midpoint m (a new vertex,
+/// appended): the faces become (b, a, m), (b, m, c), (d, c, m), (d, m, a), with the orientation of
+/// the input. Then b lies in two triangles and m is an interior vertex of valence 4 (more if a
+/// later round splits an edge of its faces); χ, the number of boundary loops, the boundary itself
+/// and every input vertex's position and index are unchanged. The first of each pair of faces
+/// keeps the split face's index, the second is appended.
+/// A split never creates an ear; ears sharing a face are split in later rounds (in a connected
+/// mesh only a mesh of two triangles has two ears on one edge, and one split removes both).
+/// `topology` must be build_topology() of `mesh`. Linear time per round; allocates the output.
+SplitEarsResult split_ears(const Mesh& mesh, const Topology& topology);
+/// split_ears() for the given vertices only (in any order; vertices that are not ears are skipped).
+SplitEarsResult split_ears(const Mesh& mesh, const Topology& topology, std::span<const Index> ears);
+
+/// split_ears() on a validated mesh, in place, for the given ears (validated numbering): when
+/// something was split, its mesh and topology are replaced, vertex_to_input gets kInvalid for the
+/// new vertices, face_to_input names the input face each output face is part of, and the repair
+/// is appended to `repairs`. Returns split_ears()'s status; on failure `validated` is unchanged
+/// and *why (when not null) says why. (validate_mesh() with ValidateOptions::split_ears does this
+/// for all ears.)
+Status split_ears(ValidateResult& validated, std::span<const Index> ears, std::string* why = nullptr);
 
 /// Options of load_mesh().
 struct LoadOptions {
