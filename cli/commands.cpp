@@ -1,8 +1,14 @@
 // ricci command-line driver: subcommand setup and implementation (see commands.h).
 #include "commands.h"
 
+#include <signal.h>
+
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <charconv>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -11,8 +17,11 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "flow_setup.h"
+#include "ricci/flow.h"
 #include "ricci/io.h"
 #include "ricci/mesh.h"
 #include "ricci/topology.h"
@@ -169,11 +178,81 @@ const char* yes_no(bool b) {
 
 }  // namespace
 
+namespace {
+std::uint64_t g_max_input_bytes = kDefaultMaxFileBytes;  // set once by run() from --max-file-size
+}  // namespace
+
+std::uint64_t max_input_bytes() { return g_max_input_bytes; }
+void set_max_input_bytes(std::uint64_t bytes) { g_max_input_bytes = bytes; }
+
+std::optional<std::uint64_t> parse_byte_size(std::string_view text) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (ec != std::errc() || ptr == text.data()) return std::nullopt;
+  const std::string_view suffix(ptr, static_cast<std::size_t>(end - ptr));
+  int shift = 0;
+  if (suffix == "K" || suffix == "k") {
+    shift = 10;
+  } else if (suffix == "M") {
+    shift = 20;
+  } else if (suffix == "G") {
+    shift = 30;
+  } else if (suffix == "T") {
+    shift = 40;
+  } else if (!suffix.empty()) {
+    return std::nullopt;
+  }
+  if (shift > 0 && value > (~std::uint64_t{0} >> shift)) return std::nullopt;
+  return value << shift;
+}
+
+std::string input_too_large(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return {};
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec || size <= max_input_bytes()) return {};
+  return path + ": the file has " + std::to_string(size) + " bytes, more than the limit of " +
+         std::to_string(max_input_bytes()) + " (raise it with --max-file-size)";
+}
+
+namespace {
+volatile std::sig_atomic_t g_deferred_signal = 0;
+extern "C" void record_signal(int sig) { g_deferred_signal = sig; }
+constexpr int kDeferredSignals[] = {SIGINT, SIGTERM, SIGHUP};
+struct sigaction g_previous_actions[3];
+}  // namespace
+
+InterruptsDeferred::InterruptsDeferred() {
+  g_deferred_signal = 0;
+  struct sigaction sa {};
+  sa.sa_handler = record_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (int i = 0; i < 3; ++i) ::sigaction(kDeferredSignals[i], &sa, &g_previous_actions[i]);
+  if (const char* p = std::getenv("RICCI_WRITE_PAUSE_MS")) {
+    const int ms = std::max(0, std::min(std::atoi(p), 10000));
+    std::cerr << "ricci: pausing before writing (RICCI_WRITE_PAUSE_MS)" << std::endl;
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+  }
+}
+
+InterruptsDeferred::~InterruptsDeferred() {
+  for (int i = 0; i < 3; ++i) ::sigaction(kDeferredSignals[i], &g_previous_actions[i], nullptr);
+  if (const int sig = g_deferred_signal; sig != 0) {
+    std::cout.flush();
+    std::raise(sig);
+  }
+}
+
 ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptions& options) {
   if (!mesh.empty()) {
     ricci::LoadOptions lo;
     lo.validate = options;
-    return ricci::load_mesh(mesh, lo);
+    lo.read.max_file_bytes = max_input_bytes();
+    ricci::LoadResult r = ricci::load_mesh(mesh, lo);
+    if (r.status == Status::FileTooLarge) r.message += "; raise the limit with --max-file-size";
+    return r;
   }
   ricci::ReadOptions ro;
   ro.format = FileFormat::Obj;
@@ -185,6 +264,42 @@ Json repairs_json(const std::vector<ricci::Repair>& repairs) {
   Json out = Json::array();
   for (const ricci::Repair& rep : repairs)
     out.push_back(Json{{"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
+  return out;
+}
+
+std::vector<ricci::Index> infeasible_ears(const ricci::Topology& topo, const ricci::Target& target) {
+  std::vector<ricci::Index> out;
+  if (target.K.size() != static_cast<std::size_t>(topo.num_vertices)) return out;
+  // As in flow.h: Circle and LoopTotals targets derive boundary K̄ from the loop totals.
+  const bool derived = target.boundary == ricci::BoundaryMode::Circle || target.boundary == ricci::BoundaryMode::LoopTotals;
+  if (derived && target.loop_total.size() != static_cast<std::size_t>(topo.num_boundary_loops())) return out;
+  for (ricci::Index i = 0; i < topo.num_boundary_loops(); ++i) {
+    for (ricci::Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) {
+      const ricci::Index v = topo.boundary_vertices[j];
+      if (topo.valence(v) != 1 || (!target.fixed_u.empty() && target.fixed_u[v] != 0)) continue;
+      if (derived ? target.loop_total[i] <= 0 : target.K[v] <= 0) out.push_back(v);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::BoundaryMode mode,
+                               const TargetSpec& target_spec, const BoundarySpec& boundary_spec,
+                               const std::string& target_text, const std::string& boundary_text) {
+  EarSplit out;
+  if (validated.topology.is_closed() || ricci::find_ears(validated.topology).empty()) return out;
+  const TargetBuild tb = build_target(validated.topology, mode, target_spec, boundary_spec, target_text, boundary_text);
+  if (tb.status != Status::Ok) return out;
+  const std::vector<ricci::Index> ears = infeasible_ears(validated.topology, tb.target);
+  const std::size_t before = validated.repairs.size();
+  std::string why;
+  out.status = ricci::split_ears(validated, ears, &why);
+  if (out.status != Status::Ok) {
+    out.message = "splitting ears: " + why;
+    return out;
+  }
+  if (validated.repairs.size() > before) out.repair = validated.repairs.back();
   return out;
 }
 
@@ -478,9 +593,12 @@ int run_convert(const ConvertOptions& options) {
   if (options.validate) {
     loaded = load_input(options.input, vo);
   } else {
-    loaded.read = ricci::read_mesh(options.input);
+    ricci::ReadOptions ro;
+    ro.max_file_bytes = max_input_bytes();
+    loaded.read = ricci::read_mesh(options.input, ro);
     loaded.status = loaded.read.status;
     loaded.message = loaded.read.message;
+    if (loaded.status == Status::FileTooLarge) loaded.message += "; raise the limit with --max-file-size";
   }
   if (loaded.status != Status::Ok) {
     print_error(loaded.message);
@@ -495,7 +613,11 @@ int run_convert(const ConvertOptions& options) {
   ricci::WriteOptions wo;
   wo.format = *format;
   wo.protected_paths = {options.input};
-  const ricci::WriteResult written = ricci::write_mesh(options.output, *mesh, wo);
+  ricci::WriteResult written;
+  {
+    const InterruptsDeferred deferred;
+    written = ricci::write_mesh(options.output, *mesh, wo);
+  }
   if (written.status != Status::Ok) {
     print_error(written.message);
     if (written.status == Status::OutputIsInput)
@@ -516,6 +638,15 @@ int run(int argc, const char* const* argv) {
   app.footer(kExitCodeFooter);  // set before the subcommands, which inherit it
   app.set_version_flag("--version", std::string("ricci ") + kVersion, "Print the version and exit.");
   app.require_subcommand(1);
+  // Global: accepted before or after the subcommand (fallthrough passes it up to `app`).
+  app.fallthrough();
+  std::string max_file_size = std::to_string(kDefaultMaxFileBytes);
+  app.add_option("--max-file-size", max_file_size,
+                 "Refuse input files (mesh, target, metric) larger than SIZE bytes before reading them; "
+                 "suffixes K, M, G, T (powers of 1024). Default: 2G.")
+      ->check(CLI::Validator(
+          [](std::string& v) { return parse_byte_size(v) ? std::string() : "not a size like 2G or 500M: " + v; },
+          "SIZE"));
 
   InfoOptions info;
   ConvertOptions convert;
@@ -542,6 +673,7 @@ int run(int argc, const char* const* argv) {
     return kExitUsage;
   }
 
+  set_max_input_bytes(parse_byte_size(max_file_size).value_or(kDefaultMaxFileBytes));
   if (info_cmd->parsed()) return run_info(info);
   if (convert_cmd->parsed()) return run_convert(convert);
   if (flow_cmd->parsed()) return run_flow(flow);

@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -87,6 +88,7 @@ struct FlowCommandOptions {
   bool largest_component = false;          ///< keep the largest component instead of failing
   bool no_angle_relax = false;             ///< circle packing: Step 2's angles exactly
   bool no_circle_normalization = false;    ///< circle domains: K̄ ∝ length exactly
+  bool no_split_ears = false;              ///< keep ears the boundary target cannot realise (no split)
 };
 int run_flow(const FlowCommandOptions& options);
 
@@ -123,12 +125,14 @@ struct UniformizeCommandOptions {
   int seed_checks = 3;                    ///< extra seed faces for seed_independence_error
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
   bool unit_box = false;                  ///< E: layout scaled into [0,1]²
+  int patches = -1;                       ///< layout: divide-and-conquer patches (-1 automatic)
   bool no_pictures = false;               ///< no PNG/SVG pictures, no report.html
   bool no_angle_relax = false;
   bool no_circle_normalization = false;
   bool json = false;
   bool quiet = false;
   bool largest_component = false;
+  bool no_split_ears = false;  ///< keep ears the boundary target cannot realise (no split)
 };
 int run_uniformize(const UniformizeCommandOptions& options);
 CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o);
@@ -152,6 +156,31 @@ CLI::App* add_cover_command(CLI::App& app, CoverCommandOptions& o);
 void print_note(bool quiet, const std::string& message);
 /// "ricci: error: MESSAGE" on stderr.
 void print_error(const std::string& message);
+
+/// Largest input file (mesh, target or metric file) the commands read, in bytes: the global
+/// option --max-file-size (default kDefaultMaxFileBytes). Larger files are refused before any of
+/// their bytes are read (exit 3, file_too_large), so a file of many GB cannot exhaust memory.
+inline constexpr std::uint64_t kDefaultMaxFileBytes = std::uint64_t{2} << 30;
+std::uint64_t max_input_bytes();
+void set_max_input_bytes(std::uint64_t bytes);
+/// "SIZE" as bytes: a whole number with an optional suffix K, M, G or T (powers of 1024).
+std::optional<std::uint64_t> parse_byte_size(std::string_view text);
+/// "" when `path` is not a regular file above max_input_bytes(); otherwise the message
+/// "<path>: the file has N bytes, more than the limit of M (--max-file-size)".
+std::string input_too_large(const std::string& path);
+
+/// While alive, SIGINT, SIGTERM and SIGHUP are held back: one that arrives is only recorded, and
+/// the destructor restores the previous handlers and raises it again. Wrapped around the writes of
+/// `convert`, `flow -o`, `cut -o` and `cover -o`, so an interruption leaves each output complete
+/// or absent (never an atomic write's temporary file) and the process still ends by the signal.
+/// RICCI_WRITE_PAUSE_MS (a test aid, as for uniformize) sleeps that long in the constructor.
+class InterruptsDeferred {
+ public:
+  InterruptsDeferred();
+  ~InterruptsDeferred();
+  InterruptsDeferred(const InterruptsDeferred&) = delete;
+  InterruptsDeferred& operator=(const InterruptsDeferred&) = delete;
+};
 
 /// Reads MESH — or the embedded default mesh when MESH is empty — and validates it through the
 /// library's load path (ricci::validate_read): messages name the file, repairs include the

@@ -116,6 +116,13 @@ int run_cut(const CutCommandOptions& options) {
       return fail(Status::InvalidArgument,
                   "-o " + options.output + ": use a mesh extension (.obj, .off or .ply) for the cut mesh",
                   kExitUsage);
+    // Both files are refused up front when one of them is a directory, so that neither is written.
+    for (const std::string& p : {options.output, loops}) {
+      std::error_code ec;
+      if (std::filesystem::is_directory(p, ec))
+        return fail(Status::WriteFailed, p + ": the output path is a directory; nothing was written",
+                    kExitOutputFailure);
+    }
     for (const std::string& p : protected_paths)
       if (same_file(options.output, p) || same_file(loops, p))
         return fail(Status::OutputIsInput,
@@ -177,10 +184,21 @@ int run_cut(const CutCommandOptions& options) {
   if (!options.output.empty()) {
     ricci::WriteOptions wo;
     wo.protected_paths = protected_paths;
-    const ricci::WriteResult w = ricci::write_mesh(options.output, ricci::cut_disk_mesh(r), wo);
+    std::error_code ec_ignored;
+    const ricci::Mesh disk = ricci::cut_disk_mesh(r);
+    const std::string loops_text = loops_file(r, file);
+    ricci::WriteResult w, wl;
+    {
+      const InterruptsDeferred deferred;  // both files or neither, also when interrupted
+      w = ricci::write_mesh(options.output, disk, wo);
+      if (w.status == Status::Ok) {
+        wl = ricci::write_file_atomic(loops, loops_text, protected_paths);
+        if (wl.status != Status::Ok) std::filesystem::remove(options.output, ec_ignored);
+      }
+    }
     if (w.status != Status::Ok) return fail(w.status, w.message, exit_code(w.status));
-    const ricci::WriteResult wl = ricci::write_file_atomic(loops, loops_file(r, file), protected_paths);
-    if (wl.status != Status::Ok) return fail(wl.status, wl.message, exit_code(wl.status));
+    if (wl.status != Status::Ok)
+      return fail(wl.status, wl.message + "; " + options.output + " was removed again", exit_code(wl.status));
     j["output"] = options.output;
     j["loops_output"] = loops;
     print_note(options.quiet, "wrote " + options.output + " (" + std::to_string(r.num_cut_vertices()) +

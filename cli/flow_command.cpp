@@ -18,7 +18,8 @@
 //
 // Vertices are numbered 0-based after validation (vertices used by no face are dropped, and with
 // --largest-component the vertices of other components too); `input_vertex` is the 0-based index
-// of the same vertex in the input file. Edges are numbered as in ricci's topology; v0 → v1 is the
+// of the same vertex in the input file, −1 for the midpoints added by splitting ears (numbered
+// after all others, see --no-split-ears). Edges are numbered as in ricci's topology; v0 → v1 is the
 // edge's direction in its first face. Numbers are written as the shortest decimal that reads back
 // to the same double.
 #include <CLI/CLI.hpp>
@@ -67,7 +68,7 @@ constexpr int kGradientMaxIterations = 20000;
 constexpr const char* kVertexNumberingNote =
     "vertices are numbered 0-based after validation: vertices used by no face are dropped (and, "
     "with --largest-component, those of the other components); input_vertex is the 0-based index "
-    "of the same vertex in the input file";
+    "of the same vertex in the input file (-1 for a vertex added by splitting an ear; those come last)";
 
 }  // namespace
 
@@ -225,6 +226,12 @@ TargetBuild build_target(const ricci::Topology& topo, BoundaryMode mode, const T
       target = ricci::single_vertex_target(topo, static_cast<Index>(target_spec.vertex), mode);
       break;
     case TargetSpec::Kind::Cones: {
+      // The target reader holds the whole file in memory: refuse one above the input limit first.
+      if (std::string too_large = input_too_large(target_spec.file); !too_large.empty()) {
+        out.status = Status::FileTooLarge;
+        out.message = std::move(too_large);
+        return out;
+      }
       ricci::TargetFileResult tf = ricci::read_target_file(target_spec.file, topo, mode);
       if (tf.status != Status::Ok) {
         out.status = tf.status;
@@ -540,10 +547,10 @@ int run_flow(const FlowCommandOptions& options) {
     return finish(options, r, start);
   }
   r.repairs = loaded.repairs;
-  const ricci::ValidateResult validated = std::move(loaded.validated);
+  ricci::ValidateResult validated = std::move(loaded.validated);
   for (const ricci::Repair& rep : r.repairs) print_note(options.quiet, rep.message);
 
-  const ricci::Topology& topo = validated.topology;
+  const ricci::Topology& topo = validated.topology;  // split_ears below replaces its content
   r.have_mesh = true;
   r.vertices = topo.num_vertices;
   r.edges = topo.num_edges;
@@ -570,6 +577,23 @@ int run_flow(const FlowCommandOptions& options) {
       return usage("--boundary " + options.boundary + " gives " + std::to_string(boundary_spec->totals.size()) +
                    " loop totals but the mesh has " + std::to_string(topo.num_boundary_loops()) +
                    " boundary loops (in the order `ricci info` lists them)");
+    }
+  }
+
+  // ---- ears the target cannot realise: split them (new vertices come last) ----
+  if (!topo.is_closed() && !options.no_split_ears) {
+    const EarSplit es =
+        split_infeasible_ears(validated, mode, *target_spec, *boundary_spec, options.target, options.boundary);
+    if (es.status != Status::Ok) {
+      fail(r, es.status, r.file + ": " + es.message);
+      return finish(options, r, start);
+    }
+    if (es.repair) {
+      r.repairs.push_back(*es.repair);
+      print_note(options.quiet, es.repair->message);
+      r.vertices = topo.num_vertices;
+      r.edges = topo.num_edges;
+      r.faces = topo.num_faces;
     }
   }
 
@@ -651,7 +675,11 @@ int run_flow(const FlowCommandOptions& options) {
                               std::string(ricci::scheme_name(r.scheme)), r.boundary, r.target,
                               std::string(method_name(r.method))};
     const std::string data = metric_file_text(header, r.flow, topo, validated.vertex_to_input, json);
-    const ricci::WriteResult w = ricci::write_file_atomic(options.output, data, protected_paths);
+    ricci::WriteResult w;
+    {
+      const InterruptsDeferred deferred;
+      w = ricci::write_file_atomic(options.output, data, protected_paths);
+    }
     if (w.status != Status::Ok) {
       print_error(w.message);
       if (w.status == Status::OutputIsInput)
@@ -738,6 +766,11 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
                 "Silence progress and notes on stderr; errors are still printed. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component,
                 "Keep the largest connected component instead of failing on several. Default: off.");
+  cmd->add_flag("--no-split-ears", o.no_split_ears,
+                "Keep ears (boundary vertices in a single triangle) whose boundary target is <= 0 (inner circles, "
+                "geodesic boundaries) as they are, so the target check fails on them; by default the edge opposite "
+                "such an ear is split at its midpoint (a new vertex after the input's; reported in repairs). "
+                "Default: off.");
   return cmd;
 }
 

@@ -1,6 +1,7 @@
 // ricci command-line driver — option values shared by the commands that run the flow (`flow`,
 // `uniformize`): parsing of --geometry/--scheme/--target/--boundary/--method, CLI11 validators,
-// and the target curvature built from them. Definitions in flow_command.cpp.
+// and the target curvature built from them. Definitions in flow_command.cpp (the ear split in
+// commands.cpp).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -16,6 +17,7 @@
 #include "ricci/metric.h"
 #include "ricci/status.h"
 #include "ricci/topology.h"
+#include "ricci/validate.h"
 
 namespace ricci_cli {
 
@@ -70,6 +72,27 @@ struct TargetBuild {
 TargetBuild build_target(const ricci::Topology& topo, ricci::BoundaryMode mode, const TargetSpec& target_spec,
                          const BoundarySpec& boundary_spec, const std::string& target_text,
                          const std::string& boundary_text);
+
+/// The ears (ricci::find_ears) that `target` makes infeasible: ears without a fixed u whose target
+/// curvature is ≤ 0 — for Circle and LoopTotals targets, whose boundary values are spread from the
+/// loop total, those on a loop with a total ≤ 0 (the inner loops of a circle domain); otherwise
+/// those with K̄ ≤ 0 (a geodesic boundary). These are exactly the ears check_target() rejects.
+std::vector<ricci::Index> infeasible_ears(const ricci::Topology& topo, const ricci::Target& target);
+
+/// The default of `flow` and `uniformize` (off with --no-split-ears): builds the target for `mode`
+/// on the validated mesh and splits (ricci::split_ears) the ears it makes infeasible, updating
+/// `validated` in place (mesh, topology, vertex maps, repairs). The target must then be built
+/// again on the new topology; the boundary, χ and every vertex index are unchanged. Returns the
+/// repair when something was split. A target that cannot be built splits nothing (building it
+/// again reports the error); a failing split is returned as `status`/`message`.
+struct EarSplit {
+  ricci::Status status = ricci::Status::Ok;
+  std::string message;
+  std::optional<ricci::Repair> repair;
+};
+EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::BoundaryMode mode,
+                               const TargetSpec& target_spec, const BoundarySpec& boundary_spec,
+                               const std::string& target_text, const std::string& boundary_text);
 
 /// What the metric file says about the run that made it.
 struct MetricHeader {

@@ -338,8 +338,11 @@ StoredMetric read_metric(const std::string& path, const ricci::Topology& t) {
   if (!fs::exists(path, ec)) return fail(Status::FileNotFound, "no such file");
   std::ifstream in(path, std::ios::binary);
   if (!in) return fail(Status::FileUnreadable, "cannot be read");
-  const auto size = fs::file_size(path, ec);
-  if (!ec && size > (std::uintmax_t{1} << 32)) return fail(Status::FileTooLarge, "larger than 4 GiB");
+  if (std::string too_large = input_too_large(path); !too_large.empty()) {
+    m.status = Status::FileTooLarge;
+    m.message = std::move(too_large);
+    return m;
+  }
   const Index E = t.num_edges;
   std::vector<std::array<Index, 2>> ends;
   std::vector<double> len;
@@ -472,6 +475,8 @@ Json report_json(const Run& run) {
                        {"rounding_floor", real(L.rounding_floor)},
                        {"seed_face", L.seed_face},
                        {"depth", L.depth},
+                       {"patches", L.patches},
+                       {"patch_seam_error", L.patches > 0 ? real(L.patch_seam_error) : Json(nullptr)},
                        {"vertices", static_cast<std::int64_t>(L.positions.size() / std::max(1, L.dims))},
                        {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)}};
   } else {
@@ -600,6 +605,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   uo.base_candidates = o.base_candidates;
   uo.seed_checks = o.seed_checks;
   uo.layout.unit_box = o.unit_box;
+  uo.layout.patches = o.patches;
   if (!uo.is_valid(&why)) return usage(why);
   if (o.output.empty()) return usage("-o OUTDIR is required");
 
@@ -629,7 +635,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   }
   run.repairs = loaded.repairs;
   for (const ricci::Repair& rep : run.repairs) print_note(o.quiet, rep.message);
-  const ricci::ValidateResult v = std::move(loaded.validated);
+  ricci::ValidateResult v = std::move(loaded.validated);
   run.topo = v.topology;
   run.have_mesh = true;
   const ricci::Topology& topo = v.topology;
@@ -647,7 +653,27 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   }
 
   if (run.from_metric) {
-    const StoredMetric m = read_metric(o.metric, topo);
+    StoredMetric m = read_metric(o.metric, topo);
+    if (m.status != Status::Ok && !topo.is_closed() && !ricci::find_ears(topo).empty()) {
+      // A metric from `ricci flow` whose ears were split: try the splits flow makes with the
+      // default target (circle, then geodesic boundary), then every ear; keep the one that matches.
+      for (int attempt = 0; attempt < 3 && m.status != Status::Ok; ++attempt) {
+        ricci::ValidateResult w = v;
+        if (attempt < 2) {
+          const ricci::BoundaryMode mode = attempt == 0 ? ricci::BoundaryMode::Circle : ricci::BoundaryMode::Geodesic;
+          if (!split_infeasible_ears(w, mode, TargetSpec{}, BoundarySpec{}, "auto", "auto").repair) continue;
+        } else if (ricci::split_ears(w, ricci::find_ears(w.topology)) != Status::Ok) {
+          continue;
+        }
+        StoredMetric again = read_metric(o.metric, w.topology);
+        if (again.status != Status::Ok) continue;
+        m = std::move(again);
+        v = std::move(w);
+        run.repairs.push_back(v.repairs.back());
+        print_note(o.quiet, v.repairs.back().message);
+        run.topo = v.topology;
+      }
+    }
     if (m.status != Status::Ok) {
       fail(run, m.status, m.message);
       return finish(o, run, start);
@@ -669,6 +695,19 @@ int run_uniformize(const UniformizeCommandOptions& o) {
       const std::string note = "the surface is closed; --boundary " + o.boundary + " is ignored";
       run.notes.push_back(note);
       print_note(o.quiet, note);
+    }
+    // Ears the boundary target cannot realise are split (new vertices come last; see `ricci flow`).
+    if (!topo.is_closed() && !o.no_split_ears) {
+      const EarSplit es = split_infeasible_ears(v, mode, *target_spec, *boundary_spec, o.target, o.boundary);
+      if (es.status != Status::Ok) {
+        fail(run, es.status, run.file + ": " + es.message);
+        return finish(o, run, start);
+      }
+      if (es.repair) {
+        run.repairs.push_back(*es.repair);
+        print_note(o.quiet, es.repair->message);
+        run.topo = v.topology;
+      }
     }
     TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, o.target, o.boundary);
     if (tb.usage) return usage(tb.message);
@@ -847,9 +886,15 @@ int run_cover(const CoverCommandOptions& o) {
   }
   ricci::WriteResult w;
   if (svg) {
-    w = ricci::write_file_atomic(o.output, ricci::cover_svg(r.cut, r.layout.positions, cover), {o.mesh});
+    const std::string data = ricci::cover_svg(r.cut, r.layout.positions, cover);
+    const InterruptsDeferred deferred;
+    w = ricci::write_file_atomic(o.output, data, {o.mesh});
   } else {
-    w = ricci::write_mesh(o.output, ricci::cover_mesh(r.cut, r.layout.positions, cover));
+    ricci::WriteOptions wo;
+    wo.protected_paths = {o.mesh};
+    const ricci::Mesh tiles = ricci::cover_mesh(r.cut, r.layout.positions, cover);
+    const InterruptsDeferred deferred;
+    w = ricci::write_mesh(o.output, tiles, wo);
   }
   if (w.status != Status::Ok) {
     print_error(w.message);
@@ -925,6 +970,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "(hyperbolic: every neighbour across a side) or a 3x3 block (torus). Default: 0.")
       ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box [0,1]^2. Default: off.");
+  cmd->add_option("--patches", o.patches,
+                  "Euclidean and hyperbolic layouts: divide and conquer with this many patches, laid out "
+                  "separately and glued by isometries fitted with Ceres over every shared vertex (kept only "
+                  "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000). Default: -1.")
+      ->check(CLI::Range(-1, 256));
   cmd->add_flag("--no-pictures", o.no_pictures,
                 "Write no pictures and no report.html (only the meshes, metric, generators and report.json). "
                 "Default: off.");
@@ -936,6 +986,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr; errors are still printed. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component,
                 "Keep the largest connected component instead of failing on several. Default: off.");
+  cmd->add_flag("--no-split-ears", o.no_split_ears,
+                "Keep ears (boundary vertices in a single triangle) whose boundary target is <= 0 (inner circles, "
+                "geodesic boundaries) as they are, so the target check fails on them; by default the edge opposite "
+                "such an ear is split at its midpoint (a new vertex after the input's, in mesh.obj and metric.csv; "
+                "reported in report.json's repairs). Default: off.");
   return cmd;
 }
 
@@ -955,6 +1010,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 3.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
+  cmd->add_option("--patches", o.patches, "As for uniformize. Default: -1.")->check(CLI::Range(-1, 256));
   cmd->add_flag("--json", o.json, "Print the report on stdout. Default: off.");
   cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component, "Keep the largest connected component. Default: off.");

@@ -193,6 +193,20 @@ TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
   CHECK(t["layout"]["domain"] == "plane");
   CHECK(t["cut"]["kind"] == "canonical");
   CHECK(t["polygon"]["word"] == "a1 b1 a1^-1 b1^-1");
+  CHECK(t["layout"]["patches"] == 0);  // 512 faces: below the automatic threshold
+  CHECK(t["layout"]["patch_seam_error"].is_null());
+  // Forced divide and conquer: 8 patches, or 0 when the glued layout was not more accurate.
+  const auto split = run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o",
+                              (tmp / "t8").string(), "--json", "-q", "--no-pictures", "--patches", "8"});
+  REQUIRE(split.exit_code == 0);
+  const Json t8 = parse(split.out);
+  const int used = t8["layout"]["patches"].get<int>();
+  CHECK((used == 8 || used == 0));
+  if (used == 8) CHECK(t8["layout"]["patch_seam_error"].get<double>() < 1e-9);
+  CHECK(t8["layout"]["max_edge_length_error"].get<double>() < 1e-12);
+  CHECK(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", (tmp / "t9").string(), "-q",
+                 "--patches", "257"})
+            .exit_code == 2);
 
   const auto sphere = run_cli({"uniformize", (ricci_test::fixtures_dir() / "icosphere.obj").string(), "-o",
                                (tmp / "s").string(), "--json", "-q"});
@@ -223,7 +237,7 @@ TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
   CHECK(listing(tmp / "d") == std::vector<std::string>{"domain.obj", "mesh.obj", "metric.csv", "report.json"});
 }
 
-TEST_CASE("cli layout: a stored metric laid out again; a metric of another mesh is refused") {
+TEST_CASE("cli layout: a stored metric laid out again, a metric of another mesh is refused") {
   TempDir tmp;
   const std::string g2 = (ricci_test::fixtures_dir() / "genus2.obj").string();
   const fs::path metric = tmp / "metric.csv";
@@ -259,7 +273,7 @@ TEST_CASE("cli layout: a stored metric laid out again; a metric of another mesh 
   CHECK(br.err.find("line 2") != std::string::npos);
 }
 
-TEST_CASE("cli cover: the tiling as SVG or mesh; surfaces without a cover are refused") {
+TEST_CASE("cli cover: the tiling as SVG or mesh, surfaces without a cover are refused") {
   TempDir tmp;
   const fs::path svg = tmp / "cover.svg";
   const auto r = run_cli({"cover", "--depth", "2", "-o", svg.string(), "--json", "-q"});

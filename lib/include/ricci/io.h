@@ -49,8 +49,12 @@ FileFormat format_from_path(std::string_view path);
 struct ReadOptions {
   /// Format of the file; Auto picks it from the extension (and, for PLY, from the header).
   FileFormat format = FileFormat::Auto;
-  /// Refuse files larger than this many bytes (Status::FileTooLarge) before reading them.
-  std::uint64_t max_file_bytes = std::uint64_t{8} << 30;
+  /// Refuse files larger than this many bytes (Status::FileTooLarge, the message states the size
+  /// and the limit) after one stat() and before reading any byte. A file is read whole into
+  /// memory and parsed from there, so reading needs about its size plus the mesh (reservations
+  /// for declared counts are capped by the bytes present, see above). The default, 2 GiB, holds
+  /// some 30M triangles as OBJ text, far beyond what the flow handles in memory here.
+  std::uint64_t max_file_bytes = std::uint64_t{2} << 30;
   /// Read texture coordinates (OBJ `vt`) into Mesh::texcoords / corner_texcoords.
   bool read_texcoords = true;
 };
