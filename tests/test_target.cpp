@@ -445,6 +445,13 @@ TEST_CASE("target: reading a valid target file") {
   const TargetFileResult empty = read_target_file(write_target(dir, "empty.txt", ""), t);
   REQUIRE(empty.status == Status::Ok);
   CHECK(empty.target.K == std::vector<double>(t.num_vertices, 0.0));
+  // A file above the size limit is refused before it is read, naming its size and the limit.
+  const std::string big = write_target(dir, "big.txt", "0 0.5\n1 -0.5\n");
+  const TargetFileResult refused = read_target_file(big, t, BoundaryMode::Free, 8);
+  CHECK(refused.status == Status::FileTooLarge);
+  CHECK(refused.message.find("13 bytes") != std::string::npos);
+  CHECK(refused.message.find("limit of 8") != std::string::npos);
+  CHECK(read_target_file(big, t, BoundaryMode::Free, 13).status == Status::Ok);
 }
 
 TEST_CASE("target: unlisted boundary vertices of a target file follow the boundary mode") {

@@ -11,6 +11,7 @@
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 using namespace ricci;
@@ -139,6 +140,33 @@ TEST_CASE("uniformize: failures name their stage and keep what ran before") {
   o = {};
   o.seed_checks = -1;
   CHECK(uniformize(v.mesh, v.topology, o).status == Status::InvalidArgument);
+  o = {};
+  o.max_layout_error = 0;
+  CHECK(uniformize(v.mesh, v.topology, o).status == Status::InvalidArgument);
+}
+
+TEST_CASE("uniformize: a layout that does not reproduce the metric is a failure, not a result") {
+  // A 40:1 strip with a free boundary in E: K = 0 inside, so u is harmonic and varies linearly
+  // along the strip by about its aspect ratio in each direction of the exponential map; the
+  // layout's edges span more orders of magnitude than double precision can hold in one chart.
+  const Mesh mesh = ricci_shapes::strip(160, 4, 40.0, 1.0);
+  const ValidateResult v = validate_mesh(mesh);
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.boundary = BoundaryMode::Free;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  CHECK(r.flow.status == Status::Ok);  // the flow itself converges
+  CHECK(r.status == Status::NumericalFailure);
+  CHECK(r.failed_stage == "layout");
+  CHECK(r.message.find("edge-length error") != std::string::npos);
+  CHECK(r.message.find("(edge ") != std::string::npos);
+  MESSAGE(r.message);
+  // A limit below any rounding always trips the gate.
+  o.max_layout_error = 1e-300;
+  const UniformizeResult t = uniformize(v.mesh, v.topology, o);
+  CHECK(t.status == Status::NumericalFailure);
+  CHECK(t.failed_stage == "layout");
 }
 
 TEST_CASE("uniformize: angle distortion is zero for a metric equal to the mesh's own (E)") {

@@ -1,6 +1,7 @@
 // sweep_uniformize — the main job (uniformize(): flow, cut, layout, seed check, canonical polygon,
 // deck transformations) on every mesh of ../shared/meshes/{genus0,genus1,genus2,genus3plus,boundary},
 // (and derived/), one Markdown table row each. A driver, not a test: a mesh that fails is a row with its status.
+// Like the CLI, a mesh whose boundary target an ear makes infeasible is run again with its ears split.
 //
 //   cmake --build build --target sweep_uniformize && build/tools/sweep_uniformize [MESHES_DIR] [--out FILE.md]
 //   --polish-sweeps N   LayoutOptions::polish_sweeps for euclidean layouts (default: the library's)
@@ -90,10 +91,22 @@ int main(int argc, char** argv) {
       if (lr.status != ricci::Status::Ok) {
         row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | |\n";
       } else {
-        const ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
+        ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
+        // As `ricci uniformize` does: a boundary target that an ear makes infeasible gets the ears split.
+        bool split = false;
+        if (r.status == ricci::Status::InfeasibleTarget && r.message.find("ear") != std::string::npos) {
+          ricci::LoadOptions lo;
+          lo.validate.split_ears = true;
+          const ricci::LoadResult ls = ricci::load_mesh(p.string(), lo);
+          if (ls.status == ricci::Status::Ok) {
+            r = ricci::uniformize(ls.validated.mesh, ls.validated.topology, options);
+            split = true;
+          }
+        }
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         const bool ok = r.status == ricci::Status::Ok;
-        row += std::string(ricci::geometry_name(r.geometry)) + " | " + std::to_string(lr.validated.topology.num_faces) + " | ";
+        row += std::string(ricci::geometry_name(r.geometry)) + " | " + std::to_string(lr.validated.topology.num_faces) +
+               (split ? " (ears split)" : "") + " | ";
         if (!ok && r.flow.iterations == 0) {
           char secs[32];
           std::snprintf(secs, sizeof secs, "%.1f", s);

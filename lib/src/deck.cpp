@@ -501,13 +501,15 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry, std
       const Rigid& B = rig[2 * i + 1];
       R = R * A.inverse() * B * A * B.inverse();
     }
-    double err = 0;
+    // Relative to the longest translation, so that the figure does not depend on the units.
+    double err = 0, scale = 0;
     for (Index s = 0; s < cut.num_sides(); ++s)
       for (Index i = cut.side_offsets[s]; i < cut.side_offsets[s + 1]; ++i) {
         const cplx z = pos(cut.side_vertices[i]);
         err = std::max(err, std::abs(R.apply(z) - z));
       }
-    r.relation_error = err;
+    for (const Rigid& m : rig) scale = std::max(scale, std::abs(m.t));
+    r.relation_error = scale > 0 ? err / scale : err;
   }
   if (!std::isfinite(r.relation_error)) return fail(r, Status::NumericalFailure, "the relation check is not finite.");
   r.status = Status::Ok;

@@ -219,8 +219,9 @@ bool fail_line(TargetFileResult& r, const std::string& path, Status status, std:
   return false;
 }
 
-/// Reads a whole regular file into `data`; records FileNotFound / FileUnreadable otherwise.
-bool load_text(const std::string& path, std::string& data, TargetFileResult& r) {
+/// Reads a whole regular file of at most max_bytes into `data`; records FileNotFound /
+/// FileUnreadable / FileTooLarge otherwise.
+bool load_text(const std::string& path, std::string& data, TargetFileResult& r, std::uint64_t max_bytes) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
@@ -233,6 +234,11 @@ bool load_text(const std::string& path, std::string& data, TargetFileResult& r) 
     return fail_file(r, path, Status::FileUnreadable, "the path is a directory, not a target file");
   if (!fs::is_regular_file(st))
     return fail_file(r, path, Status::FileUnreadable, "the path is not a regular file (a pipe or a device)");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > max_bytes)
+    return fail_file(r, path, Status::FileTooLarge,
+                     "the target file has " + std::to_string(size) + " bytes, more than the limit of " +
+                         std::to_string(max_bytes));
   std::ifstream in(path, std::ios::binary);
   if (!in) return fail_file(r, path, Status::FileUnreadable, "the target file cannot be opened");
   data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -322,11 +328,12 @@ bool parse_target_into(std::string_view data, const std::string& path, const Top
 
 }  // namespace
 
-TargetFileResult read_target_file(const std::string& path, const Topology& t, BoundaryMode mode) {
+TargetFileResult read_target_file(const std::string& path, const Topology& t, BoundaryMode mode,
+                                  std::uint64_t max_bytes) {
   TargetFileResult r;
   try {
     std::string data;
-    if (!load_text(path, data, r)) return r;
+    if (!load_text(path, data, r, max_bytes)) return r;
     parse_target_into(data, path, t, mode, r);
   } catch (const std::bad_alloc&) {
     fail_file(r, path, Status::FileUnreadable, "not enough memory to read the target file");

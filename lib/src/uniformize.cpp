@@ -152,6 +152,7 @@ bool UniformizeOptions::is_valid(std::string* why) const {
   };
   if (base_candidates < 1) return fail("base_candidates must be >= 1");
   if (seed_checks < 0) return fail("seed_checks must be >= 0");
+  if (!(max_layout_error > 0)) return fail("max_layout_error must be > 0");
   std::string w;
   if (!flow.is_valid(&w)) return fail(w);
   if (!cut.is_valid(&w)) return fail(w);
@@ -379,6 +380,19 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     r.timings.emplace_back("layout", lay_s);
     if (options.on_stage) options.on_stage(StageRecord{"layout", lay_s, r.layout.brief_report()});
     t0 = Clock::now();
+  }
+
+  // ---- the accuracy gate: a layout that does not reproduce the metric is no result ----
+  if (r.layout.max_edge_length_error > options.max_layout_error || !std::isfinite(r.layout.max_edge_length_error)) {
+    r.layout.status = Status::NumericalFailure;
+    return (void)fail(Status::NumericalFailure, "layout",
+                      "the layout reproduces the metric only to a relative edge-length error of " +
+                          sci(r.layout.max_edge_length_error) + " (edge " + std::to_string(r.layout.worst_edge) +
+                          ", limit " + sci(options.max_layout_error) + "); double-precision coordinates resolve " +
+                          sci(r.layout.rounding_floor) + " here" +
+                          (r.layout.rounding_floor > options.max_layout_error
+                               ? ": the metric's conformal factor spans too many orders of magnitude for one chart"
+                               : ""));
   }
 
   // ---- seed independence ----

@@ -33,8 +33,10 @@
 // reported as `relator`) is dominated by rounding in the partial products, whose norms grow with
 // the polygon's circumradius (≈ 4e-12 at genus 4 for the exact regular 16-gon in double).
 // E: every deck map is additionally fitted as a rigid motion (Procrustes) and relation_error is
-// the largest displacement of a polygon vertex by the rigid-motion product R (translations alone
-// commute, so the translation relation holds exactly; the rigid fit checks the layout).
+// the largest displacement of a polygon vertex by the rigid-motion product R, divided by the
+// largest translation of the fitted rigid motions (a relative figure, independent of the units;
+// translations alone commute, so the translation relation holds exactly; the rigid fit checks
+// the layout).
 //
 // Bad input (sizes, non-finite positions, |z| ≥ 1 in H, a cut that is not canonical, not closed,
 // or of the wrong genus for the geometry) is a status with a message, never NaN or a crash.
@@ -169,7 +171,8 @@ struct DeckResult {
   Index genus = 0;                           ///< genus of the cut (CutResult::genus)
   /// In canonical order a1 b1 a2 b2 … ag bg.
   std::vector<DeckGenerator> generators;
-  /// See the header comment: ‖R ∓ I‖ (H) or the largest vertex displacement by R (E).
+  /// See the header comment: ‖R ∓ I‖ (H) or the largest vertex displacement by R relative to the
+  /// largest translation (E).
   double relation_error = 0;
   /// H: the relator R = Π [A_i^-1, B_i] itself (in double, not conjugated).
   Moebius relator;

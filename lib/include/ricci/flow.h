@@ -61,16 +61,18 @@ Geometry natural_geometry(const Topology& topology);
 BoundaryMode natural_boundary_mode(const Topology& topology, Geometry geometry);
 
 struct TargetFileResult {
-  Status status = Status::NotRun;  ///< Ok, FileNotFound, FileUnreadable, ParseError, IndexOutOfRange
+  Status status = Status::NotRun;  ///< Ok, FileNotFound, FileUnreadable, FileTooLarge, ParseError, IndexOutOfRange
   std::string message = "not run";
   std::int64_t line = -1;
   Target target;
 };
 /// Reads `vertex_index curvature` lines (0-based vertex, radians; `#` comments, blank lines).
 /// Unlisted interior vertices get 0; unlisted boundary vertices follow `mode`. A vertex listed
-/// twice is a ParseError.
+/// twice is a ParseError. A file larger than max_bytes (default 2 GiB, as ReadOptions) is
+/// FileTooLarge, refused before any byte is read.
 TargetFileResult read_target_file(const std::string& path, const Topology& topology,
-                                  BoundaryMode mode = BoundaryMode::Free);
+                                  BoundaryMode mode = BoundaryMode::Free,
+                                  std::uint64_t max_bytes = std::uint64_t{2} << 30);
 /// read_target_file() on text already in memory: the same syntax and checks; statuses Ok,
 /// ParseError, IndexOutOfRange (FileUnreadable only when memory runs out). `name` stands for the
 /// path in messages ("name: line N: …"). Never throws. read_target_file() loads the file, then

@@ -90,6 +90,11 @@ struct UniformizeOptions {
   LayoutOptions layout;
   /// Extra seed faces (0, F/2, F−1, …) whose layouts are compared with the first.
   int seed_checks = 3;
+  /// The layout must reproduce the metric to this relative edge-length error, else the run fails
+  /// at the layout stage (NumericalFailure, naming the worst edge and the rounding floor) instead
+  /// of returning positions that are not the metric's (e.g. a long strip with a free boundary in E,
+  /// whose conformal factor spans more orders of magnitude than double precision holds).
+  double max_layout_error = 1e-6;
   DeckOptions deck;  ///< options of the deck and side-pairing fits
   /// Called when each stage ends (the library never prints). Flow iterations: flow.on_iteration.
   std::function<void(const StageRecord&)> on_stage;
