@@ -496,7 +496,7 @@ Json report_json(const Run& run) {
   };
   if (have && r.has_cut && r.cut.status == Status::Ok) {
     Json c = cut_json(r.cut);
-    c["kind"] = r.domain_maps.empty() ? "canonical" : "compact";
+    c["kind"] = r.cut.compact ? "compact" : "canonical";
     j["cut"] = std::move(c);
   } else {
     j["cut"] = nullptr;
@@ -759,7 +759,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     surface = ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
     files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
     files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
-                                            r.domain_maps.empty() ? "the cut disk" : "the compact fundamental domain",
+                                            r.cut.compact ? "the compact fundamental domain" : "the cut disk",
                                             run.file)});
     if (r.has_polygon && !r.domain_maps.empty())
       files.push_back({"polygon.obj", disk_obj(r.polygon_cut, r.polygon.positions, r.geometry,

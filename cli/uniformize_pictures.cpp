@@ -138,10 +138,10 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
 
   // The fundamental domain(s).
   if (r.has_cut) {
-    const bool compact = !r.domain_maps.empty();
+    const bool compact = r.cut.compact;
     const Drawing d = disk_drawing(r.cut, r.layout.positions, g,
-                                   compact ? "Compact fundamental domain (" + std::to_string(r.cut.num_generators()) +
-                                                 " side pairings)"
+                                   compact ? std::string(r.cut.boundary_loops > 0 ? "Compact domain (" : "Compact fundamental domain (") +
+                                                 std::to_string(r.cut.num_generators()) + " side pairings)"
                                            : "Fundamental domain: " + r.cut.word);
     const Picture p = draw(d);
     out.push_back({"domain", compact ? "The compact fundamental domain" : "The fundamental domain",

@@ -7,6 +7,7 @@
 #include <numbers>
 #include <string>
 
+#include "ricci/cut.h"
 #include "ricci/io.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
@@ -167,6 +168,65 @@ TEST_CASE("uniformize: a layout that does not reproduce the metric is a failure,
   const UniformizeResult t = uniformize(v.mesh, v.topology, o);
   CHECK(t.status == Status::NumericalFailure);
   CHECK(t.failed_stage == "layout");
+}
+
+TEST_CASE("uniformize: bordered hyperbolic surfaces are laid out through a compact domain") {
+  // A genus-2 surface with one hole (the fixture) and a pretzel with two holes punched in it: the
+  // cut graph ends on the boundary loops, boundary pieces are unpaired sides, every other side has
+  // a partner of the same length, and the layout is exact.
+  std::vector<std::pair<std::string, Mesh>> cases;
+  {
+    const LoadResult lr = load_mesh((ricci_test::fixtures_dir() / "genus2-1hole.obj").string());
+    REQUIRE(lr.status == Status::Ok);
+    cases.emplace_back("genus2-1hole", lr.validated.mesh);
+  }
+  const Mesh pretzel = ricci_shapes::pretzel(3, 4);
+  cases.emplace_back("pretzel(3) with two holes", ricci_shapes::remove_vertex_stars(pretzel, {5, pretzel.num_vertices() / 2}));
+  for (const auto& [name, mesh] : cases) {
+    INFO(name);
+    const ValidateResult v = validate_mesh(mesh);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const Topology& t = v.topology;
+    REQUIRE(!t.is_closed());
+    const UniformizeResult r = uniformize(v.mesh, t);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.geometry == Geometry::Hyperbolic);
+    CHECK(r.cut.compact);
+    CHECK(r.cut.boundary_loops == t.num_boundary_loops());
+    CHECK(r.layout.max_edge_length_error < 1e-9);
+    CHECK(r.layout.flipped_faces == 0);
+    CHECK(r.seed_independence_error < 1e-9);
+    // Every boundary edge lies on exactly one Boundary side; paired sides match vertex by vertex.
+    Index boundary_edges = 0, paired = 0;
+    for (Index s = 0; s < r.cut.num_sides(); ++s) {
+      const Index n = r.cut.side_offsets[s + 1] - r.cut.side_offsets[s];
+      if (r.cut.side_kind[s] == SideKind::Boundary) {
+        CHECK(r.cut.side_partner[s] == -1);
+        CHECK(r.cut.side_boundary_loop[s] >= 0);
+        CHECK(r.cut.side_label[s].rfind("∂", 0) == 0);
+        boundary_edges += n - 1;
+      } else {
+        const Index p = r.cut.side_partner[s];
+        REQUIRE(p >= 0);
+        CHECK(r.cut.side_partner[p] == s);
+        REQUIRE(r.cut.side_offsets[p + 1] - r.cut.side_offsets[p] == n);
+        for (Index i = 0; i < n; ++i)
+          CHECK(r.cut.cut_to_surface[r.cut.side_vertices[r.cut.side_offsets[s] + i]] ==
+                r.cut.cut_to_surface[r.cut.side_vertices[r.cut.side_offsets[p] + n - 1 - i]]);
+        ++paired;
+      }
+    }
+    CHECK(boundary_edges == t.boundary_offsets[t.num_boundary_loops()]);
+    CHECK(paired % 2 == 0);
+    CHECK(paired > 0);
+    MESSAGE(name << ": " << r.cut.num_sides() << " sides, layout edge error " << r.layout.max_edge_length_error);
+  }
+  // A disk needs no cut: cut_compact refuses it.
+  const Mesh disk = ricci_shapes::disk(3);
+  const ValidateResult dv = validate_mesh(disk);
+  REQUIRE(dv.status == Status::Ok);
+  const std::vector<double> l(static_cast<std::size_t>(dv.topology.num_edges), 0.1);
+  CHECK(cut_compact(dv.mesh, dv.topology, l).status == Status::InvalidArgument);
 }
 
 TEST_CASE("uniformize: angle distortion is zero for a metric equal to the mesh's own (E)") {

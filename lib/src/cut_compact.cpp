@@ -105,8 +105,10 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
     if (!(lengths[e] > 0) || !std::isfinite(lengths[e]))
       return fail(Status::InvalidArgument, "the length of edge " + std::to_string(e) + " is not a positive finite number");
   if (topo.num_components != 1) return fail(Status::MultipleComponents, "the surface is not connected");
-  if (!topo.is_closed() || topo.genus() < 1)
-    return fail(Status::InvalidArgument, "a compact domain is built for closed surfaces of genus >= 1");
+  if (topo.is_closed() ? topo.genus() < 1 : topo.genus() == 0 && topo.num_boundary_loops() == 1)
+    return fail(Status::InvalidArgument,
+                "a compact domain is built for closed surfaces of genus >= 1 and for bordered surfaces other "
+                "than a disk");
   if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
 
   // Dual edge weights (per corner: the edge opposite it), then the centre: the face minimising
@@ -188,7 +190,15 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
     return fail(Status::NumericalFailure, "the cut surface is not a disk");
 
-  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3).
+  // Directed disk edges that lie on the surface's boundary (their sides have no partner).
+  std::unordered_map<std::uint64_t, char> on_boundary;
+  for (Index c = 0; c < 3 * F; ++c)
+    if (topo.opposite[c] == kInvalid) on_boundary[pair_key(r.cut_faces[next_corner(c)], r.cut_faces[prev_corner(c)])] = 1;
+  std::vector<Index> loop_of(static_cast<std::size_t>(V), kInvalid);
+  for (Index i = 0; i < topo.num_boundary_loops(); ++i)
+    for (Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) loop_of[topo.boundary_vertices[j]] = i;
+
+  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3; boundary edges count).
   const Index b0 = dt.boundary_offsets[0], m = dt.boundary_offsets[1] - b0;
   Index first = kInvalid;
   for (Index k = 0; k < m && first == kInvalid; ++k)
@@ -207,10 +217,16 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   const Index ns = static_cast<Index>(r.side_offsets.size()) - 1;
   auto sv = [&](Index s, Index i) { return r.cut_to_surface[r.side_vertices[r.side_offsets[s] + i]]; };
   auto len = [&](Index s) { return r.side_offsets[s + 1] - r.side_offsets[s]; };
+  auto is_boundary_side = [&](Index s) {
+    const Index a = r.side_vertices[r.side_offsets[s]], b = r.side_vertices[r.side_offsets[s] + 1];
+    return on_boundary.count(pair_key(a, b)) > 0 || on_boundary.count(pair_key(b, a)) > 0;
+  };
   std::unordered_map<std::uint64_t, Index> by_first;
-  for (Index s = 0; s < ns; ++s) by_first[pair_key(sv(s, 0), sv(s, 1))] = s;
+  for (Index s = 0; s < ns; ++s)
+    if (!is_boundary_side(s)) by_first[pair_key(sv(s, 0), sv(s, 1))] = s;
   r.side_partner.assign(static_cast<std::size_t>(ns), kInvalid);
   for (Index s = 0; s < ns; ++s) {
+    if (is_boundary_side(s)) continue;
     const Index n = len(s);
     const auto it = by_first.find(pair_key(sv(s, n - 1), sv(s, n - 2)));
     if (it == by_first.end() || len(it->second) != n) return fail(Status::NumericalFailure, "a side has no partner");
@@ -221,9 +237,17 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   r.side_orientation.assign(static_cast<std::size_t>(ns), 0);
   r.side_boundary_loop.assign(static_cast<std::size_t>(ns), -1);
   r.side_label.assign(static_cast<std::size_t>(ns), "");
+  for (Index s = 0; s < ns; ++s) {
+    if (!is_boundary_side(s)) continue;
+    // A piece of boundary loop i: its vertices between two nodes all lie on that loop.
+    const Index loop = loop_of[sv(s, 1 < len(s) - 1 ? 1 : 0)];
+    r.side_kind[s] = SideKind::Boundary;
+    r.side_boundary_loop[s] = loop;
+    r.side_label[s] = "∂" + std::to_string(loop + 1);
+  }
   r.generator_offsets.push_back(0);
   for (Index s = 0; s < ns; ++s) {
-    if (r.side_generator[s] != kInvalid) continue;
+    if (r.side_generator[s] != kInvalid || r.side_kind[s] == SideKind::Boundary) continue;
     const Index k = r.num_generators(), p = r.side_partner[s];
     const std::string name = "x" + std::to_string(k + 1);
     r.side_generator[s] = r.side_generator[p] = k;
@@ -240,7 +264,8 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   for (Index s = 0; s < ns; ++s) r.word += (s ? " " : "") + r.side_label[s];
 
   r.genus = topo.genus();
-  r.boundary_loops = 0;
+  r.boundary_loops = topo.num_boundary_loops();
+  r.compact = true;
   r.base_vertex = -1;
   r.requested_base_vertex = -1;
   r.canonical = false;

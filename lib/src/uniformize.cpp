@@ -339,7 +339,15 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     t0 = Clock::now();
   };
   const bool sphere = topology.is_closed() && topology.euler_characteristic() == 2;
-  const bool compact = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
+  const bool closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
+  // Bordered hyperbolic surfaces (all but a disk) are laid out through a compact domain too: their
+  // canonical cuts reach as far out in the Poincaré disk as closed ones do. Should the compact
+  // cut fail there, the canonical cut below is used instead.
+  const bool bordered_h = !topology.is_closed() && r.geometry == Geometry::Hyperbolic &&
+                          !(topology.genus() == 0 && topology.num_boundary_loops() == 1);
+  CutResult compact_cut;
+  if (closed_h || bordered_h) compact_cut = cut_compact(mesh, topology, metric_l);
+  const bool compact = closed_h || (bordered_h && compact_cut.status == Status::Ok);
 
   // ---- cut and layout ----
   if (sphere) {
@@ -349,7 +357,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   } else if (compact) {
     r.has_cut = true;
     DiskBuild d;
-    d.cut = cut_compact(mesh, topology, metric_l);
+    d.cut = std::move(compact_cut);
     if (d.cut.status != Status::Ok) return (void)fail(d.cut.status, "cut", d.cut.message);
     d.metric = refined_edge_lengths(d.cut, topology, r.geometry, metric_l);
     if (d.metric.status != Status::Ok) return (void)fail(d.metric.status, "cut", d.metric.message);
@@ -420,7 +428,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   }
 
   // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
-  if (compact) {
+  if (closed_h) {
     std::vector<Index> bases;
     if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
     else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);

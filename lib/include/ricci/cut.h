@@ -108,6 +108,9 @@ struct CutResult {
   Index requested_base_vertex = -1;  ///< options.base_vertex, or the vertex drawn for -1 (-1 for cut_compact())
   /// The disk boundary reads the canonical word and the independent intersection check agrees.
   bool canonical = false;
+  /// Made by cut_compact(): a compact fundamental domain (sides x1, x1^-1, …, and ∂i pieces of
+  /// boundary loops), not a canonical system of loops.
+  bool compact = false;
   /// Why canonical is false (empty when true).
   std::string reason;
   /// The side labels in disk-boundary order, space-separated (format in the header comment).
@@ -197,7 +200,10 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topology, const CutOptio
 /// double-sweep diameter. The result is a CutResult with no refinement (surface = input):
 /// sides are the branches of the cut graph between nodes (cut-graph degree ≥ 3), labelled x1,
 /// x1^-1, x2, … in boundary order with partners and orientations; canonical is false. Errors:
-/// InvalidArgument (sizes, lengths, not closed or genus 0), MultipleComponents, NumericalFailure.
+/// InvalidArgument (sizes, lengths, closed of genus 0, a disk), MultipleComponents, NumericalFailure.
+/// Bordered surfaces (all but a disk) get the same construction: the cut graph then ends on the
+/// boundary loops, and the pieces of boundary between its nodes are sides of kind Boundary
+/// (labelled ∂i, no partner). boundary_loops is set; `compact` is true.
 CutResult cut_compact(const Mesh& mesh, const Topology& topology, std::span<const double> lengths,
                       Index centre_face = -1);
 
