@@ -5,10 +5,12 @@
 #     "ricci: error:" message on stderr and no OUTDIR left behind;
 #   - no sanitizer report on stderr, no timeout, no crash (exit 1, 2, 124 or a signal fail).
 # It builds nothing. Usage:
-#   tools/sanitize_meshes.sh BUILD_DIR [--max-faces N [--large-build DIR2]] [--pictures-max-faces N]
-#                            [--timeout S] [MESHES_DIR]
+#   tools/sanitize_meshes.sh BUILD_DIR [--max-faces N [--large-build DIR2 | --large-args "ARGS"]]
+#                            [--pictures-max-faces N] [--timeout S] [MESHES_DIR]
 # --max-faces N: meshes with more than N faces (counted from the file; default: no limit) are
-# skipped, or run with DIR2's ricci (a Release build) when --large-build is given;
+# skipped, or run with DIR2's ricci (a Release build) when --large-build is given, or with the
+# same build and the extra uniformize options ARGS (e.g. "--seed-checks 0 --base-candidates 2",
+# fewer repeats of the same code paths) when --large-args is given;
 # meshes with at most --pictures-max-faces faces (default 6000) also draw the pictures and
 # report.html, the others run with --no-pictures. --timeout is per mesh (default 600 s).
 # Prints one line per mesh (time, faces, outcome) and the summary
@@ -24,6 +26,7 @@ build="$1"
 shift
 max_faces=""
 large_build=""
+large_args=""
 pictures_max=6000
 per_mesh_timeout=600
 meshes="${RICCI_SHARED_MESHES:-$here/../../shared/meshes}"
@@ -31,6 +34,7 @@ while [[ $# -gt 0 ]]; do
   case "$1" in
     --max-faces) max_faces="$2"; shift 2 ;;
     --large-build) large_build="$2"; shift 2 ;;
+    --large-args) large_args="$2"; shift 2 ;;
     --pictures-max-faces) pictures_max="$2"; shift 2 ;;
     --timeout) per_mesh_timeout="$2"; shift 2 ;;
     *) meshes="$1"; shift ;;
@@ -73,21 +77,26 @@ while IFS= read -r mesh; do
   faces="${faces:-0}"
   exe="$ricci"
   tag=""
+  extra=()
   if [[ -n "$max_faces" && "$faces" -gt "$max_faces" ]]; then
-    if [[ -z "$large_build" ]]; then
+    if [[ -n "$large_build" ]]; then
+      exe="$large_build/ricci"
+      tag=" [$large_build]"
+    elif [[ -n "$large_args" ]]; then
+      read -r -a extra <<<"$large_args"
+      tag=" [$large_args]"
+    else
       printf '%-48s %8s faces  skipped (more than %s faces)\n' "$name" "$faces" "$max_faces"
       skipped=$((skipped + 1))
       continue
     fi
-    exe="$large_build/ricci"
-    tag=" [$large_build]"
   fi
   total=$((total + 1))
   out="$work/out-$total"
   pictures=()
   [[ "$faces" -gt "$pictures_max" ]] && pictures=(--no-pictures)
   start=$(date +%s.%N)
-  timeout "$per_mesh_timeout" "$exe" uniformize "$mesh" -o "$out" -q "${pictures[@]}" \
+  timeout "$per_mesh_timeout" "$exe" uniformize "$mesh" -o "$out" -q "${pictures[@]}" "${extra[@]}" \
     >"$work/stdout" 2>"$work/stderr"
   code=$?
   secs=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
@@ -130,6 +139,7 @@ done < <(find -L "$meshes" -type f \( -iname '*.obj' -o -iname '*.off' -o -iname
 summary="$total meshes: $ok ok, $refused refused with a message, $failed failed"
 [[ $skipped -gt 0 ]] && summary+=" ($skipped skipped: more than $max_faces faces)"
 [[ -n "$large_build" && -n "$max_faces" ]] && summary+=" (above $max_faces faces with $large_build)"
+[[ -z "$large_build" && -n "$large_args" && -n "$max_faces" ]] && summary+=" (above $max_faces faces with $large_args)"
 echo "$summary"
 for f in "${failures[@]}"; do echo "  failed: $f"; done
 [[ $failed -eq 0 ]]
