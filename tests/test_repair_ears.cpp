@@ -118,6 +118,20 @@ void check_split(const Mesh& in, const Topology& tin, const Mesh& out, const Top
   }
 }
 
+/// The target passes its check and Newton reaches it to 1e-10 from the initial metric.
+void converges(const ValidateResult& v, const Target& target) {
+  const InitialMetric im = initial_metric(v.mesh, v.topology);
+  REQUIRE(im.status == Status::Ok);
+  const TargetCheck check = check_target(v.topology, im.structure, target);
+  REQUIRE_MESSAGE(check.status == Status::Ok, check.message);
+  FlowOptions fo;
+  fo.tolerance = 1e-10;
+  const FlowResult r = solve_flow(v.topology, im.structure, im.u, target, fo);
+  INFO(r.message);
+  CHECK(r.status == Status::Ok);
+  CHECK(r.max_curvature_error < 1e-10);
+}
+
 }  // namespace
 
 TEST_CASE("repair ears: without the split an inner-loop ear makes the circle target infeasible, naming it") {
@@ -170,18 +184,7 @@ TEST_CASE("repair ears: the split keeps χ, loops, orientation and input vertice
     CHECK(shared >= 2);
   }
 
-  InitialMetricOptions mo;
-  const InitialMetric im = initial_metric(v.mesh, v.topology, mo);
-  REQUIRE(im.status == Status::Ok);
-  const Target target = circle_target(v.topology, outer_vertex(m));
-  const TargetCheck check = check_target(v.topology, im.structure, target);
-  REQUIRE_MESSAGE(check.status == Status::Ok, check.message);
-  FlowOptions fo;
-  fo.tolerance = 1e-10;
-  const FlowResult r = solve_flow(v.topology, im.structure, im.u, target, fo);
-  INFO(r.message);
-  CHECK(r.status == Status::Ok);
-  CHECK(r.max_curvature_error < 1e-10);
+  converges(v, circle_target(v.topology, outer_vertex(m)));
 }
 
 TEST_CASE("repair ears: split_ears on chosen ears, in rounds, and on isolated triangles") {
@@ -356,15 +359,5 @@ TEST_CASE("repair ears: the Stanford bunny's inner-loop ears are split and its c
   CHECK(it->count >= 1);
   CHECK(it->message.find("1791") != std::string::npos);
   CHECK(find_ears(v.topology).empty());
-  const InitialMetric im = initial_metric(v.mesh, v.topology);
-  REQUIRE(im.status == Status::Ok);
-  const Target target = uniform_target(v.topology, BoundaryMode::Circle);
-  const TargetCheck check = check_target(v.topology, im.structure, target);
-  REQUIRE_MESSAGE(check.status == Status::Ok, check.message);
-  FlowOptions fo;
-  fo.tolerance = 1e-10;
-  const FlowResult r = solve_flow(v.topology, im.structure, im.u, target, fo);
-  INFO(r.message);
-  CHECK(r.status == Status::Ok);
-  CHECK(r.max_curvature_error < 1e-10);
+  converges(v, uniform_target(v.topology, BoundaryMode::Circle));
 }

@@ -27,6 +27,15 @@ void face(Mesh& m, Index a, Index b, Index c) {
   m.faces.push_back(b);
   m.faces.push_back(c);
 }
+/// Two triangles per quad of a (columns+1) × (rows+1) vertex grid numbered i·(rows+1) + j.
+void grid_faces(Mesh& m, int columns, int rows) {
+  auto id = [&](int i, int j) { return static_cast<Index>(i * (rows + 1) + j); };
+  for (int i = 0; i < columns; ++i)
+    for (int j = 0; j < rows; ++j) {
+      face(m, id(i, j), id(i + 1, j), id(i + 1, j + 1));
+      face(m, id(i, j), id(i + 1, j + 1), id(i, j + 1));
+    }
+}
 Vec3 lerp(const Vec3& a, const Vec3& b, double t) {
   return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
 }
@@ -162,13 +171,7 @@ Mesh accordion(int folds, int columns_per_fold, int rows, double gap) {
     const double s = static_cast<double>(i) / columns_per_fold;
     for (int j = 0; j <= rows; ++j) push(m, {x, static_cast<double>(j) / rows, gap * s});
   }
-  auto id = [&](int i, int j) { return static_cast<Index>(i * (rows + 1) + j); };
-  for (int i = 0; i < columns; ++i) {
-    for (int j = 0; j < rows; ++j) {
-      face(m, id(i, j), id(i + 1, j), id(i + 1, j + 1));
-      face(m, id(i, j), id(i + 1, j + 1), id(i, j + 1));
-    }
-  }
+  grid_faces(m, columns, rows);
   return m;
 }
 
@@ -177,13 +180,7 @@ Mesh strip(int columns, int rows, double length, double width) {
   Mesh m;
   for (int i = 0; i <= columns; ++i)
     for (int j = 0; j <= rows; ++j) push(m, {length * i / columns, width * j / rows, 0.0});
-  auto id = [&](int i, int j) { return static_cast<Index>(i * (rows + 1) + j); };
-  for (int i = 0; i < columns; ++i) {
-    for (int j = 0; j < rows; ++j) {
-      face(m, id(i, j), id(i + 1, j), id(i + 1, j + 1));
-      face(m, id(i, j), id(i + 1, j + 1), id(i, j + 1));
-    }
-  }
+  grid_faces(m, columns, rows);
   return m;
 }
 

@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
         ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
         // As `ricci uniformize` does: a boundary target that an ear makes infeasible gets the ears split.
         bool split = false;
-        if (r.status == ricci::Status::InfeasibleTarget && r.message.find("ear") != std::string::npos) {
+        if (r.status == ricci::Status::InfeasibleTarget && !ricci::find_ears(lr.validated.topology).empty()) {
           ricci::LoadOptions lo;
           lo.validate.split_ears = true;
           const ricci::LoadResult ls = ricci::load_mesh(p.string(), lo);

@@ -139,6 +139,14 @@ struct Positions {
     const Cx u = B - A, w = Cc - A;
     return u.real() * w.imag() - u.imag() * w.real();
   }
+  /// Places the vertex of corner o of t from the two ends of the edge opposite it (placed
+  /// already); returns that vertex.
+  Index place_corner(const Topology& t, std::span<const double> l, Index o) {
+    const Index v = t.corner_vertex[o];
+    place(v, t.corner_vertex[next_corner(o)], t.corner_vertex[prev_corner(o)], l[t.corner_edge[prev_corner(o)]],
+          l[t.corner_edge[next_corner(o)]]);
+    return v;
+  }
   /// Places x so that d(p, x) = rp, d(q, x) = rq, x on the left of p → q.
   void place(Index v, Index pv, Index qv, double rp, double rq) {
     switch (g) {
@@ -559,10 +567,8 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
         const Index nb = corner_face(o);
         owner[nb] = -2 - p;
         pq.push_back(nb);
-        const Index v = t.corner_vertex[o];
-        if (placed[v]) continue;
-        const Index pv = t.corner_vertex[next_corner(o)], qv = t.corner_vertex[prev_corner(o)];
-        L.place(v, pv, qv, l[t.corner_edge[prev_corner(o)]], l[t.corner_edge[next_corner(o)]]);
+        if (placed[t.corner_vertex[o]]) continue;
+        const Index v = L.place_corner(t, l, o);
         placed[v] = 1;
         touched.push_back(v);
         if (!L.finite(v)) {
@@ -673,10 +679,11 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   // Each vertex at the mean of its mapped copies; the seam error is their largest spread.
   out.patches = static_cast<int>(np);
   out.patch_seam_error = 0;
+  std::vector<Cx> w;
   for (Index v = 0; v < nv; ++v) {
     const Index n = first[v + 1] - first[v];
     if (n == 0) continue;
-    std::vector<Cx> w;
+    w.clear();
     for (Index j = first[v]; j < first[v + 1]; ++j) {
       const Copy& c = copies[order[j]];
       w.push_back(maps[c.patch].map(delta[c.patch].data(), c.z));
@@ -789,10 +796,8 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
         depth[nb] = depth[f] + 1;
         out.depth = std::max(out.depth, depth[nb]);
         queue.push_back(nb);
-        const Index v = t.corner_vertex[o];
-        if (placed[v]) continue;
-        const Index pv = t.corner_vertex[next_corner(o)], qv = t.corner_vertex[prev_corner(o)];
-        P.place(v, pv, qv, l[t.corner_edge[prev_corner(o)]], l[t.corner_edge[next_corner(o)]]);
+        if (placed[t.corner_vertex[o]]) continue;
+        const Index v = P.place_corner(t, l, o);
         placed[v] = 1;
         if (!P.finite(v)) {
           out.status = Status::NumericalFailure;
