@@ -39,6 +39,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench_common.h"
 #include "ricci/flow.h"
 #include "ricci/io.h"
 #include "ricci/metric.h"
@@ -63,35 +64,12 @@ struct Settings {
   bool gradient = true;
 };
 
-/// The processor's model name (Linux /proc/cpuinfo), or "unknown".
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) {
-      const std::size_t colon = line.find(':');
-      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
-    }
-  return "unknown";
-}
-
-std::string compiler_name() {
-#if defined(__clang__)
-  return std::string("clang ") + __clang_version__;
-#elif defined(__GNUC__)
-  return std::string("g++ ") + __VERSION__;
-#else
-  return "unknown";
-#endif
-}
+using bench_common::compiler_name;
+using bench_common::cpu_model;
 
 double seconds_since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-std::string fmt(const char* f, double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, x);
-  return buf;
-}
+using bench_common::fmt;
 
 /// An input: a name and a way to produce a validated mesh.
 struct Input {
