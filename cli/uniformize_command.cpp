@@ -298,11 +298,13 @@ std::string generators_json(const ricci::UniformizeResult& r, const std::string&
   j["input"] = source;
   j["geometry"] = std::string(ricci::geometry_name(r.geometry));
   j["genus"] = r.deck.genus;
-  j["word"] = r.has_polygon ? r.polygon_cut.word : r.cut.word;
+  j["word"] = r.has_polygon || (r.has_deck && r.polygon_cut.status == Status::Ok) ? r.polygon_cut.word : r.cut.word;
   j["convention"] =
       r.geometry == Geometry::Hyperbolic
           ? "each generator X maps side X of the polygon onto side X^-1, reversing it; H: z -> e^{i theta}(z - z0)/(1 - "
-            "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1"
+            "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1; "
+            "generators in the frame of polygon.obj (the polygon centred), domain_side_pairings in that of mesh.obj "
+            "and domain.obj"
           : "each generator X maps side X of the polygon onto side X^-1: z -> z + translation";
   j["relation_error"] = r.has_deck ? real(r.deck.relation_error) : Json(nullptr);
   if (r.has_deck && r.geometry == Geometry::Hyperbolic) j["relator"] = moebius_json(r.deck.relator);
@@ -310,7 +312,12 @@ std::string generators_json(const ricci::UniformizeResult& r, const std::string&
   if (!r.domain_maps.empty()) {
     j["domain_side_pairings"] = generators_array(r.domain_maps);
     j["domain_cycle_error"] = real(r.domain_cycle_error);
-    j["tile_consistency"] = real(r.tile_consistency);
+    j["domain_adjusted_cycle_error"] = real(r.domain_adjusted_cycle_error);
+    j["domain_pairing_adjustment"] = real(r.domain_pairing_adjustment);
+    if (r.has_deck) {
+      j["fitted_relation_error"] = real(r.fitted_relation_error);
+      j["tile_consistency"] = real(r.tile_consistency);
+    }
   }
   return j.dump(2) + '\n';
 }
@@ -520,8 +527,13 @@ Json report_json(const Run& run) {
     j["polygon"] = nullptr;
   }
   j["generators"] = have && r.has_deck && r.deck.status == Status::Ok ? generators_array(r.deck.generators) : Json::array();
-  j["domain_cycle_error"] = have && !r.domain_maps.empty() ? real(r.domain_cycle_error) : Json(nullptr);
+  const bool domain = have && !r.domain_maps.empty();
+  j["domain_cycle_error"] = domain ? real(r.domain_cycle_error) : Json(nullptr);
+  j["domain_adjusted_cycle_error"] = domain ? real(r.domain_adjusted_cycle_error) : Json(nullptr);
+  j["domain_pairing_adjustment"] = domain ? real(r.domain_pairing_adjustment) : Json(nullptr);
   j["relation_error"] = have && r.has_deck && r.deck.status == Status::Ok ? real(r.deck.relation_error) : Json(nullptr);
+  j["fitted_relation_error"] =
+      domain && r.has_deck && r.deck.status == Status::Ok ? real(r.fitted_relation_error) : Json(nullptr);
   j["angle_distortion"] = have && !r.angles.ratio.empty()
                               ? Json{{"mean", real(r.angles.mean_abs_log)}, {"max", real(r.angles.max_abs_log)}}
                               : Json(nullptr);

@@ -150,26 +150,8 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                            : "The cut surface laid out (" + gname + "); sides that are glued together share a colour.",
                    p.png, p.svg});
     if (r.has_polygon && compact) {
-      // Shown centred: the disk automorphism moving its hyperboloid centre of mass to 0.
-      std::vector<double> centred = r.polygon.positions;
-      double T = 0, X = 0, Y = 0;
-      for (std::size_t v = 0; v + 1 < centred.size(); v += 2) {
-        const cplx z(centred[v], centred[v + 1]);
-        const double q = (1 - std::abs(z)) * (1 + std::abs(z));
-        T += (1 + std::norm(z)) / q;
-        X += 2 * z.real() / q;
-        Y += 2 * z.imag() / q;
-      }
-      const double n = std::sqrt(std::max(T * T - X * X - Y * Y, 0.0));
-      if (n > 0) {
-        const ricci::Moebius C = ricci::Moebius::to_origin(cplx(X, Y) / (T + n));
-        for (std::size_t v = 0; v + 1 < centred.size(); v += 2) {
-          const cplx w = C.apply(cplx(centred[v], centred[v + 1]));
-          centred[v] = w.real();
-          centred[v + 1] = w.imag();
-        }
-      }
-      const Picture q = draw(disk_drawing(r.polygon_cut, centred, g, "Canonical polygon " + r.polygon_cut.word));
+      // The library gives it centred (hyperboloid centre of mass at 0, DomainDeck::polygon_frame).
+      const Picture q = draw(disk_drawing(r.polygon_cut, r.polygon.positions, g, "Canonical polygon " + r.polygon_cut.word));
       out.push_back({"polygon", "The canonical fundamental polygon",
                      "Sides a_i, b_i and their partners a_i^-1, b_i^-1 share a colour; each deck generator maps a "
                      "side onto its partner. Laid out through the compact domain's tiles.",

@@ -75,6 +75,9 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(j["polygon"]["word"] == "a1 b1 a1^-1 b1^-1 a2 b2 a2^-1 b2^-1");
   CHECK(j["polygon"]["max_edge_length_error"].get<double>() < 1e-9);
   CHECK(j["domain_cycle_error"].get<double>() < 1e-12);
+  CHECK(j["domain_adjusted_cycle_error"].get<double>() < 1e-25);
+  CHECK(j["domain_pairing_adjustment"].get<double>() < 1e-10);
+  CHECK(j["fitted_relation_error"].get<double>() < 1e-9);
   CHECK(j["angle_distortion"]["mean"].get<double>() <= j["angle_distortion"]["max"].get<double>());
   for (const char* stage : {"load", "initial_metric", "target", "flow", "cut", "layout", "seed_check", "deck", "outputs", "pictures"})
     CHECK_MESSAGE(j["timings"].contains(stage), stage);

@@ -18,6 +18,7 @@
 #include "ricci/deck.h"
 #include "ricci/layout.h"
 #include "ricci/flow.h"
+#include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
 
@@ -541,4 +542,94 @@ TEST_CASE("deck: end to end on flowed surfaces (flow, cut, layout, fit, cover)")
     CHECK(tiling.num_vertices() < static_cast<Index>(cover.elements.size()) * nv);
     CHECK(!cover_svg(cut, x, cover).empty());
   }
+}
+
+TEST_CASE("deck: side pairings moved onto exact vertex cycles") {
+  // Genus 3: the compact domain of the flowed pretzel and a canonical cut, through
+  // deck_through_domain() with and without the adjustment of the pairings.
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(3, 4));
+  REQUIRE(v.status == Status::Ok);
+  const UniformizeResult u = uniformize(v.mesh, v.topology);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  REQUIRE(u.cut.compact);
+  REQUIRE(u.polygon_cut.canonical);
+  DeckOptions raw;
+  raw.adjust_pairings = false;
+  const DomainDeck a = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, raw);
+  const DomainDeck b = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions);
+  REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
+  REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+  MESSAGE("genus 3: cycles " << a.cycle_error << " -> " << b.adjusted_cycle_error << " (pairings moved by "
+                             << b.pairing_adjustment << "); relation " << a.deck.relation_error << " -> "
+                             << b.deck.relation_error);
+  // Without the adjustment nothing moves and both relations are the fitted one.
+  CHECK(a.pairing_adjustment == 0);
+  CHECK(a.adjusted_cycle_error == a.cycle_error);
+  CHECK(a.fitted_relation_error == a.deck.relation_error);
+  // The fit is good: cycles to ~1e-13, not to rounding; the adjustment removes that rest.
+  CHECK(a.cycle_error > 1e-17);
+  CHECK(a.cycle_error < 1e-11);
+  CHECK(b.cycle_error == a.cycle_error);
+  CHECK(b.adjusted_cycle_error < 1e-26);
+  CHECK(b.pairing_adjustment > 0);
+  CHECK(b.pairing_adjustment < 1e-10);
+  CHECK(b.deck.relation_error < 1e-20);
+  CHECK(b.fitted_relation_error < 1e-9);
+  // The adjusted pairings still fit their sides, and the generators the polygon's sides.
+  for (const DeckGenerator& G : b.side_maps) CHECK(G.residual_max < 1e-10);
+  CHECK(b.deck.residual_max < 1e-9);
+  CHECK(b.tile_consistency < 1e-9);
+  // The polygon comes centred: its hyperboloid centre of mass is the origin.
+  REQUIRE(!b.canonical_positions.empty());
+  double T = 0, X = 0, Y = 0;
+  for (std::size_t i = 0; i + 1 < b.canonical_positions.size(); i += 2) {
+    const cplx z(b.canonical_positions[i], b.canonical_positions[i + 1]);
+    const double q = 1 - std::norm(z);
+    T += (1 + std::norm(z)) / q;
+    X += 2 * z.real() / q;
+    Y += 2 * z.imag() / q;
+  }
+  CHECK(std::hypot(X, Y) / T < 1e-9);
+  // The two frames differ by polygon_frame: a generator of the unadjusted run, conjugated into
+  // b's frame, is b's generator up to the adjustment.
+  for (std::size_t i = 0; i < b.deck.generators.size(); ++i) {
+    const Moebius F = b.polygon_frame * a.polygon_frame.inverse();
+    const Moebius Ga = F * a.deck.generators[i].map * F.inverse();
+    const cplx z(0.1, 0.2);
+    CHECK(hyperbolic_distance(Ga.apply(z), b.deck.generators[i].map.apply(z)) < 1e-8);
+  }
+}
+
+TEST_CASE("deck: a layout no surface group fits is refused, not adjusted") {
+  // Rotating one side of the compact domain by 1e-4 about its midpoint: its pairing no longer
+  // closes the vertex cycles, and the adjustment needed is far above the fit residuals.
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(2, 4));
+  REQUIRE(v.status == Status::Ok);
+  const UniformizeResult u = uniformize(v.mesh, v.topology);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  std::vector<double> x = u.layout.positions;
+  const CutResult& c = u.cut;
+  const Index s = 0, b0 = c.side_offsets[s], b1 = c.side_offsets[s + 1];
+  const cplx m = (cplx(x[2 * c.side_vertices[b0]], x[2 * c.side_vertices[b0] + 1]) +
+                  cplx(x[2 * c.side_vertices[b1 - 1]], x[2 * c.side_vertices[b1 - 1] + 1])) / 2.0;
+  const Moebius C = Moebius::to_origin(m), R = C.inverse() * Moebius::rotation(1e-4) * C;
+  for (Index i = b0 + 1; i + 1 < b1; ++i) {
+    const Index w = c.side_vertices[i];
+    const cplx z = R.apply(cplx(x[2 * w], x[2 * w + 1]));
+    x[2 * w] = z.real();
+    x[2 * w + 1] = z.imag();
+  }
+  const DomainDeck bad = fit_domain_pairings(c, x);
+  CHECK(bad.status == Status::NumericalFailure);
+  CHECK(bad.message.find("pairing") != std::string::npos);
+  DeckOptions loose;
+  loose.max_pairing_adjustment = INFINITY;
+  const DomainDeck d = fit_domain_pairings(c, x, loose);
+  REQUIRE_MESSAGE(d.status == Status::Ok, d.message);
+  CHECK(d.cycle_error > 1e-6);
+  CHECK(d.pairing_adjustment > 1e-6);
+  CHECK(d.adjusted_cycle_error < 1e-20);
+  const DomainDeck good = fit_domain_pairings(c, u.layout.positions);
+  REQUIRE(good.status == Status::Ok);
+  CHECK(good.pairing_adjustment < 1e-10);
 }

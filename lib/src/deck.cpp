@@ -4,6 +4,7 @@
 #include "ricci/deck.h"
 
 #include <algorithm>
+#include <array>
 #include <cfenv>
 #include <chrono>
 #include <cmath>
@@ -14,6 +15,9 @@
 #include <utility>
 
 #include <ceres/ceres.h>
+#include <Eigen/Dense>
+
+#include "moebius_quad.h"
 
 namespace ricci {
 
@@ -116,6 +120,7 @@ bool DeckOptions::is_valid(std::string* why) const {
       !std::isfinite(parameter_tolerance))
     return fail("DeckOptions tolerances must be finite and non-negative.");
   if (rounds < 1 || rounds > 10) return fail("DeckOptions::rounds must be in 1..10.");
+  if (!(max_pairing_adjustment > 0)) return fail("DeckOptions::max_pairing_adjustment must be > 0.");
   return true;
 }
 
@@ -198,26 +203,8 @@ struct SidePairs {
   std::vector<Pair> pairs;
 };
 
-/// An SU(1,1) matrix in long double, for the relation check.
-struct MoebiusL {
-  using cl = std::complex<long double>;
-  cl a{1, 0}, b{0, 0};
-  MoebiusL() = default;
-  MoebiusL(cl a_, cl b_) : a(a_), b(b_) {}
-  explicit MoebiusL(const Moebius& m) : a(m.a), b(m.b) {}
-  static MoebiusL to_origin(cplx p) {
-    const cl q(p.real(), p.imag());
-    const long double s = std::sqrt(1.0L - std::norm(q));
-    return {1.0L / s, -q / s};
-  }
-  MoebiusL inverse() const { return {std::conj(a), -b}; }
-  MoebiusL operator*(const MoebiusL& n) const { return {a * n.a + b * std::conj(n.b), a * n.b + b * std::conj(n.a)}; }
-  double distance_to_identity() const {
-    const long double minus = std::max(std::abs(a - 1.0L), std::abs(b));
-    const long double plus = std::max(std::abs(a + 1.0L), std::abs(b));
-    return static_cast<double>(std::min(minus, plus));
-  }
-};
+using detail::CQ;
+using detail::MoebiusQ;
 
 /// A rigid motion z ↦ c z + t (|c| = 1) for the euclidean relation check.
 struct Rigid {
@@ -318,28 +305,20 @@ DeckResult fail(DeckResult r, Status s, std::string msg) {
   return r;
 }
 
-/// The relator R = [A_1^-1, B_1] … [A_g^-1, B_g] of the generators (in double, into r.relator)
-/// and relation_error: R conjugated by the map moving the polygon corner v0 to the origin, from
-/// `gens` (the same maps in long double, order a1 b1 a2 b2 …), its distance to the identity.
-/// Conjugating first keeps every partial product a map between tiles around the origin.
-void set_relation(DeckResult& r, const std::vector<MoebiusL>& gens, cplx v0) {
+/// The relator R = [A_1^-1, B_1] … [A_g^-1, B_g] of `gens` (quad, order a1 b1 a2 b2 …): its
+/// double value and its distance to the identity after conjugation by the map moving the polygon
+/// corner v0 to the origin (so every partial product is a map between tiles around the origin).
+double relation_of(const std::vector<MoebiusQ>& gens, CQ v0, Moebius* relator) {
   const std::size_t g = gens.size() / 2;
-  Moebius R;
+  MoebiusQ R;
   for (std::size_t i = 0; i < g; ++i) {
-    const Moebius& A = r.generators[2 * i].map;
-    const Moebius& B = r.generators[2 * i + 1].map;
+    const MoebiusQ& A = gens[2 * i];
+    const MoebiusQ& B = gens[2 * i + 1];
     R = R * A.inverse() * B * A * B.inverse();
   }
-  r.relator = R;
-  const MoebiusL C = MoebiusL::to_origin(v0);
-  const MoebiusL Ci = C.inverse();
-  MoebiusL RL;
-  for (std::size_t i = 0; i < g; ++i) {
-    const MoebiusL A = C * gens[2 * i] * Ci;
-    const MoebiusL B = C * gens[2 * i + 1] * Ci;
-    RL = RL * A.inverse() * B * A * B.inverse();
-  }
-  r.relation_error = RL.distance_to_identity();
+  if (relator) *relator = R.to_double();
+  const MoebiusQ C = MoebiusQ::to_origin(v0);
+  return (C * R * C.inverse()).distance_to_identity();
 }
 
 /// Finds the side labelled `name` and its partner labelled name^-1 in a canonical cut.
@@ -478,9 +457,9 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry, std
 
   // The relation Π [A_i^-1, B_i] = 1.
   if (geometry == Geometry::Hyperbolic) {
-    std::vector<MoebiusL> gens;
-    for (const DeckGenerator& G : r.generators) gens.push_back(MoebiusL(G.map));
-    set_relation(r, gens, pos(cut.side_vertices[cut.side_offsets[0]]));
+    std::vector<MoebiusQ> gens;
+    for (const DeckGenerator& G : r.generators) gens.push_back(MoebiusQ(G.map));
+    r.relation_error = relation_of(gens, CQ(pos(cut.side_vertices[cut.side_offsets[0]])), &r.relator);
   } else {
     // Rigid motions (Procrustes) so that a rotation in the layout shows up in the relation.
     std::vector<Rigid> rig;
@@ -529,18 +508,111 @@ namespace ricci {
 
 namespace {
 
-using cl = std::complex<long double>;
-
-cl apply_l(const MoebiusL& m, cl z) { return (m.a * z + m.b) / (std::conj(m.b) * z + std::conj(m.a)); }
-
-Moebius to_double(const MoebiusL& m) {
-  return Moebius{cplx(static_cast<double>(m.a.real()), static_cast<double>(m.a.imag())),
-                 cplx(static_cast<double>(m.b.real()), static_cast<double>(m.b.imag()))}
-      .normalized();
-}
+using detail::quad;
 
 std::uint64_t dkey(Index u, Index v) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) | static_cast<std::uint32_t>(v);
+}
+
+/// A letter of a word in the domain's side pairings: pairing k (k < 0: none), or its inverse.
+struct Letter {
+  Index k = -1;
+  bool inverse = false;
+};
+
+MoebiusQ letter_map(const std::vector<MoebiusQ>& P, Letter l) {
+  if (l.k < 0) return MoebiusQ();
+  return l.inverse ? P[static_cast<std::size_t>(l.k)].inverse() : P[static_cast<std::size_t>(l.k)];
+}
+
+/// A vertex cycle of the domain: the pairings crossed around one vertex of its cut graph (freely
+/// reduced, not empty) and that vertex's position in the domain layout (the product fixes it).
+struct Cycle {
+  std::vector<Letter> word;
+  CQ at;
+};
+
+/// The product of a cycle, conjugated to the origin; it is ±I exactly when (Im a, Re b, Im b) of
+/// ±M, the sign making Re a positive, vanishes (det = 1). Writes those three numbers.
+void cycle_residual(const std::vector<MoebiusQ>& P, const Cycle& c, double* out) {
+  MoebiusQ M;
+  for (const Letter& l : c.word) M = M * letter_map(P, l);
+  const MoebiusQ C = MoebiusQ::to_origin(c.at);
+  M = C * M * C.inverse();
+  const quad s = M.a.re < 0 ? -1 : 1;
+  out[0] = static_cast<double>(s * M.a.im);
+  out[1] = static_cast<double>(s * M.b.re);
+  out[2] = static_cast<double>(s * M.b.im);
+}
+
+/// The pairings X_k · E(ξ_k), E(ξ) = [[1 + iξ0, ξ1 + iξ2], conj] normalised.
+std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vector<quad>& xi) {
+  std::vector<MoebiusQ> Y(X.size());
+  for (std::size_t k = 0; k < X.size(); ++k)
+    Y[k] = (X[k] * MoebiusQ(CQ{1, xi[3 * k]}, CQ{xi[3 * k + 1], xi[3 * k + 2]}).normalized()).normalized();
+  return Y;
+}
+
+/// Moves the fitted pairings X to nearby ones whose vertex cycles are exactly ±I (to quad
+/// rounding): Gauss–Newton on the cycle equations over Y_k = X_k · E(ξ_k), each step the
+/// minimum-norm solution of the linearised equations (Jacobian at ξ = 0 by central differences in
+/// quad; the correction is of the size of the fit residuals, so that Jacobian stays exact to the
+/// same relative size and each step gains as many digits). Returns the largest cycle residual left.
+double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycles) {
+  const Eigen::Index m = static_cast<Eigen::Index>(X.size()), nr = 3 * static_cast<Eigen::Index>(cycles.size());
+  if (m == 0 || nr == 0) return 0;
+  auto residual = [&](const std::vector<MoebiusQ>& Y, Eigen::VectorXd& r) {
+    r.resize(nr);
+    for (std::size_t c = 0; c < cycles.size(); ++c) cycle_residual(Y, cycles[c], r.data() + 3 * c);
+  };
+  std::vector<quad> xi(static_cast<std::size_t>(3 * m), 0);
+  Eigen::MatrixXd J(nr, 3 * m);
+  Eigen::VectorXd rp, rm, r;
+  const double h = 1e-9;
+  for (Eigen::Index j = 0; j < 3 * m; ++j) {
+    xi[static_cast<std::size_t>(j)] = h;
+    residual(perturbed(X, xi), rp);
+    xi[static_cast<std::size_t>(j)] = -h;
+    residual(perturbed(X, xi), rm);
+    xi[static_cast<std::size_t>(j)] = 0;
+    J.col(j) = (rp - rm) / (2 * h);
+  }
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(J);
+  std::vector<quad> best = xi;
+  residual(X, r);
+  double best_err = r.lpNorm<Eigen::Infinity>();
+  for (int it = 0; it < 8 && best_err > 0; ++it) {
+    const Eigen::VectorXd delta = cod.solve(-r);
+    if (!delta.allFinite()) break;
+    for (Eigen::Index j = 0; j < 3 * m; ++j) xi[static_cast<std::size_t>(j)] += delta[j];
+    residual(perturbed(X, xi), r);
+    const double err = r.lpNorm<Eigen::Infinity>();
+    if (!(err < 0.5 * best_err)) break;
+    best_err = err;
+    best = xi;
+  }
+  X = perturbed(X, best);
+  return best_err;
+}
+
+/// Hyperboloid combination of points of the disk with weights beta (the record of a vertex the
+/// cut added inside a face), back in the disk; false when degenerate.
+bool hyperboloid_mean(const std::array<cplx, 3>& z, const std::array<double, 3>& beta, CQ& w) {
+  quad S[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) {
+    if (beta[k] == 0) continue;
+    const CQ q(z[k]);
+    const quad o = 1 - q.norm();
+    S[0] += beta[k] * (1 + q.norm()) / o;
+    S[1] += beta[k] * 2 * q.re / o;
+    S[2] += beta[k] * 2 * q.im / o;
+  }
+  const quad n2 = S[0] * S[0] - S[1] * S[1] - S[2] * S[2];
+  if (!(n2 > 0)) return false;
+  const quad nrm = detail::qsqrt(n2);
+  const quad den = 1 + S[0] / nrm;
+  w = CQ{S[1] / nrm / den, S[2] / nrm / den};
+  return true;
 }
 
 }  // namespace
@@ -585,14 +657,15 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   auto dz = [&](Index v) { return cplx(dpos[2 * v], dpos[2 * v + 1]); };
 
   // 1. Side pairings of the domain, fitted over all vertex pairs of each branch.
-  std::vector<MoebiusL> X(static_cast<std::size_t>(domain.num_generators()));
+  std::vector<MoebiusQ> X(static_cast<std::size_t>(domain.num_generators()));
+  std::vector<std::vector<Pair>> side_pairs(X.size());
   out.side_maps.resize(X.size());
   for (Index s = 0; s < domain.num_sides(); ++s) {
     if (domain.side_orientation[s] != 1) continue;
     const Index k = domain.side_generator[s], p = domain.side_partner[s];
     if (k < 0 || k >= static_cast<Index>(X.size()) || p < 0) return bad(Status::InvalidArgument, "a domain side has no pairing.");
     const Index b0 = domain.side_offsets[s], bp = domain.side_offsets[p], n = domain.side_offsets[s + 1] - b0;
-    std::vector<Pair> pairs;
+    std::vector<Pair>& pairs = side_pairs[k];
     for (Index i = 0; i < n; ++i) pairs.push_back({dz(domain.side_vertices[b0 + i]), dz(domain.side_vertices[bp + n - 1 - i])});
     DeckGenerator G;
     G.name = domain.side_label[s];
@@ -601,12 +674,13 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     G.pairs = n;
     if (!fit_hyperbolic(pairs, options, G, r.ceres_iterations))
       return bad(Status::NumericalFailure, "domain side pairing " + G.name + " maps its side outside the disk.");
-    X[k] = MoebiusL(G.map);
+    X[k] = MoebiusQ(G.map);
     out.side_maps[k] = std::move(G);
   }
 
-  // 2. Directed boundary edges of the domain → (pairing, orientation), and the crossing map for
-  // the edge opposite corner k of input face O (identity when the domain does not cut it).
+  // 2. Directed boundary edges of the domain → (pairing, orientation), and the letter crossed
+  // over the edge opposite corner k of input face O (none when the domain does not cut it):
+  // X^-1 when the face lies on side x, X on side x^-1.
   std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary;
   for (Index s = 0; s < domain.num_sides(); ++s)
     for (Index i = domain.side_offsets[s]; i + 1 < domain.side_offsets[s + 1]; ++i)
@@ -615,9 +689,8 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   auto crossing = [&](Index O, int k) {
     const Index c = 3 * O + k;
     const auto it = boundary.find(dkey(domain.cut_faces[next_corner(c)], domain.cut_faces[prev_corner(c)]));
-    if (it == boundary.end()) return MoebiusL();
-    const MoebiusL& m = X[it->second.first];
-    return it->second.second == 1 ? m.inverse() : m;
+    if (it == boundary.end()) return Letter{};
+    return Letter{it->second.first, it->second.second == 1};
   };
   const std::vector<Index>& in = domain.surface_faces;
   // The corner of input face O1 opposite its edge shared with O2 that holds surface vertices a, b
@@ -639,7 +712,9 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     return best;
   };
 
-  // Vertex cycles of the domain: the crossings around every input vertex compose to 1.
+  // Vertex cycles of the domain: the crossings around every input vertex compose to ±I. Their
+  // words, freely reduced (a vertex inside a branch crosses it there and back: empty).
+  std::vector<Cycle> cycles;
   {
     const TopologyResult it = build_topology(in, nin);
     if (it.status != Status::Ok) return bad(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
@@ -647,31 +722,83 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     for (Index v = 0; v < nin; ++v) {
       const Index k0 = I.vertex_corner_offsets[v], k1 = I.vertex_corner_offsets[v + 1];
       if (k0 == k1) continue;
-      MoebiusL P;
-      bool crossed = false;
+      Cycle cyc;
+      bool closed = true;
       for (Index k = k0; k < k1; ++k) {
         const Index c = I.vertex_corners[k];
         // ccw neighbour: across the edge v–vertex(prev(c)), opposite corner next(c).
         const Index nc = next_corner(c);
         if (I.opposite[nc] == kInvalid) {
-          crossed = false;
+          closed = false;
           break;
         }
-        const MoebiusL N = crossing(corner_face(c), static_cast<int>(nc % 3));
-        crossed |= std::abs(N.b) != 0 || std::abs(N.a - 1.0L) != 0;
-        P = P * N;
+        const Letter l = crossing(corner_face(c), static_cast<int>(nc % 3));
+        if (l.k < 0) continue;
+        if (!cyc.word.empty() && cyc.word.back().k == l.k && cyc.word.back().inverse != l.inverse)
+          cyc.word.pop_back();
+        else
+          cyc.word.push_back(l);
       }
-      if (!crossed) continue;
-      const Index c0 = I.vertex_corners[k0];
-      const MoebiusL C = MoebiusL::to_origin(dz(domain.cut_faces[c0]));
-      out.cycle_error = std::max(out.cycle_error, (C * P * C.inverse()).distance_to_identity());
+      // Cyclically reduced (a conjugate: still ±I exactly when the cycle is).
+      while (cyc.word.size() >= 2 && cyc.word.front().k == cyc.word.back().k &&
+             cyc.word.front().inverse != cyc.word.back().inverse) {
+        cyc.word.pop_back();
+        cyc.word.erase(cyc.word.begin());
+      }
+      if (!closed || cyc.word.empty()) continue;
+      cyc.at = CQ(dz(domain.cut_faces[I.vertex_corners[k0]]));
+      cycles.push_back(std::move(cyc));
+    }
+  }
+  double res[3];
+  for (const Cycle& c : cycles) {
+    cycle_residual(X, c, res);
+    out.cycle_error = std::max({out.cycle_error, std::abs(res[0]), std::abs(res[1]), std::abs(res[2])});
+  }
+  const std::vector<MoebiusQ> fitted = X;
+  out.adjusted_cycle_error = out.cycle_error;
+  if (options.adjust_pairings && !cycles.empty()) {
+    out.adjusted_cycle_error = adjust_pairings(X, cycles);
+    // The adjusted maps replace the fitted ones; their residuals on the domain's sides.
+    for (std::size_t k = 0; k < X.size(); ++k) {
+      DeckGenerator& G = out.side_maps[k];
+      G.map = X[k].to_double();
+      G.theta = G.map.theta();
+      G.z0 = G.map.z0();
+      G.translation_length = G.map.translation_length();
+      G.residual_max = 0;
+      double sum2 = 0;
+      for (const Pair& p : side_pairs[k]) {
+        const double d = detail::hyperbolic_distance_q(X[k].apply(CQ(p.z)), CQ(p.w));
+        const double moved = detail::hyperbolic_distance_q(X[k].apply(CQ(p.z)), fitted[k].apply(CQ(p.z)));
+        G.residual_max = std::max(G.residual_max, d);
+        out.pairing_adjustment = std::max(out.pairing_adjustment, moved);
+        sum2 += d * d;
+      }
+      G.residual_rms = side_pairs[k].empty() ? 0 : std::sqrt(sum2 / double(side_pairs[k].size()));
+      if (!std::isfinite(G.residual_max) || !std::isfinite(out.pairing_adjustment))
+        return bad(Status::NumericalFailure, "the adjusted side pairing " + G.name + " is not finite.");
+    }
+    if (!(out.pairing_adjustment <= options.max_pairing_adjustment) || !(out.adjusted_cycle_error < 1e14 * detail::kQuadEpsilon)) {
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "the domain's side pairings are not those of a surface group: their vertex cycles miss the "
+                    "identity by %.3g, and pairings closing them exactly (to %.3g) move a side vertex by %.3g "
+                    "(limit %.3g); the domain layout is not consistent.",
+                    out.cycle_error, out.adjusted_cycle_error, out.pairing_adjustment, options.max_pairing_adjustment);
+      return bad(Status::NumericalFailure, buf);
     }
   }
 
   if (canonical_in == nullptr) {
     out.status = Status::Ok;
-    out.message = std::to_string(out.side_maps.size()) + " side pairings fitted; vertex cycles within " +
-                  std::to_string(out.cycle_error) + " of the identity.";
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "%d side pairings fitted; vertex cycles within %.3g of the identity (%.3g after an adjustment of "
+                  "%.3g).",
+                  static_cast<int>(out.side_maps.size()), out.cycle_error, out.adjusted_cycle_error,
+                  out.pairing_adjustment);
+    out.message = buf;
     r.status = Status::NotRun;
     r.message = "no canonical cut given";
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
@@ -686,12 +813,14 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   for (Index o : canonical.surface_face_to_input)
     if (o < 0 || o >= Fin) return bad(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
 
-  // 3. Tiles of the canonical disk's faces, breadth first.
+  // 3. Tiles of the canonical disk's faces, breadth first: each face records the face it was
+  // reached from and the letter crossed, so the tiles can be formed for any set of pairings.
   const TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
   if (ct.status != Status::Ok) return bad(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
   const Topology& T = ct.topology;
   const Index Fc = T.num_faces;
-  std::vector<MoebiusL> h(static_cast<std::size_t>(Fc));
+  std::vector<Index> parent(static_cast<std::size_t>(Fc), kInvalid);
+  std::vector<Letter> via(static_cast<std::size_t>(Fc));
   std::vector<Index> depth(static_cast<std::size_t>(Fc), kInvalid);
   std::vector<Index> queue = {0};
   depth[0] = 0;
@@ -703,20 +832,27 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       const Index F2 = corner_face(o);
       if (depth[F2] != kInvalid) continue;
       const Index O2 = canonical.surface_face_to_input[F2];
-      if (O1 == O2) {
-        h[F2] = h[F1];
-      } else {
+      if (O1 != O2) {
         const int k = shared_corner(O1, O2, canonical.surface_faces[next_corner(c)], canonical.surface_faces[prev_corner(c)]);
         if (k < 0) return bad(Status::NumericalFailure, "canonical faces " + std::to_string(F1) + " and " +
                                                             std::to_string(F2) + " lie in input faces that share no edge.");
-        h[F2] = h[F1] * crossing(O1, k);
+        via[F2] = crossing(O1, k);
       }
+      parent[F2] = F1;
       depth[F2] = depth[F1] + 1;
       out.tile_depth = std::max(out.tile_depth, depth[F2]);
       queue.push_back(F2);
     }
   }
   if (static_cast<Index>(queue.size()) != Fc) return bad(Status::InvalidArgument, "the canonical disk is not connected.");
+  auto tiles = [&](const std::vector<MoebiusQ>& P) {
+    std::vector<MoebiusQ> h(static_cast<std::size_t>(Fc));
+    for (std::size_t qi = 1; qi < queue.size(); ++qi) {
+      const Index F = queue[qi];
+      h[F] = via[F].k < 0 ? h[parent[F]] : h[parent[F]] * letter_map(P, via[F]);
+    }
+    return h;
+  };
 
   // 4. The domain position of surface vertex x seen from input face O.
   auto corner_of = [&](Index O, Index v) {
@@ -724,74 +860,102 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       if (in[3 * O + k] == v) return k;
     return -1;
   };
-  auto local = [&](Index O, Index x, cl& w) {
+  auto local = [&](Index O, Index x, CQ& w) {
     if (x < nin) {
       const int k = corner_of(O, x);
       if (k < 0) return false;
-      const cplx z = dz(domain.cut_faces[3 * O + k]);
-      w = cl(z.real(), z.imag());
+      w = CQ(dz(domain.cut_faces[3 * O + k]));
       return true;
     }
     const Index rec = x - nin;
     if (rec >= canonical.num_refined_vertices()) return false;
-    long double S[3] = {0, 0, 0};
+    std::array<cplx, 3> z{};
+    std::array<double, 3> beta{};
     for (int k = 0; k < 3; ++k) {
-      const double beta = canonical.refined_vertex_bary[3 * rec + k];
-      if (beta == 0) continue;
+      beta[k] = canonical.refined_vertex_bary[3 * rec + k];
+      if (beta[k] == 0) continue;
       const int kk = corner_of(O, canonical.refined_vertex_corners[3 * rec + k]);
       if (kk < 0) return false;
-      const cplx z = dz(domain.cut_faces[3 * O + kk]);
-      const long double q = 1.0L - static_cast<long double>(std::norm(z));
-      S[0] += beta * (1.0L + static_cast<long double>(std::norm(z))) / q;
-      S[1] += beta * 2.0L * z.real() / q;
-      S[2] += beta * 2.0L * z.imag() / q;
+      z[k] = dz(domain.cut_faces[3 * O + kk]);
     }
-    const long double nrm = std::sqrt(S[0] * S[0] - S[1] * S[1] - S[2] * S[2]);
-    if (!(nrm > 0)) return false;
-    w = cl(S[1] / nrm, S[2] / nrm) / (1.0L + S[0] / nrm);
-    return true;
+    return hyperboloid_mean(z, beta, w);
   };
 
-  // 5. Canonical positions, each cut vertex from every face that holds it.
+  // 5. Canonical positions (quad), each cut vertex from every face that holds it.
+  std::vector<MoebiusQ> h = tiles(X);
   const Index nc = canonical.num_cut_vertices();
-  std::vector<cl> pos(static_cast<std::size_t>(nc));
+  std::vector<CQ> pos(static_cast<std::size_t>(nc));
   std::vector<char> have(static_cast<std::size_t>(nc), 0);
   for (Index F = 0; F < Fc; ++F) {
     const Index O = canonical.surface_face_to_input[F];
     for (int j = 0; j < 3; ++j) {
       const Index cv = canonical.cut_faces[3 * F + j], x = canonical.surface_faces[3 * F + j];
-      cl w;
+      CQ w;
       if (!local(O, x, w))
         return bad(Status::NumericalFailure, "surface vertex " + std::to_string(x) + " is not in its input face " + std::to_string(O) + ".");
-      const cl z = apply_l(h[F], w);
+      const CQ z = h[F].apply(w);
       if (!have[cv]) {
         pos[cv] = z;
         have[cv] = 1;
       } else {
-        const double d = hyperbolic_distance(cplx(static_cast<double>(pos[cv].real()), static_cast<double>(pos[cv].imag())),
-                                             cplx(static_cast<double>(z.real()), static_cast<double>(z.imag())));
-        out.tile_consistency = std::max(out.tile_consistency, d);
+        out.tile_consistency = std::max(out.tile_consistency, detail::hyperbolic_distance_q(pos[cv], z));
       }
     }
   }
+  for (Index v = 0; v < nc; ++v)
+    if (!have[v] || !(1 - pos[v].norm() > 0) || !std::isfinite(static_cast<double>(pos[v].norm())))
+      return bad(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) + " is not in the disk.");
+  if (!std::isfinite(out.tile_consistency)) return bad(Status::NumericalFailure, "the canonical tiles are not finite.");
+  // The polygon's own frame: its hyperboloid centre of mass moved to the origin by C. The
+  // polygon can lie far from the domain (tiles at distance r have entries ~e^{r/2}), so the
+  // generators are formed from the products C·h_F, which are moderate near the polygon, never by
+  // conjugating a far-out product (that would multiply its rounding by e^r).
+  MoebiusQ frame;
+  {
+    quad S[3] = {0, 0, 0};
+    for (const CQ& z : pos) {
+      const quad o = 1 - z.norm();
+      S[0] += (1 + z.norm()) / o;
+      S[1] += 2 * z.re / o;
+      S[2] += 2 * z.im / o;
+    }
+    const quad n2 = S[0] * S[0] - S[1] * S[1] - S[2] * S[2];
+    if (!(n2 > 0)) return bad(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
+    const quad nrm = detail::qsqrt(n2);
+    frame = MoebiusQ::to_origin(CQ{S[1] / (S[0] + nrm), S[2] / (S[0] + nrm)});
+    out.polygon_frame = frame.to_double();
+    for (CQ& z : pos) z = frame.apply(z);
+    for (MoebiusQ& t : h) t = frame * t;
+  }
+  // In double, when every vertex is resolved (otherwise the generators stand without the view).
   out.canonical_positions.resize(2 * static_cast<std::size_t>(nc));
-  for (Index v = 0; v < nc; ++v) {
-    const cplx z(static_cast<double>(pos[v].real()), static_cast<double>(pos[v].imag()));
-    if (!have[v] || !std::isfinite(z.real()) || !std::isfinite(z.imag()) || !(one_minus_abs2(z) > 0))
-      return bad(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) +
-                                               " lands outside the range of double precision in the Poincaré disk.");
+  for (Index v = 0; v < nc && out.positions_note.empty(); ++v) {
+    const cplx z = pos[v].to_double();
+    if (!(one_minus_abs2(z) > 0)) {
+      char buf[240];
+      std::snprintf(buf, sizeof buf,
+                    "canonical cut vertex %d lies at hyperbolic distance %.1f from the origin, beyond the range of "
+                    "double coordinates in the Poincaré disk (about 38)",
+                    static_cast<int>(v), detail::hyperbolic_distance_q(pos[v], CQ{0, 0}));
+      out.positions_note = buf;
+    }
     out.canonical_positions[2 * v] = z.real();
     out.canonical_positions[2 * v + 1] = z.imag();
   }
-  auto cpos = [&](Index v) { return cplx(out.canonical_positions[2 * v], out.canonical_positions[2 * v + 1]); };
+  if (!out.positions_note.empty()) out.canonical_positions.clear();
 
-  // 6. The canonical generators.
+  // 6. The canonical generators X = h_{F_p} · N^-1 · h_{F_s}^-1.
   std::unordered_map<std::uint64_t, Index> face_of;  // directed cut-vertex edge → canonical face
   for (Index F = 0; F < Fc; ++F)
     for (int j = 0; j < 3; ++j)
       face_of[dkey(canonical.cut_faces[3 * F + (j + 1) % 3], canonical.cut_faces[3 * F + (j + 2) % 3])] = 3 * F + j;
   const Index g = canonical.genus;
-  std::vector<MoebiusL> XL;
+  struct Word {
+    Index Fs, Fp;
+    Letter N;
+  };
+  std::vector<Word> words;
+  std::vector<MoebiusQ> XQ;
   for (Index i = 1; i <= g; ++i)
     for (const char* letter : {"a", "b"}) {
       DeckGenerator G;
@@ -807,33 +971,35 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       if (fs == face_of.end() || fp == face_of.end()) return bad(Status::InvalidArgument, "side " + G.name + " is not on the disk boundary.");
       const Index Fs = corner_face(fs->second), Fp = corner_face(fp->second);
       const Index Os = canonical.surface_face_to_input[Fs], Op = canonical.surface_face_to_input[Fp];
-      MoebiusL N;
+      Letter N;
       if (Os != Op) {
         const int k = shared_corner(Os, Op, canonical.cut_to_surface[s0], canonical.cut_to_surface[s1]);
         if (k < 0) return bad(Status::NumericalFailure, "the faces on either side of " + G.name + " share no input edge.");
         N = crossing(Os, k);
       }
-      const MoebiusL Xg = h[Fp] * N.inverse() * h[Fs].inverse();
-      XL.push_back(Xg);
-      G.map = to_double(Xg);
+      words.push_back({Fs, Fp, N});
+      const MoebiusQ Xg = h[Fp] * letter_map(X, N).inverse() * h[Fs].inverse();
+      XQ.push_back(Xg);
+      G.map = Xg.to_double();
       G.theta = G.map.theta();
       G.z0 = G.map.z0();
       G.translation_length = G.map.translation_length();
       G.pairs = n;
-      // Residuals on the canonical positions, in frames centred on the two sides.
+      // Residuals on the canonical positions (quad), in frames centred on the two sides.
       const Index mid = n / 2;
-      const cplx zm = cpos(canonical.side_vertices[bs + mid]), wm = cpos(canonical.side_vertices[bp + n - 1 - mid]);
-      const MoebiusL Cs = MoebiusL::to_origin(zm), Cp = MoebiusL::to_origin(wm);
-      const Moebius M = to_double(Cp * Xg * Cs.inverse());
-      const Moebius Csd = to_double(Cs), Cpd = to_double(Cp);
+      const MoebiusQ Cs = MoebiusQ::to_origin(pos[canonical.side_vertices[bs + mid]]);
+      const MoebiusQ Cp = MoebiusQ::to_origin(pos[canonical.side_vertices[bp + n - 1 - mid]]);
+      const MoebiusQ MQ = Cp * Xg * Cs.inverse();
+      const Moebius M = MQ.to_double();
       std::vector<Pair> loc;
       double sum2 = 0;
       for (Index k = 0; k < n; ++k) {
-        const Pair q{Csd.apply(cpos(canonical.side_vertices[bs + k])), Cpd.apply(cpos(canonical.side_vertices[bp + n - 1 - k]))};
-        const double d = hyperbolic_distance(M.apply(q.z), q.w);
+        const CQ zq = Cs.apply(pos[canonical.side_vertices[bs + k]]);
+        const CQ wq = Cp.apply(pos[canonical.side_vertices[bp + n - 1 - k]]);
+        const double d = detail::hyperbolic_distance_q(MQ.apply(zq), wq);
         G.residual_max = std::max(G.residual_max, d);
         sum2 += d * d;
-        loc.push_back(q);
+        loc.push_back({zq.to_double(), wq.to_double()});
       }
       G.residual_rms = std::sqrt(sum2 / double(n));
       G.initial_residual_max = G.residual_max;
@@ -849,14 +1015,28 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       r.generators.push_back(std::move(G));
     }
 
-  // 7. The relation, conjugated to the corner v0, in long double.
-  set_relation(r, XL, cpos(canonical.side_vertices[canonical.side_offsets[0]]));
-  if (!std::isfinite(r.relation_error)) return bad(Status::NumericalFailure, "the relation check is not finite.");
+  // 7. The relation, conjugated to the corner v0, in quad: of the generators (from the adjusted
+  // pairings) and of the same words in the pairings as fitted.
+  const CQ v0 = pos[canonical.side_vertices[canonical.side_offsets[0]]];
+  r.relation_error = relation_of(XQ, v0, &r.relator);
+  if (options.adjust_pairings && !cycles.empty()) {
+    std::vector<MoebiusQ> hf = tiles(fitted);
+    for (MoebiusQ& t : hf) t = frame * t;
+    std::vector<MoebiusQ> XF;
+    for (const Word& w : words) XF.push_back(hf[w.Fp] * letter_map(fitted, w.N).inverse() * hf[w.Fs].inverse());
+    out.fitted_relation_error = relation_of(XF, v0, nullptr);
+  } else {
+    out.fitted_relation_error = r.relation_error;
+  }
+  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
+    return bad(Status::NumericalFailure, "the relation check is not finite.");
   r.status = Status::Ok;
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "%d generators through %d domain pairings; residual max %.3g, relation error %.3g.",
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "%d generators through %d domain pairings; residual max %.3g, relation error %.3g (%.3g with the "
+                "pairings as fitted).",
                 static_cast<int>(r.generators.size()), static_cast<int>(out.side_maps.size()), r.residual_max,
-                r.relation_error);
+                r.relation_error, out.fitted_relation_error);
   r.message = buf;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   out.status = Status::Ok;

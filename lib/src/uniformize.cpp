@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <queue>
 #include <utility>
 
@@ -435,6 +436,16 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     if (bases.empty()) bases.push_back(-1);
     double best_score = kInf;
     std::string last_error = "no base vertex tried";
+    std::optional<DomainDeck> deck_only;
+    CutResult deck_only_cut;
+    auto take_domain = [&](const DomainDeck& dd) {
+      r.domain_maps = dd.side_maps;
+      r.domain_cycle_error = dd.cycle_error;
+      r.domain_adjusted_cycle_error = dd.adjusted_cycle_error;
+      r.domain_pairing_adjustment = dd.pairing_adjustment;
+      r.fitted_relation_error = dd.fitted_relation_error;
+      r.tile_consistency = dd.tile_consistency;
+    };
     for (Index base : bases) {
       // Three bases none of which could be laid out: the surface's canonical polygons reach beyond
       // double range (long loops); more bases cost a cut each and have not helped in practice.
@@ -472,6 +483,16 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
         reject(dd.message);
         continue;
       }
+      if (!dd.positions_note.empty()) {
+        // Generators without a view of the polygon: kept in case no base gives one.
+        bc.relation_error = dd.deck.relation_error;
+        reject(dd.positions_note);
+        if (!deck_only || dd.deck.residual_max < deck_only->deck.residual_max) {
+          deck_only = std::move(dd);
+          deck_only_cut = std::move(pc);
+        }
+        continue;
+      }
       Layout poly = measure_layout(pt.topology, r.geometry, pl, dd.canonical_positions);
       if (poly.status != Status::Ok) {
         reject(poly.message);
@@ -488,13 +509,25 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       r.polygon_disk = std::move(pt.topology);
       r.polygon_lengths = std::move(pl);
       r.polygon = std::move(poly);
+      take_domain(dd);
       r.deck = std::move(dd.deck);
-      r.domain_maps = std::move(dd.side_maps);
-      r.domain_cycle_error = dd.cycle_error;
-      r.tile_consistency = dd.tile_consistency;
       if (best_score < 1e-11) break;
     }
-    if (!std::isfinite(best_score)) {
+    if (!std::isfinite(best_score) && deck_only) {
+      // Canonical generators whose polygon double precision cannot draw.
+      r.polygon_note = "no canonical polygon view: " + deck_only->positions_note +
+                       "; the canonical generators stand (products of the domain's side pairings, relation in quad)";
+      take_domain(*deck_only);
+      r.deck = std::move(deck_only->deck);
+      r.polygon_cut = std::move(deck_only_cut);
+      r.has_deck = true;
+      stage_done("polygon", r.polygon_note);
+      stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
+                             std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                             sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
+                             "), residual max " + sci(r.deck.residual_max) + ", relation error " +
+                             sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
+    } else if (!std::isfinite(best_score)) {
       // The layout and the domain's side pairings stand; only the canonical view is missing.
       r.polygon_note = "no canonical polygon: none of " + std::to_string(r.candidates.size()) +
                        " base vertices gave one that double precision can lay out (last: " + last_error +
@@ -503,8 +536,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       {
         DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, options.deck);
         if (dd.status != Status::Ok) return (void)fail(dd.status, "deck", dd.message);
-        r.domain_maps = std::move(dd.side_maps);
-        r.domain_cycle_error = dd.cycle_error;
+        take_domain(dd);
       }
       stage_done("polygon", r.polygon_note);
       stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
@@ -518,8 +550,9 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
                               sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
     stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
                            std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                           sci(r.domain_cycle_error) + "), residual max " + sci(r.deck.residual_max) +
-                           ", relation error " + sci(r.deck.relation_error));
+                           sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
+                           "), residual max " + sci(r.deck.residual_max) + ", relation error " +
+                           sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
     }
   } else if (!sphere && topology.is_closed() && topology.genus() == 1 && r.geometry == Geometry::Euclidean &&
              r.cut.canonical) {

@@ -121,8 +121,17 @@ struct DeckOptions {
   double parameter_tolerance = 1e-18;  ///< Ceres Solver::Options::parameter_tolerance
   /// Fit rounds: each round re-linearises the parametrization M = M_k · N(δ) at the last fit.
   int rounds = 2;
+  /// Compact domain (H): move the fitted side pairings to the nearest ones whose vertex cycles
+  /// are exactly the identity (see DomainDeck), so that the group they generate is a surface
+  /// group to quad precision and every relation holds however far its words reach.
+  bool adjust_pairings = true;
+  /// Refuse (NumericalFailure) when that adjustment moves a domain side vertex by more than this
+  /// hyperbolic distance: the layout is then not consistent with any surface group, and the
+  /// adjustment would hide it. ∞ accepts any.
+  double max_pairing_adjustment = 1e-6;
 
-  /// True when max_iterations ≥ 1, the tolerances are finite and ≥ 0 and rounds is in 1..10;
+  /// True when max_iterations ≥ 1, the tolerances are finite and ≥ 0, rounds is in 1..10 and
+  /// max_pairing_adjustment is > 0 (∞ allowed);
   /// otherwise false, with the reason in *why (when why is not null).
   bool is_valid(std::string* why) const;
 };
@@ -212,8 +221,20 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry,
 //   within that face), so each is rounded once, where it lands.
 //   The generator of side s (partner p): X = h_{F_p} · N^-1 · h_{F_s}^-1 for the faces F_s, F_p
 //   on either side of the surface edge where s begins and N the pairing crossed between them.
-// Residuals of these generators are measured on the canonical positions (what the polygon's
-// coordinates resolve); the relation is computed in long double from the exact products.
+// Exact vertex cycles: the fitted pairings satisfy the domain's vertex cycles only to their fit
+// residuals (~1e-13), and a relation whose word reaches hyperbolic distance r amplifies that by
+// ~e^r (the canonical relation of a genus-4 polygon reaching r ≈ 20: 1e-5). With
+// DeckOptions::adjust_pairings the pairings are first moved, by the least change of their
+// parameters (Gauss–Newton, minimum-norm steps), onto pairings whose every vertex cycle is the
+// identity to quad precision (113 bits): a representation of the surface group next to the fitted
+// maps. `pairing_adjustment` says how far any domain side vertex moved (the size of the fit
+// residuals when the layout is consistent), and side_maps then hold the adjusted maps with their
+// residuals. Tiles, positions and generators are products in quad; the relation is computed in
+// quad both for the generators and for the same words in the pairings as fitted.
+// Residuals of the generators are measured on the canonical positions in quad, in frames
+// centred on each side. When a canonical vertex lies beyond the reach of double coordinates
+// (hyperbolic distance ≳ 38), the generators and the relation still stand; only
+// canonical_positions is left empty and positions_note says why.
 
 /// Side pairings of a compact domain and the canonical generators derived from them.
 struct DomainDeck {
@@ -226,17 +247,31 @@ struct DomainDeck {
   DeckResult deck;
   /// The compact domain's side pairings x1, x2, … (each maps side x_k onto x_k^-1, reversed).
   std::vector<DeckGenerator> side_maps;
-  /// #Vc(canonical)×2: the canonical disk laid out through the compact domain's tiles.
+  /// #Vc(canonical)×2: the canonical disk laid out through the compact domain's tiles; empty
+  /// when a vertex lies beyond double range (then positions_note names it).
   std::vector<double> canonical_positions;
+  std::string positions_note;  ///< why canonical_positions is empty (empty otherwise)
+  /// The polygon's frame: canonical_positions and the canonical generators are expressed after
+  /// this map of the domain's frame, which moves the polygon's hyperboloid centre of mass to the
+  /// origin (a generator X of the domain's frame is polygon_frame · X · polygon_frame^-1 here).
+  Moebius polygon_frame;
   /// Largest hyperbolic distance between two computations of one canonical cut vertex from
   /// different faces (tiles reached along different paths; 0 up to the side maps' residuals).
   double tile_consistency = 0;
   /// Longest breadth-first path over the canonical disk (number of face steps).
   Index tile_depth = 0;
   /// Poincaré's polygon theorem for the domain: around every vertex of its cut graph the side
-  /// pairings crossed compose to the identity. Largest deviation (largest entry of M ∓ I of the
-  /// product conjugated to that vertex's position), in long double.
+  /// pairings crossed compose to the identity. Largest deviation of the pairings as fitted
+  /// (|Im a|, |b| of ±M, the product conjugated to that vertex's position), in quad.
   double cycle_error = 0;
+  /// The same after the adjustment (quad; equals cycle_error when adjust_pairings is off).
+  double adjusted_cycle_error = 0;
+  /// Largest hyperbolic distance between the images of a domain side vertex under a fitted and
+  /// under the adjusted pairing (0 when adjust_pairings is off).
+  double pairing_adjustment = 0;
+  /// The canonical relation evaluated on the same words in the pairings as fitted (deck's
+  /// relation_error uses the adjusted pairings; equal when adjust_pairings is off).
+  double fitted_relation_error = 0;
   double seconds = 0;  ///< wall-clock time of the call (set on success)
 };
 

@@ -21,8 +21,10 @@
 //   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
 //                   domain's tiles (deck_through_domain()), best of several base vertices (below)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
-//                   the domain's side pairings from the polygon stage (or, when no canonical
-//                   polygon could be laid out, the pairings alone: fit_domain_pairings())
+//                   the domain's (adjusted) side pairings from the polygon stage — also when the
+//                   canonical polygon lies beyond double range and only its view is missing
+//                   (has_deck, not has_polygon); when no canonical cut exists at all, the pairings
+//                   alone (fit_domain_pairings())
 //   angles          corner angles of the input against those of the metric (angle_distortion)
 //
 // Geometry and boundary mode default to the surface's natural ones (natural_geometry():
@@ -172,14 +174,18 @@ struct UniformizeResult {
   std::vector<double> polygon_lengths;  ///< #E(polygon_disk): its edge lengths
   Layout polygon;                       ///< its positions and figures (E: a copy of layout)
 
-  /// Deck transformations of the canonical polygon (closed genus ≥ 1), in the frame of `layout`.
+  /// Deck transformations of the canonical polygon (closed genus ≥ 1), in the frame of `polygon`
+  /// (E: that of `layout`; H: DomainDeck::polygon_frame, the polygon centred).
   bool has_deck = false;
   DeckResult deck;  ///< valid when has_deck
   /// H: the compact domain's side pairings (Ceres fits), the largest deviation from the identity
   /// of their products around the domain's vertex cycles, and the tile consistency.
   std::vector<DeckGenerator> domain_maps;  ///< H: the side pairings x1, x2, … (DomainDeck::side_maps)
-  double domain_cycle_error = 0;           ///< H: DomainDeck::cycle_error
-  double tile_consistency = 0;             ///< H with a polygon: DomainDeck::tile_consistency
+  double domain_cycle_error = 0;           ///< H: DomainDeck::cycle_error (pairings as fitted)
+  double domain_adjusted_cycle_error = 0;  ///< H: DomainDeck::adjusted_cycle_error
+  double domain_pairing_adjustment = 0;    ///< H: DomainDeck::pairing_adjustment
+  double fitted_relation_error = 0;        ///< H with generators: DomainDeck::fitted_relation_error
+  double tile_consistency = 0;             ///< H with generators: DomainDeck::tile_consistency
 
   AngleDistortion angles;  ///< angle_distortion() of the final metric
 
