@@ -50,8 +50,9 @@
 //
 // Targets whose boundary mode is Circle or LoopTotals depend on the lengths. Newton solves
 // K(u) − K̄(l(u)) = 0 with the Jacobian J = ∂K/∂u − ∂K̄/∂u: the second term lives on the boundary
-// loops only, so J δ = g reduces to a system of the size of the boundary, solved by GMRES with the
-// factorization of ∂K/∂u (see coupled_direction()), and the line search uses the residual merit
+// loops only, so J δ = g reduces to a system of the size of the boundary, solved directly from the
+// factorization of ∂K/∂u (or by GMRES with it when the boundary is long; see coupled_direction()
+// and setup_boundary_direct()), and the line search uses the residual merit
 // ½‖K̄(l) − K‖² with K̄ recomputed at each trial. (Holding K̄ fixed within a step converges
 // linearly at best — 20–110 steps on disks, annuli and spheres with holes — and oscillates without
 // converging on surfaces with several holes; the coupled step takes 3–5.)
@@ -280,6 +281,8 @@ class FlowSolver {
   void target_derivative(std::span<const double> x, std::span<double> dK);
   void apply_boundary_operator(std::span<const double> w, std::span<double> out);
   bool gmres(double relative_tolerance, int max_iterations);
+  void setup_boundary_direct();
+  bool boundary_direct_solve();
   bool coupled_direction(std::span<const double> g);
   void setup_moebius_modes();
   bool moebius_direction();
@@ -347,6 +350,16 @@ class FlowSolver {
   // Restarted GMRES on the boundary system (dimension: the number of boundary positions).
   std::vector<double> gm_basis_, gm_hessenberg_, gm_cos_, gm_sin_, gm_residual_, gm_y_, gm_b_, gm_w_, gm_v_;
   int gmres_failures_ = 0;
+  // The boundary system by a direct solve (see setup_boundary_direct()): the positions with an
+  // unknown (block columns) and their unknowns, G = E_Bᵀ H⁻¹ E_B over them, the LU factors of the
+  // boundary matrix over all positions (row-major, with row pivots), and whether they belong to
+  // the current factorization.
+  bool boundary_direct_ = false;
+  bool boundary_factored_ = false;
+  std::vector<Index> block_position_;
+  std::vector<std::int64_t> block_unknown_;
+  std::vector<double> block_gram_, boundary_lu_;
+  std::vector<Index> boundary_pivot_;
   // Circle domains (E, genus 0, Circle targets, Newton): the Möbius normalization, see
   // setup_moebius_modes(). Modes and normalization rows per vertex (#V, zero off the outer loop),
   // their coefficients, the update of the current step and the value of the trial point.
@@ -602,8 +615,8 @@ bool FlowSolver::project_moebius() {
 // D = ∂K̄/∂u lives on the boundary positions B only, so J = H − E_B D_BB E_Bᵀ and Newton's
 // J δ = g becomes, with y = H⁻¹g and w = D_BB E_Bᵀ δ (one value per boundary position),
 //     (I − D_BB E_Bᵀ H⁻¹ E_B) w = D_BB E_Bᵀ y,     δ = y + H⁻¹ E_B w,
-// a system of the size of the boundary, solved by restarted GMRES whose operator costs one solve
-// with the factorization at hand. (Holding K̄ fixed within a step instead converges linearly at
+// a system of the size of the boundary, solved directly (setup_boundary_direct()) or by restarted
+// GMRES whose operator costs one solve with the factorization at hand. (Holding K̄ fixed within a step instead converges linearly at
 // best, and oscillates for surfaces with several holes.)
 
 constexpr int kGmresRestart = 40;
@@ -797,6 +810,97 @@ bool FlowSolver::gmres(double relative_tolerance, int max_iterations) {
   return std::isfinite(r2) && std::sqrt(r2) <= 10 * target;
 }
 
+// The boundary system directly. G = E_Bᵀ H⁻¹ E_B over the positions with an unknown comes from
+// the factor by sparse forward solves along elimination-tree paths (SymmetricSolver::
+// inverse_block(), no full solve), the boundary matrix I − D_BB G (D_BB applied column by column,
+// O(P²)) is factorized by LU with partial pivoting once per Newton step, and each coupled solve
+// of the step (three with the circle-domain modes) is then one triangular pair of size P. Used
+// when the estimated work is below that of about kDirectBoundarySolves full solves (restarted
+// GMRES takes 10–16 per system, three systems per step, on circle domains); exact to rounding,
+// where GMRES stops at the forcing tolerance. A failure (e.g. a singular boundary matrix) falls
+// back to GMRES for that system.
+constexpr double kDirectBoundarySolves = 16;
+
+void FlowSolver::setup_boundary_direct() {
+  const auto positions = static_cast<Index>(position_unknown_.size());
+  block_position_.clear();
+  block_unknown_.clear();
+  for (Index p = 0; p < positions; ++p)
+    if (position_unknown_[p] != kInvalid) {
+      block_position_.push_back(p);
+      block_unknown_.push_back(position_unknown_[p]);
+    }
+  const double block_flops = solver_.prepare_block(block_unknown_);
+  if (!(block_flops >= 0)) return;
+  const auto P = static_cast<double>(positions);
+  const double flops = block_flops + (2.0 / 3.0) * P * P * P + 8 * P * P;
+  const double solve_flops = 4 * solver_.factor_nonzeros();
+  if (!(flops <= kDirectBoundarySolves * solve_flops)) return;
+  const auto k = block_unknown_.size();
+  block_gram_.assign(k * k, 0.0);
+  boundary_lu_.assign(static_cast<std::size_t>(positions) * static_cast<std::size_t>(positions), 0.0);
+  boundary_pivot_.assign(static_cast<std::size_t>(positions), 0);
+  boundary_direct_ = true;
+}
+
+// gm_w_ from gm_b_ with the LU factors of the boundary matrix, factorized first if they are not
+// those of the current step. False when the block is unavailable, the matrix is singular or the
+// result not finite.
+bool FlowSolver::boundary_direct_solve() {
+  const auto positions = static_cast<Index>(position_unknown_.size());
+  const auto k = static_cast<Index>(block_position_.size());
+  const std::size_t P = static_cast<std::size_t>(positions);
+  double* S = boundary_lu_.data();
+  if (!boundary_factored_) {
+    if (!solver_.inverse_block(block_gram_)) return false;
+    // Column q of I − D_BB G: e_q − D_BB applied to column q of G (zero for a position without
+    // an unknown).
+    std::fill(boundary_lu_.begin(), boundary_lu_.end(), 0.0);
+    for (Index p = 0; p < positions; ++p) S[p * P + p] = 1;
+    for (Index c = 0; c < k; ++c) {
+      for (Index p = 0; p < positions; ++p) full_[t_.boundary_vertices[p]] = 0;
+      for (Index r = 0; r < k; ++r)
+        full_[t_.boundary_vertices[block_position_[r]]] = block_gram_[static_cast<std::size_t>(r) * k + c];
+      target_derivative(full_, position_dK_);
+      const Index q = block_position_[c];
+      for (Index p = 0; p < positions; ++p)
+        if (position_unknown_[p] != kInvalid) S[p * P + q] -= position_dK_[p];
+    }
+    double largest = 0;
+    for (const double v : boundary_lu_) largest = std::max(largest, std::abs(v));
+    if (!std::isfinite(largest)) return false;
+    for (std::size_t j = 0; j < P; ++j) {
+      std::size_t pivot_row = j;
+      for (std::size_t i = j + 1; i < P; ++i)
+        if (std::abs(S[i * P + j]) > std::abs(S[pivot_row * P + j])) pivot_row = i;
+      const double pivot = S[pivot_row * P + j];
+      if (!(std::abs(pivot) > 1e-14 * largest)) return false;
+      boundary_pivot_[j] = static_cast<Index>(pivot_row);
+      if (pivot_row != j)
+        for (std::size_t c = 0; c < P; ++c) std::swap(S[j * P + c], S[pivot_row * P + c]);
+      for (std::size_t i = j + 1; i < P; ++i) {
+        const double f = S[i * P + j] / pivot;
+        S[i * P + j] = f;
+        if (f != 0)
+          for (std::size_t c = j + 1; c < P; ++c) S[i * P + c] -= f * S[j * P + c];
+      }
+    }
+    boundary_factored_ = true;
+  }
+  double* w = gm_w_.data();
+  std::copy(gm_b_.begin(), gm_b_.end(), w);
+  for (std::size_t j = 0; j < P; ++j) std::swap(w[j], w[boundary_pivot_[j]]);
+  for (std::size_t i = 0; i < P; ++i)
+    for (std::size_t c = 0; c < i; ++c) w[i] -= S[i * P + c] * w[c];
+  for (std::size_t i = P; i-- > 0;) {
+    for (std::size_t c = i + 1; c < P; ++c) w[i] -= S[i * P + c] * w[c];
+    w[i] /= S[i * P + i];
+  }
+  for (std::size_t i = 0; i < P; ++i)
+    if (!std::isfinite(w[i])) return false;
+  return true;
+}
+
 // Turns x_ = H⁻¹ g (the step with K̄ held) into the Newton step of K − K̄(l(u)) = 0 and sets
 // slope_ = d/dt ½‖K̄ − K‖² along it. Leaves x_ and slope_ for the held target when GMRES fails
 // (and returns false).
@@ -811,15 +915,19 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   }
   target_derivative(full_, position_dK_);
   for (Index p = 0; p < positions; ++p) gm_b_[p] = position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0;
-  // Inexact Newton: the boundary system to a relative accuracy that tightens with the error.
-  const double forcing = std::clamp(0.01 * error_, 1e-13, 1e-3);
-  bool ok = gmres(forcing, kGmresMaxIterations);
+  // Directly when set up (see setup_boundary_direct()); otherwise inexact Newton: GMRES to a
+  // relative accuracy that tightens with the error.
+  bool ok = boundary_direct_ && boundary_direct_solve();
+  if (!ok) {
+    const double forcing = std::clamp(0.01 * error_, 1e-13, 1e-3);
+    ok = gmres(forcing, kGmresMaxIterations);
+  }
   if (ok) {
     // δ = y + H⁻¹ E_B w.
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (Index j = 0; j < n; ++j) tmp_[j] = 0;
     for (Index p = 0; p < positions; ++p)
-      if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] = gm_w_[p];
+      if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] += gm_w_[p];
     ok = solver_.solve(tmp_, x2_);
   }
   // J δ = (g + E_B w − μ δ) − D δ, where (H + μI) δ = g + E_B w. For the held-target step y,
@@ -1029,6 +1137,7 @@ bool FlowSolver::compute_direction() {
     }
   }
   iter_.factorization += lap(mark);
+  boundary_factored_ = false;
   if (outcome == detail::FactorOutcome::OutOfMemory) {
     fail(Status::OutOfMemory,
          "out of memory in the sparse Cholesky factorization at Newton step " + std::to_string(iteration_));
@@ -1344,6 +1453,7 @@ void FlowSolver::run() {
                                                                        : detail::FactorKind::PositiveDefinite;
     r_.timings.setup += std::chrono::duration<double>(mark - start_).count() + lap(mark);
     const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind);
+    if (analysis == detail::FactorOutcome::Ok && coupled_) setup_boundary_direct();
     r_.timings.analysis += lap(mark);
     if (analysis != detail::FactorOutcome::Ok) {
       fail(analysis == detail::FactorOutcome::OutOfMemory ? Status::OutOfMemory : Status::NumericalFailure,

@@ -61,6 +61,13 @@ struct SymmetricSolver::Impl {
   cholmod_dense* Ek = nullptr;
   cholmod_dense* Zk = nullptr;
   cholmod_dense* W = nullptr;
+  // inverse_block(): per block column c (an unknown in the permuted order), the supernodes on
+  // its elimination-tree path (path_super[path_offsets[c] … path_offsets[c+1]), increasing) and
+  // the values of L⁻¹ e on their columns (block_values from value_offsets[c], the columns of each
+  // path supernode in turn); a dense workspace of n zeros; W = Zᵀ_pins Z_I for the pins.
+  std::vector<std::int64_t> block_column, super_parent, column_super, path_offsets, path_super, value_offsets;
+  std::vector<double> block_values, block_work, pin_block;
+  bool block_ready = false;
   bool analyzed = false;
   bool factored = false;
   double rcond = 0;
@@ -97,6 +104,7 @@ struct SymmetricSolver::Impl {
   FactorOutcome pinned_factorize(double shift);
   FactorOutcome build_capacitance();
   bool pinned_solve(double* x);
+  void capacitance_solve(double* r) const;
 
   FactorOutcome status_outcome() const {
     if (common.status == CHOLMOD_OUT_OF_MEMORY) return FactorOutcome::OutOfMemory;
@@ -221,6 +229,18 @@ FactorOutcome SymmetricSolver::Impl::build_capacitance() {
   return FactorOutcome::Ok;
 }
 
+// r ← C⁻¹ r with the LU factors of the capacitance matrix.
+void SymmetricSolver::Impl::capacitance_solve(double* r) const {
+  const auto k = static_cast<std::int64_t>(pins.size());
+  for (std::int64_t j = 0; j < k; ++j) std::swap(r[j], r[capacitance_pivot[j]]);
+  for (std::int64_t i = 0; i < k; ++i)
+    for (std::int64_t c = 0; c < i; ++c) r[i] -= capacitance[i * k + c] * r[c];
+  for (std::int64_t i = k; i-- > 0;) {
+    for (std::int64_t c = i + 1; c < k; ++c) r[i] -= capacitance[i * k + c] * r[c];
+    r[i] /= capacitance[i * k + i];
+  }
+}
+
 // A⁻¹ b into out, b in B (see above).
 bool SymmetricSolver::Impl::pinned_solve(double* out) {
   const auto k = static_cast<std::int64_t>(pins.size());
@@ -236,13 +256,7 @@ bool SymmetricSolver::Impl::pinned_solve(double* out) {
     const double* zi = Z.data() + i * k;
     for (std::int64_t a = 0; a < k; ++a) pin_rhs[a] += zi[a] * yi;
   }
-  for (std::int64_t j = 0; j < k; ++j) std::swap(pin_rhs[j], pin_rhs[capacitance_pivot[j]]);
-  for (std::int64_t i = 0; i < k; ++i)
-    for (std::int64_t c = 0; c < i; ++c) pin_rhs[i] -= capacitance[i * k + c] * pin_rhs[c];
-  for (std::int64_t i = k; i-- > 0;) {
-    for (std::int64_t c = i + 1; c < k; ++c) pin_rhs[i] -= capacitance[i * k + c] * pin_rhs[c];
-    pin_rhs[i] /= capacitance[i * k + i];
-  }
+  capacitance_solve(pin_rhs.data());
   for (std::int64_t i = 0; i < n; ++i) {
     const double* zi = Z.data() + i * k;
     double sum = 0;
@@ -371,6 +385,150 @@ bool SymmetricSolver::solve(std::span<const double> b, std::span<double> x) {
   bool finite = true;
   for (std::int64_t k = 0; k < s.n; ++k) finite = finite && std::isfinite(x[k]);
   return finite;
+}
+
+double SymmetricSolver::prepare_block(std::span<const std::int64_t> index) {
+  Impl& s = *impl_;
+  s.block_ready = false;
+  if (!s.analyzed || s.n == 0 || !s.L || !s.L->is_super) return -1;
+  const auto n = s.n;
+  for (const std::int64_t i : index)
+    if (i < 0 || i >= n) return -1;
+  const auto nsuper = static_cast<std::int64_t>(s.L->nsuper);
+  const auto* super = static_cast<const SuiteSparse_long*>(s.L->super);
+  const auto* pi = static_cast<const SuiteSparse_long*>(s.L->pi);
+  const auto* si = static_cast<const SuiteSparse_long*>(s.L->s);
+  const auto* perm = static_cast<const SuiteSparse_long*>(s.L->Perm);
+  s.column_super.assign(static_cast<std::size_t>(n), -1);
+  for (std::int64_t q = 0; q < nsuper; ++q)
+    for (std::int64_t j = super[q]; j < super[q + 1]; ++j) s.column_super[j] = q;
+  // The supernodal elimination tree: the parent of a supernode holds its first off-diagonal row.
+  s.super_parent.assign(static_cast<std::size_t>(nsuper), -1);
+  for (std::int64_t q = 0; q < nsuper; ++q) {
+    const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
+    if (nsrow > nscol) s.super_parent[q] = s.column_super[si[pi[q] + nscol]];
+  }
+  // The inverse permutation into block_work (reused as scratch; zero afterwards).
+  s.block_work.assign(static_cast<std::size_t>(n), 0.0);
+  std::vector<std::int64_t> inverse(static_cast<std::size_t>(n));
+  for (std::int64_t k = 0; k < n; ++k) inverse[perm ? perm[k] : k] = k;
+  const auto k = static_cast<std::int64_t>(index.size());
+  s.block_column.resize(static_cast<std::size_t>(k));
+  s.path_offsets.assign(1, 0);
+  s.value_offsets.assign(1, 0);
+  s.path_super.clear();
+  double flops = 0, path_columns = 0;
+  for (std::int64_t c = 0; c < k; ++c) {
+    const std::int64_t i = inverse[index[c]];
+    s.block_column[c] = i;
+    std::int64_t values = 0;
+    for (std::int64_t q = s.column_super[i]; q >= 0; q = s.super_parent[q]) {
+      s.path_super.push_back(q);
+      const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
+      values += nscol;
+      flops += 2.0 * static_cast<double>(nsrow) * static_cast<double>(nscol);
+    }
+    path_columns += static_cast<double>(values);
+    s.path_offsets.push_back(static_cast<std::int64_t>(s.path_super.size()));
+    s.value_offsets.push_back(s.value_offsets.back() + values);
+  }
+  s.block_values.assign(static_cast<std::size_t>(s.value_offsets.back()), 0.0);
+  // The Gram matrix: k²/2 dot products over the paths.
+  flops += static_cast<double>(k) * path_columns;
+  s.block_ready = true;
+  return flops;
+}
+
+bool SymmetricSolver::inverse_block(std::span<double> out) {
+  Impl& s = *impl_;
+  const auto k = static_cast<std::int64_t>(s.block_column.size());
+  if (!s.block_ready || !s.factored || s.simplicial || !s.L || !s.L->is_super || !s.L->x ||
+      out.size() != static_cast<std::size_t>(k * k))
+    return false;
+  const auto* super = static_cast<const SuiteSparse_long*>(s.L->super);
+  const auto* pi = static_cast<const SuiteSparse_long*>(s.L->pi);
+  const auto* px = static_cast<const SuiteSparse_long*>(s.L->px);
+  const auto* si = static_cast<const SuiteSparse_long*>(s.L->s);
+  const auto* lx = static_cast<const double*>(s.L->x);
+  double* work = s.block_work.data();
+  // Z: forward solves L z = e_i along each path (the rows outside the path stay zero).
+  for (std::int64_t c = 0; c < k; ++c) {
+    work[s.block_column[c]] = 1;
+    double* z = s.block_values.data() + s.value_offsets[c];
+    for (std::int64_t t = s.path_offsets[c]; t < s.path_offsets[c + 1]; ++t) {
+      const std::int64_t q = s.path_super[t];
+      const std::int64_t k1 = super[q], nscol = super[q + 1] - k1, psi = pi[q], nsrow = pi[q + 1] - psi;
+      const double* Lq = lx + px[q];
+      double* x = work + k1;
+      for (std::int64_t j = 0; j < nscol; ++j) {
+        const double* col = Lq + j * nsrow;
+        const double xj = x[j] / col[j];
+        x[j] = xj;
+        if (xj == 0) continue;
+        for (std::int64_t r = j + 1; r < nscol; ++r) x[r] -= col[r] * xj;
+        for (std::int64_t r = nscol; r < nsrow; ++r) work[si[psi + r]] -= col[r] * xj;
+      }
+      for (std::int64_t j = 0; j < nscol; ++j) {
+        *z++ = x[j];
+        x[j] = 0;
+      }
+    }
+  }
+  // ZᵀZ: column a scattered into the workspace, dotted with the paths of the columns b ≤ a.
+  for (std::int64_t a = 0; a < k; ++a) {
+    const double* za = s.block_values.data() + s.value_offsets[a];
+    for (std::int64_t t = s.path_offsets[a]; t < s.path_offsets[a + 1]; ++t) {
+      const std::int64_t q = s.path_super[t];
+      for (std::int64_t j = super[q]; j < super[q + 1]; ++j) work[j] = *za++;
+    }
+    for (std::int64_t b = 0; b <= a; ++b) {
+      const double* zb = s.block_values.data() + s.value_offsets[b];
+      double sum = 0;
+      for (std::int64_t t = s.path_offsets[b]; t < s.path_offsets[b + 1]; ++t) {
+        const std::int64_t q = s.path_super[t];
+        for (std::int64_t j = super[q]; j < super[q + 1]; ++j) sum += work[j] * *zb++;
+      }
+      out[a * k + b] = out[b * k + a] = sum;
+    }
+    for (std::int64_t t = s.path_offsets[a]; t < s.path_offsets[a + 1]; ++t) {
+      const std::int64_t q = s.path_super[t];
+      std::fill(work + super[q], work + super[q + 1], 0.0);
+    }
+  }
+  // Pins (Woodbury): + Wᵀ C⁻¹ W with W = Zᵀ_pins Z_I (Z_pins stored row-major, n×kp).
+  const auto kp = static_cast<std::int64_t>(s.pins.size());
+  if (kp > 0) {
+    s.pin_block.assign(static_cast<std::size_t>(2 * kp * k), 0.0);  // W (kp×k), then C⁻¹W
+    double* W = s.pin_block.data();
+    double* V = W + kp * k;
+    for (std::int64_t c = 0; c < k; ++c) {
+      const double* z = s.block_values.data() + s.value_offsets[c];
+      for (std::int64_t t = s.path_offsets[c]; t < s.path_offsets[c + 1]; ++t) {
+        const std::int64_t q = s.path_super[t];
+        for (std::int64_t j = super[q]; j < super[q + 1]; ++j) {
+          const double zj = *z++;
+          if (zj == 0) continue;
+          const double* row = s.Z.data() + j * kp;
+          for (std::int64_t a = 0; a < kp; ++a) W[a * k + c] += row[a] * zj;
+        }
+      }
+    }
+    for (std::int64_t c = 0; c < k; ++c) {
+      double* r = s.pin_rhs.data();
+      for (std::int64_t a = 0; a < kp; ++a) r[a] = W[a * k + c];
+      s.capacitance_solve(r);
+      for (std::int64_t a = 0; a < kp; ++a) V[a * k + c] = r[a];
+    }
+    for (std::int64_t a = 0; a < k; ++a)
+      for (std::int64_t b = 0; b < k; ++b) {
+        double sum = 0;
+        for (std::int64_t p = 0; p < kp; ++p) sum += W[p * k + a] * V[p * k + b];
+        out[a * k + b] += sum;
+      }
+  }
+  for (const double v : out)
+    if (!std::isfinite(v)) return false;
+  return true;
 }
 
 double SymmetricSolver::rcond() const {

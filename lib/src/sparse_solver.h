@@ -57,6 +57,19 @@ class SymmetricSolver {
   /// and may not alias. Returns false on a CHOLMOD error or a non-finite result.
   bool solve(std::span<const double> b, std::span<double> x);
 
+  /// Prepares inverse_block() for the unknowns `index` (after analyze(); allocates what
+  /// inverse_block() needs). Returns an estimate of the floating-point operations of one
+  /// inverse_block(), or a negative value when the factor kind does not support it.
+  double prepare_block(std::span<const std::int64_t> index);
+
+  /// out (k×k, row-major, k = the size of prepare_block()'s index) = E_Iᵀ (A + shift·I)⁻¹ E_I for
+  /// the last successful factorization, E_I the columns of the identity at those unknowns. With
+  /// (A + shift·I) = Pᵀ L Lᵀ P this is ZᵀZ, Z = L⁻¹ P E_I, whose column for unknown i is nonzero
+  /// only on the elimination-tree path from i to the root: sparse forward solves along the
+  /// supernodes of each path (no full solve). With pins (Indefinite), the Woodbury correction is
+  /// added. False when unsupported (simplicial LDLᵀ), not prepared, or a value is not finite.
+  bool inverse_block(std::span<double> out);
+
   /// CHOLMOD's rough reciprocal condition estimate of the last factorization (min/max of the
   /// diagonal of the factor); 0 before any.
   double rcond() const;
