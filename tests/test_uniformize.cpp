@@ -63,8 +63,23 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
       CHECK(r.polygon.max_edge_length_error < std::max(1e-9, 8 * r.polygon.rounding_floor));
       CHECK(r.deck.residual_max < std::max(1e-9, 100 * r.polygon.rounding_floor));
       CHECK(r.deck.relation_error < 1e-9);
+      // Maps fitted from single edges of a side agree with the fit over the whole side (E: the
+      // fitted translations). H: the canonical generators are products of the fitted pairings
+      // (checked below); a two-point map from one short edge of a long canonical side
+      // extrapolates its positions' error along the side (3.2e-9 on genus3.obj's longest).
+      for (const DeckGenerator& G : r.deck.generators) {
+        CAPTURE(G.name);
+        CHECK(G.single_edge_spread < (r.geometry == Geometry::Euclidean ? 1e-9 : 1e-8));
+      }
     }
     if (closed_handles && r.geometry == Geometry::Hyperbolic) {
+      CHECK(r.fitted_relation_error < 1e-9);
+      CHECK(r.domain_pairing_adjustment < 1e-10);
+      for (const DeckGenerator& G : r.domain_maps) {
+        CAPTURE(G.name);
+        CHECK(G.single_edge_spread < 1e-9);
+        CHECK(G.residual_max < 1e-10);
+      }
       CHECK(!r.cut.canonical);  // the compact domain
       CHECK(r.domain_maps.size() == static_cast<std::size_t>(r.cut.num_generators()));
       CHECK(r.domain_cycle_error < 1e-12);
