@@ -296,6 +296,9 @@ TEST_CASE("uniformize: genus 4 and 5 through the compact domain") {
     CHECK(r.deck.residual_max < 1e-9);
     CHECK(r.polygon.max_edge_length_error < std::max(1e-9, 8 * r.polygon.rounding_floor));
     CHECK(r.polygon.flipped_faces == 0);
+    // A coarse view says how far the polygon reaches (genus 5: 3.6e-8).
+    CHECK((r.polygon_note.find("reaches hyperbolic distance") != std::string::npos) ==
+          (r.polygon.max_edge_length_error > 1e-9));
     // Every generator is hyperbolic (the group is torsion-free).
     for (const DeckGenerator& G : r.deck.generators) CHECK(G.translation_length > 0.1);
     MESSAGE("pretzel(" << g << ", 4): " << r.brief_report() << "; canonical polygon edge error "

@@ -68,8 +68,8 @@ int main(int argc, char** argv) {
   }
   std::string table;
   table += "| mesh | geometry | #F | Newton it. | max \\|K̄ − K\\| | layout edge error | flips | seed independence | "
-           "domain cycles | relation error | polygon edge error | s |\n";
-  table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+           "domain cycles | pairings moved | relation error | as fitted | polygon edge error | s |\n";
+  table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::cout << table << std::flush;
   ricci::UniformizeOptions options;
   if (polish >= 0) options.layout.polish_sweeps = polish;
@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
       std::string row = "| " + name + " | ";
       const ricci::LoadResult lr = ricci::load_mesh(p.string());
       if (lr.status != ricci::Status::Ok) {
-        row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | |\n";
+        row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | | | |\n";
       } else {
         ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
         // As `ricci uniformize` does: a boundary target that an ear makes infeasible gets the ears split.
@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
         if (!ok && r.flow.iterations == 0) {
           char secs[32];
           std::snprintf(secs, sizeof secs, "%.1f", s);
-          row += std::string(ricci::status_name(r.status)) + " (" + r.failed_stage + ") | | | | | | | | " + secs + " |\n";
+          row += std::string(ricci::status_name(r.status)) + " (" + r.failed_stage + ") | | | | | | | | | | " + secs + " |\n";
         } else {
           row += std::to_string(r.flow.iterations) + " | " + sci(r.flow.max_curvature_error) + " | ";
           if (r.layout.status == ricci::Status::Ok)
@@ -118,12 +118,18 @@ int main(int argc, char** argv) {
                    sci(r.seed_independence_error) + " | ";
           else
             row += "| | | ";
-          row += (r.domain_maps.empty() ? std::string("–") : sci(r.domain_cycle_error)) + " | ";
-          row += (r.has_deck && r.deck.status == ricci::Status::Ok ? sci(r.deck.relation_error) : std::string("–")) + " | ";
+          const bool domain = !r.domain_maps.empty();
+          const bool deck = r.has_deck && r.deck.status == ricci::Status::Ok;
+          row += (domain ? sci(r.domain_cycle_error) : std::string("–")) + " | ";
+          row += (domain ? sci(r.domain_pairing_adjustment) : std::string("–")) + " | ";
+          row += (deck ? sci(r.deck.relation_error) : std::string("–")) + " | ";
+          row += (deck ? sci(domain ? r.fitted_relation_error : r.deck.relation_error) : std::string("–")) + " | ";
           if (r.has_polygon)
             row += sci(r.polygon.max_edge_length_error);
+          else if (deck)
+            row += "not drawn (beyond double range)";
           else if (!r.polygon_note.empty())
-            row += "none (beyond double range)";
+            row += "none";
           else
             row += "–";
           char secs[32];
@@ -142,7 +148,16 @@ int main(int argc, char** argv) {
                       "`build/tools/sweep_uniformize --out tools/SWEEP-uniformize.md` (Release build), library defaults "
                       "(Newton to 1e-12 plus polishing, 3 extra seeds, 8 base vertices for the canonical polygon). "
                       "Hardware threads: " +
-                      std::to_string(std::thread::hardware_concurrency()) + ".\n\n" + table;
+                      std::to_string(std::thread::hardware_concurrency()) +
+                      ".\n\nColumns: *layout edge error* — max relative edge-length error of the layout (the compact "
+                      "domain for closed and bordered H surfaces); *seed independence* — largest deviation of three "
+                      "more seed layouts after the fitted isometry; *domain cycles* — the compact domain's fitted side "
+                      "pairings around its vertex cycles (distance to the identity); *pairings moved* — how far (largest "
+                      "hyperbolic displacement of a side vertex) the pairings moved onto exact cycles; *relation error* "
+                      "— Π[A_i⁻¹, B_i] of the canonical generators (H: products of the moved pairings, 113-bit); *as "
+                      "fitted* — the same words in the pairings as fitted (torus: the fitted translations); *polygon "
+                      "edge error* — the canonical polygon's positions (double, centred) against the metric.\n\n" +
+                      table;
     const ricci::WriteResult w = ricci::write_file_atomic(out_path, doc);
     if (w.status != ricci::Status::Ok) {
       std::cerr << "sweep_uniformize: " << w.message << '\n';

@@ -544,6 +544,20 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     } else {
     r.has_polygon = true;
     r.has_deck = true;
+    if (r.polygon.max_edge_length_error > 1e-9) {
+      // The view is drawn but coarse: say where its digits went.
+      double reach = 0;
+      for (std::size_t i = 0; i + 1 < r.polygon.positions.size(); i += 2)
+        reach = std::max(reach, std::hypot(r.polygon.positions[i], r.polygon.positions[i + 1]));
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
+                    "resolve lengths only to about %.1g: its edge error is %.2g (the layout, the generators and the "
+                    "relation do not depend on these coordinates)",
+                    2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
+                    r.polygon.max_edge_length_error);
+      r.polygon_note = buf;
+    }
     stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
                               std::to_string(r.polygon_cut.base_vertex) + ", best of " +
                               std::to_string(r.candidates.size()) + "): edge error " +

@@ -167,7 +167,8 @@ struct UniformizeResult {
   /// above; H: a canonical cut_surface() laid out through the compact domain's tiles,
   /// deck_through_domain(), its errors measured by measure_layout()).
   bool has_polygon = false;
-  /// Why has_polygon is false for a closed surface of genus ≥ 2 (empty otherwise).
+  /// Why has_polygon is false for a closed surface of genus ≥ 2, or, with has_polygon, why its
+  /// view is coarse (edge error above 1e-9: how far it reaches); empty otherwise.
   std::string polygon_note;
   CutResult polygon_cut;                ///< the canonical cut (E: a copy of cut)
   Topology polygon_disk;                ///< connectivity of its disk
