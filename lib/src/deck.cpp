@@ -306,8 +306,9 @@ DeckResult fail(DeckResult r, Status s, std::string msg) {
 }
 
 /// The relator R = [A_1^-1, B_1] … [A_g^-1, B_g] of `gens` (quad, order a1 b1 a2 b2 …): its
-/// double value and its distance to the identity after conjugation by the map moving the polygon
-/// corner v0 to the origin (so every partial product is a map between tiles around the origin).
+/// double value and the distance to the identity of C R C^-1, C the map moving the polygon corner
+/// v0 to the origin (R first: conjugating the generators first would multiply their rounding by
+/// |C|², large when v0 lies far from the frame's centre).
 double relation_of(const std::vector<MoebiusQ>& gens, CQ v0, Moebius* relator) {
   const std::size_t g = gens.size() / 2;
   MoebiusQ R;
