@@ -552,10 +552,10 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       char buf[400];
       std::snprintf(buf, sizeof buf,
                     "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
-                    "resolve lengths only to about %.1g: its edge error is %.2g (the layout, the generators and the "
-                    "relation do not depend on these coordinates)",
+                    "resolve lengths only to about %.1g: its edge error is %.2g, %d faces flipped (the layout, the "
+                    "generators and the relation do not depend on these coordinates)",
                     2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
-                    r.polygon.max_edge_length_error);
+                    r.polygon.max_edge_length_error, static_cast<int>(r.polygon.flipped_faces));
       r.polygon_note = buf;
     }
     stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
