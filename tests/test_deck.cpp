@@ -579,11 +579,26 @@ TEST_CASE("deck: side pairings moved onto exact vertex cycles") {
   for (const DeckGenerator& G : b.side_maps) CHECK(G.residual_max < 1e-10);
   CHECK(b.deck.residual_max < 1e-9);
   CHECK(b.tile_consistency < 1e-9);
-  // The polygon comes centred: its hyperboloid centre of mass is the origin.
+  // The polygon comes centred: on its hyperboloid centre of mass, or (default) on the centre of
+  // the smallest disk holding it, whose radius is then no larger.
+  DeckOptions com;
+  com.polygon_centre = PolygonCentre::CentreOfMass;
+  const DomainDeck b2 = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, com);
+  REQUIRE(b2.status == Status::Ok);
   REQUIRE(!b.canonical_positions.empty());
+  REQUIRE(!b2.canonical_positions.empty());
+  auto radius = [](const std::vector<double>& x) {
+    double r = 0;
+    for (std::size_t i = 0; i + 1 < x.size(); i += 2) r = std::max(r, std::hypot(x[i], x[i + 1]));
+    return 2 * std::atanh(r);
+  };
+  MESSAGE("polygon radius: minimax " << radius(b.canonical_positions) << ", centre of mass "
+                                     << radius(b2.canonical_positions));
+  CHECK(radius(b.canonical_positions) <= radius(b2.canonical_positions) + 1e-9);
+  CHECK(b2.deck.relation_error < 1e-20);
   double T = 0, X = 0, Y = 0;
-  for (std::size_t i = 0; i + 1 < b.canonical_positions.size(); i += 2) {
-    const cplx z(b.canonical_positions[i], b.canonical_positions[i + 1]);
+  for (std::size_t i = 0; i + 1 < b2.canonical_positions.size(); i += 2) {
+    const cplx z(b2.canonical_positions[i], b2.canonical_positions[i + 1]);
     const double q = 1 - std::norm(z);
     T += (1 + std::norm(z)) / q;
     X += 2 * z.real() / q;

@@ -596,6 +596,35 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
   return best_err;
 }
 
+/// The centre of the smallest hyperbolic disk holding the points (approximately: Bădoiu–Clarkson
+/// steps towards the farthest point, 1/(k+1) of the way at step k, in double; the points, already
+/// centred on their centre of mass, need only be resolved coarsely for this).
+cplx minimax_centre(const std::vector<CQ>& pts) {
+  std::vector<cplx> z(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) z[i] = pts[i].to_double();
+  cplx c = 0;
+  for (int k = 1; k <= 400; ++k) {
+    const Moebius T = Moebius::to_origin(c);
+    double far = 0;
+    cplx q_far = 0;
+    for (const cplx& p : z) {
+      const cplx q = T.apply(p);
+      const double d = std::norm(q);
+      if (d > far) {
+        far = d;
+        q_far = q;
+      }
+    }
+    if (!(far > 0) || !(far < 1)) break;
+    const double r = std::sqrt(far), dist = 2 * std::atanh(r);
+    const cplx step = std::tanh(dist / (2.0 * (k + 1))) * q_far / r;
+    const cplx next = T.inverse().apply(step);
+    if (!std::isfinite(next.real()) || !std::isfinite(next.imag()) || !(std::norm(next) < 1)) break;
+    c = next;
+  }
+  return c;
+}
+
 /// Hyperboloid combination of points of the disk with weights beta (the record of a vertex the
 /// cut added inside a face), back in the disk; false when degenerate.
 bool hyperboloid_mean(const std::array<cplx, 3>& z, const std::array<double, 3>& beta, CQ& w) {
@@ -924,8 +953,14 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     if (!(n2 > 0)) return bad(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
     const quad nrm = detail::qsqrt(n2);
     frame = MoebiusQ::to_origin(CQ{S[1] / (S[0] + nrm), S[2] / (S[0] + nrm)});
-    out.polygon_frame = frame.to_double();
     for (CQ& z : pos) z = frame.apply(z);
+    if (options.polygon_centre == PolygonCentre::Minimax) {
+      const cplx c = minimax_centre(pos);
+      const MoebiusQ M = MoebiusQ::to_origin(CQ(c));
+      frame = M * frame;
+      for (CQ& z : pos) z = M.apply(z);
+    }
+    out.polygon_frame = frame.to_double();
     for (MoebiusQ& t : h) t = frame * t;
   }
   // In double, when every vertex is resolved (otherwise the generators stand without the view).

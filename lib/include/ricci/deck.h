@@ -113,6 +113,12 @@ Moebius moebius_from_two_points(std::complex<double> z1, std::complex<double> z2
 
 /// Options of the hyperbolic fits of fit_deck_transformations(), deck_through_domain() and
 /// fit_domain_pairings().
+/// Where deck_through_domain() centres the canonical polygon (DomainDeck::polygon_frame).
+enum class PolygonCentre {
+  CentreOfMass,  ///< its vertices' hyperboloid centre of mass
+  Minimax,       ///< the centre of the smallest hyperbolic disk holding it (approximately)
+};
+
 struct DeckOptions {
   /// Ceres: iteration limit and tolerances of the Levenberg–Marquardt fit (H only).
   int max_iterations = 100;            ///< Ceres iteration limit per fit round
@@ -125,6 +131,9 @@ struct DeckOptions {
   /// are exactly the identity (see DomainDeck), so that the group they generate is a surface
   /// group to quad precision and every relation holds however far its words reach.
   bool adjust_pairings = true;
+  /// The canonical polygon's frame (deck_through_domain()): far-reaching polygons keep the most
+  /// digits in double coordinates around their minimax centre.
+  PolygonCentre polygon_centre = PolygonCentre::Minimax;
   /// Refuse (NumericalFailure) when that adjustment moves a domain side vertex by more than this
   /// hyperbolic distance: the layout is then not consistent with any surface group, and the
   /// adjustment would hide it. ∞ accepts any.
