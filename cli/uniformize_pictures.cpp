@@ -150,7 +150,7 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                            : "The cut surface laid out (" + gname + "); sides that are glued together share a colour.",
                    p.png, p.svg});
     if (r.has_polygon && compact) {
-      // The library gives it centred (hyperboloid centre of mass at 0, DomainDeck::polygon_frame).
+      // The library gives it centred (DomainDeck::polygon_frame).
       const Picture q = draw(disk_drawing(r.polygon_cut, r.polygon.positions, g, "Canonical polygon " + r.polygon_cut.word));
       out.push_back({"polygon", "The canonical fundamental polygon",
                      "Sides a_i, b_i and their partners a_i^-1, b_i^-1 share a colour; each deck generator maps a "

@@ -936,10 +936,11 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     if (!have[v] || !(1 - pos[v].norm() > 0) || !std::isfinite(static_cast<double>(pos[v].norm())))
       return bad(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) + " is not in the disk.");
   if (!std::isfinite(out.tile_consistency)) return bad(Status::NumericalFailure, "the canonical tiles are not finite.");
-  // The polygon's own frame: its hyperboloid centre of mass moved to the origin by C. The
-  // polygon can lie far from the domain (tiles at distance r have entries ~e^{r/2}), so the
-  // generators are formed from the products C·h_F, which are moderate near the polygon, never by
-  // conjugating a far-out product (that would multiply its rounding by e^r).
+  // The polygon's own frame: its hyperboloid centre of mass, then (PolygonCentre::Minimax) the
+  // centre of its smallest enclosing disk, moved to the origin by C. The polygon can lie far
+  // from the domain (tiles at distance r have entries ~e^{r/2}), so the generators are formed
+  // from the products C·h_F, which are moderate near the polygon, never by conjugating a far-out
+  // product (that would multiply its rounding by e^r).
   MoebiusQ frame;
   {
     quad S[3] = {0, 0, 0};

@@ -261,8 +261,9 @@ struct DomainDeck {
   std::vector<double> canonical_positions;
   std::string positions_note;  ///< why canonical_positions is empty (empty otherwise)
   /// The polygon's frame: canonical_positions and the canonical generators are expressed after
-  /// this map of the domain's frame, which moves the polygon's hyperboloid centre of mass to the
-  /// origin (a generator X of the domain's frame is polygon_frame · X · polygon_frame^-1 here).
+  /// this map of the domain's frame, which moves the polygon's centre (DeckOptions::
+  /// polygon_centre) to the origin (a generator X of the domain's frame is polygon_frame · X ·
+  /// polygon_frame^-1 here).
   Moebius polygon_frame;
   /// Largest hyperbolic distance between two computations of one canonical cut vertex from
   /// different faces (tiles reached along different paths; 0 up to the side maps' residuals).
