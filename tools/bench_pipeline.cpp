@@ -577,8 +577,8 @@ int main(int argc, char** argv) {
            get(r, "t_line_search") + " | " + fmt("%.3gM", num(r, "lnz") / 1e6) + " | " + get(r, "ref_analysis") + " | " +
            get(r, "ref_factor") + " | " + get(r, "ref_solve") + " |\n";
   doc += "\n## Stages, seconds (peak MB of the process during the stage)\n\n";
-  const std::vector<std::string> stages = {"initial_metric", "target", "flow", "cut", "cut_metric", "layout",
-                                           "seed_check", "deck", "angles"};
+  const std::vector<std::string> stages = {"initial_metric", "target", "flow",  "cut",  "cut_metric",
+                                           "layout",         "seed_check", "polygon", "deck", "angles"};
   doc += "| input | load | validate | topology |";
   for (const std::string& st : stages) doc += " " + st + " |";
   doc += " write | status |\n|---|---:|---:|---:|";

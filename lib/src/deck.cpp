@@ -600,8 +600,10 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
 /// steps towards the farthest point, 1/(k+1) of the way at step k, in double; the points, already
 /// centred on their centre of mass, need only be resolved coarsely for this).
 cplx minimax_centre(const std::vector<CQ>& pts) {
-  std::vector<cplx> z(pts.size());
-  for (std::size_t i = 0; i < pts.size(); ++i) z[i] = pts[i].to_double();
+  // At most ~16k points (a stride through the cut vertices, whose neighbours lie within one edge).
+  const std::size_t stride = std::max<std::size_t>(1, pts.size() / 16384);
+  std::vector<cplx> z;
+  for (std::size_t i = 0; i < pts.size(); i += stride) z.push_back(pts[i].to_double());
   cplx c = 0;
   for (int k = 1; k <= 400; ++k) {
     const Moebius T = Moebius::to_origin(c);
@@ -883,6 +885,15 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     }
     return h;
   };
+  // The tile of one face: the letters along its breadth-first path, from face 0.
+  auto tile_of = [&](const std::vector<MoebiusQ>& P, Index F) {
+    std::vector<Letter> path;
+    for (; F != 0 && F != kInvalid; F = parent[F])
+      if (via[F].k >= 0) path.push_back(via[F]);
+    MoebiusQ t;
+    for (auto it = path.rbegin(); it != path.rend(); ++it) t = t * letter_map(P, *it);
+    return t;
+  };
 
   // 4. The domain position of surface vertex x seen from input face O.
   auto corner_of = [&](Index O, Index v) {
@@ -912,7 +923,7 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   };
 
   // 5. Canonical positions (quad), each cut vertex from every face that holds it.
-  std::vector<MoebiusQ> h = tiles(X);
+  const std::vector<MoebiusQ> h = tiles(X);
   const Index nc = canonical.num_cut_vertices();
   std::vector<CQ> pos(static_cast<std::size_t>(nc));
   std::vector<char> have(static_cast<std::size_t>(nc), 0);
@@ -962,7 +973,6 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       for (CQ& z : pos) z = M.apply(z);
     }
     out.polygon_frame = frame.to_double();
-    for (MoebiusQ& t : h) t = frame * t;
   }
   // In double, when every vertex is resolved (otherwise the generators stand without the view).
   out.canonical_positions.resize(2 * static_cast<std::size_t>(nc));
@@ -1015,7 +1025,7 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
         N = crossing(Os, k);
       }
       words.push_back({Fs, Fp, N});
-      const MoebiusQ Xg = h[Fp] * letter_map(X, N).inverse() * h[Fs].inverse();
+      const MoebiusQ Xg = (frame * h[Fp]) * letter_map(X, N).inverse() * (frame * h[Fs]).inverse();
       XQ.push_back(Xg);
       G.map = Xg.to_double();
       G.theta = G.map.theta();
@@ -1057,10 +1067,10 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   const CQ v0 = pos[canonical.side_vertices[canonical.side_offsets[0]]];
   r.relation_error = relation_of(XQ, v0, &r.relator);
   if (options.adjust_pairings && !cycles.empty()) {
-    std::vector<MoebiusQ> hf = tiles(fitted);
-    for (MoebiusQ& t : hf) t = frame * t;
     std::vector<MoebiusQ> XF;
-    for (const Word& w : words) XF.push_back(hf[w.Fp] * letter_map(fitted, w.N).inverse() * hf[w.Fs].inverse());
+    for (const Word& w : words)
+      XF.push_back((frame * tile_of(fitted, w.Fp)) * letter_map(fitted, w.N).inverse() *
+                   (frame * tile_of(fitted, w.Fs)).inverse());
     out.fitted_relation_error = relation_of(XF, v0, nullptr);
   } else {
     out.fitted_relation_error = r.relation_error;

@@ -152,6 +152,8 @@ bool UniformizeOptions::is_valid(std::string* why) const {
     return false;
   };
   if (base_candidates < 1) return fail("base_candidates must be >= 1");
+  if (!(polygon_tolerance >= 0) || !std::isfinite(polygon_tolerance))
+    return fail("polygon_tolerance must be finite and >= 0");
   if (seed_checks < 0) return fail("seed_checks must be >= 0");
   if (!(max_layout_error > 0)) return fail("max_layout_error must be > 0");
   std::string w;
@@ -511,7 +513,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       r.polygon = std::move(poly);
       take_domain(dd);
       r.deck = std::move(dd.deck);
-      if (best_score < 1e-11) break;
+      if (best_score < options.polygon_tolerance) break;
     }
     if (!std::isfinite(best_score) && deck_only) {
       // Canonical generators whose polygon double precision cannot draw.

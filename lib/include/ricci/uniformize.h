@@ -37,7 +37,8 @@
 // its loops, so up to `base_candidates` base vertices are tried: the most central vertex (least
 // max metric distance to the two ends of a double-sweep diameter), then vertices spread over the
 // central quarter by farthest-point sampling. The polygon with the smallest max(relation error,
-// edge error, rounding floor) is kept (the search stops early below 1e-11, and gives up after
+// edge error, rounding floor) is kept (the search stops at the first below `polygon_tolerance`,
+// 1e-9, each base costing a cut and a layout of its own, and gives up after
 // three bases none of which could be laid out); `candidates` lists every one tried.
 #pragma once
 
@@ -88,6 +89,9 @@ struct UniformizeOptions {
   bool polish = true;
   /// H (closed): base vertices tried for the canonical polygon (see the header comment).
   int base_candidates = 8;
+  /// H (closed): stop trying base vertices at the first canonical polygon whose max(relation
+  /// error, edge error, rounding floor) is below this (0: try them all).
+  double polygon_tolerance = 1e-9;
   /// Options of every layout; the seed check runs them with normalize off and its own seed faces.
   LayoutOptions layout;
   /// Extra seed faces (0, F/2, F−1, …) whose layouts are compared with the first.
