@@ -260,6 +260,14 @@ class FlowSolver {
   /// Pins for the Möbius gauge of the round sphere instead of the graph-distance choice (three
   /// distinct vertices; ignored unless valid).
   void set_sphere_pins(const std::array<Index, 3>& pins) { pin_hint_ = pins; }
+  /// Vertex orders for the symbolic analysis of the Newton system: `hint` (when not null and not
+  /// empty) is used as its fill-reducing ordering, restricted to the unknowns (vertices of the
+  /// hint that are not unknowns are skipped; unknowns it misses go last, in index order); `out`
+  /// (when not null) receives the ordering that was used, as vertices. Newton only.
+  void set_ordering(const std::vector<Index>* hint, std::vector<Index>* out) {
+    order_hint_ = hint;
+    order_out_ = out;
+  }
 
  private:
   // Setup.
@@ -373,6 +381,8 @@ class FlowSolver {
   std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
   bool spherical_gauge_ = false;
   std::array<Index, 3> pin_hint_ = {kInvalid, kInvalid, kInvalid};
+  const std::vector<Index>* order_hint_ = nullptr;
+  std::vector<Index>* order_out_ = nullptr;
   std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
   std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
@@ -1452,7 +1462,27 @@ void FlowSolver::run() {
     const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                        : detail::FactorKind::PositiveDefinite;
     r_.timings.setup += std::chrono::duration<double>(mark - start_).count() + lap(mark);
-    const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind);
+    std::vector<std::int64_t> ordering;
+    if (order_hint_ && !order_hint_->empty()) {
+      ordering.reserve(static_cast<std::size_t>(n));
+      std::vector<std::uint8_t> placed(static_cast<std::size_t>(n), 0);
+      for (const Index v : *order_hint_) {
+        const Index j = v >= 0 && v < nv ? pattern_.vertex_unknown[v] : kInvalid;
+        if (j == kInvalid || placed[j]) continue;
+        placed[j] = 1;
+        ordering.push_back(j);
+      }
+      for (Index j = 0; j < n; ++j)
+        if (!placed[j]) ordering.push_back(j);
+    }
+    const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind, ordering);
+    if (analysis == detail::FactorOutcome::Ok && order_out_) {
+      ordering.resize(static_cast<std::size_t>(n));
+      if (solver_.ordering(ordering)) {
+        order_out_->resize(static_cast<std::size_t>(n));
+        for (Index k = 0; k < n; ++k) (*order_out_)[k] = pattern_.unknown_vertex[ordering[k]];
+      }
+    }
     if (analysis == detail::FactorOutcome::Ok && coupled_) setup_boundary_direct();
     r_.timings.analysis += lap(mark);
     if (analysis != detail::FactorOutcome::Ok) {
@@ -1578,6 +1608,10 @@ std::string FlowResult::brief_report() const {
 
 namespace {
 
+FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure& structure,
+                              std::span<const double> u0, const Target& target, const FlowOptions& options,
+                              const std::vector<Index>* order_hint, std::vector<Index>* order_out);
+
 // S safeguard (see the top of this file): the direct Newton solve gets this many steps before
 // the continuation takes over.
 constexpr int kDirectSphericalIterations = 40;
@@ -1606,7 +1640,7 @@ std::function<void(const IterationRecord&)> shifted_progress(const FlowOptions& 
 // is not possible (another scheme, a degenerate layout, …).
 std::vector<double> spherical_start_from_plane(const Topology& t, const ConformalStructure& s,
                                                std::span<const double> u0, const FlowOptions& options,
-                                               std::array<Index, 3>* pins = nullptr) {
+                                               std::array<Index, 3>* pins, std::vector<Index>* order) {
   const Index nv = t.num_vertices, ne = t.num_edges, nf = t.num_faces;
   if (s.scheme == Scheme::Yamabe || s.geometry != Geometry::Spherical || nv < 5) return {};
   std::vector<double> l(static_cast<std::size_t>(ne)), theta(3 * static_cast<std::size_t>(nf)),
@@ -1669,12 +1703,17 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
   plane_options.tolerance = 1e-8;  // a start: the spherical Newton solve does the rest
   plane_options.max_iterations = 40;
   plane_options.threads = options.threads;
-  const FlowResult flat = solve_flow(d, plane, u_disk, circle, plane_options);
+  std::vector<Index> disk_order;
+  const FlowResult flat = solve_flow_ordered(d, plane, u_disk, circle, plane_options, nullptr, &disk_order);
   if (flat.u.empty() || !(flat.max_curvature_error < 1e-4)) return {};
 
-  // The planar layout (no normalisation: the circle is fitted below).
+  // The planar layout (no normalisation: the circle is fitted below). One propagation without
+  // polish sweeps or patches: the disk is solved to 1e-8 only and the result is a start, so the
+  // layout's refinements (which cost as much as the spherical analysis on brain-32k) buy nothing.
   LayoutOptions plane_layout;
   plane_layout.normalize = false;
+  plane_layout.polish_sweeps = 0;
+  plane_layout.patches = 0;
   const Layout laid = layout_disk(d, Geometry::Euclidean, flat.l, plane_layout);
   if (laid.status != Status::Ok || laid.unplaced_vertices > 0) return {};
   const std::vector<double>& x = laid.positions;
@@ -1749,6 +1788,11 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
     if (t.valence(i) > 0 && !std::isfinite(u[i])) return {};
   for (Index i = 0; i < nv; ++i)
     if (t.valence(i) == 0) u[i] = u0[i];
+  // The disk's elimination order, as vertices of the sphere.
+  if (order) {
+    order->resize(disk_order.size());
+    for (std::size_t k = 0; k < disk_order.size(); ++k) (*order)[k] = to_full[disk_order[k]];
+  }
   // Pins for the Möbius gauge: v at the north pole and the vertices whose circle centres are
   // nearest to (1, 0, 0) and (0, 1, 0) — three nearly orthogonal directions, so that the three
   // pinned radii fix the Möbius transformation well.
@@ -1853,10 +1897,11 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
   return r;
 }
 
-}  // namespace
-
-FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
-                      std::span<const double> u0, const Target& target, const FlowOptions& options) {
+// solve_flow() with vertex orders for the symbolic analysis of the (first) Newton system, see
+// FlowSolver::set_ordering().
+FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure& structure,
+                              std::span<const double> u0, const Target& target, const FlowOptions& options,
+                              const std::vector<Index>* order_hint, std::vector<Index>* order_out) {
   const auto start = Clock::now();
   FlowResult r;
   r.geometry = structure.geometry;
@@ -1915,7 +1960,11 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
   for (Index v = 0; v < nv && round; ++v) round = target.K[v] == 0;
   std::vector<double> planar_u;
   std::array<Index, 3> pins = {kInvalid, kInvalid, kInvalid};
-  if (round) planar_u = spherical_start_from_plane(topology, structure, u0, options, &pins);
+  // The planar disk is the sphere without one vertex star: its fill-reducing ordering, restricted,
+  // serves the spherical system too (one ordering instead of two).
+  std::vector<Index> planar_order;
+  if (round) planar_u = spherical_start_from_plane(topology, structure, u0, options, &pins, &planar_order);
+  if (!planar_u.empty() && !order_hint) order_hint = &planar_order;
   const std::span<const double> first_u = planar_u.empty() ? u0 : std::span<const double>(planar_u);
   const std::string first_name = planar_u.empty() ? "the direct Newton solve"
                                                   : "Newton from the stereographic image of a planar circle-domain "
@@ -1928,6 +1977,7 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
   {
     FlowSolver solver(topology, structure, first_u, target, direct, r);
     if (!planar_u.empty()) solver.set_sphere_pins(pins);
+    solver.set_ordering(order_hint, order_out);
     solver.run();
     solver.finish();
   }
@@ -1940,6 +1990,13 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
   if (!homotopy || !retry || r.iterations >= options.max_iterations) return r;
   // Otherwise: a continuation from the starting curvature of the same start.
   return spherical_continuation(topology, structure, first_u, target, options, std::move(r), first_name, start);
+}
+
+}  // namespace
+
+FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
+                      std::span<const double> u0, const Target& target, const FlowOptions& options) {
+  return solve_flow_ordered(topology, structure, u0, target, options, nullptr, nullptr);
 }
 
 }  // namespace ricci

@@ -47,26 +47,33 @@ struct SymmetricSolver::Impl {
   cholmod_dense* E = nullptr;
   std::int64_t n = 0;
   FactorKind kind = FactorKind::PositiveDefinite;
+  // Vectors L⁻¹ e_c for a set of columns c of the permuted order, each nonzero only on the
+  // elimination-tree path from c to the root: the supernodes of the t-th column's path
+  // (super[offsets[t] … offsets[t+1]), increasing) and its values on their columns (values from
+  // value_offsets[t], the columns of each path supernode in turn).
+  struct Paths {
+    std::vector<std::int64_t> column, offsets, super, value_offsets;
+    std::vector<double> values;
+  };
   // Indefinite kind by pinned LLᵀ + Woodbury (see sparse_solver.h): the pins, their weights ρ,
-  // the k×k capacitance matrix C = R⁻¹ − Eᵀ M⁻¹ E in LU form (row-major, with its row pivots),
-  // and dense workspaces for the batched solves M⁻¹E. `simplicial`: given up on pins (LDLᵀ).
+  // the k×k capacitance matrix C = R⁻¹ − ZᵀZ in LU form (row-major, with its row pivots), and
+  // Z = L⁻¹ P E as the paths of the pins. `simplicial`: given up on pins (LDLᵀ).
   bool simplicial = false;
   std::vector<std::int64_t> pins;
   std::vector<double> pin_weight, pin_saved, capacitance, pin_rhs;
-  std::vector<double> Z;  // n×k row-major: L⁻¹ P E (row i holds the k values of unknown i)
+  Paths pin_paths;
+  bool pins_changed = false;  // pin_paths are not those of `pins`
   std::vector<std::int64_t> capacitance_pivot;
-  cholmod_dense* Bk = nullptr;
-  cholmod_dense* Xk = nullptr;
-  cholmod_dense* Yk = nullptr;
-  cholmod_dense* Ek = nullptr;
-  cholmod_dense* Zk = nullptr;
   cholmod_dense* W = nullptr;
-  // inverse_block(): per block column c (an unknown in the permuted order), the supernodes on
-  // its elimination-tree path (path_super[path_offsets[c] … path_offsets[c+1]), increasing) and
-  // the values of L⁻¹ e on their columns (block_values from value_offsets[c], the columns of each
-  // path supernode in turn); a dense workspace of n zeros; W = Zᵀ_pins Z_I for the pins.
-  std::vector<std::int64_t> block_column, super_parent, column_super, path_offsets, path_super, value_offsets;
-  std::vector<double> block_values, block_work, pin_block;
+  // The supernodal elimination tree (the parent of each supernode, the supernode of each column)
+  // and the inverse permutation, once per analysis (tree_ready); a dense workspace of n zeros.
+  std::vector<std::int64_t> super_parent, column_super, inverse_perm;
+  std::vector<double> block_work;
+  bool tree_ready = false;
+  // inverse_block(): the paths of the block columns; W = Zᵀ_pins Z_I and C⁻¹W for the pins.
+  Paths block_paths;
+  std::vector<double> pin_block;
+  std::vector<SuiteSparse_long> given;  // the caller's ordering (analyze()), empty when chosen here
   bool block_ready = false;
   bool analyzed = false;
   bool factored = false;
@@ -86,17 +93,20 @@ struct SymmetricSolver::Impl {
     if (X) cholmod_l_free_dense(&X, &common);
     if (Y) cholmod_l_free_dense(&Y, &common);
     if (E) cholmod_l_free_dense(&E, &common);
-    free_batch();
+    if (W) cholmod_l_free_dense(&W, &common);
     cholmod_l_finish(&common);
   }
 
-  void free_batch() {
-    if (Bk) cholmod_l_free_dense(&Bk, &common);
-    if (Xk) cholmod_l_free_dense(&Xk, &common);
-    if (Yk) cholmod_l_free_dense(&Yk, &common);
-    if (Ek) cholmod_l_free_dense(&Ek, &common);
-    if (Zk) cholmod_l_free_dense(&Zk, &common);
-    if (W) cholmod_l_free_dense(&W, &common);
+  bool prepare_tree();
+  double build_paths(std::span<const std::int64_t> columns, Paths& p);
+  void forward_paths(Paths& p);
+  void scatter(const Paths& p, std::int64_t t);
+  void unscatter(const Paths& p, std::int64_t t);
+  double scattered_dot(const Paths& p, std::int64_t t) const;
+
+  // The symbolic analysis of A with the settings in `common` (and the given ordering, if any).
+  cholmod_factor* analyze_pattern() {
+    return given.empty() ? cholmod_l_analyze(A, &common) : cholmod_l_analyze_p(A, given.data(), nullptr, 0, &common);
   }
 
   std::int64_t diagonal_position(std::int64_t j) const { return static_cast<SuiteSparse_long*>(A->p)[j + 1] - 1; }
@@ -118,19 +128,25 @@ struct SymmetricSolver::Impl {
 // direction). With E the n×k selection of the pins and R = diag(ρ), M = A + E R Eᵀ is positive
 // definite once the pins are dense enough to block the negative directions, and
 //     A⁻¹ = M⁻¹ + M⁻¹ E C⁻¹ Eᵀ M⁻¹,   C = R⁻¹ − Eᵀ M⁻¹ E   (Woodbury).
-// With M = Pᵀ L Lᵀ P and Z = L⁻¹ P E (k forward solves per factorization, kept: n×k values),
-// C = R⁻¹ − ZᵀZ and A⁻¹ b = Pᵀ L⁻ᵀ (y + Z C⁻¹ Zᵀ y) with y = L⁻¹ P b: one forward and one
-// backward solve per right-hand side, as for a positive definite A, plus O(nk) work; C is
-// indefinite and solved by LU with partial pivoting. The pins are spread evenly over the unknowns' order; when M is not
-// positive definite their number doubles. Failed: out of pins (the caller's factorize() then
-// switches to simplicial LDLᵀ).
+// With M = Pᵀ L Lᵀ P and Z = L⁻¹ P E, C = R⁻¹ − ZᵀZ and A⁻¹ b = Pᵀ L⁻ᵀ (y + Z C⁻¹ Zᵀ y) with
+// y = L⁻¹ P b: one forward and one backward solve per right-hand side, as for a positive
+// definite A, plus the work of Zᵀy and Z(C⁻¹Zᵀy). Column p of Z is nonzero only on the
+// elimination-tree path from the pin to the root, so Z is computed per factorization by sparse
+// forward solves along those paths and kept as their values (with nested dissection a path is
+// the separators above the pin: O(√n) entries on a mesh, instead of n per column). C is
+// indefinite and solved by LU with partial pivoting. The pins are spread evenly over the unknowns'
+// order; when M is not positive definite their number doubles, unless the factorization stopped
+// at the same column as with half as many. Failed: out of pins, or stuck (the caller's
+// factorize() then switches to simplicial LDLᵀ).
 FactorOutcome SymmetricSolver::Impl::pinned_factorize(double shift) {
   double* x = static_cast<double*>(A->x);
   std::int64_t k = pins.empty() ? std::min(kFirstPins, n) : static_cast<std::int64_t>(pins.size());
+  std::int64_t last_stop = -1;  // the column where the last attempt stopped (-1: none)
   while (true) {
     if (static_cast<std::int64_t>(pins.size()) != k) {
       pins.resize(static_cast<std::size_t>(k));
       for (std::int64_t i = 0; i < k; ++i) pins[i] = ((2 * i + 1) * n) / (2 * k);
+      pins_changed = true;
     }
     pin_weight.resize(static_cast<std::size_t>(k));
     pin_saved.resize(static_cast<std::size_t>(k));
@@ -153,56 +169,41 @@ FactorOutcome SymmetricSolver::Impl::pinned_factorize(double shift) {
       if (std::isfinite(rcond) && rcond > 0) return build_capacitance();
       outcome = FactorOutcome::NotPositiveDefinite;
     }
-    if (outcome == FactorOutcome::NotPositiveDefinite && k < std::min(kMaxPins, n)) {
+    // More pins help when they move the failure; when twice as many stop at the same column, the
+    // negative direction there is local and strong (brain-32k: 32 … 512 pins all stop at one
+    // column), and LDLᵀ is taken at once.
+    const std::int64_t stopped = common.status == CHOLMOD_NOT_POSDEF ? static_cast<std::int64_t>(L->minor) : -1;
+    const bool stuck = stopped >= 0 && stopped == last_stop;
+    last_stop = stopped;
+    if (outcome == FactorOutcome::NotPositiveDefinite && k < std::min(kMaxPins, n) && !stuck) {
       k = std::min(2 * k, n);
       continue;
     }
     pins.clear();
-    std::vector<double>().swap(Z);
+    pin_paths = Paths{};
     return FactorOutcome::Failed;
   }
 }
 
 FactorOutcome SymmetricSolver::Impl::build_capacitance() {
   const auto k = static_cast<std::int64_t>(pins.size());
-  // Columns per batched solve: at most about 2M doubles per workspace.
-  const std::int64_t batch =
-      std::min<std::int64_t>(k, std::clamp<std::int64_t>((std::int64_t{1} << 21) / std::max<std::int64_t>(n, 1), 4, 32));
-  if (!Bk || static_cast<std::int64_t>(Bk->ncol) != batch) {
-    free_batch();
-    Bk = cholmod_l_zeros(static_cast<std::size_t>(n), static_cast<std::size_t>(batch), CHOLMOD_REAL, &common);
-    if (!Bk) return status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : status_outcome();
+  // Z by sparse forward solves along the pins' elimination-tree paths (their paths are set up
+  // when the pins change), then C = R⁻¹ − ZᵀZ over the paths.
+  if (!prepare_tree()) return FactorOutcome::Failed;
+  if (pins_changed) {
+    pins_changed = false;
+    std::vector<std::int64_t> columns(static_cast<std::size_t>(k));
+    for (std::int64_t a = 0; a < k; ++a) columns[a] = inverse_perm[pins[a]];
+    build_paths(columns, pin_paths);
   }
-  Z.resize(static_cast<std::size_t>(n * k));
-  auto* b = static_cast<double*>(Bk->x);
-  const auto ld = static_cast<std::int64_t>(Bk->d);
-  for (std::int64_t start = 0; start < k; start += batch) {
-    const std::int64_t m = std::min(batch, k - start);
-    for (std::int64_t c = 0; c < m; ++c) b[c * ld + pins[start + c]] = 1;
-    int ok = cholmod_l_solve2(CHOLMOD_P, L, Bk, nullptr, &Xk, nullptr, &Yk, &Ek, &common);
-    for (std::int64_t c = 0; c < m; ++c) b[c * ld + pins[start + c]] = 0;
-    ok = ok && Xk && cholmod_l_solve2(CHOLMOD_L, L, Xk, nullptr, &Zk, nullptr, &Yk, &Ek, &common);
-    if (!ok || !Zk || common.status < CHOLMOD_OK)
-      return status_outcome() == FactorOutcome::OutOfMemory ? FactorOutcome::OutOfMemory : FactorOutcome::Failed;
-    const auto* z = static_cast<const double*>(Zk->x);
-    const auto lz = static_cast<std::int64_t>(Zk->d);
-    for (std::int64_t c = 0; c < m; ++c)
-      for (std::int64_t i = 0; i < n; ++i) Z[i * k + start + c] = z[c * lz + i];
-  }
-  // C = R⁻¹ − ZᵀZ, accumulated row by row of Z (lower triangle, then mirrored).
-  capacitance.assign(static_cast<std::size_t>(k * k), 0.0);
-  for (std::int64_t i = 0; i < n; ++i) {
-    const double* zi = Z.data() + i * k;
-    for (std::int64_t a = 0; a < k; ++a) {
-      const double za = zi[a];
-      if (za == 0) continue;
-      double* row = capacitance.data() + a * k;
-      for (std::int64_t c = 0; c <= a; ++c) row[c] -= za * zi[c];
-    }
-  }
+  forward_paths(pin_paths);
+  capacitance.resize(static_cast<std::size_t>(k * k));
   for (std::int64_t a = 0; a < k; ++a) {
+    scatter(pin_paths, a);
+    for (std::int64_t c = 0; c <= a; ++c)
+      capacitance[a * k + c] = capacitance[c * k + a] = -scattered_dot(pin_paths, c);
+    unscatter(pin_paths, a);
     capacitance[a * k + a] += 1 / pin_weight[a];
-    for (std::int64_t c = 0; c < a; ++c) capacitance[c * k + a] = capacitance[a * k + c];
   }
   double largest = 0;
   for (const double v : capacitance) largest = std::max(largest, std::abs(v));
@@ -249,19 +250,24 @@ bool SymmetricSolver::Impl::pinned_solve(double* out) {
       common.status < CHOLMOD_OK)
     return false;
   auto* y = static_cast<double*>(W->x);
-  std::fill(pin_rhs.begin(), pin_rhs.end(), 0.0);
-  for (std::int64_t i = 0; i < n; ++i) {
-    const double yi = y[i];
-    if (yi == 0) continue;
-    const double* zi = Z.data() + i * k;
-    for (std::int64_t a = 0; a < k; ++a) pin_rhs[a] += zi[a] * yi;
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  for (std::int64_t a = 0; a < k; ++a) {
+    const double* z = pin_paths.values.data() + pin_paths.value_offsets[a];
+    double sum = 0;
+    for (std::int64_t t = pin_paths.offsets[a]; t < pin_paths.offsets[a + 1]; ++t) {
+      const std::int64_t q = pin_paths.super[t];
+      for (std::int64_t j = super[q]; j < super[q + 1]; ++j) sum += *z++ * y[j];
+    }
+    pin_rhs[a] = sum;
   }
   capacitance_solve(pin_rhs.data());
-  for (std::int64_t i = 0; i < n; ++i) {
-    const double* zi = Z.data() + i * k;
-    double sum = 0;
-    for (std::int64_t a = 0; a < k; ++a) sum += zi[a] * pin_rhs[a];
-    y[i] += sum;
+  for (std::int64_t a = 0; a < k; ++a) {
+    const double* z = pin_paths.values.data() + pin_paths.value_offsets[a];
+    const double w = pin_rhs[a];
+    for (std::int64_t t = pin_paths.offsets[a]; t < pin_paths.offsets[a + 1]; ++t) {
+      const std::int64_t q = pin_paths.super[t];
+      for (std::int64_t j = super[q]; j < super[q + 1]; ++j) y[j] += *z++ * w;
+    }
   }
   if (!cholmod_l_solve2(CHOLMOD_Lt, L, W, nullptr, &X, nullptr, &Y, &E, &common) || !X ||
       !cholmod_l_solve2(CHOLMOD_Pt, L, X, nullptr, &B, nullptr, &Y, &E, &common) || !B ||
@@ -276,11 +282,21 @@ SymmetricSolver::SymmetricSolver() : impl_(std::make_unique<Impl>()) {}
 SymmetricSolver::~SymmetricSolver() = default;
 
 FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int64_t> col_ptr,
-                                       std::span<const std::int64_t> row, FactorKind kind) {
+                                       std::span<const std::int64_t> row, FactorKind kind,
+                                       std::span<const std::int64_t> ordering) {
   Impl& s = *impl_;
   if (s.analyzed || n < 0 || col_ptr.size() != static_cast<std::size_t>(n) + 1 ||
       row.size() != static_cast<std::size_t>(col_ptr[static_cast<std::size_t>(n)]))
     return FactorOutcome::Failed;
+  if (!ordering.empty()) {
+    if (ordering.size() != static_cast<std::size_t>(n)) return FactorOutcome::Failed;
+    std::vector<std::uint8_t> seen(static_cast<std::size_t>(n), 0);
+    for (const std::int64_t k : ordering) {
+      if (k < 0 || k >= n || seen[static_cast<std::size_t>(k)]) return FactorOutcome::Failed;
+      seen[static_cast<std::size_t>(k)] = 1;
+    }
+    s.given.assign(ordering.begin(), ordering.end());
+  }
   s.n = n;
   s.analyzed = true;
   if (n == 0) return FactorOutcome::Ok;
@@ -300,7 +316,11 @@ FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int6
   // Ordering: AMD for small systems; nested dissection by METIS for large ones, whose factors of
   // mesh Laplacian-like matrices have markedly less fill (on a 425k-face mesh: a third of the
   // flops of AMD, for a slower analysis that is done once).
-  if (n >= kNestedDissectionThreshold) {
+  // A given ordering is used as is (CHOLMOD still postorders its elimination tree).
+  if (!s.given.empty()) {
+    c.nmethods = 1;
+    c.method[0].ordering = CHOLMOD_GIVEN;
+  } else if (n >= kNestedDissectionThreshold) {
     c.nmethods = 1;
     c.method[0].ordering = CHOLMOD_METIS;
   }
@@ -309,11 +329,11 @@ FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int6
   c.final_asis = 1;  // supernodal stays LLᵀ, simplicial stays LDLᵀ
   c.grow0 = 0;       // no slack for updates/downdates: exact space
   c.grow2 = 0;
-  s.L = cholmod_l_analyze(s.A, &c);
-  if (!s.L && c.status == CHOLMOD_NOT_INSTALLED) {  // a CHOLMOD built without METIS: AMD alone
+  s.L = s.analyze_pattern();
+  if (!s.L && s.given.empty() && c.status == CHOLMOD_NOT_INSTALLED) {  // a CHOLMOD built without METIS: AMD alone
     c.nmethods = 0;
     c.status = CHOLMOD_OK;
-    s.L = cholmod_l_analyze(s.A, &c);
+    s.L = s.analyze_pattern();
   }
   if (!s.L) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
   s.B = cholmod_l_zeros(static_cast<std::size_t>(n), 1, CHOLMOD_REAL, &c);
@@ -349,10 +369,11 @@ FactorOutcome SymmetricSolver::factorize(double shift) {
     cholmod_l_free_factor(&s.L, &c);
     c.supernodal = CHOLMOD_SIMPLICIAL;
     c.status = CHOLMOD_OK;
-    s.L = cholmod_l_analyze(s.A, &c);
+    s.L = s.analyze_pattern();
     if (!s.L) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
     s.simplicial = true;
-    s.free_batch();
+    s.tree_ready = false;
+    s.block_ready = false;
   }
   cholmod_common& c = s.common;
   double beta[2] = {shift, 0};
@@ -387,76 +408,74 @@ bool SymmetricSolver::solve(std::span<const double> b, std::span<double> x) {
   return finite;
 }
 
-double SymmetricSolver::prepare_block(std::span<const std::int64_t> index) {
-  Impl& s = *impl_;
-  s.block_ready = false;
-  if (!s.analyzed || s.n == 0 || !s.L || !s.L->is_super) return -1;
-  const auto n = s.n;
-  for (const std::int64_t i : index)
-    if (i < 0 || i >= n) return -1;
-  const auto nsuper = static_cast<std::int64_t>(s.L->nsuper);
-  const auto* super = static_cast<const SuiteSparse_long*>(s.L->super);
-  const auto* pi = static_cast<const SuiteSparse_long*>(s.L->pi);
-  const auto* si = static_cast<const SuiteSparse_long*>(s.L->s);
-  const auto* perm = static_cast<const SuiteSparse_long*>(s.L->Perm);
-  s.column_super.assign(static_cast<std::size_t>(n), -1);
+// The supernodal elimination tree (the parent of a supernode holds its first off-diagonal row),
+// the supernode of each column and the inverse permutation; once per (supernodal) analysis.
+bool SymmetricSolver::Impl::prepare_tree() {
+  if (tree_ready) return true;
+  if (!L || !L->is_super) return false;
+  const auto nsuper = static_cast<std::int64_t>(L->nsuper);
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
+  const auto* si = static_cast<const SuiteSparse_long*>(L->s);
+  const auto* perm = static_cast<const SuiteSparse_long*>(L->Perm);
+  column_super.assign(static_cast<std::size_t>(n), -1);
   for (std::int64_t q = 0; q < nsuper; ++q)
-    for (std::int64_t j = super[q]; j < super[q + 1]; ++j) s.column_super[j] = q;
-  // The supernodal elimination tree: the parent of a supernode holds its first off-diagonal row.
-  s.super_parent.assign(static_cast<std::size_t>(nsuper), -1);
+    for (std::int64_t j = super[q]; j < super[q + 1]; ++j) column_super[j] = q;
+  super_parent.assign(static_cast<std::size_t>(nsuper), -1);
   for (std::int64_t q = 0; q < nsuper; ++q) {
     const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
-    if (nsrow > nscol) s.super_parent[q] = s.column_super[si[pi[q] + nscol]];
+    if (nsrow > nscol) super_parent[q] = column_super[si[pi[q] + nscol]];
   }
-  // The inverse permutation into block_work (reused as scratch; zero afterwards).
-  s.block_work.assign(static_cast<std::size_t>(n), 0.0);
-  std::vector<std::int64_t> inverse(static_cast<std::size_t>(n));
-  for (std::int64_t k = 0; k < n; ++k) inverse[perm ? perm[k] : k] = k;
-  const auto k = static_cast<std::int64_t>(index.size());
-  s.block_column.resize(static_cast<std::size_t>(k));
-  s.path_offsets.assign(1, 0);
-  s.value_offsets.assign(1, 0);
-  s.path_super.clear();
+  inverse_perm.resize(static_cast<std::size_t>(n));
+  for (std::int64_t k = 0; k < n; ++k) inverse_perm[perm ? perm[k] : k] = k;
+  block_work.assign(static_cast<std::size_t>(n), 0.0);
+  tree_ready = true;
+  return true;
+}
+
+// The paths of `columns` (permuted order) into p (values zero); returns the flops of one
+// forward_paths() plus the Gram matrix of the paths.
+double SymmetricSolver::Impl::build_paths(std::span<const std::int64_t> columns, Paths& p) {
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
+  const auto k = static_cast<std::int64_t>(columns.size());
+  p.column.assign(columns.begin(), columns.end());
+  p.offsets.assign(1, 0);
+  p.value_offsets.assign(1, 0);
+  p.super.clear();
   double flops = 0, path_columns = 0;
   for (std::int64_t c = 0; c < k; ++c) {
-    const std::int64_t i = inverse[index[c]];
-    s.block_column[c] = i;
     std::int64_t values = 0;
-    for (std::int64_t q = s.column_super[i]; q >= 0; q = s.super_parent[q]) {
-      s.path_super.push_back(q);
+    for (std::int64_t q = column_super[columns[c]]; q >= 0; q = super_parent[q]) {
+      p.super.push_back(q);
       const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
       values += nscol;
       flops += 2.0 * static_cast<double>(nsrow) * static_cast<double>(nscol);
     }
     path_columns += static_cast<double>(values);
-    s.path_offsets.push_back(static_cast<std::int64_t>(s.path_super.size()));
-    s.value_offsets.push_back(s.value_offsets.back() + values);
+    p.offsets.push_back(static_cast<std::int64_t>(p.super.size()));
+    p.value_offsets.push_back(p.value_offsets.back() + values);
   }
-  s.block_values.assign(static_cast<std::size_t>(s.value_offsets.back()), 0.0);
+  p.values.assign(static_cast<std::size_t>(p.value_offsets.back()), 0.0);
   // The Gram matrix: k²/2 dot products over the paths.
-  flops += static_cast<double>(k) * path_columns;
-  s.block_ready = true;
-  return flops;
+  return flops + static_cast<double>(k) * path_columns;
 }
 
-bool SymmetricSolver::inverse_block(std::span<double> out) {
-  Impl& s = *impl_;
-  const auto k = static_cast<std::int64_t>(s.block_column.size());
-  if (!s.block_ready || !s.factored || s.simplicial || !s.L || !s.L->is_super || !s.L->x ||
-      out.size() != static_cast<std::size_t>(k * k))
-    return false;
-  const auto* super = static_cast<const SuiteSparse_long*>(s.L->super);
-  const auto* pi = static_cast<const SuiteSparse_long*>(s.L->pi);
-  const auto* px = static_cast<const SuiteSparse_long*>(s.L->px);
-  const auto* si = static_cast<const SuiteSparse_long*>(s.L->s);
-  const auto* lx = static_cast<const double*>(s.L->x);
-  double* work = s.block_work.data();
-  // Z: forward solves L z = e_i along each path (the rows outside the path stay zero).
+// p.values: the forward solves L z = e_c along each path with the current factor (the rows off
+// the path stay zero); block_work is the scratch and is zero again afterwards.
+void SymmetricSolver::Impl::forward_paths(Paths& p) {
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
+  const auto* px = static_cast<const SuiteSparse_long*>(L->px);
+  const auto* si = static_cast<const SuiteSparse_long*>(L->s);
+  const auto* lx = static_cast<const double*>(L->x);
+  double* work = block_work.data();
+  const auto k = static_cast<std::int64_t>(p.column.size());
   for (std::int64_t c = 0; c < k; ++c) {
-    work[s.block_column[c]] = 1;
-    double* z = s.block_values.data() + s.value_offsets[c];
-    for (std::int64_t t = s.path_offsets[c]; t < s.path_offsets[c + 1]; ++t) {
-      const std::int64_t q = s.path_super[t];
+    work[p.column[c]] = 1;
+    double* z = p.values.data() + p.value_offsets[c];
+    for (std::int64_t t = p.offsets[c]; t < p.offsets[c + 1]; ++t) {
+      const std::int64_t q = p.super[t];
       const std::int64_t k1 = super[q], nscol = super[q + 1] - k1, psi = pi[q], nsrow = pi[q + 1] - psi;
       const double* Lq = lx + px[q];
       double* x = work + k1;
@@ -474,44 +493,76 @@ bool SymmetricSolver::inverse_block(std::span<double> out) {
       }
     }
   }
+}
+
+// Path t's values into block_work (scatter) and back to zero (unscatter); the dot product of
+// path t with what block_work holds.
+void SymmetricSolver::Impl::scatter(const Paths& p, std::int64_t t) {
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const double* z = p.values.data() + p.value_offsets[t];
+  for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
+    const std::int64_t q = p.super[i];
+    for (std::int64_t j = super[q]; j < super[q + 1]; ++j) block_work[j] = *z++;
+  }
+}
+
+void SymmetricSolver::Impl::unscatter(const Paths& p, std::int64_t t) {
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
+    const std::int64_t q = p.super[i];
+    std::fill(block_work.begin() + super[q], block_work.begin() + super[q + 1], 0.0);
+  }
+}
+
+double SymmetricSolver::Impl::scattered_dot(const Paths& p, std::int64_t t) const {
+  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const double* z = p.values.data() + p.value_offsets[t];
+  double sum = 0;
+  for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
+    const std::int64_t q = p.super[i];
+    for (std::int64_t j = super[q]; j < super[q + 1]; ++j) sum += block_work[j] * *z++;
+  }
+  return sum;
+}
+
+double SymmetricSolver::prepare_block(std::span<const std::int64_t> index) {
+  Impl& s = *impl_;
+  s.block_ready = false;
+  if (!s.analyzed || s.n == 0 || !s.L || !s.L->is_super || s.simplicial) return -1;
+  for (const std::int64_t i : index)
+    if (i < 0 || i >= s.n) return -1;
+  if (!s.prepare_tree()) return -1;
+  std::vector<std::int64_t> columns(index.size());
+  for (std::size_t c = 0; c < index.size(); ++c) columns[c] = s.inverse_perm[index[c]];
+  const double flops = s.build_paths(columns, s.block_paths);
+  s.block_ready = true;
+  return flops;
+}
+
+bool SymmetricSolver::inverse_block(std::span<double> out) {
+  Impl& s = *impl_;
+  Impl::Paths& p = s.block_paths;
+  const auto k = static_cast<std::int64_t>(p.column.size());
+  if (!s.block_ready || !s.factored || s.simplicial || !s.L || !s.L->is_super || !s.L->x ||
+      out.size() != static_cast<std::size_t>(k * k))
+    return false;
+  s.forward_paths(p);
   // ZᵀZ: column a scattered into the workspace, dotted with the paths of the columns b ≤ a.
   for (std::int64_t a = 0; a < k; ++a) {
-    const double* za = s.block_values.data() + s.value_offsets[a];
-    for (std::int64_t t = s.path_offsets[a]; t < s.path_offsets[a + 1]; ++t) {
-      const std::int64_t q = s.path_super[t];
-      for (std::int64_t j = super[q]; j < super[q + 1]; ++j) work[j] = *za++;
-    }
-    for (std::int64_t b = 0; b <= a; ++b) {
-      const double* zb = s.block_values.data() + s.value_offsets[b];
-      double sum = 0;
-      for (std::int64_t t = s.path_offsets[b]; t < s.path_offsets[b + 1]; ++t) {
-        const std::int64_t q = s.path_super[t];
-        for (std::int64_t j = super[q]; j < super[q + 1]; ++j) sum += work[j] * *zb++;
-      }
-      out[a * k + b] = out[b * k + a] = sum;
-    }
-    for (std::int64_t t = s.path_offsets[a]; t < s.path_offsets[a + 1]; ++t) {
-      const std::int64_t q = s.path_super[t];
-      std::fill(work + super[q], work + super[q + 1], 0.0);
-    }
+    s.scatter(p, a);
+    for (std::int64_t b = 0; b <= a; ++b) out[a * k + b] = out[b * k + a] = s.scattered_dot(p, b);
+    s.unscatter(p, a);
   }
-  // Pins (Woodbury): + Wᵀ C⁻¹ W with W = Zᵀ_pins Z_I (Z_pins stored row-major, n×kp).
+  // Pins (Woodbury): + Wᵀ C⁻¹ W with W = Zᵀ_pins Z_I.
   const auto kp = static_cast<std::int64_t>(s.pins.size());
   if (kp > 0) {
-    s.pin_block.assign(static_cast<std::size_t>(2 * kp * k), 0.0);  // W (kp×k), then C⁻¹W
+    s.pin_block.resize(static_cast<std::size_t>(2 * kp * k));  // W (kp×k), then C⁻¹W
     double* W = s.pin_block.data();
     double* V = W + kp * k;
-    for (std::int64_t c = 0; c < k; ++c) {
-      const double* z = s.block_values.data() + s.value_offsets[c];
-      for (std::int64_t t = s.path_offsets[c]; t < s.path_offsets[c + 1]; ++t) {
-        const std::int64_t q = s.path_super[t];
-        for (std::int64_t j = super[q]; j < super[q + 1]; ++j) {
-          const double zj = *z++;
-          if (zj == 0) continue;
-          const double* row = s.Z.data() + j * kp;
-          for (std::int64_t a = 0; a < kp; ++a) W[a * k + c] += row[a] * zj;
-        }
-      }
+    for (std::int64_t a = 0; a < kp; ++a) {
+      s.scatter(s.pin_paths, a);
+      for (std::int64_t c = 0; c < k; ++c) W[a * k + c] = s.scattered_dot(p, c);
+      s.unscatter(s.pin_paths, a);
     }
     for (std::int64_t c = 0; c < k; ++c) {
       double* r = s.pin_rhs.data();
@@ -522,12 +573,22 @@ bool SymmetricSolver::inverse_block(std::span<double> out) {
     for (std::int64_t a = 0; a < k; ++a)
       for (std::int64_t b = 0; b < k; ++b) {
         double sum = 0;
-        for (std::int64_t p = 0; p < kp; ++p) sum += W[p * k + a] * V[p * k + b];
+        for (std::int64_t q = 0; q < kp; ++q) sum += W[q * k + a] * V[q * k + b];
         out[a * k + b] += sum;
       }
   }
   for (const double v : out)
     if (!std::isfinite(v)) return false;
+  return true;
+}
+
+bool SymmetricSolver::ordering(std::span<std::int64_t> out) const {
+  const Impl& s = *impl_;
+  if (!s.analyzed || out.size() != static_cast<std::size_t>(s.n)) return false;
+  if (s.n == 0) return true;
+  if (!s.L) return false;
+  const auto* perm = static_cast<const SuiteSparse_long*>(s.L->Perm);
+  for (std::int64_t k = 0; k < s.n; ++k) out[static_cast<std::size_t>(k)] = perm ? perm[k] : k;
   return true;
 }
 

@@ -44,8 +44,18 @@ class SymmetricSolver {
 
   /// Symbolic analysis of the n×n symmetric matrix whose upper triangle has the pattern
   /// col_ptr (n+1) / row (col_ptr[n]) with rows sorted increasingly in each column.
+  /// `ordering`: empty (the solver chooses: AMD, or METIS nested dissection from 20k unknowns),
+  /// or a fill-reducing permutation to use instead (ordering[k] = the unknown eliminated k-th; n
+  /// distinct entries in [0, n), else Failed), e.g. the restriction of another system's
+  /// ordering() to the unknowns of this one: the analysis then skips the ordering, which is most
+  /// of its cost with METIS.
   FactorOutcome analyze(std::int64_t n, std::span<const std::int64_t> col_ptr,
-                        std::span<const std::int64_t> row, FactorKind kind);
+                        std::span<const std::int64_t> row, FactorKind kind,
+                        std::span<const std::int64_t> ordering = {});
+
+  /// The fill-reducing permutation of the analysis (postordered; out[k] = the unknown eliminated
+  /// k-th) into out (n entries). False before a successful analyze() or on a size mismatch.
+  bool ordering(std::span<std::int64_t> out) const;
 
   /// The numeric values of the upper triangle, in the order of `row` (write before factorize()).
   std::span<double> values();
