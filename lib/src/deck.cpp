@@ -627,25 +627,25 @@ cplx minimax_centre(const std::vector<CQ>& pts) {
   return c;
 }
 
-/// Hyperboloid combination of points of the disk with weights beta (the record of a vertex the
-/// cut added inside a face), back in the disk; false when degenerate.
-bool hyperboloid_mean(const std::array<cplx, 3>& z, const std::array<double, 3>& beta, CQ& w) {
-  quad S[3] = {0, 0, 0};
-  for (int k = 0; k < 3; ++k) {
-    if (beta[k] == 0) continue;
-    const CQ q(z[k]);
-    const quad o = 1 - q.norm();
-    S[0] += beta[k] * (1 + q.norm()) / o;
-    S[1] += beta[k] * 2 * q.re / o;
-    S[2] += beta[k] * 2 * q.im / o;
+/// A weighted sum of points of the disk lifted to the hyperboloid, and its projection back: the
+/// hyperboloid combination (the record of a vertex the cut added inside a face) or centre of mass.
+struct HyperboloidSum {
+  quad t = 0, x = 0, y = 0;
+  void add(CQ z, quad weight) {
+    const quad o = 1 - z.norm();
+    t += weight * (1 + z.norm()) / o;
+    x += weight * 2 * z.re / o;
+    y += weight * 2 * z.im / o;
   }
-  const quad n2 = S[0] * S[0] - S[1] * S[1] - S[2] * S[2];
-  if (!(n2 > 0)) return false;
-  const quad nrm = detail::qsqrt(n2);
-  const quad den = 1 + S[0] / nrm;
-  w = CQ{S[1] / nrm / den, S[2] / nrm / den};
-  return true;
-}
+  /// The normalised sum in the disk; false when degenerate.
+  bool point(CQ& w) const {
+    const quad n2 = t * t - x * x - y * y;
+    if (!(n2 > 0)) return false;
+    const quad den = t + detail::qsqrt(n2);
+    w = CQ{x / den, y / den};
+    return true;
+  }
+};
 
 }  // namespace
 
@@ -910,16 +910,15 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
     }
     const Index rec = x - nin;
     if (rec >= canonical.num_refined_vertices()) return false;
-    std::array<cplx, 3> z{};
-    std::array<double, 3> beta{};
+    HyperboloidSum sum;
     for (int k = 0; k < 3; ++k) {
-      beta[k] = canonical.refined_vertex_bary[3 * rec + k];
-      if (beta[k] == 0) continue;
+      const double beta = canonical.refined_vertex_bary[3 * rec + k];
+      if (beta == 0) continue;
       const int kk = corner_of(O, canonical.refined_vertex_corners[3 * rec + k]);
       if (kk < 0) return false;
-      z[k] = dz(domain.cut_faces[3 * O + kk]);
+      sum.add(CQ(dz(domain.cut_faces[3 * O + kk])), beta);
     }
-    return hyperboloid_mean(z, beta, w);
+    return sum.point(w);
   };
 
   // 5. Canonical positions (quad), each cut vertex from every face that holds it.
@@ -954,17 +953,11 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   // product (that would multiply its rounding by e^r).
   MoebiusQ frame;
   {
-    quad S[3] = {0, 0, 0};
-    for (const CQ& z : pos) {
-      const quad o = 1 - z.norm();
-      S[0] += (1 + z.norm()) / o;
-      S[1] += 2 * z.re / o;
-      S[2] += 2 * z.im / o;
-    }
-    const quad n2 = S[0] * S[0] - S[1] * S[1] - S[2] * S[2];
-    if (!(n2 > 0)) return bad(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
-    const quad nrm = detail::qsqrt(n2);
-    frame = MoebiusQ::to_origin(CQ{S[1] / (S[0] + nrm), S[2] / (S[0] + nrm)});
+    HyperboloidSum sum;
+    for (const CQ& z : pos) sum.add(z, 1);
+    CQ centre;
+    if (!sum.point(centre)) return bad(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
+    frame = MoebiusQ::to_origin(centre);
     for (CQ& z : pos) z = frame.apply(z);
     if (options.polygon_centre == PolygonCentre::Minimax) {
       const cplx c = minimax_centre(pos);
