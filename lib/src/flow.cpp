@@ -37,7 +37,11 @@
 // Line search. E and H (targets that do not depend on the lengths): backtracking (Armijo, c = 10⁻⁴, halving)
 // on the Ricci energy E(u) = ∫ Σ (K_i − K̄_i) du_i, whose change along t·δ is ∫_0^t (K(u + sδ) − K̄)·δ ds,
 // evaluated by 4-point Gauss–Lobatto quadrature (curvature evaluations only; the end nodes are the current
-// and the trial point, so a trial costs three curvature evaluations in all). When the energy
+// and the trial point, so a trial costs three curvature evaluations in all). Before that, a trial
+// is accepted on cubic Hermite quadrature from the end points alone when it agrees with a rule of
+// lower degree (f'(s) = δᵀ(∂K/∂u)δ from the per-face derivative blocks; the trial's blocks are the
+// next step's, so an accepted Newton step costs one curvature evaluation and no extra kernel;
+// see line_search()). When the energy
 // change is below what rounding can resolve (near convergence), a step is accepted if it lowers
 // the maximal curvature error; when even the slope is, only a few halvings are tried before the
 // solve stops (LineSearchFailed: the tolerance is below the rounding level of the mesh).
@@ -108,6 +112,9 @@ constexpr int kQuadratureNodes = 4;
 constexpr double kQuadratureNode[kQuadratureNodes] = {0.0, 0.5 - 0.5 / 2.2360679774997896964,
                                                       0.5 + 0.5 / 2.2360679774997896964, 1.0};
 constexpr double kQuadratureWeight[kQuadratureNodes] = {1.0 / 12, 5.0 / 12, 5.0 / 12, 1.0 / 12};
+// The line search's estimate of the energy change without interior nodes is used only when two
+// rules of different degree agree on it to this fraction (see line_search()).
+constexpr double kEstimateSpread = 0.1;
 
 // Meshes with fewer faces than this are solved on the calling thread unless FlowOptions::threads
 // asks otherwise: the kernels fork a team several times per iteration, which costs more than the
@@ -251,7 +258,7 @@ class FlowSolver {
  public:
   FlowSolver(const Topology& t, const ConformalStructure& s, std::span<const double> u0, const Target& target,
              const FlowOptions& options, FlowResult& result)
-      : t_(t), s_(s), target_(target), options_(options), r_(result), sum_(t.num_vertices) {
+      : t_(t), s_(s), target_(target), options_(options), r_(result), sum_(std::max(t.num_vertices, t.num_faces)) {
     u_.assign(u0.begin(), u0.end());
   }
 
@@ -281,6 +288,7 @@ class FlowSolver {
   bool gram_solve();
   bool line_search();
   bool energy_difference(double t, double& dE);
+  double directional_derivative();
   void remove_gauge_mean(std::span<double> step);
   void accept(double step_length, double dE);
   // Circle / LoopTotals coupling.
@@ -403,6 +411,10 @@ class FlowSolver {
   detail::SymmetricSolver solver_;
   std::vector<double> blocks_, rhs_, x_, x2_, tmp_;
   double slope_ = 0;  // derivative of the merit function along step_ at t = 0
+  // Whether blocks_ hold the derivative blocks of u_ (of the trial point u_trial_), and the
+  // seconds the line search spent computing them (see line_search()).
+  bool blocks_at_u_ = false, blocks_at_trial_ = false;
+  double search_kernels_ = 0;
   double shift_ = 0;  // μ of the last factorization
 
   // Timings of the current iteration (see FlowTimings); the line search started at search_start_.
@@ -567,6 +579,19 @@ bool FlowSolver::energy_difference(double t, double& dE) {
   }
   dE *= t;
   return std::isfinite(dE);
+}
+
+// d/ds (K(u + sδ) − K̄)·δ at s = 0, i.e. δᵀ (∂K/∂u) δ, from the per-face blocks of the current
+// point: K_v = 2π − Σ θ, so the form is −Σ_f δ_fᵀ B_f δ_f (per-face terms, summed in order).
+double FlowSolver::directional_derivative() {
+  return -sum_(t_.num_faces, [&](std::int64_t f) {
+    const double* B = &blocks_[9 * static_cast<std::size_t>(f)];
+    const double d[3] = {step_[t_.corner_vertex[3 * f]], step_[t_.corner_vertex[3 * f + 1]],
+                         step_[t_.corner_vertex[3 * f + 2]]};
+    double q = 0;
+    for (int a = 0; a < 3; ++a) q += d[a] * (B[3 * a] * d[0] + B[3 * a + 1] * d[1] + B[3 * a + 2] * d[2]);
+    return q;
+  });
 }
 
 // The sphere gauge. At a solution, ∂K/∂u has the infinitesimal Möbius transformations as its
@@ -1113,7 +1138,8 @@ bool FlowSolver::compute_direction() {
   const Index n = pattern_.num_unknowns;
 
   Clock::time_point mark = Clock::now();
-  angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+  if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+  blocks_at_u_ = true;
   iter_.derivatives += lap(mark);
   const std::span<double> values = solver_.values();
   assemble_hessian(t_, pattern_, blocks_, values);
@@ -1247,8 +1273,17 @@ bool FlowSolver::line_search() {
   // if it lowers the maximal curvature error, and only a few halvings are tried.
   const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
   const double min_step = rounding_level ? 1.0 / 16 : kMinStep;
+  // E and H: the energy slope f(s) = (K(u + sδ) − K̄)·δ at s = 0 and its derivative δᵀ(∂K/∂u)δ
+  // there, for the one-evaluation estimate of the energy change (see below).
+  auto energy_slope = [&](const std::vector<double>& K) {
+    return sum_(nv, [&](std::int64_t v) { return condition_[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
+  };
+  const double f0 = spherical ? 0.0 : energy_slope(cur_.K);
+  const double df0 = spherical ? 0.0 : directional_derivative();
   Validity last = Validity::Ok;
+  search_kernels_ = 0;
   for (double t = 1; t >= min_step; t *= 0.5) {
+    blocks_at_trial_ = false;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
     for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + t * step_[v];
     last = evaluate(t_, s_, u_trial_, trial_);
@@ -1281,6 +1316,45 @@ bool FlowSolver::line_search() {
       // The energy is recorded only: a bad quadrature node does not veto the step.
       if (accepted && !energy_difference(t, dE)) dE = 0;
     } else {
+      // First without interior nodes. f'(s) = δᵀ(∂K/∂u)δ comes from the per-face derivative blocks,
+      // and the blocks of the trial point are those the next Newton step needs (computed here, they
+      // are not computed again when the trial is accepted). Cubic Hermite quadrature
+      //     H = t (f(0) + f(t)) / 2 + t² (f'(0) − f'(t)) / 12
+      // is compared with the rule exact for quadratic f from f(0), f'(0), f(t),
+      //     Q = t (2 f(0) + f(t)) / 3 + t² f'(0) / 6;
+      // the step is accepted on H when they agree to kEstimateSpread and even H + |H − Q| passes
+      // the test (Newton steps with f close to a low-degree polynomial over the step, i.e. all but
+      // far from the solution, where degenerate triangles make f only piecewise smooth). A
+      // trial that meets the tolerance ends the solve, so its blocks are not needed: Q and the
+      // distance of f from linear, t |f(t) − f(0) − t f'(0)| / 6 = |Q − trapezoid|, decide there.
+      // Otherwise the Gauss–Lobatto quadrature below decides (two more evaluations).
+      const double f1 = energy_slope(trial_.K);
+      const double quadratic = t * (2 * f0 + f1) / 3 + t * t * df0 / 6;
+      double estimate = quadratic, spread = t * std::abs(f1 - f0 - t * df0) / 6;
+      if (trial_error >= options_.tolerance) {
+        const Clock::time_point kernel_start = Clock::now();
+        angle_derivative_blocks(t_, s_, u_trial_, trial_.l, trial_.theta, blocks_);
+        blocks_at_u_ = false;
+        blocks_at_trial_ = true;
+        const double df1 = directional_derivative();
+        estimate = t * (f0 + f1) / 2 + t * t * (df0 - df1) / 12;
+        spread = std::abs(estimate - quadratic);
+        search_kernels_ += std::chrono::duration<double>(Clock::now() - kernel_start).count();
+      }
+      if (std::isfinite(estimate) && spread <= kEstimateSpread * std::abs(estimate)) {
+        if (!rounding_level && estimate + spread <= kArmijo * t * slope_) {
+          accepted = true;
+        } else if (std::abs(estimate) + spread <= t * noise && trial_error < error_) {
+          accepted = true;
+          ++noise_accepts_;
+        }
+      }
+      if (accepted) {
+        dE = estimate;
+        if (t < 1) ++damped_;
+        accept(t, dE);
+        return true;
+      }
       if (!energy_difference(t, dE)) {
         last = Validity::BadLength;
         continue;
@@ -1335,7 +1409,12 @@ void FlowSolver::accept(double step_length, double dE) {
   record.energy = energy_;
   record.step = step_length;
   record.seconds = seconds();
-  iter_.line_search = std::chrono::duration<double>(Clock::now() - search_start_).count();
+  // The trial's derivative blocks are the next step's kernels (see line_search()).
+  blocks_at_u_ = blocks_at_trial_;
+  blocks_at_trial_ = false;
+  iter_.derivatives += search_kernels_;
+  iter_.line_search = std::chrono::duration<double>(Clock::now() - search_start_).count() - search_kernels_;
+  search_kernels_ = 0;
   record.timings = iter_;
   add_timings(iter_);
   iteration_recorded_ = true;
