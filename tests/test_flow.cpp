@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <random>
@@ -516,6 +517,7 @@ TEST_CASE("flow: options and inputs are validated before any iteration") {
   CHECK(invalid([](FlowOptions& o) { o.gradient_step = 0; }));
   CHECK(invalid([](FlowOptions& o) { o.gradient_step = INFINITY; }));
   CHECK(invalid([](FlowOptions& o) { o.threads = -2; }));
+  CHECK(invalid([](FlowOptions& o) { o.polish_steps = -1; }));
   CHECK(invalid([](FlowOptions& o) { o.method = static_cast<Method>(7); }));
   FlowOptions large_step;
   large_step.gradient_step = 0.5;  // above the paper's 0.05, but allowed
@@ -857,5 +859,50 @@ TEST_CASE("flow: Newton's recorded energy (E, H) matches a fine quadrature of th
     integral /= 6.0 * kPanels;
     INFO("recorded " << r.history.back().energy << ", quadrature " << integral);
     CHECK(std::abs(r.history.back().energy - integral) <= 3e-3 * std::abs(integral));
+  }
+}
+
+TEST_CASE("flow: polishing steps continue the same solve and never raise the error") {
+  // Up to two Newton steps after the tolerance, within the solve: the trajectory up to the
+  // tolerance is the plain solve's, bit for bit; every kept step lowers the maximal error; a note
+  // reports what the polishing did. A loose tolerance leaves room for it.
+  for (const Problem& p : closed_problems()) {
+    INFO(p.name);
+    FlowOptions plain_options;
+    plain_options.tolerance = 1e-7;
+    FlowOptions polish_options = plain_options;
+    polish_options.polish_steps = 2;
+    const FlowResult plain = solve(p, plain_options);
+    const FlowResult polished = solve(p, polish_options);
+    REQUIRE(plain.status == Status::Ok);
+    REQUIRE(polished.status == Status::Ok);
+    CHECK(polished.message == plain.message);
+    REQUIRE(polished.iterations >= plain.iterations);
+    CHECK(polished.iterations <= plain.iterations + 2);
+    REQUIRE(polished.history.size() == static_cast<std::size_t>(polished.iterations));
+    for (int i = 0; i < plain.iterations; ++i) CHECK(polished.history[i].max_error == plain.history[i].max_error);
+    for (int i = plain.iterations; i < polished.iterations; ++i)
+      CHECK(polished.history[i].max_error < (i == 0 ? INFINITY : polished.history[i - 1].max_error));
+    CHECK(polished.max_curvature_error <= plain.max_curvature_error);
+    const bool noted = std::any_of(polished.notes.begin(), polished.notes.end(),
+                                   [](const std::string& n) { return n.find("polished by") != std::string::npos; });
+    CHECK(noted == (polished.iterations > plain.iterations));
+    // From an error above 1e-10, Newton's next step reaches the rounding level: the polish runs.
+    if (plain.max_curvature_error > 1e-10) {
+      CHECK(polished.iterations > plain.iterations);
+      CHECK(polished.max_curvature_error < 1e-12);
+    }
+    INFO("plain " << plain.iterations << " it, " << plain.max_curvature_error << "; polished " << polished.iterations
+                  << " it, " << polished.max_curvature_error);
+    CHECK(all_finite(polished.u));
+    // At the rounding level of the curvatures (K̄ = 0 here) no polishing step is attempted: a solve
+    // from the polished metric takes no step at all. (S starts from a planar solve instead of u0.)
+    if (p.metric.structure.geometry != Geometry::Spherical &&
+        polished.max_curvature_error <= 16 * std::numeric_limits<double>::epsilon() * 4 * std::numbers::pi) {
+      const FlowResult again = solve_flow(p.topology, p.metric.structure, polished.u, p.target, polish_options);
+      CHECK(again.status == Status::Ok);
+      CHECK(again.iterations == 0);
+      CHECK(again.max_curvature_error == polished.max_curvature_error);
+    }
   }
 }

@@ -252,35 +252,12 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   if (check.status != Status::Ok) return fail(check.status, "target", check.message);
   stage_done("target", "feasible");
 
-  r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, options.flow);
+  // Polish: up to two more Newton steps once the tolerance is met, kept when they lower the
+  // error (layouts close up to the metric's residual curvature, so the last digits matter there).
+  FlowOptions fo = options.flow;
+  if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
+  r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, fo);
   if (r.flow.status != Status::Ok) return fail(r.flow.status, "flow", r.flow.message);
-  if (options.polish && options.flow.method == Method::Newton && r.flow.max_curvature_error > 0) {
-    // Up to two more Newton steps from the converged metric, kept when they lower the error:
-    // layouts close up to the metric's residual curvature, so the last digits matter there.
-    FlowOptions po = options.flow;
-    po.tolerance = std::numeric_limits<double>::min();
-    po.max_iterations = 2;
-    po.spherical_safeguards = false;
-    po.on_iteration = nullptr;
-    FlowResult p = solve_flow(topology, r.metric.structure, r.flow.u, r.target, po);
-    if (!p.u.empty() && std::isfinite(p.max_curvature_error) && p.max_curvature_error < r.flow.max_curvature_error) {
-      r.flow.notes.push_back("polished by " + std::to_string(p.iterations) + " Newton steps: max |K̄ − K| " +
-                             sci(r.flow.max_curvature_error) + " → " + sci(p.max_curvature_error));
-      r.flow.u = std::move(p.u);
-      r.flow.l = std::move(p.l);
-      r.flow.K = std::move(p.K);
-      r.flow.K_target = std::move(p.K_target);
-      r.flow.max_curvature_error = p.max_curvature_error;
-      r.flow.gauss_bonnet_error = p.gauss_bonnet_error;
-      for (IterationRecord h : p.history) {
-        h.iteration += r.flow.iterations;
-        h.seconds += r.flow.seconds;
-        r.flow.history.push_back(h);
-      }
-      r.flow.iterations += p.iterations;
-      r.flow.seconds += p.seconds;
-    }
-  }
   stage_done("flow", r.flow.brief_report());
   layout_stages(mesh, topology, options, r.flow.l, r, start);
   return r;

@@ -128,6 +128,11 @@ struct FlowOptions {
   /// notes report. Off: the target proportional to length exactly (nearly Möbius invariant, so
   /// fine meshes converge slowly to a strongly distorted map).
   bool normalize_circle_domains = true;
+  /// Newton: once the tolerance is met, up to this many further Newton steps, each kept only when
+  /// it lowers max |K̄ − K| (a layout closes up to the metric's residual curvature, so the last
+  /// digits matter there); the first step that does not ends the polishing. The steps reuse the
+  /// solve's symbolic analysis, are counted in `iterations` and `history`, and a note reports them.
+  int polish_steps = 0;
   /// Called after every iteration (for progress output; the library never prints).
   std::function<void(const struct IterationRecord&)> on_iteration;
 

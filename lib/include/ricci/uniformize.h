@@ -10,6 +10,7 @@
 //                   check_target() before any iteration
 //   flow            solve_flow() (Newton by default) to FlowOptions::tolerance, then (polish) up
 //                   to two more Newton steps kept only when they lower max |K̄ − K|
+//                   (FlowOptions::polish_steps, within the same solve)
 //   cut             closed genus ≥ 2 in H: cut_compact(), a compact fundamental domain; otherwise
 //                   cut_surface(): the canonical polygon (genus 1), arcs to the holes (genus 0
 //                   with several boundary loops, or genus ≥ 1 with boundary), nothing for a disk;
