@@ -366,6 +366,17 @@ Row run_input(const Input& input, const Settings& s) {
       ft.solve += h.solve;
       ft.line_search += h.line_search;
     }
+    // Every iteration on its own (the polishing steps included, marked), for the table of iterations.
+    for (std::size_t i = 0; i < f.history.size(); ++i) {
+      const ricci::IterationRecord& h = f.history[i];
+      const ricci::FlowTimings& t = h.timings;
+      std::string index = std::to_string(i);
+      index.insert(0, index.size() < 4 ? 4 - index.size() : 0, '0');  // keys sort in iteration order
+      row["iter_" + index] =
+          fmt("%.1e", h.max_error) + " " + fmt("%.3g", h.step) + " " + fmt("%.4f", t.derivatives) + " " +
+          fmt("%.4f", t.assembly) + " " + fmt("%.4f", t.factorization) + " " + fmt("%.4f", t.solve) + " " +
+          fmt("%.4f", t.line_search) + " " + (static_cast<int>(i) < to_tolerance ? "newton" : "polish");
+    }
     ft.setup = f.timings.setup;
     ft.analysis = f.timings.analysis;
     const double per_iter =
@@ -624,6 +635,22 @@ int main(int argc, char** argv) {
            " | " + get(r, "t_assembly") + " | " + get(r, "t_factorization") + " | " + get(r, "t_solve") + " | " +
            get(r, "t_line_search") + " | " + fmt("%.3gM", num(r, "lnz") / 1e6) + " | " + get(r, "ref_analysis") + " | " +
            get(r, "ref_factor") + " | " + get(r, "ref_solve") + " |\n";
+  doc += "\n## Newton iterations one by one, seconds\n\n";
+  doc += "Max |K̄ − K| after the step, the accepted step length (fraction of the Newton step) and the iteration's "
+         "parts; *polish* marks the steps after the tolerance.\n\n";
+  doc += "| input | it. | max error | step | kernels | assembly | factorization | solve | line search |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [name, r] : rows)
+    for (const auto& [key, value] : r) {
+      if (key.rfind("iter_", 0) != 0) continue;
+      std::istringstream in(value);
+      std::string error, step, kernels, assembly, factorization, solve, search, kind;
+      in >> error >> step >> kernels >> assembly >> factorization >> solve >> search >> kind;
+      const int index = std::atoi(key.c_str() + 5) + 1;
+      doc += "| " + name + " | " + std::to_string(index) + (kind == "polish" ? " (polish)" : "") + " | " + error +
+             " | " + step + " | " + kernels + " | " + assembly + " | " + factorization + " | " + solve + " | " +
+             search + " |\n";
+    }
   doc += "\n## Stages, seconds (peak MB of the process during the stage)\n\n";
   const std::vector<std::string> stages = {"initial_metric", "target", "flow",  "cut",  "cut_metric",
                                            "layout",         "seed_check", "polygon", "deck", "angles"};
