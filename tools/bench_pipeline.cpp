@@ -607,7 +607,9 @@ int main(int argc, char** argv) {
   std::string doc = "# ricci pipeline benchmark\n\n";
   doc += "Machine: " + cpu_model() + ", " + std::to_string(std::thread::hardware_concurrency()) +
          " hardware threads; compiler: " + compiler_name() + "; OpenMP threads: " +
-         (s.threads > 0 ? std::to_string(s.threads) : std::string("default")) + (s.flow_only ? "; --flow-only" : "") +
+         (s.threads > 0 ? std::to_string(s.threads) : std::string("default")) + "; OMP_WAIT_POLICY " +
+         (std::getenv("OMP_WAIT_POLICY") ? std::string(std::getenv("OMP_WAIT_POLICY")) : std::string("unset")) +
+         (s.flow_only ? "; --flow-only" : "") +
          ".\n\n";
   doc += "Uniformization with `uniformize()` defaults (geometry by topology, circle packing, circle boundary in E, "
          "geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "
