@@ -898,7 +898,7 @@ TEST_CASE("flow: polishing steps continue the same solve and never raise the err
     // At the rounding level of the curvatures (K̄ = 0 here) no polishing step is attempted: a solve
     // from the polished metric takes no step at all. (S starts from a planar solve instead of u0.)
     if (p.metric.structure.geometry != Geometry::Spherical &&
-        polished.max_curvature_error <= 16 * std::numeric_limits<double>::epsilon() * 4 * std::numbers::pi) {
+        polished.max_curvature_error <= 4 * std::numeric_limits<double>::epsilon() * 4 * std::numbers::pi) {
       const FlowResult again = solve_flow(p.topology, p.metric.structure, polished.u, p.target, polish_options);
       CHECK(again.status == Status::Ok);
       CHECK(again.iterations == 0);

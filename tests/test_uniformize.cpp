@@ -90,6 +90,21 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
       for (const BaseCandidate& c : r.candidates)
         best = std::min(best, std::max({c.relation_error, c.max_edge_length_error, c.rounding_floor}));
       CHECK(std::max({r.deck.relation_error, r.polygon.max_edge_length_error, r.polygon.rounding_floor}) == best);
+      // The base search went on while no stopping rule held: no score below polygon_tolerance and
+      // no two bases in a row matching the best score to 1 % before the last candidate.
+      double running = INFINITY;
+      int matching = 0;
+      for (std::size_t i = 0; i + 1 < r.candidates.size(); ++i) {
+        const BaseCandidate& c = r.candidates[i];
+        const double score = std::max({c.relation_error, c.max_edge_length_error, c.rounding_floor});
+        if (std::isfinite(score)) {
+          matching = std::isfinite(running) && std::abs(score - running) <= 0.01 * running ? matching + 1 : 0;
+          running = std::min(running, score);
+        }
+        CAPTURE(i);
+        CHECK(!(running < UniformizeOptions{}.polygon_tolerance));
+        CHECK(matching < 2);
+      }
     } else {
       CHECK(r.candidates.empty());
       CHECK(r.domain_maps.empty());

@@ -1454,7 +1454,7 @@ bool FlowSolver::polish_step() {
   double largest_target = 0;
   for (Index v = 0; v < t_.num_vertices; ++v)
     if (condition_[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
-  if (!(error_ > 16 * kEps * (4 * kPi + largest_target))) return false;
+  if (!(error_ > 4 * kEps * (4 * kPi + largest_target))) return false;
   if (polish_tried_ == 0) error_before_polish_ = error_;
   ++polish_tried_;
   ++iteration_;

@@ -414,6 +414,10 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
     if (bases.empty()) bases.push_back(-1);
     double best_score = kInf;
+    // Consecutive bases whose score matched the best one's to 1 %: the polygon's error is then the
+    // metric's, not the base's (on fine meshes every base gives the same edge error), and further
+    // bases, a cut and a layout each, will not lower it.
+    int matching = 0;
     std::string last_error = "no base vertex tried";
     std::optional<DomainDeck> deck_only;
     CutResult deck_only_cut;
@@ -482,6 +486,8 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       bc.max_edge_length_error = poly.max_edge_length_error;
       reject("");
       const double score = std::max({dd.deck.relation_error, poly.max_edge_length_error, poly.rounding_floor});
+      matching = std::isfinite(best_score) && std::abs(score - best_score) <= 0.01 * best_score ? matching + 1 : 0;
+      if (options.polygon_tolerance > 0 && matching >= 2 && !(score < best_score)) break;
       if (!(score < best_score)) continue;
       best_score = score;
       r.polygon_cut = std::move(pc);
@@ -490,7 +496,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       r.polygon = std::move(poly);
       take_domain(dd);
       r.deck = std::move(dd.deck);
-      if (best_score < options.polygon_tolerance) break;
+      if (best_score < options.polygon_tolerance || (options.polygon_tolerance > 0 && matching >= 2)) break;
     }
     if (!std::isfinite(best_score) && deck_only) {
       // Canonical generators whose polygon double precision cannot draw.

@@ -31,7 +31,7 @@
 // moving v0 to the origin, in 113-bit arithmetic (R formed first, then conjugated; R itself is
 // reported as `relator`, in double). In double, the partial products' rounding grows with the
 // polygon's circumradius (≈ 4e-12 at genus 4 for the exact regular 16-gon); in 113 bits it stays
-// far below any fit residual for the polygons met in practice (≤ 9.2e-17 on the shared meshes).
+// far below any fit residual for the polygons met in practice (≤ 6.2e-17 on the shared meshes).
 // E: every deck map is additionally fitted as a rigid motion (Procrustes) and relation_error is
 // the largest displacement of a polygon vertex by the rigid-motion product R, divided by the
 // largest translation of the fitted rigid motions (a relative figure, independent of the units;

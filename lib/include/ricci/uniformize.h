@@ -39,7 +39,8 @@
 // max metric distance to the two ends of a double-sweep diameter), then vertices spread over the
 // central quarter by farthest-point sampling. The polygon with the smallest max(relation error,
 // edge error, rounding floor) is kept (the search stops at the first below `polygon_tolerance`,
-// 1e-9, each base costing a cut and a layout of its own, and gives up after
+// 1e-9, or when two bases in a row match the best one's score to 1 % — the error is then the
+// metric's, not the base's — each base costing a cut and a layout of its own, and gives up after
 // three bases none of which could be laid out); `candidates` lists every one tried.
 #pragma once
 
@@ -91,7 +92,8 @@ struct UniformizeOptions {
   /// H (closed): base vertices tried for the canonical polygon (see the header comment).
   int base_candidates = 8;
   /// H (closed): stop trying base vertices at the first canonical polygon whose max(relation
-  /// error, edge error, rounding floor) is below this (0: try them all).
+  /// error, edge error, rounding floor) is below this, or once two bases in a row match the best
+  /// score to 1 % (0: try them all).
   double polygon_tolerance = 1e-9;
   /// Options of every layout; the seed check runs them with normalize off and its own seed faces.
   LayoutOptions layout;
