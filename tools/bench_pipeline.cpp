@@ -357,7 +357,6 @@ Row run_input(const Input& input, const Settings& s) {
     row["polish_iterations"] = std::to_string(f.iterations - to_tolerance);
     row["polish"] = fmt("%.4f", f.seconds - solve_seconds);
     row["flow"] = fmt("%.4f", solve_seconds);
-    row["flow_total"] = fmt("%.4f", f.seconds);
     // Per iteration: the Newton iterations of the solve proper (their records' shares).
     ricci::FlowTimings ft;
     for (int i = 0; i < to_tolerance && i < static_cast<int>(f.history.size()); ++i) {

@@ -487,15 +487,15 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
       reject("");
       const double score = std::max({dd.deck.relation_error, poly.max_edge_length_error, poly.rounding_floor});
       matching = std::isfinite(best_score) && std::abs(score - best_score) <= 0.01 * best_score ? matching + 1 : 0;
-      if (options.polygon_tolerance > 0 && matching >= 2 && !(score < best_score)) break;
-      if (!(score < best_score)) continue;
-      best_score = score;
-      r.polygon_cut = std::move(pc);
-      r.polygon_disk = std::move(pt.topology);
-      r.polygon_lengths = std::move(pl);
-      r.polygon = std::move(poly);
-      take_domain(dd);
-      r.deck = std::move(dd.deck);
+      if (score < best_score) {
+        best_score = score;
+        r.polygon_cut = std::move(pc);
+        r.polygon_disk = std::move(pt.topology);
+        r.polygon_lengths = std::move(pl);
+        r.polygon = std::move(poly);
+        take_domain(dd);
+        r.deck = std::move(dd.deck);
+      }
       if (best_score < options.polygon_tolerance || (options.polygon_tolerance > 0 && matching >= 2)) break;
     }
     if (!std::isfinite(best_score) && deck_only) {

@@ -130,7 +130,8 @@ struct FlowOptions {
   bool normalize_circle_domains = true;
   /// Newton: once the tolerance is met, up to this many further Newton steps, each kept only when
   /// it lowers max |K̄ − K| (a layout closes up to the metric's residual curvature, so the last
-  /// digits matter there); the first step that does not ends the polishing. The steps reuse the
+  /// digits matter there); the first step that does not ends the polishing, and none is tried once
+  /// the error is at the rounding level, 4 ε (4π + max |K̄|). The steps reuse the
   /// solve's symbolic analysis, are counted in `iterations` and `history`, and a note reports them.
   int polish_steps = 0;
   /// Called after every iteration (for progress output; the library never prints).
