@@ -79,6 +79,7 @@
 #include <utility>
 
 #include "hessian.h"
+#include "ricci/intrinsic.h"
 #include "ricci/layout.h"
 #include "sparse_solver.h"
 
@@ -183,7 +184,7 @@ struct MetricState {
   }
 };
 
-enum class Validity { Ok, OutOfRange, BadLength, TriangleInequality };
+enum class Validity { Ok, OutOfRange, BadLength, TriangleInequality, FlipLimit };
 
 // Evaluates lengths, angles and curvature at u; reports the first problem (the outputs are then
 // partial but finite).
@@ -275,6 +276,13 @@ class FlowSolver {
     order_hint_ = hint;
     order_out_ = out;
   }
+  /// Intrinsic Delaunay flips (vertex scaling): the solver's topology and structure are
+  /// `triangulation.topology` and `structure` (as passed to the constructor), which it keeps
+  /// Delaunay at every point it evaluates, updating both in place (see evaluate_at()).
+  void set_intrinsic(IntrinsicTriangulation& triangulation, ConformalStructure& structure) {
+    tri_ = &triangulation;
+    s_mut_ = &structure;
+  }
 
  private:
   // Setup.
@@ -289,7 +297,7 @@ class FlowSolver {
   bool line_search();
   bool polish_step();
   bool energy_difference(double t, double& dE);
-  double directional_derivative();
+  double directional_derivative(const Topology& t);
   void remove_gauge_mean(std::span<double> step);
   void accept(double step_length, double dE);
   // Circle / LoopTotals coupling.
@@ -304,6 +312,12 @@ class FlowSolver {
   void setup_moebius_modes();
   bool moebius_direction();
   void add_modes(double alpha, double beta, std::span<double> K_target) const;
+  Validity evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
+                       ConformalStructure& s, bool& flipped);
+  const Topology& trial_topology() const { return trial_flipped_ ? trial_tri_.topology : t_; }
+  const ConformalStructure& trial_structure() const { return trial_flipped_ ? trial_s_ : s_; }
+  bool refresh_pattern();
+  void compute_pin_edges();
   void fail(Status status, std::string message) {
     r_.status = status;
     r_.message = std::move(message);
@@ -332,6 +346,8 @@ class FlowSolver {
         return "an edge length is not a positive finite number in range";
       case Validity::TriangleInequality:
         return "a triangle violates the triangle inequality";
+      case Validity::FlipLimit:
+        return "flipping to the Delaunay triangulation did not finish within its flip limit";
       case Validity::Ok:
         break;
     }
@@ -392,6 +408,20 @@ class FlowSolver {
   std::array<Index, 3> pin_hint_ = {kInvalid, kInvalid, kInvalid};
   const std::vector<Index>* order_hint_ = nullptr;
   std::vector<Index>* order_out_ = nullptr;
+  // Intrinsic flips (set_intrinsic()): the current triangulation and structure (t_ and s_ refer
+  // to them), the trial's and a quadrature node's when flips at their u changed them (else they
+  // are evaluated on the current one), and whether the Newton pattern is that of an older
+  // triangulation.
+  IntrinsicTriangulation* tri_ = nullptr;
+  ConformalStructure* s_mut_ = nullptr;
+  IntrinsicTriangulation trial_tri_, quad_tri_;
+  ConformalStructure trial_s_, quad_s_;
+  bool trial_flipped_ = false;
+  bool pattern_stale_ = false;
+  std::int64_t start_flips_ = 0;
+  Index flips_refused_ = 0;
+  int reanalyses_ = 0, pattern_reuses_ = 0;
+  std::vector<std::int64_t> analysis_order_;
   std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
   std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
@@ -432,6 +462,87 @@ class FlowSolver {
   double largest_shift_ = 0;
   std::vector<double> area_;
 };
+
+// With intrinsic flips: the current triangulation when it is Delaunay at u, else a copy flipped
+// to the Delaunay triangulation of u in `tri` with its structure in `s` (`flipped` says which);
+// then evaluate() there.
+Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
+                                 ConformalStructure& s, bool& flipped) {
+  flipped = false;
+  if (tri_) {
+    const Index ne = t_.num_edges;
+    const double tolerance = DelaunayOptions{}.tolerance;
+    int any = 0;
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin) reduction(max : any)
+    for (Index e = 0; e < ne; ++e)
+      if (delaunay_margin(*tri_, u, e) < -tolerance) any = 1;
+    if (any) {
+      tri = *tri_;
+      const DelaunayReport report = make_delaunay(tri, u);
+      flips_refused_ = std::max(flips_refused_, report.refused);
+      if (!report.complete) return Validity::FlipLimit;
+      vertex_scaling_structure(tri, s);
+      flipped = true;
+    }
+  }
+  return evaluate(flipped ? tri.topology : t_, flipped ? s : s_, u, m);
+}
+
+// After flips changed the triangulation: the Newton pattern of the new one, analysed again (with
+// the first analysis's ordering, which skips most of the analysis's cost) unless it has the same
+// entries; what depends on the analysis follows. False (with the status set) when it fails.
+bool FlowSolver::refresh_pattern() {
+  pattern_stale_ = false;
+  detail::HessianPattern next = detail::build_hessian_pattern(t_, unknown_);
+  const bool same = next.col_ptr == pattern_.col_ptr && next.row == pattern_.row;
+  pattern_ = std::move(next);
+  if (spherical_gauge_) compute_pin_edges();
+  if (same) {
+    ++pattern_reuses_;
+    return true;
+  }
+  Clock::time_point mark = Clock::now();
+  const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
+                                                                     : detail::FactorKind::PositiveDefinite;
+  solver_.reset();
+  const detail::FactorOutcome analysis =
+      solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
+  ++reanalyses_;
+  if (analysis == detail::FactorOutcome::Ok && coupled_) {
+    boundary_direct_ = false;
+    setup_boundary_direct();
+  }
+  const double seconds = lap(mark);
+  r_.timings.analysis += seconds;
+  iter_.factorization += seconds;
+  if (analysis != detail::FactorOutcome::Ok) {
+    fail(analysis == detail::FactorOutcome::OutOfMemory ? Status::OutOfMemory : Status::NumericalFailure,
+         "the symbolic analysis of the Newton system after intrinsic flips failed at step " +
+             std::to_string(iteration_));
+    return false;
+  }
+  return true;
+}
+
+// Per sphere-gauge pin: (edge, unknown) of each neighbour of the pin that is an unknown.
+void FlowSolver::compute_pin_edges() {
+  const std::size_t k = spherical_pins_.size();
+  pin_edges_.assign(k, {});
+  for (std::size_t a = 0; a < k; ++a) {
+    const Index p = spherical_pins_[a];
+    for (Index i = t_.vertex_corner_offsets[p]; i < t_.vertex_corner_offsets[p + 1]; ++i) {
+      const Index c = t_.vertex_corners[i];
+      for (const Index other : {next_corner(c), prev_corner(c)}) {
+        // The edge from p to the vertex of `other` is opposite the third corner of the face.
+        const Index third = 3 * corner_face(c) + (3 - corner_slot(c) - corner_slot(other));
+        const Index j = pattern_.vertex_unknown[t_.corner_vertex[other]];
+        if (j != kInvalid) pin_edges_[a].emplace_back(t_.corner_edge[third], j);
+      }
+    }
+    std::sort(pin_edges_[a].begin(), pin_edges_[a].end());
+    pin_edges_[a].erase(std::unique(pin_edges_[a].begin(), pin_edges_[a].end()), pin_edges_[a].end());
+  }
+}
 
 void FlowSolver::classify_vertices() {
   const Index nv = t_.num_vertices, nc = t_.num_components;
@@ -577,7 +688,8 @@ bool FlowSolver::energy_difference(double t, double& dE) {
     } else {
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
       for (Index v = 0; v < nv; ++v) u_quad_[v] = u_[v] + s * step_[v];
-      if (evaluate(t_, s_, u_quad_, quad_) != Validity::Ok) return false;
+      bool flipped = false;
+      if (evaluate_at(u_quad_, quad_, quad_tri_, quad_s_, flipped) != Validity::Ok) return false;
       f = slope_at(quad_.K);
     }
     dE += kQuadratureWeight[q] * f;
@@ -588,11 +700,11 @@ bool FlowSolver::energy_difference(double t, double& dE) {
 
 // d/ds (K(u + sδ) − K̄)·δ at s = 0, i.e. δᵀ (∂K/∂u) δ, from the per-face blocks of the current
 // point: K_v = 2π − Σ θ, so the form is −Σ_f δ_fᵀ B_f δ_f (per-face terms, summed in order).
-double FlowSolver::directional_derivative() {
-  return -sum_(t_.num_faces, [&](std::int64_t f) {
+double FlowSolver::directional_derivative(const Topology& t) {
+  return -sum_(t.num_faces, [&](std::int64_t f) {
     const double* B = &blocks_[9 * static_cast<std::size_t>(f)];
-    const double d[3] = {step_[t_.corner_vertex[3 * f]], step_[t_.corner_vertex[3 * f + 1]],
-                         step_[t_.corner_vertex[3 * f + 2]]};
+    const double d[3] = {step_[t.corner_vertex[3 * f]], step_[t.corner_vertex[3 * f + 1]],
+                         step_[t.corner_vertex[3 * f + 2]]};
     double q = 0;
     for (int a = 0; a < 3; ++a) q += d[a] * (B[3 * a] * d[0] + B[3 * a + 1] * d[1] + B[3 * a + 2] * d[2]);
     return q;
@@ -1143,6 +1255,7 @@ bool FlowSolver::compute_direction() {
   const Index n = pattern_.num_unknowns;
 
   Clock::time_point mark = Clock::now();
+  if (pattern_stale_ && !refresh_pattern()) return false;
   if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
   blocks_at_u_ = true;
   iter_.derivatives += lap(mark);
@@ -1284,18 +1397,18 @@ bool FlowSolver::line_search() {
     return sum_(nv, [&](std::int64_t v) { return condition_[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
   };
   const double f0 = spherical ? 0.0 : energy_slope(cur_.K);
-  const double df0 = spherical ? 0.0 : directional_derivative();
+  const double df0 = spherical ? 0.0 : directional_derivative(t_);
   Validity last = Validity::Ok;
   search_kernels_ = 0;
   for (double t = 1; t >= min_step; t *= 0.5) {
     blocks_at_trial_ = false;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
     for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + t * step_[v];
-    last = evaluate(t_, s_, u_trial_, trial_);
+    last = evaluate_at(u_trial_, trial_, trial_tri_, trial_s_, trial_flipped_);
     if (last != Validity::Ok) continue;
     // The residual merit of a coupled target uses the target of the trial lengths.
     if (coupled_) {
-      effective_target(t_, target_, trial_.l, K_target_trial_);
+      effective_target(trial_topology(), target_, trial_.l, K_target_trial_);
       if (moebius_modes_) {
         alpha_trial_ = alpha_ + t * d_alpha_;
         beta_trial_ = beta_ + t * d_beta_;
@@ -1338,10 +1451,10 @@ bool FlowSolver::line_search() {
       double estimate = quadratic, spread = t * std::abs(f1 - f0 - t * df0) / 6;
       if (trial_error >= options_.tolerance) {
         const Clock::time_point kernel_start = Clock::now();
-        angle_derivative_blocks(t_, s_, u_trial_, trial_.l, trial_.theta, blocks_);
+        angle_derivative_blocks(trial_topology(), trial_structure(), u_trial_, trial_.l, trial_.theta, blocks_);
         blocks_at_u_ = false;
         blocks_at_trial_ = true;
-        const double df1 = directional_derivative();
+        const double df1 = directional_derivative(trial_topology());
         estimate = t * (f0 + f1) / 2 + t * t * (df0 - df1) / 12;
         spread = std::abs(estimate - quadratic);
         search_kernels_ += std::chrono::duration<double>(Clock::now() - kernel_start).count();
@@ -1393,6 +1506,13 @@ bool FlowSolver::line_search() {
 void FlowSolver::accept(double step_length, double dE) {
   u_.swap(u_trial_);
   cur_.swap(trial_);
+  if (trial_flipped_) {
+    // The trial's Delaunay triangulation becomes the current one (t_ and s_ see it).
+    std::swap(*tri_, trial_tri_);
+    std::swap(*s_mut_, trial_s_);
+    trial_flipped_ = false;
+    pattern_stale_ = true;
+  }
   effective_target(t_, target_, cur_.l, K_target_);
   if (moebius_modes_) {
     alpha_ = alpha_trial_;
@@ -1475,7 +1595,7 @@ bool FlowSolver::gradient_step() {
   remove_gauge_mean(step_);
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
   for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + step_[v];
-  const Validity validity = evaluate(t_, s_, u_trial_, trial_);
+  const Validity validity = evaluate_at(u_trial_, trial_, trial_tri_, trial_s_, trial_flipped_);
   if (validity != Validity::Ok) {
     fail(validity == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
          "gradient descent step " + std::to_string(iteration_) + " with step size " +
@@ -1509,6 +1629,17 @@ void FlowSolver::run() {
   }
   r_.history.reserve(static_cast<std::size_t>(std::min(options_.max_iterations, 1 << 16)));
 
+  if (tri_) {
+    // Flip to the Delaunay triangulation of the start in place.
+    start_flips_ = tri_->flips;
+    const DelaunayReport flips = make_delaunay(*tri_, u_);
+    flips_refused_ = std::max(flips_refused_, flips.refused);
+    vertex_scaling_structure(*tri_, *s_mut_);
+    if (!flips.complete) {
+      fail(Status::NumericalFailure, "the starting metric is not admissible: " + validity_text(Validity::FlipLimit));
+      return;
+    }
+  }
   const Validity start = evaluate(t_, s_, u_, cur_);
   if (start == Validity::OutOfRange) {
     fail(Status::InvalidArgument,
@@ -1537,21 +1668,7 @@ void FlowSolver::run() {
     x2_.assign(static_cast<std::size_t>(n), 0.0);
     if (spherical_gauge_) {
       const std::size_t k = spherical_pins_.size();
-      pin_edges_.resize(k);
-      for (std::size_t a = 0; a < k; ++a) {
-        const Index p = spherical_pins_[a];
-        for (Index i = t_.vertex_corner_offsets[p]; i < t_.vertex_corner_offsets[p + 1]; ++i) {
-          const Index c = t_.vertex_corners[i];
-          for (const Index other : {next_corner(c), prev_corner(c)}) {
-            // The edge from p to the vertex of `other` is opposite the third corner of the face.
-            const Index third = 3 * corner_face(c) + (3 - corner_slot(c) - corner_slot(other));
-            const Index j = pattern_.vertex_unknown[t_.corner_vertex[other]];
-            if (j != kInvalid) pin_edges_[a].emplace_back(t_.corner_edge[third], j);
-          }
-        }
-        std::sort(pin_edges_[a].begin(), pin_edges_[a].end());
-        pin_edges_[a].erase(std::unique(pin_edges_[a].begin(), pin_edges_[a].end()), pin_edges_[a].end());
-      }
+      compute_pin_edges();
       moebius_.assign(k, std::vector<double>(static_cast<std::size_t>(n), 0.0));
       gram_.assign(k * k, 0.0);
       coefficient_.assign(k, 0.0);
@@ -1582,6 +1699,10 @@ void FlowSolver::run() {
         if (!placed[j]) ordering.push_back(j);
     }
     const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind, ordering);
+    if (analysis == detail::FactorOutcome::Ok && tri_) {
+      analysis_order_.resize(static_cast<std::size_t>(n));
+      if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
+    }
     if (analysis == detail::FactorOutcome::Ok && order_out_) {
       ordering.resize(static_cast<std::size_t>(n));
       if (solver_.ordering(ordering)) {
@@ -1648,6 +1769,19 @@ void FlowSolver::finish() {
     r_.gauss_bonnet_error = std::abs(gauss_bonnet_defect(t_, g, cur_.K, area_));
   }
   r_.factor_nonzeros = solver_.factor_nonzeros();
+  if (tri_) {
+    r_.flips = tri_->flips - start_flips_;
+    r_.flips_refused = flips_refused_;
+    if (reanalyses_ + pattern_reuses_ > 0)
+      r_.notes.push_back("intrinsic flips changed the Newton matrix's pattern in " +
+                         std::to_string(reanalyses_ + pattern_reuses_) + " step(s): " +
+                         std::to_string(reanalyses_) + " new symbolic analyses (with the first ordering), " +
+                         std::to_string(pattern_reuses_) + " with the same pattern");
+    if (flips_refused_ > 0)
+      r_.notes.push_back(std::to_string(flips_refused_) +
+                         " non-Delaunay edge(s) were left unflipped at some point: both sides of the edge lie in one "
+                         "face");
+  }
   if (spherical_gauge_) {
     r_.notes.push_back(
         "spherical gauge: the round-sphere target is unique only up to Möbius transformations; "
@@ -2012,6 +2146,54 @@ FlowResult spherical_continuation(const Topology& t, const ConformalStructure& s
 
 // solve_flow() with vertex orders for the symbolic analysis of the (first) Newton system, see
 // FlowSolver::set_ordering().
+// Checks the inputs of a solve (options, sizes, finite values, the target's feasibility); on a
+// problem sets status and message and returns false.
+bool valid_flow_inputs(const Topology& topology, const ConformalStructure& structure, std::span<const double> u0,
+                       const Target& target, const FlowOptions& options, Status& status, std::string& message) {
+  auto reject_inputs = [&](Status s, std::string m) {
+    status = s;
+    message = std::move(m);
+    return false;
+  };
+  if (std::string why; !options.is_valid(&why))
+    return reject_inputs(Status::InvalidArgument, "invalid flow options: " + why);
+  const Index nv = topology.num_vertices;
+  if (topology.num_faces <= 0) return reject_inputs(Status::InvalidArgument, "the mesh has no faces");
+  if (structure.geometry != Geometry::Euclidean && structure.geometry != Geometry::Hyperbolic &&
+      structure.geometry != Geometry::Spherical)
+    return reject_inputs(Status::InvalidArgument, "the conformal structure has an unknown geometry");
+  if (structure.eta.size() != static_cast<std::size_t>(topology.num_edges))
+    return reject_inputs(Status::InvalidArgument,
+                  "the conformal structure has " + std::to_string(structure.eta.size()) +
+                      " edge weights, but the mesh has " + std::to_string(topology.num_edges) + " edges");
+  if (!std::isfinite(structure.epsilon) || structure.epsilon < 0)
+    return reject_inputs(Status::InvalidArgument, "the conformal structure's ε must be finite and non-negative");
+  for (std::size_t e = 0; e < structure.eta.size(); ++e)
+    if (!std::isfinite(structure.eta[e]))
+      return reject_inputs(Status::InvalidArgument,
+                    "the edge weight η of edge " + std::to_string(e) + " is not finite");
+  if (u0.size() != static_cast<std::size_t>(nv))
+    return reject_inputs(Status::InvalidArgument, "u0 has " + std::to_string(u0.size()) +
+                                               " values, but the mesh has " + std::to_string(nv) +
+                                               " vertices");
+  for (Index v = 0; v < nv; ++v)
+    if (!std::isfinite(u0[v]))
+      return reject_inputs(Status::InvalidArgument, "u0 of vertex " + std::to_string(v) + " is not finite");
+  if (target.K.size() != static_cast<std::size_t>(nv) ||
+      (!target.fixed_u.empty() && target.fixed_u.size() != static_cast<std::size_t>(nv)))
+    return reject_inputs(Status::InvalidArgument, "the target has " + std::to_string(target.K.size()) +
+                                               " curvatures and " + std::to_string(target.fixed_u.size()) +
+                                               " fixed_u flags, but the mesh has " + std::to_string(nv) +
+                                               " vertices");
+  const TargetCheck check = check_target(topology, structure, target);
+  if (check.status != Status::Ok)
+    return reject_inputs(
+        check.status == Status::InfeasibleTarget ? Status::InfeasibleTarget : Status::InvalidArgument,
+        check.message);
+
+  return true;
+}
+
 FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure& structure,
                               std::span<const double> u0, const Target& target, const FlowOptions& options,
                               const std::vector<Index>* order_hint, std::vector<Index>* order_out) {
@@ -2024,42 +2206,9 @@ FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure
     r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     return r;
   };
-  if (std::string why; !options.is_valid(&why))
-    return reject(Status::InvalidArgument, "invalid flow options: " + why);
+  if (Status status = Status::Ok; !valid_flow_inputs(topology, structure, u0, target, options, status, r.message))
+    return reject(status, std::move(r.message));
   const Index nv = topology.num_vertices;
-  if (topology.num_faces <= 0) return reject(Status::InvalidArgument, "the mesh has no faces");
-  if (structure.geometry != Geometry::Euclidean && structure.geometry != Geometry::Hyperbolic &&
-      structure.geometry != Geometry::Spherical)
-    return reject(Status::InvalidArgument, "the conformal structure has an unknown geometry");
-  if (structure.eta.size() != static_cast<std::size_t>(topology.num_edges))
-    return reject(Status::InvalidArgument,
-                  "the conformal structure has " + std::to_string(structure.eta.size()) +
-                      " edge weights, but the mesh has " + std::to_string(topology.num_edges) + " edges");
-  if (!std::isfinite(structure.epsilon) || structure.epsilon < 0)
-    return reject(Status::InvalidArgument, "the conformal structure's ε must be finite and non-negative");
-  for (std::size_t e = 0; e < structure.eta.size(); ++e)
-    if (!std::isfinite(structure.eta[e]))
-      return reject(Status::InvalidArgument,
-                    "the edge weight η of edge " + std::to_string(e) + " is not finite");
-  if (u0.size() != static_cast<std::size_t>(nv))
-    return reject(Status::InvalidArgument, "u0 has " + std::to_string(u0.size()) +
-                                               " values, but the mesh has " + std::to_string(nv) +
-                                               " vertices");
-  for (Index v = 0; v < nv; ++v)
-    if (!std::isfinite(u0[v]))
-      return reject(Status::InvalidArgument, "u0 of vertex " + std::to_string(v) + " is not finite");
-  if (target.K.size() != static_cast<std::size_t>(nv) ||
-      (!target.fixed_u.empty() && target.fixed_u.size() != static_cast<std::size_t>(nv)))
-    return reject(Status::InvalidArgument, "the target has " + std::to_string(target.K.size()) +
-                                               " curvatures and " + std::to_string(target.fixed_u.size()) +
-                                               " fixed_u flags, but the mesh has " + std::to_string(nv) +
-                                               " vertices");
-  const TargetCheck check = check_target(topology, structure, target);
-  if (check.status != Status::Ok)
-    return reject(
-        check.status == Status::InfeasibleTarget ? Status::InfeasibleTarget : Status::InvalidArgument,
-        check.message);
-
   ThreadScope threads(options.threads, topology.num_faces);
   const bool coupled = !topology.is_closed() && (target.boundary == BoundaryMode::Circle ||
                                                  target.boundary == BoundaryMode::LoopTotals);
@@ -2110,6 +2259,36 @@ FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure
 FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
                       std::span<const double> u0, const Target& target, const FlowOptions& options) {
   return solve_flow_ordered(topology, structure, u0, target, options, nullptr, nullptr);
+}
+
+FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::span<const double> u0,
+                                 const Target& target, const FlowOptions& options) {
+  const auto start = Clock::now();
+  FlowResult r;
+  r.geometry = triangulation.geometry;
+  const Topology& topology = triangulation.topology;
+  ConformalStructure structure;
+  Status status = Status::Ok;
+  if (triangulation.log_chord.size() != static_cast<std::size_t>(topology.num_edges) ||
+      triangulation.boundary_position.size() != static_cast<std::size_t>(topology.num_edges)) {
+    status = Status::InvalidArgument;
+    r.message = "the intrinsic triangulation has " + std::to_string(triangulation.log_chord.size()) +
+                " log-chords for " + std::to_string(topology.num_edges) + " edges";
+  } else {
+    vertex_scaling_structure(triangulation, structure);
+    valid_flow_inputs(topology, structure, u0, target, options, status, r.message);
+  }
+  if (status != Status::Ok) {
+    r.status = status;
+    r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    return r;
+  }
+  ThreadScope threads(options.threads, topology.num_faces);
+  FlowSolver solver(topology, structure, u0, target, options, r);
+  solver.set_intrinsic(triangulation, structure);
+  solver.run();
+  solver.finish();
+  return r;
 }
 
 }  // namespace ricci

@@ -21,7 +21,7 @@ HessianPattern build_hessian_pattern(const Topology& t, std::span<const std::uin
   for (Index e = 0; e < ne; ++e) {
     const Index a = p.vertex_unknown[t.edge_vertices[2 * e]],
                 b = p.vertex_unknown[t.edge_vertices[2 * e + 1]];
-    if (a == kInvalid || b == kInvalid) continue;
+    if (a == kInvalid || b == kInvalid || a == b) continue;
     ++p.col_ptr[static_cast<std::size_t>(std::max(a, b)) + 1];
   }
   for (Index j = 0; j < n; ++j) p.col_ptr[j + 1] += p.col_ptr[j] + 1;  // + 1: the diagonal
@@ -34,7 +34,7 @@ HessianPattern build_hessian_pattern(const Topology& t, std::span<const std::uin
   for (Index e = 0; e < ne; ++e) {
     const Index a = p.vertex_unknown[t.edge_vertices[2 * e]],
                 b = p.vertex_unknown[t.edge_vertices[2 * e + 1]];
-    if (a == kInvalid || b == kInvalid) continue;
+    if (a == kInvalid || b == kInvalid || a == b) continue;
     const std::int64_t k = next[std::max(a, b)]++;
     p.row[k] = std::min(a, b);
     p.entry_edge[k] = e;
@@ -59,6 +59,31 @@ HessianPattern build_hessian_pattern(const Topology& t, std::span<const std::uin
     p.row[end] = j;
     p.entry_edge[end] = kInvalid;
   }
+  // Several edges between the same two vertices (intrinsic triangulations): one entry each pair.
+  bool repeated = false;
+  for (Index j = 0; j < n && !repeated; ++j)
+    for (std::int64_t k = p.col_ptr[j] + 1; k < p.col_ptr[j + 1] - 1; ++k)
+      if (p.row[k] == p.row[k - 1]) repeated = true;
+  if (repeated) {
+    std::int64_t out = 0;
+    std::int64_t begin = 0;
+    for (Index j = 0; j < n; ++j) {
+      const std::int64_t end = p.col_ptr[j + 1];
+      for (std::int64_t k = begin; k < end; ++k) {
+        if (k > begin && k < end - 1 && p.row[k] == p.row[k - 1]) {
+          p.more_edges.emplace_back(out - 1, p.entry_edge[k]);
+          continue;
+        }
+        p.row[out] = p.row[k];
+        p.entry_edge[out] = p.entry_edge[k];
+        ++out;
+      }
+      begin = end;
+      p.col_ptr[j + 1] = out;
+    }
+    p.row.resize(static_cast<std::size_t>(out));
+    p.entry_edge.resize(static_cast<std::size_t>(out));
+  }
   return p;
 }
 
@@ -73,10 +98,15 @@ void assemble_hessian(const Topology& t, const HessianPattern& p, std::span<cons
     double diag = 0;
     for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i) {
       const Index c = t.vertex_corners[i];
-      diag += blocks[9 * static_cast<std::size_t>(corner_face(c)) + 4 * corner_slot(c)];
+      const std::size_t f9 = 9 * static_cast<std::size_t>(corner_face(c));
+      diag += blocks[f9 + 4 * corner_slot(c)];
+      // A face with v at two corners (an edge from v to itself): ∂θ_c/∂u_v has both terms.
+      for (const Index d : {next_corner(c), prev_corner(c)})
+        if (t.corner_vertex[d] == v) diag += blocks[f9 + 3 * corner_slot(c) + corner_slot(d)];
     }
     values[end] = -diag;
   }
+  for (const auto& [k, e] : p.more_edges) values[k] += hessian_edge_entry(t, blocks, e);
 }
 
 void multiply_hessian(const HessianPattern& p, std::span<const double> values, std::span<const double> x,

@@ -20,6 +20,7 @@
 
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "ricci/topology.h"
@@ -37,6 +38,9 @@ struct HessianPattern {
   std::vector<std::int64_t> col_ptr;  ///< #unknowns + 1
   std::vector<std::int64_t> row;      ///< nnz: row of each entry of the upper triangle
   std::vector<Index> entry_edge;      ///< nnz: edge of an off-diagonal entry, kInvalid on the diagonal
+  /// (entry, edge) for every further edge between the same two vertices (intrinsic triangulations
+  /// may have several), by entry: the entry sums them all. Empty for a simplicial mesh.
+  std::vector<std::pair<std::int64_t, Index>> more_edges;
 
   std::int64_t num_nonzeros() const { return col_ptr.empty() ? 0 : col_ptr.back(); }
 };
@@ -56,7 +60,9 @@ inline double hessian_edge_entry(const Topology& t, std::span<const double> bloc
 }
 
 /// The pattern for the vertices with is_unknown[v] != 0 (#V flags). Linear time and memory
-/// (plus a sort of each column's few entries); deterministic.
+/// (plus a sort of each column's few entries); deterministic. Edges from a vertex to itself add
+/// no entry (they act on the diagonal, see assemble_hessian()); several edges between two
+/// vertices share one entry (HessianPattern::more_edges).
 HessianPattern build_hessian_pattern(const Topology& topology, std::span<const std::uint8_t> is_unknown);
 
 /// Writes the entries of ∂K/∂u (pattern order, num_nonzeros() values) from the per-face blocks

@@ -280,6 +280,7 @@ bool SymmetricSolver::Impl::pinned_solve(double* out) {
 
 SymmetricSolver::SymmetricSolver() : impl_(std::make_unique<Impl>()) {}
 SymmetricSolver::~SymmetricSolver() = default;
+void SymmetricSolver::reset() { impl_ = std::make_unique<Impl>(); }
 
 FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int64_t> col_ptr,
                                        std::span<const std::int64_t> row, FactorKind kind,

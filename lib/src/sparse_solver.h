@@ -41,6 +41,8 @@ class SymmetricSolver {
   ~SymmetricSolver();
   SymmetricSolver(const SymmetricSolver&) = delete;
   SymmetricSolver& operator=(const SymmetricSolver&) = delete;
+  /// Forgets the analysis and factorization (a new analyze() may follow, e.g. for a new pattern).
+  void reset();
 
   /// Symbolic analysis of the n×n symmetric matrix whose upper triangle has the pattern
   /// col_ptr (n+1) / row (col_ptr[n]) with rows sorted increasingly in each column.

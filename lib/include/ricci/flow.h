@@ -15,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ricci/intrinsic.h"
 #include "ricci/metric.h"
 #include "ricci/status.h"
 #include "ricci/topology.h"
@@ -184,6 +185,10 @@ struct FlowResult {
   FlowTimings timings;
   /// Nonzeros of the Cholesky factor of the last Newton run (0 for gradient descent).
   double factor_nonzeros = 0;
+  /// solve_flow_with_flips(): edge flips from the starting triangulation to the final one, and the
+  /// most non-Delaunay edges left at one point because their flip was refused (intrinsic.h).
+  std::int64_t flips = 0;
+  Index flips_refused = 0;
   std::vector<IterationRecord> history;
   /// Notes on safeguards that acted (spherical damping, fallback to the flow, …).
   std::vector<std::string> notes;
@@ -195,5 +200,18 @@ struct FlowResult {
 /// Solves for u such that K(u) = K̄ from the start u0 (#V).
 FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure, std::span<const double> u0,
                       const Target& target, const FlowOptions& options = {});
+
+/// Vertex scaling with intrinsic Delaunay flips (intrinsic.h): solves K(u) = K̄ from u0 (#V) on
+/// the Delaunay triangulation of each metric the solve visits. Before the start and at every trial
+/// point of the line search (and every quadrature node) the triangulation is flipped by Ptolemy's
+/// relation until it is Delaunay at that u, so the Ricci energy, which is C¹ and convex across
+/// flips in E and H (Bobenko–Pinkall–Springborn 2015; Gu–Luo–Sun–Wu 2018), is evaluated with the
+/// curvature of its own Delaunay triangulation; the Newton matrix is assembled on the current
+/// triangulation (a changed pattern is analysed again with the first fill-reducing ordering).
+/// Targets and options as solve_flow() (its spherical safeguards, made for circle schemes, do not
+/// apply). On return `triangulation` is the Delaunay triangulation of the final u; FlowResult::l
+/// are its edge lengths and `flips` counts the flips from the start.
+FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::span<const double> u0,
+                                 const Target& target, const FlowOptions& options = {});
 
 }  // namespace ricci

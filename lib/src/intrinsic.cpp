@@ -1,0 +1,415 @@
+// Intrinsic triangulations: Ptolemy flips of a vertex-scaling metric, the Delaunay test and
+// flip-to-Delaunay (see ricci/intrinsic.h for the formulas).
+//
+// Flip of edge e = ij between f0 = (k, i, j) and f1 = (l, j, i), corners c0 at k, c1 at l
+// (n = next, p = prev):
+//
+//            k                          k
+//          / c0 \                     / | \ .
+//    e_ki /  f0  \ e_jk        e_ki /  |  \ e_jk
+//        / n0  p0 \                /   e   \ .
+//       i ---e---- j      ->      i  f0 | f1  j
+//        \ p1  n1 /                \   |   /
+//    e_il \  f1  / e_lj        e_il \  |  / e_lj
+//          \ c1 /                     \ | /
+//            l                          l   .
+//
+// The corner slots are kept: f0 becomes (k, i, l) with l in slot p0, f1 becomes (l, j, k) with k in
+// slot p1; e is opposite n0 and n1 afterwards, e_il opposite c0 and e_jk opposite c1.
+#include "ricci/intrinsic.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "hessian.h"
+
+namespace ricci {
+
+namespace {
+
+using detail::kParallelMin;
+
+// log B of a length in each geometry (log l, log sinh(l/2), log sin(l/2)), NaN when out of range.
+double log_chord_of_length(Geometry g, double l) {
+  if (!(l > 0) || !std::isfinite(l)) return std::numeric_limits<double>::quiet_NaN();
+  const double x = 0.5 * l;
+  switch (g) {
+    case Geometry::Euclidean:
+      return std::log(l);
+    case Geometry::Hyperbolic:
+      // log sinh x = x − log 2 + log(1 − e^{−2x}), exact where sinh would overflow.
+      return x > 20 ? x - std::log(2.0) + std::log1p(-std::exp(-2 * x)) : std::log(std::sinh(x));
+    case Geometry::Spherical:
+      return l < std::numbers::pi ? std::log(std::sin(x)) : std::numeric_limits<double>::quiet_NaN();
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// Largest |log B| stored: 700 (chords a double can hold), so that sums and Ptolemy results stay far
+// inside int64 in units of 2⁻⁵⁰.
+constexpr double kMaxLogChord = 700;
+
+// Sets the corners of edge e (b = kInvalid for a boundary edge), keeping Topology's rules: an
+// interior edge lists its smaller corner first and is oriented as it runs in that corner's face.
+void set_edge_corners(IntrinsicTriangulation& tri, Index e, Index a, Index b) {
+  Topology& t = tri.topology;
+  if (b != kInvalid && b < a) std::swap(a, b);
+  t.edge_corners[2 * e] = a;
+  t.edge_corners[2 * e + 1] = b;
+  t.edge_vertices[2 * e] = t.corner_vertex[next_corner(a)];
+  t.edge_vertices[2 * e + 1] = t.corner_vertex[prev_corner(a)];
+  if (b == kInvalid) t.boundary_corners[tri.boundary_position[e]] = a;
+}
+
+// The other corner of edge e than c.
+Index other_corner(const Topology& t, Index e, Index c) {
+  return t.edge_corners[2 * e] == c ? t.edge_corners[2 * e + 1] : t.edge_corners[2 * e];
+}
+
+// Total area of the spherical triangles with side lengths s·l, NaN when one of them is not a
+// spherical triangle (triangle inequality, perimeter below 2π). L'Huilier's formula.
+double spherical_area(const Topology& t, std::span<const double> l, double s) {
+  double total = 0;
+  for (Index f = 0; f < t.num_faces; ++f) {
+    const double a = s * l[t.corner_edge[3 * f]], b = s * l[t.corner_edge[3 * f + 1]], c = s * l[t.corner_edge[3 * f + 2]];
+    const double h = 0.5 * (a + b + c);
+    if (!(h - a > 0 && h - b > 0 && h - c > 0 && h < std::numbers::pi)) return std::numeric_limits<double>::quiet_NaN();
+    const double q = std::tan(0.5 * h) * std::tan(0.5 * (h - a)) * std::tan(0.5 * (h - b)) * std::tan(0.5 * (h - c));
+    total += 4 * std::atan(std::sqrt(std::max(0.0, q)));
+  }
+  return total;
+}
+
+// The scale s at which the lengths s·l, read as spherical arcs, have total area 4π (bisection from
+// `guess`, the euclidean area-4π scale), or 0.9 of the largest admissible scale below it when no
+// admissible scale reaches 4π. A round sphere's metric then starts at its solution's scale (and
+// a platonic solid's at its solution), which matters for the Möbius gauge that holds three u.
+double spherical_scale(const Topology& t, std::span<const double> l, double guess) {
+  const double target = 4 * std::numbers::pi;
+  double lo = 0, hi = guess;
+  // Grow hi until it overshoots (area ≥ 4π or inadmissible).
+  for (int i = 0; i < 60; ++i) {
+    const double a = spherical_area(t, l, hi);
+    if (!(a < target)) break;
+    lo = hi;
+    hi *= 1.5;
+  }
+  bool reached = false;
+  for (int i = 0; i < 100 && hi - lo > 1e-15 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    const double a = spherical_area(t, l, mid);
+    if (std::isnan(a)) {
+      hi = mid;
+    } else if (a < target) {
+      lo = mid;
+    } else {
+      hi = mid;
+      reached = true;
+    }
+  }
+  return reached || std::isfinite(spherical_area(t, l, hi)) ? lo : 0.9 * lo;
+}
+
+}  // namespace
+
+IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry geometry, std::span<const double> l,
+                                             bool delaunay) {
+  IntrinsicResult r;
+  const Index ne = topology.num_edges;
+  if (l.size() != static_cast<std::size_t>(ne)) {
+    r.status = Status::InvalidArgument;
+    r.message = "the metric has " + std::to_string(l.size()) + " edge lengths, but the triangulation has " +
+                std::to_string(ne) + " edges";
+    return r;
+  }
+  IntrinsicTriangulation& tri = r.triangulation;
+  tri.geometry = geometry;
+  tri.log_chord.assign(static_cast<std::size_t>(ne), 0);
+  for (Index e = 0; e < ne; ++e) {
+    const double x = log_chord_of_length(geometry, l[e]);
+    if (!std::isfinite(x) || std::abs(x) > kMaxLogChord) {
+      r.status = Status::DegenerateFace;
+      r.element_index = e;
+      r.message = "edge " + std::to_string(e) + " has length " + std::to_string(l[e]) + ", which is not " +
+                  (geometry == Geometry::Spherical ? "in (0, π)" : "a positive finite number") +
+                  " (or its chord is beyond e^±700)";
+      tri = {};
+      return r;
+    }
+    tri.log_chord[e] = std::llround(x / kLogChordUnit);
+  }
+  tri.topology = topology;
+  tri.boundary_position.assign(static_cast<std::size_t>(ne), kInvalid);
+  for (Index p = 0; p < topology.num_boundary_edges(); ++p)
+    tri.boundary_position[topology.corner_edge[topology.boundary_corners[p]]] = p;
+  if (delaunay) {
+    DelaunayOptions options;
+    options.rule = FlipRule::Geometric;
+    const std::vector<double> zero(static_cast<std::size_t>(topology.num_vertices), 0.0);
+    const DelaunayReport report = make_delaunay(tri, zero, options);
+    r.delaunay_flips = report.flips;
+    r.delaunay_refused = report.refused;
+    tri.flips = 0;
+  }
+  r.status = Status::Ok;
+  r.message = "ok";
+  return r;
+}
+
+IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry) {
+  const Index ne = topology.num_edges, nf = topology.num_faces;
+  std::vector<double> l(static_cast<std::size_t>(ne));
+  for (Index e = 0; e < ne; ++e) {
+    const Index a = topology.edge_vertices[2 * e], b = topology.edge_vertices[2 * e + 1];
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = mesh.positions[3 * a + k] - mesh.positions[3 * b + k];
+      d2 += d * d;
+    }
+    l[e] = std::sqrt(d2);
+  }
+  double scale = 1;
+  if (geometry != Geometry::Euclidean) {
+    double area = 0;
+    for (Index f = 0; f < nf; ++f) {
+      const double a = l[topology.corner_edge[3 * f]], b = l[topology.corner_edge[3 * f + 1]],
+                   c = l[topology.corner_edge[3 * f + 2]];
+      const double s = 0.5 * (a + b + c);
+      area += std::sqrt(std::max(0.0, s * (s - a) * (s - b) * (s - c)));
+    }
+    const double chi = static_cast<double>(topology.euler_characteristic());
+    if (geometry == Geometry::Hyperbolic && chi < 0 && area > 0) scale = std::sqrt(2 * std::numbers::pi * -chi / area);
+    if (geometry == Geometry::Spherical && area > 0) scale = spherical_scale(topology, l, std::sqrt(4 * std::numbers::pi / area));
+  }
+  for (double& x : l) x *= scale;
+  return make_intrinsic_triangulation(topology, geometry, l, true);
+}
+
+void vertex_scaling_structure(const IntrinsicTriangulation& tri, ConformalStructure& structure) {
+  structure.geometry = tri.geometry;
+  structure.scheme = Scheme::Yamabe;
+  structure.epsilon = 0;
+  const Index ne = tri.topology.num_edges;
+  structure.eta.resize(static_cast<std::size_t>(ne));
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+  for (Index e = 0; e < ne; ++e) structure.eta[e] = 0.5 * std::exp(2 * tri.log_chord_of(e));
+}
+
+FlipCheck can_flip(const IntrinsicTriangulation& tri, Index e) {
+  const Topology& t = tri.topology;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  if (c1 == kInvalid) return FlipCheck::Boundary;
+  if (corner_face(c0) == corner_face(c1)) return FlipCheck::SameFace;
+  return FlipCheck::Ok;
+}
+
+namespace {
+
+// The connectivity of a flip of e (the new edge keeps index e; its log-chord is set by the caller).
+void flip_connectivity(IntrinsicTriangulation& tri, Index e) {
+  Topology& t = tri.topology;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
+  const Index k = t.corner_vertex[c0], l = t.corner_vertex[c1];
+  const Index e_jk = t.corner_edge[n0], e_il = t.corner_edge[n1];
+  const Index across_jk = t.opposite[n0], across_il = t.opposite[n1];
+
+  t.corner_vertex[p0] = l;
+  t.corner_vertex[p1] = k;
+  t.corner_edge[c0] = e_il;
+  t.corner_edge[n0] = e;
+  t.corner_edge[c1] = e_jk;
+  t.corner_edge[n1] = e;
+  t.opposite[c0] = across_il;
+  if (across_il != kInvalid) t.opposite[across_il] = c0;
+  t.opposite[c1] = across_jk;
+  if (across_jk != kInvalid) t.opposite[across_jk] = c1;
+  t.opposite[n0] = n1;
+  t.opposite[n1] = n0;
+  set_edge_corners(tri, e, n0, n1);
+  set_edge_corners(tri, e_il, c0, other_corner(t, e_il, n1));
+  set_edge_corners(tri, e_jk, c1, other_corner(t, e_jk, n0));
+  ++tri.flips;
+}
+
+// The angle opposite the side of length a in a triangle with sides a, b, c in geometry g (half-angle
+// formula, as corner_angles()); NaN when the triangle inequality fails.
+double triangle_angle(Geometry g, double a, double b, double c) {
+  const double s = 0.5 * (a + b + c);
+  auto f = [g](double x) {
+    return g == Geometry::Euclidean ? x : g == Geometry::Hyperbolic ? std::sinh(x) : std::sin(x);
+  };
+  const double num = f(s - b) * f(s - c), den = f(s) * f(s - a);
+  if (!(s - a > 0 && s - b > 0 && s - c > 0 && num > 0 && den > 0)) return std::numeric_limits<double>::quiet_NaN();
+  return 2 * std::atan(std::sqrt(num / den));
+}
+
+// Edge length from log B and the two end values of u.
+double length_of(Geometry g, double log_chord, double ua, double ub) {
+  const double L = std::exp(log_chord + 0.5 * (ua + ub));
+  switch (g) {
+    case Geometry::Euclidean:
+      return L;
+    case Geometry::Hyperbolic:
+      return 2 * std::asinh(L);
+    case Geometry::Spherical:
+      return L < 1 ? 2 * std::asin(L) : std::numeric_limits<double>::quiet_NaN();
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+}  // namespace
+
+void flip_edge(IntrinsicTriangulation& tri, Index e) {
+  const Topology& t = tri.topology;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  const Index e_ki = t.corner_edge[prev_corner(c0)], e_jk = t.corner_edge[next_corner(c0)];
+  const Index e_il = t.corner_edge[next_corner(c1)], e_lj = t.corner_edge[prev_corner(c1)];
+  // Ptolemy in fixed point: σ from the two products, symmetric in them, then B_kl = σ − B_ij.
+  const std::int64_t a = tri.log_chord[e_il] + tri.log_chord[e_jk];
+  const std::int64_t b = tri.log_chord[e_lj] + tri.log_chord[e_ki];
+  const std::int64_t hi = std::max(a, b), lo = std::min(a, b);
+  const double gap = static_cast<double>(lo - hi) * kLogChordUnit;  // ≤ 0
+  const std::int64_t sigma = hi + std::llround(std::log1p(std::exp(gap)) / kLogChordUnit);
+  tri.log_chord[e] = sigma - tri.log_chord[e];
+  flip_connectivity(tri, e);
+}
+
+bool flip_edge_geometric(IntrinsicTriangulation& tri, std::span<const double> u, Index e) {
+  const Topology& t = tri.topology;
+  const Geometry g = tri.geometry;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
+  const Index k = t.corner_vertex[c0], i = t.corner_vertex[n0], j = t.corner_vertex[p0], l = t.corner_vertex[c1];
+  const double l_ij = length_of(g, tri.log_chord_of(e), u[i], u[j]);
+  const double l_ki = length_of(g, tri.log_chord_of(t.corner_edge[p0]), u[k], u[i]);
+  const double l_jk = length_of(g, tri.log_chord_of(t.corner_edge[n0]), u[j], u[k]);
+  const double l_il = length_of(g, tri.log_chord_of(t.corner_edge[n1]), u[i], u[l]);
+  const double l_lj = length_of(g, tri.log_chord_of(t.corner_edge[p1]), u[l], u[j]);
+  // The angle of the quadrilateral at i (between ik and il), then the cosine law across it, in
+  // the half-chord form: L_kl² = f((a − c)/2)² + h(a) h(c) sin²(θ/2), f = id·2, sinh, sin.
+  const double ti = triangle_angle(g, l_jk, l_ij, l_ki), tj = triangle_angle(g, l_ki, l_ij, l_jk);
+  const double si = triangle_angle(g, l_lj, l_ij, l_il), sj = triangle_angle(g, l_il, l_ij, l_lj);
+  const double theta = ti + si;
+  if (!(theta < std::numbers::pi) || !(tj + sj < std::numbers::pi)) return false;
+  const double a = l_ki, c = l_il, half = std::sin(0.5 * theta);
+  double chord2 = 0;
+  switch (g) {
+    case Geometry::Euclidean:
+      chord2 = (a - c) * (a - c) + 4 * a * c * half * half;
+      break;
+    case Geometry::Hyperbolic:
+      chord2 = std::pow(std::sinh(0.5 * (a - c)), 2) + std::sinh(a) * std::sinh(c) * half * half;
+      break;
+    case Geometry::Spherical:
+      chord2 = std::pow(std::sin(0.5 * (a - c)), 2) + std::sin(a) * std::sin(c) * half * half;
+      break;
+  }
+  if (!(chord2 > 0) || !std::isfinite(chord2)) return false;
+  const double log_chord = 0.5 * std::log(chord2) - 0.5 * (u[k] + u[l]);
+  if (!(std::abs(log_chord) <= kMaxLogChord)) return false;
+  tri.log_chord[e] = std::llround(log_chord / kLogChordUnit);
+  flip_connectivity(tri, e);
+  return true;
+}
+
+double delaunay_margin(const IntrinsicTriangulation& tri, std::span<const double> u, Index e) {
+  const Topology& t = tri.topology;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  if (c1 == kInvalid) return std::numeric_limits<double>::infinity();
+  const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
+  const double uk = u[t.corner_vertex[c0]], ui = u[t.corner_vertex[n0]], uj = u[t.corner_vertex[p0]],
+               ul = u[t.corner_vertex[c1]];
+  // log L of the five edges at u: ki, jk, il, lj, ij.
+  double y[5] = {tri.log_chord_of(t.corner_edge[p0]) + 0.5 * (uk + ui),
+                 tri.log_chord_of(t.corner_edge[n0]) + 0.5 * (uj + uk),
+                 tri.log_chord_of(t.corner_edge[n1]) + 0.5 * (ui + ul),
+                 tri.log_chord_of(t.corner_edge[p1]) + 0.5 * (ul + uj),
+                 tri.log_chord_of(e) + 0.5 * (ui + uj)};
+  const double top = *std::max_element(y, y + 5);
+  double L[5];
+  for (int i = 0; i < 5; ++i) L[i] = std::exp(y[i] - top);
+  const double ki = L[0], jk = L[1], il = L[2], lj = L[3], ij = L[4];
+  return (il * ki + jk * lj) * (il * jk + ki * lj) - ij * ij * (jk * ki + il * lj);
+}
+
+DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, const DelaunayOptions& options) {
+  DelaunayReport report;
+  Topology& t = tri.topology;
+  const Index ne = t.num_edges;
+  const std::int64_t max_flips = options.max_flips > 0 ? options.max_flips : 100 * std::int64_t{ne} + 1000;
+  const double tol = options.tolerance;
+  // The first pass tests every edge in parallel (each writes its own flag).
+  std::vector<std::uint8_t> queued(static_cast<std::size_t>(ne), 0);
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+  for (Index e = 0; e < ne; ++e) queued[e] = delaunay_margin(tri, u, e) < -tol ? 1 : 0;
+  std::deque<Index> queue;
+  for (Index e = 0; e < ne; ++e)
+    if (queued[e]) queue.push_back(e);
+  std::vector<Index> refused;
+  while (!queue.empty()) {
+    const Index e = queue.front();
+    queue.pop_front();
+    queued[e] = 0;
+    if (!(delaunay_margin(tri, u, e) < -tol)) continue;
+    if (report.flips >= max_flips) {
+      report.complete = false;
+      break;
+    }
+    if (can_flip(tri, e) != FlipCheck::Ok ||
+        (options.rule == FlipRule::Geometric && !flip_edge_geometric(tri, u, e))) {
+      refused.push_back(e);
+      continue;
+    }
+    if (options.rule == FlipRule::Ptolemy) flip_edge(tri, e);
+    ++report.flips;
+    // The four edges of the quadrilateral may have become non-Delaunay.
+    const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+    for (const Index c : {c0, c1})
+      for (const Index d : {next_corner(c), prev_corner(c)}) {
+        const Index f = t.corner_edge[d];
+        if (f != e && !queued[f] && t.edge_corners[2 * f + 1] != kInvalid) {
+          queued[f] = 1;
+          queue.push_back(f);
+        }
+      }
+  }
+  std::sort(refused.begin(), refused.end());
+  refused.erase(std::unique(refused.begin(), refused.end()), refused.end());
+  for (const Index e : refused)
+    if (delaunay_margin(tri, u, e) < -tol) ++report.refused;
+  if (report.flips > 0) refresh_vertex_corners(t);
+  return report;
+}
+
+void refresh_vertex_corners(Topology& t) {
+  const Index nv = t.num_vertices, nc = t.num_corners();
+  t.vertex_corner_offsets.assign(static_cast<std::size_t>(nv) + 1, 0);
+  std::vector<Index> start(static_cast<std::size_t>(nv), kInvalid);
+  for (Index c = 0; c < nc; ++c) {
+    const Index v = t.corner_vertex[c];
+    ++t.vertex_corner_offsets[v + 1];
+    // The fan's first corner: the one without a clockwise neighbour (boundary), else the smallest.
+    if (start[v] == kInvalid || (t.opposite[prev_corner(c)] == kInvalid && t.opposite[prev_corner(start[v])] != kInvalid))
+      start[v] = c;
+  }
+  for (Index v = 0; v < nv; ++v) t.vertex_corner_offsets[v + 1] += t.vertex_corner_offsets[v];
+  t.vertex_corners.resize(static_cast<std::size_t>(nc));
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) {
+    if (start[v] == kInvalid) continue;
+    Index c = start[v], i = t.vertex_corner_offsets[v];
+    const Index end = t.vertex_corner_offsets[v + 1];
+    do {
+      t.vertex_corners[i++] = c;
+      const Index o = t.opposite[next_corner(c)];
+      c = o == kInvalid ? kInvalid : next_corner(o);
+    } while (c != kInvalid && c != start[v] && i < end);
+  }
+}
+
+}  // namespace ricci

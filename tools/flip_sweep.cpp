@@ -1,0 +1,101 @@
+// flip_sweep — the flow stage on mesh files, scheme by scheme: the paper's circle packing and
+// vertex scaling (Yamabe) on the mesh's own triangulation (solve_flow()), and vertex scaling with
+// intrinsic Delaunay flips (solve_flow_with_flips()). Prints a Markdown table of Newton
+// iterations, flips, max |K̄ − K| and seconds per mesh and scheme. A benchmark, not a test.
+//
+//   build/tools/flip_sweep [--threads N] MESH...      (e.g. ../shared/meshes/genus*/*.off)
+//
+// Geometry and target as `ricci uniformize` chooses them: S/E/H by χ for closed surfaces, E with
+// circle boundaries for genus 0 with boundary, H with geodesic boundaries otherwise. Meshes that
+// do not validate are listed with their status.
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "ricci/flow.h"
+#include "ricci/intrinsic.h"
+#include "ricci/io.h"
+#include "ricci/validate.h"
+
+using namespace ricci;
+
+namespace {
+
+std::string cell(const FlowResult& r, bool flips) {
+  char buffer[160];
+  if (r.status != Status::Ok) {
+    std::snprintf(buffer, sizeof buffer, "%s (%d it.)", std::string(status_name(r.status)).c_str(), r.iterations);
+    return buffer;
+  }
+  if (flips)
+    std::snprintf(buffer, sizeof buffer, "%d it., %lld flips, %.1e, %.2f s", r.iterations,
+                  static_cast<long long>(r.flips), r.max_curvature_error, r.seconds);
+  else
+    std::snprintf(buffer, sizeof buffer, "%d it., %.1e, %.2f s", r.iterations, r.max_curvature_error, r.seconds);
+  return buffer;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int threads = 0;
+  std::vector<std::string> paths;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+    } else {
+      paths.push_back(a);
+    }
+  }
+  if (paths.empty()) {
+    std::fprintf(stderr, "usage: flip_sweep [--threads N] MESH...\n");
+    return 2;
+  }
+  std::printf("| mesh | faces | geometry | circle packing | yamabe, no flips | yamabe with flips |\n");
+  std::printf("|---|---:|---|---|---|---|\n");
+  for (const std::string& path : paths) {
+    const ReadResult read = read_mesh(path);
+    const std::string name = path.substr(path.find_last_of('/') + 1);
+    if (read.status != Status::Ok) {
+      std::printf("| %s | – | – | %s | | |\n", name.c_str(), std::string(status_name(read.status)).c_str());
+      continue;
+    }
+    const ValidateResult v = validate_mesh(read.mesh);
+    if (v.status != Status::Ok) {
+      std::printf("| %s | – | – | %s | | |\n", name.c_str(), std::string(status_name(v.status)).c_str());
+      continue;
+    }
+    const Topology& t = v.topology;
+    const Geometry g = natural_geometry(t);
+    const Target target = uniform_target(t, natural_boundary_mode(t, g));
+    FlowOptions options;
+    options.threads = threads;
+    std::string cells[3];
+    for (int k = 0; k < 2; ++k) {
+      InitialMetricOptions o;
+      o.geometry = g;
+      o.scheme = k == 0 ? Scheme::CirclePacking : Scheme::Yamabe;
+      const InitialMetric m = initial_metric(v.mesh, t, o);
+      cells[k] = m.status != Status::Ok ? std::string(status_name(m.status))
+                                        : cell(solve_flow(t, m.structure, m.u, target, options), false);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    IntrinsicResult tri = mesh_intrinsic_triangulation(v.mesh, t, g);
+    if (tri.status != Status::Ok) {
+      cells[2] = std::string(status_name(tri.status));
+    } else {
+      const std::vector<double> u0(static_cast<std::size_t>(t.num_vertices), 0.0);
+      FlowResult r = solve_flow_with_flips(tri.triangulation, u0, target, options);
+      r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      r.flips += tri.delaunay_flips;
+      cells[2] = cell(r, true);
+    }
+    std::printf("| %s | %d | %s | %s | %s | %s |\n", name.c_str(), t.num_faces, std::string(geometry_name(g)).c_str(),
+                cells[0].c_str(), cells[1].c_str(), cells[2].c_str());
+    std::fflush(stdout);
+  }
+  return 0;
+}
