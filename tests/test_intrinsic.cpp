@@ -225,7 +225,7 @@ TEST_CASE("intrinsic: Ptolemy's relation holds for every flip and flips commute 
   }
 }
 
-TEST_CASE("intrinsic: the chord test of Delaunay agrees with the angle test (E: α + β ≤ π; H, S: ≤ the other four)") {
+TEST_CASE("intrinsic: the chord test of Delaunay agrees with the angle test (E: α + β ≤ π, H and S: ≤ the other four)") {
   for (const Case& c : cases()) {
     INFO(c.name);
     const IntrinsicTriangulation tri = intrinsic(c, false);
