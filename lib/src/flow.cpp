@@ -2206,8 +2206,9 @@ FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure
     r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     return r;
   };
-  if (Status status = Status::Ok; !valid_flow_inputs(topology, structure, u0, target, options, status, r.message))
-    return reject(status, std::move(r.message));
+  Status status = Status::Ok;
+  if (std::string why; !valid_flow_inputs(topology, structure, u0, target, options, status, why))
+    return reject(status, std::move(why));
   const Index nv = topology.num_vertices;
   ThreadScope threads(options.threads, topology.num_faces);
   const bool coupled = !topology.is_closed() && (target.boundary == BoundaryMode::Circle ||
