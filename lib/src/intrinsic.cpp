@@ -26,6 +26,7 @@
 #include <string>
 
 #include "hessian.h"
+#include "ricci/intrinsic_trace.h"
 
 namespace ricci {
 
@@ -65,19 +66,15 @@ void set_edge_corners(IntrinsicTriangulation& tri, Index e, Index a, Index b) {
   if (b == kInvalid) t.boundary_corners[tri.boundary_position[e]] = a;
 }
 
-// The other corner of edge e than c.
-Index other_corner(const Topology& t, Index e, Index c) {
-  return t.edge_corners[2 * e] == c ? t.edge_corners[2 * e + 1] : t.edge_corners[2 * e];
-}
-
-// Total area of the spherical triangles with side lengths s·l, NaN when one of them is not a
-// spherical triangle (triangle inequality, perimeter below 2π). L'Huilier's formula.
+// Total area of the spherical triangles with side lengths s·l, or −1 when one of them is not a
+// spherical triangle (triangle inequality, perimeter below 2π). L'Huilier's formula. (No NaN: a
+// relational comparison with NaN raises FE_INVALID, which the test runner traps.)
 double spherical_area(const Topology& t, std::span<const double> l, double s) {
   double total = 0;
   for (Index f = 0; f < t.num_faces; ++f) {
     const double a = s * l[t.corner_edge[3 * f]], b = s * l[t.corner_edge[3 * f + 1]], c = s * l[t.corner_edge[3 * f + 2]];
     const double h = 0.5 * (a + b + c);
-    if (!(h - a > 0 && h - b > 0 && h - c > 0 && h < std::numbers::pi)) return std::numeric_limits<double>::quiet_NaN();
+    if (!(h - a > 0 && h - b > 0 && h - c > 0 && h < std::numbers::pi)) return -1;
     const double q = std::tan(0.5 * h) * std::tan(0.5 * (h - a)) * std::tan(0.5 * (h - b)) * std::tan(0.5 * (h - c));
     total += 4 * std::atan(std::sqrt(std::max(0.0, q)));
   }
@@ -94,7 +91,7 @@ double spherical_scale(const Topology& t, std::span<const double> l, double gues
   // Grow hi until it overshoots (area ≥ 4π or inadmissible).
   for (int i = 0; i < 60; ++i) {
     const double a = spherical_area(t, l, hi);
-    if (!(a < target)) break;
+    if (a < 0 || a >= target) break;
     lo = hi;
     hi *= 1.5;
   }
@@ -102,7 +99,7 @@ double spherical_scale(const Topology& t, std::span<const double> l, double gues
   for (int i = 0; i < 100 && hi - lo > 1e-15 * hi; ++i) {
     const double mid = 0.5 * (lo + hi);
     const double a = spherical_area(t, l, mid);
-    if (std::isnan(a)) {
+    if (a < 0) {
       hi = mid;
     } else if (a < target) {
       lo = mid;
@@ -111,7 +108,7 @@ double spherical_scale(const Topology& t, std::span<const double> l, double gues
       reached = true;
     }
   }
-  return reached || std::isfinite(spherical_area(t, l, hi)) ? lo : 0.9 * lo;
+  return reached || spherical_area(t, l, hi) >= 0 ? lo : 0.9 * lo;
 }
 
 }  // namespace
@@ -143,6 +140,7 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
     tri.log_chord[e] = std::llround(x / kLogChordUnit);
   }
   tri.topology = topology;
+  tri.normal.assign(static_cast<std::size_t>(ne), -1);
   tri.boundary_position.assign(static_cast<std::size_t>(ne), kInvalid);
   for (Index p = 0; p < topology.num_boundary_edges(); ++p)
     tri.boundary_position[topology.corner_edge[topology.boundary_corners[p]]] = p;
@@ -209,14 +207,42 @@ FlipCheck can_flip(const IntrinsicTriangulation& tri, Index e) {
 
 namespace {
 
-// The connectivity of a flip of e (the new edge keeps index e; its log-chord is set by the caller).
+// The normal coordinate of the new diagonal kl of a flip of e = ij (intrinsic_trace.h): the strands
+// of the input's edges through the quadrilateral whose two ends lie on different sides of kl (the
+// i side: ki, il, i; the j side: jk, lj, j), or −1 when one of them runs from k to l (then it is
+// the only one). Strands are the arcs of f0 and f1 that do not touch ij — the corner arcs at k and
+// at l, the arcs from i and from j — and the pairs of arcs glued at the same crossing of ij. Along
+// ij from i, f0 has its corner arcs at i (to the i side), its arcs from k, its corner arcs at j (to
+// the j side), and f1 the same with l; and the old diagonal, when it was an input edge, crosses kl.
+std::int64_t flipped_normal(const IntrinsicTriangulation& tri, Index e) {
+  const Topology& t = tri.topology;
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  const CornerArcs k = corner_arcs(tri, c0), l = corner_arcs(tri, c1);
+  const CornerArcs i0 = corner_arcs(tri, next_corner(c0)), j0 = corner_arcs(tri, prev_corner(c0));
+  const CornerArcs i1 = corner_arcs(tri, prev_corner(c1)), j1 = corner_arcs(tri, next_corner(c1));
+  const std::int64_t k_end = i0.around + k.from_vertex, l_end = i1.around + l.from_vertex;
+  if (std::min(k_end, l_end) > std::max(i0.around, i1.around)) return -1;  // an arc from k meets one from l
+  return k.around + l.around + i0.from_vertex + j0.from_vertex + i1.from_vertex + j1.from_vertex +
+         std::max<std::int64_t>(0, i0.around - l_end) + std::max<std::int64_t>(0, i1.around - k_end) +
+         (tri.normal[e] == -1 ? 1 : 0);
+}
+
+// The connectivity of a flip of e (the new edge keeps index e; its log-chord is set by the caller)
+// and its normal coordinate.
 void flip_connectivity(IntrinsicTriangulation& tri, Index e) {
   Topology& t = tri.topology;
+  const bool normal = tri.normal.size() == static_cast<std::size_t>(t.num_edges);
+  const std::int64_t n_new = normal ? flipped_normal(tri, e) : 0;
   const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
   const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
   const Index k = t.corner_vertex[c0], l = t.corner_vertex[c1];
   const Index e_jk = t.corner_edge[n0], e_il = t.corner_edge[n1];
-  const Index across_jk = t.opposite[n0], across_il = t.opposite[n1];
+  // The corners across jk and il. When jk and il are one edge (the quadrilateral glued to itself
+  // along it), each is the other's: n1 and n0, which become the corners at the new edge, and the
+  // edge is then opposite c0 and c1.
+  Index across_jk = t.opposite[n0], across_il = t.opposite[n1];
+  if (across_jk == n1) across_jk = c0;
+  if (across_il == n0) across_il = c1;
 
   t.corner_vertex[p0] = l;
   t.corner_vertex[p1] = k;
@@ -231,24 +257,27 @@ void flip_connectivity(IntrinsicTriangulation& tri, Index e) {
   t.opposite[n0] = n1;
   t.opposite[n1] = n0;
   set_edge_corners(tri, e, n0, n1);
-  set_edge_corners(tri, e_il, c0, other_corner(t, e_il, n1));
-  set_edge_corners(tri, e_jk, c1, other_corner(t, e_jk, n0));
+  set_edge_corners(tri, e_il, c0, across_il);
+  set_edge_corners(tri, e_jk, c1, across_jk);
+  if (normal) tri.normal[e] = n_new;
   ++tri.flips;
 }
 
 // The angle opposite the side of length a in a triangle with sides a, b, c in geometry g (half-angle
-// formula, as corner_angles()); NaN when the triangle inequality fails.
+// formula, as corner_angles()); −1 when a side is not a length (below) or the triangle inequality
+// fails. (Sentinels, not NaN, here and below: a relational comparison with NaN raises FE_INVALID.)
 double triangle_angle(Geometry g, double a, double b, double c) {
+  if (!(a > 0 && b > 0 && c > 0)) return -1;
   const double s = 0.5 * (a + b + c);
   auto f = [g](double x) {
     return g == Geometry::Euclidean ? x : g == Geometry::Hyperbolic ? std::sinh(x) : std::sin(x);
   };
   const double num = f(s - b) * f(s - c), den = f(s) * f(s - a);
-  if (!(s - a > 0 && s - b > 0 && s - c > 0 && num > 0 && den > 0)) return std::numeric_limits<double>::quiet_NaN();
+  if (!(s - a > 0 && s - b > 0 && s - c > 0 && num > 0 && den > 0)) return -1;
   return 2 * std::atan(std::sqrt(num / den));
 }
 
-// Edge length from log B and the two end values of u.
+// Edge length from log B and the two end values of u; −1 for a spherical chord ≥ 1.
 double length_of(Geometry g, double log_chord, double ua, double ub) {
   const double L = std::exp(log_chord + 0.5 * (ua + ub));
   switch (g) {
@@ -257,9 +286,9 @@ double length_of(Geometry g, double log_chord, double ua, double ub) {
     case Geometry::Hyperbolic:
       return 2 * std::asinh(L);
     case Geometry::Spherical:
-      return L < 1 ? 2 * std::asin(L) : std::numeric_limits<double>::quiet_NaN();
+      return L < 1 ? 2 * std::asin(L) : -1;
   }
-  return std::numeric_limits<double>::quiet_NaN();
+  return -1;
 }
 
 }  // namespace
@@ -294,6 +323,7 @@ bool flip_edge_geometric(IntrinsicTriangulation& tri, std::span<const double> u,
   // the half-chord form: L_kl² = f((a − c)/2)² + h(a) h(c) sin²(θ/2), f = id·2, sinh, sin.
   const double ti = triangle_angle(g, l_jk, l_ij, l_ki), tj = triangle_angle(g, l_ki, l_ij, l_jk);
   const double si = triangle_angle(g, l_lj, l_ij, l_il), sj = triangle_angle(g, l_il, l_ij, l_lj);
+  if (ti < 0 || tj < 0 || si < 0 || sj < 0) return false;
   const double theta = ti + si;
   if (!(theta < std::numbers::pi) || !(tj + sj < std::numbers::pi)) return false;
   const double a = l_ki, c = l_il, half = std::sin(0.5 * theta);

@@ -69,6 +69,10 @@ struct IntrinsicTriangulation {
   std::vector<Index> boundary_position;
   /// Flips applied since the triangulation was made.
   std::int64_t flips = 0;
+  /// #E: the normal coordinates of the edges of the triangulation it was made from (the input;
+  /// intrinsic_trace.h): how many times they cross edge e, −1 when e is one of them. Every flip
+  /// keeps them; trace_input_edges() reads the input's edges off them. Empty: not kept.
+  std::vector<std::int64_t> normal;
 
   /// log B_e as a double.
   double log_chord_of(Index e) const { return static_cast<double>(log_chord[e]) * kLogChordUnit; }
@@ -86,8 +90,8 @@ struct IntrinsicResult {
   Index delaunay_refused = 0;       ///< non-Delaunay edges left there (flip refused, see can_flip())
 };
 
-/// The triangulation of `topology` with the metric of edge lengths l (#E) in `geometry`; with
-/// `delaunay`, flipped by FlipRule::Geometric to the intrinsic Delaunay triangulation of that
+/// The triangulation of `topology` with the metric of edge lengths l (#E) in `geometry`, keeping
+/// normal coordinates (all −1 at the start: every edge is an input edge); with `delaunay`, flipped by FlipRule::Geometric to the intrinsic Delaunay triangulation of that
 /// metric (the same surface; where the flow's conformal class is read from), its `flips` reset to 0.
 IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry geometry, std::span<const double> l,
                                              bool delaunay = true);

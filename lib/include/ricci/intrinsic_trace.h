@@ -1,0 +1,71 @@
+// ricci — where the input's edges run on a flipped intrinsic triangulation.
+//
+// Takes: an IntrinsicTriangulation whose `normal` coordinates were kept through its flips, and the
+// Topology it was made from (the input). Gives: for every input edge, the sequence of current edges
+// it crosses, in order, with which crossing of each it is — or the current edge it coincides with.
+//
+// Normal coordinates (Gillespie, Sharp, Crane, "Integer coordinates for intrinsic geometry
+// processing", 2021). Every edge of the current triangulation T stores n_e, the number of times the
+// input edges cross it, or −1 when e is itself an input edge. The input edges are pairwise
+// disjoint curves between vertices, so inside a triangle of T they are arcs of two kinds: corner
+// arcs, which cut off one corner (crossing its two sides), and arcs that leave a vertex and cross
+// the opposite side. With n⁺ = max(n, 0) and the corner x opposite side n_x:
+//
+//     E_x = max(0, n_x⁺ − n_y⁺ − n_z⁺)                     arcs from the vertex at x
+//     C_x = (n_y⁺ + n_z⁺ − n_x⁺ + E_x − E_y − E_z) / 2      corner arcs at x       (y, z the others)
+//
+// and along a side, counted from one end a, the arcs come in the order: the corner arcs at a, the
+// arcs from the opposite vertex, the corner arcs at the other end. This order is what makes the
+// counts determine the curves (up to isotopy), and what flip_edge() uses to count the crossings of
+// the new diagonal: the strands of the quadrilateral whose two ends lie on different sides of it
+// (intrinsic.cpp). Flips of either rule keep them, since both put in the other diagonal of the same
+// quadrilateral.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "ricci/intrinsic.h"
+#include "ricci/status.h"
+#include "ricci/topology.h"
+
+namespace ricci {
+
+/// The input edges on the current triangulation: CSR lists of crossings, one per input edge.
+struct InputEdgePaths {
+  /// Ok; InvalidArgument when the triangulation keeps no normal coordinates or has another vertex
+  /// count than the input; NumericalFailure when its coordinates are not those of the input's
+  /// edges (a strand ends between two vertices no input edge joins, or an input edge is missing).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// #E(input) + 1: the crossings of input edge a are [offsets[a], offsets[a+1]).
+  std::vector<Index> offsets;
+  /// The current edge each crossing lies on, in order from the input edge's first vertex
+  /// (input.edge_vertices[2a]) to its second.
+  std::vector<Index> crossed_edge;
+  /// Which crossing of that edge it is: 0 for the one nearest the current edge's first vertex
+  /// (edge_vertices[2e]).
+  std::vector<Index> crossed_slot;
+  /// #E(input): the current edge the input edge coincides with (normal −1), kInvalid when it
+  /// crosses edges instead.
+  std::vector<Index> along;
+  /// #E(input): the current corners at the input edge's first and second vertex in whose faces it
+  /// starts and ends (for an input edge that coincides with a current edge e: e's corners'
+  /// neighbours in e's first face, i.e. next/prev of edge_corners[2e]).
+  std::vector<Index> first_corner, last_corner;
+};
+
+/// Traces every input edge over the current triangulation from its normal coordinates. O(#E +
+/// total crossings).
+InputEdgePaths trace_input_edges(const IntrinsicTriangulation& triangulation, const Topology& input);
+
+/// The arcs of the input edges inside the face of corner c, seen from c (see the top of this header).
+struct CornerArcs {
+  std::int64_t from_vertex = 0;  ///< E_c: arcs from the vertex at c across the opposite side
+  std::int64_t around = 0;       ///< C_c: corner arcs cutting off c
+};
+/// CornerArcs of corner c; O(1). Precondition: normal coordinates are kept.
+CornerArcs corner_arcs(const IntrinsicTriangulation& triangulation, Index c);
+
+}  // namespace ricci

@@ -1,0 +1,227 @@
+// Normal coordinates and the tracing of the input's edges over a flipped intrinsic triangulation:
+// the counts against straight segments in the plane, the order of the crossings along each input
+// edge, flipping back to the input, and traces after the flow's Ptolemy flips in E, H and S.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ricci/flow.h"
+#include "ricci/intrinsic.h"
+#include "ricci/intrinsic_trace.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "stress_shapes.h"
+
+using namespace ricci;
+
+namespace {
+
+// A planar mesh of obtuse triangles: a jittered n×n grid with random diagonals, stretched 4× in x,
+// with needles and caps inserted into a third of its faces.
+Mesh planar_obtuse_mesh(int n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  Mesh m;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      const bool inner = x > 0 && x < n && y > 0 && y < n;
+      m.positions.push_back(4.0 * (x + (inner ? jitter(rng) : 0.0)));
+      m.positions.push_back(y + (inner ? jitter(rng) : 0.0));
+      m.positions.push_back(0.0);
+    }
+  auto id = [n](int x, int y) { return static_cast<Index>(y * (n + 1) + x); };
+  std::bernoulli_distribution coin(0.5);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const Index a = id(x, y), b = id(x + 1, y), c = id(x + 1, y + 1), d = id(x, y + 1);
+      const std::array<Index, 6> f = coin(rng) ? std::array<Index, 6>{a, b, c, a, c, d} : std::array<Index, 6>{a, b, d, b, c, d};
+      m.faces.insert(m.faces.end(), f.begin(), f.end());
+    }
+  std::mt19937_64 rng2(seed + 1);
+  return ricci_shapes::insert_needles_and_caps(m, rng2, 0.35, 0.03);
+}
+
+struct Point {
+  double x, y;
+};
+
+double cross(Point o, Point a, Point b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); }
+
+// Whether the open segments pq and rs cross at one interior point (shared end points do not count).
+bool segments_cross(Point p, Point q, Point r, Point s) {
+  const double d1 = cross(p, q, r), d2 = cross(p, q, s), d3 = cross(r, s, p), d4 = cross(r, s, q);
+  return ((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0));
+}
+
+// Where segment pq meets line rs, as the parameter t along pq.
+double crossing_parameter(Point p, Point q, Point r, Point s) {
+  const double d1 = cross(r, s, p), d2 = cross(r, s, q);
+  return d1 / (d1 - d2);
+}
+
+std::vector<double> edge_lengths(const Mesh& m, const Topology& t) {
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) d2 += std::pow(m.positions[3 * a + k] - m.positions[3 * b + k], 2);
+    l[e] = std::sqrt(d2);
+  }
+  return l;
+}
+
+// The arcs of every face are consistent: counts are whole and not negative, at most one corner of a
+// face sends arcs across the opposite side.
+void check_arcs(const IntrinsicTriangulation& tri) {
+  const Topology& t = tri.topology;
+  for (Index f = 0; f < t.num_faces; ++f) {
+    int sending = 0;
+    for (Index c = 3 * f; c < 3 * f + 3; ++c) {
+      const CornerArcs arcs = corner_arcs(tri, c);
+      REQUIRE(arcs.around >= 0);
+      REQUIRE(arcs.from_vertex >= 0);
+      sending += arcs.from_vertex > 0 ? 1 : 0;
+      std::int64_t sum = 0;
+      for (Index x = 3 * f; x < 3 * f + 3; ++x) sum += std::max<std::int64_t>(0, tri.normal[t.corner_edge[x]]);
+      sum -= corner_arcs(tri, 3 * f).from_vertex + corner_arcs(tri, 3 * f + 1).from_vertex +
+             corner_arcs(tri, 3 * f + 2).from_vertex;
+      REQUIRE(sum % 2 == 0);
+    }
+    REQUIRE(sending <= 1);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("intrinsic trace: in the plane, normal coordinates count the input segments each flipped edge crosses, and traces list them in order") {
+  for (const std::uint64_t seed : {1u, 2u, 3u}) {
+    CAPTURE(seed);
+    const ValidateResult v = validate_mesh(planar_obtuse_mesh(9, seed));
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const Topology& input = v.topology;
+    // Geometric flips to the intrinsic Delaunay triangulation: in a planar region every new edge is
+    // the straight segment between its end points.
+    const IntrinsicResult r = make_intrinsic_triangulation(input, Geometry::Euclidean, edge_lengths(v.mesh, input));
+    REQUIRE(r.status == Status::Ok);
+    REQUIRE(r.delaunay_flips > 20);
+    const IntrinsicTriangulation& tri = r.triangulation;
+    check_arcs(tri);
+    auto point = [&v](Index i) { return Point{v.mesh.positions[3 * i], v.mesh.positions[3 * i + 1]}; };
+    Index coinciding = 0;
+    for (Index e = 0; e < tri.topology.num_edges; ++e) {
+      const Point p = point(tri.topology.edge_vertices[2 * e]), q = point(tri.topology.edge_vertices[2 * e + 1]);
+      std::int64_t crossings = 0;
+      bool is_input = false;
+      for (Index a = 0; a < input.num_edges; ++a) {
+        const Index ia = input.edge_vertices[2 * a], ib = input.edge_vertices[2 * a + 1];
+        const Index ta = tri.topology.edge_vertices[2 * e], tb = tri.topology.edge_vertices[2 * e + 1];
+        if ((ia == ta && ib == tb) || (ia == tb && ib == ta)) is_input = true;
+        if (segments_cross(p, q, point(ia), point(ib))) ++crossings;
+      }
+      CAPTURE(e);
+      CHECK(tri.normal[e] == (is_input ? -1 : crossings));
+      coinciding += is_input ? 1 : 0;
+    }
+    CHECK(coinciding < input.num_edges);  // some input edges were flipped away
+
+    const InputEdgePaths paths = trace_input_edges(tri, input);
+    REQUIRE_MESSAGE(paths.status == Status::Ok, paths.message);
+    std::int64_t total = 0;
+    for (Index e = 0; e < tri.topology.num_edges; ++e) total += std::max<std::int64_t>(0, tri.normal[e]);
+    CHECK(paths.offsets.back() == total);
+    for (Index a = 0; a < input.num_edges; ++a) {
+      CAPTURE(a);
+      const Point p = point(input.edge_vertices[2 * a]), q = point(input.edge_vertices[2 * a + 1]);
+      const Index begin = paths.offsets[a], end = paths.offsets[a + 1];
+      CHECK((paths.along[a] != kInvalid) == (begin == end));
+      CHECK(tri.topology.corner_vertex[paths.first_corner[a]] == input.edge_vertices[2 * a]);
+      CHECK(tri.topology.corner_vertex[paths.last_corner[a]] == input.edge_vertices[2 * a + 1]);
+      double last_t = 0;
+      for (Index k = begin; k < end; ++k) {
+        const Index e = paths.crossed_edge[k];
+        const Point r0 = point(tri.topology.edge_vertices[2 * e]), r1 = point(tri.topology.edge_vertices[2 * e + 1]);
+        REQUIRE(segments_cross(p, q, r0, r1));
+        const double t = crossing_parameter(p, q, r0, r1);
+        CHECK(t > last_t);  // in order along the input edge
+        last_t = t;
+        // The slot: how many other input segments cross e nearer its first vertex.
+        const double s = crossing_parameter(r0, r1, p, q);
+        Index nearer = 0;
+        for (Index b = 0; b < input.num_edges; ++b) {
+          const Point pb = point(input.edge_vertices[2 * b]), qb = point(input.edge_vertices[2 * b + 1]);
+          if (b != a && segments_cross(r0, r1, pb, qb) && crossing_parameter(r0, r1, pb, qb) < s) ++nearer;
+        }
+        CHECK(paths.crossed_slot[k] == nearer);
+      }
+    }
+  }
+}
+
+TEST_CASE("intrinsic trace: random Ptolemy flips keep the normal coordinates consistent, and flipping back marks every edge as an input edge again") {
+  std::mt19937_64 rng(11);
+  const ValidateResult v = validate_mesh(ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(12, 6, 2.0, 0.7), rng, 0.3, 0.03));
+  REQUIRE(v.status == Status::Ok);
+  IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, edge_lengths(v.mesh, v.topology), false);
+  REQUIRE(r.status == Status::Ok);
+  IntrinsicTriangulation tri = r.triangulation;
+  std::vector<Index> done;
+  for (int k = 0; k < 3000; ++k) {
+    const Index e = static_cast<Index>(rng() % static_cast<std::uint64_t>(tri.topology.num_edges));
+    if (can_flip(tri, e) != FlipCheck::Ok) continue;
+    flip_edge(tri, e);
+    done.push_back(e);
+    if (k % 500 == 0) {
+      check_arcs(tri);
+      refresh_vertex_corners(tri.topology);
+      const InputEdgePaths paths = trace_input_edges(tri, v.topology);
+      REQUIRE_MESSAGE(paths.status == Status::Ok, paths.message);
+    }
+  }
+  check_arcs(tri);
+  const InputEdgePaths paths = trace_input_edges(tri, v.topology);
+  REQUIRE_MESSAGE(paths.status == Status::Ok, paths.message);
+  Index crossing = 0;
+  for (Index a = 0; a < v.topology.num_edges; ++a) crossing += paths.along[a] == kInvalid ? 1 : 0;
+  CHECK(crossing > v.topology.num_edges / 2);
+  // Each flip undone by flipping the same edge again, last first.
+  for (auto it = done.rbegin(); it != done.rend(); ++it) flip_edge(tri, *it);
+  for (Index e = 0; e < tri.topology.num_edges; ++e) REQUIRE(tri.normal[e] == -1);
+}
+
+TEST_CASE("intrinsic trace: after the flow's flips in E, H and S every input edge is traced") {
+  std::mt19937_64 rng(5);
+  struct Item {
+    const char* name;
+    Mesh mesh;
+    Geometry g;
+  };
+  std::vector<Item> items;
+  items.push_back({"torus (E)", ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02), Geometry::Euclidean});
+  items.push_back({"pretzel (H)", ricci_shapes::insert_needles_and_caps(ricci_shapes::pretzel(2, 3), rng, 0.3, 0.02), Geometry::Hyperbolic});
+  items.push_back({"icosphere (S)", ricci_shapes::insert_needles_and_caps(ricci_shapes::icosphere(2), rng, 0.3, 0.02), Geometry::Spherical});
+  for (const Item& item : items) {
+    CAPTURE(item.name);
+    const ValidateResult v = validate_mesh(item.mesh);
+    REQUIRE(v.status == Status::Ok);
+    const IntrinsicResult r = mesh_intrinsic_triangulation(v.mesh, v.topology, item.g);
+    REQUIRE(r.status == Status::Ok);
+    const Target target = uniform_target(v.topology);
+    const std::vector<double> u0(static_cast<std::size_t>(v.topology.num_vertices), 0.0);
+    IntrinsicTriangulation tri = r.triangulation;
+    const FlowResult flow = solve_flow_with_flips(tri, u0, target);
+    REQUIRE_MESSAGE(flow.status == Status::Ok, flow.message);
+    CHECK(r.delaunay_flips + flow.flips > 0);
+    check_arcs(tri);
+    const InputEdgePaths paths = trace_input_edges(tri, v.topology);
+    REQUIRE_MESSAGE(paths.status == Status::Ok, paths.message);
+    std::int64_t total = 0;
+    for (Index e = 0; e < tri.topology.num_edges; ++e) total += std::max<std::int64_t>(0, tri.normal[e]);
+    CHECK(paths.offsets.back() == total);
+  }
+}
