@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <array>
+#include <complex>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <random>
 #include <string>
 #include <vector>
@@ -223,5 +225,76 @@ TEST_CASE("intrinsic trace: after the flow's flips in E, H and S every input edg
     std::int64_t total = 0;
     for (Index e = 0; e < tri.topology.num_edges; ++e) total += std::max<std::int64_t>(0, tri.normal[e]);
     CHECK(paths.offsets.back() == total);
+    // The crossings' positions at the solution lie inside their edges, in the order of their slots.
+    const std::vector<double> t = input_edge_crossings(tri, flow.u, paths);
+    std::vector<std::vector<double>> along(static_cast<std::size_t>(tri.topology.num_edges));
+    for (Index e = 0; e < tri.topology.num_edges; ++e) along[e].assign(static_cast<std::size_t>(std::max<std::int64_t>(0, tri.normal[e])), -1.0);
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      REQUIRE(t[k] > 0);
+      REQUIRE(t[k] < 1);
+      along[paths.crossed_edge[k]][paths.crossed_slot[k]] = t[k];
+    }
+    for (const auto& list : along) CHECK(std::is_sorted(list.begin(), list.end()));
+  }
+}
+
+TEST_CASE("intrinsic trace: on points of a circle, where input edges cross the flipped ones is where their chords meet, also after a Möbius map (a vertex scaling)") {
+  using C = std::complex<double>;
+  for (const std::uint64_t seed : {4u, 5u, 6u}) {
+    CAPTURE(seed);
+    std::mt19937_64 rng(seed);
+    // n points on the unit circle, a fan triangulation; every quadrilateral is cyclic, so Ptolemy
+    // flips are the straight diagonals.
+    const int n = 40;
+    std::vector<double> angle(n);
+    std::uniform_real_distribution<double> d(0, 2 * std::numbers::pi);
+    for (double& x : angle) x = d(rng);
+    std::sort(angle.begin(), angle.end());
+    std::vector<C> z(n);
+    Mesh m;
+    for (int i = 0; i < n; ++i) {
+      z[i] = std::polar(1.0, angle[i]);
+      m.positions.insert(m.positions.end(), {z[i].real(), z[i].imag(), 0.0});
+    }
+    for (int i = 1; i + 1 < n; ++i) m.faces.insert(m.faces.end(), {0, i, i + 1});
+    const ValidateResult v = validate_mesh(m);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, edge_lengths(v.mesh, v.topology), false);
+    REQUIRE(r.status == Status::Ok);
+    IntrinsicTriangulation tri = r.triangulation;
+    for (int k = 0; k < 400; ++k) {
+      const Index e = static_cast<Index>(rng() % static_cast<std::uint64_t>(tri.topology.num_edges));
+      if (can_flip(tri, e) == FlipCheck::Ok) flip_edge(tri, e);
+    }
+    refresh_vertex_corners(tri.topology);
+    const InputEdgePaths paths = trace_input_edges(tri, v.topology);
+    REQUIRE_MESSAGE(paths.status == Status::Ok, paths.message);
+    REQUIRE(paths.offsets.back() > 100);
+    // u = 0: the points themselves; then the disk automorphism f(z) = (z − w)/(1 − w̄z), which scales
+    // every edge as vertex scaling does with u_i = log |f'(z_i)|.
+    const C w(0.55, -0.3);
+    for (const bool moved : {false, true}) {
+      CAPTURE(moved);
+      std::vector<double> u(n, 0.0);
+      std::vector<C> image = z;
+      if (moved)
+        for (int i = 0; i < n; ++i) {
+          image[i] = (z[i] - w) / (1.0 - std::conj(w) * z[i]);
+          u[i] = std::log((1 - std::norm(w)) / std::norm(1.0 - std::conj(w) * z[i]));
+        }
+      const std::vector<double> t = input_edge_crossings(tri, u, paths);
+      double worst = 0;
+      for (Index a = 0; a < v.topology.num_edges; ++a)
+        for (Index k = paths.offsets[a]; k < paths.offsets[a + 1]; ++k) {
+          const Index e = paths.crossed_edge[k];
+          const Point p{image[v.topology.edge_vertices[2 * a]].real(), image[v.topology.edge_vertices[2 * a]].imag()};
+          const Point q{image[v.topology.edge_vertices[2 * a + 1]].real(), image[v.topology.edge_vertices[2 * a + 1]].imag()};
+          const Point r0{image[tri.topology.edge_vertices[2 * e]].real(), image[tri.topology.edge_vertices[2 * e]].imag()};
+          const Point r1{image[tri.topology.edge_vertices[2 * e + 1]].real(), image[tri.topology.edge_vertices[2 * e + 1]].imag()};
+          worst = std::max(worst, std::abs(t[k] - crossing_parameter(r0, r1, p, q)));
+        }
+      MESSAGE("seed " << seed << std::string(moved ? " after the Möbius map" : "") << ": largest error in t " << worst);
+      CHECK(worst < 1e-10);
+    }
   }
 }

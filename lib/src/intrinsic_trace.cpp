@@ -10,6 +10,7 @@
 #include "ricci/intrinsic_trace.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <unordered_map>
@@ -68,7 +69,7 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
 
   struct Strand {
     Index first_corner = kInvalid, last_corner = kInvalid;
-    std::vector<Index> edges, slots;
+    std::vector<Index> edges, slots, corners;
   };
   std::vector<Strand> strands(static_cast<std::size_t>(nin));
   std::vector<std::uint8_t> found(static_cast<std::size_t>(nin), 0);
@@ -119,6 +120,7 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
         walked[slot_offset[e] + slot] = 1;
         strand.edges.push_back(e);
         strand.slots.push_back(slot);
+        strand.corners.push_back(exit);
         const Index y = t.opposite[exit];
         if (y == kInvalid) return fail("a walk from corner " + std::to_string(x) + " leaves the surface");
         const Index count = static_cast<Index>(tri.normal[e]);
@@ -148,8 +150,11 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
         return fail("a strand joins vertices " + std::to_string(va) + " and " + std::to_string(vb) +
                     ", which no input edge (not yet found) joins");
       if (input.edge_vertices[2 * a] != va) {
+        // Walked from the other end: the same crossings backwards, each left from the other side.
         std::reverse(strand.edges.begin(), strand.edges.end());
         std::reverse(strand.slots.begin(), strand.slots.end());
+        std::reverse(strand.corners.begin(), strand.corners.end());
+        for (Index& c : strand.corners) c = t.opposite[c];
         std::swap(strand.first_corner, strand.last_corner);
       }
       strands[a] = std::move(strand);
@@ -164,17 +169,95 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
   for (Index a = 0; a < nin; ++a) r.offsets[a + 1] = r.offsets[a] + static_cast<Index>(strands[a].edges.size());
   r.crossed_edge.reserve(static_cast<std::size_t>(r.offsets[nin]));
   r.crossed_slot.reserve(static_cast<std::size_t>(r.offsets[nin]));
+  r.crossed_corner.reserve(static_cast<std::size_t>(r.offsets[nin]));
   r.first_corner.resize(static_cast<std::size_t>(nin));
   r.last_corner.resize(static_cast<std::size_t>(nin));
   for (Index a = 0; a < nin; ++a) {
     r.crossed_edge.insert(r.crossed_edge.end(), strands[a].edges.begin(), strands[a].edges.end());
     r.crossed_slot.insert(r.crossed_slot.end(), strands[a].slots.begin(), strands[a].slots.end());
+    r.crossed_corner.insert(r.crossed_corner.end(), strands[a].corners.begin(), strands[a].corners.end());
     r.first_corner[a] = strands[a].first_corner;
     r.last_corner[a] = strands[a].last_corner;
   }
   r.status = Status::Ok;
   r.message = "ok";
   return r;
+}
+
+}  // namespace ricci
+
+namespace ricci {
+
+std::vector<double> input_edge_crossings(const IntrinsicTriangulation& tri, std::span<const double> u,
+                                         const InputEdgePaths& paths) {
+  const Topology& t = tri.topology;
+  const Index nin = static_cast<Index>(paths.offsets.size()) - 1;
+  std::vector<double> fraction(paths.crossed_edge.size(), 0.0);
+  // log λ of a current edge at u.
+  auto log_lambda = [&](Index e) {
+    return tri.log_chord_of(e) + 0.5 * (u[t.edge_vertices[2 * e]] + u[t.edge_vertices[2 * e + 1]]);
+  };
+#pragma omp parallel if (nin >= 1024)
+  {
+    // Per crossing of one input edge: log √(diameter) of the horocycles at the crossed edge's ends p,
+    // q (p = vertex(next(corner)), in the edge's interval renormalised to [0, 1]), and the affine map
+    // t_k = α_k + β_k t_{k+1} from the next interval into this one.
+    std::vector<double> rho_p, rho_q, alpha, beta;
+#pragma omp for schedule(dynamic, 64)
+    for (Index a = 0; a < nin; ++a) {
+      const Index begin = paths.offsets[a], end = paths.offsets[a + 1], m = end - begin;
+      if (m == 0) continue;
+      rho_p.resize(static_cast<std::size_t>(m));
+      rho_q.resize(static_cast<std::size_t>(m));
+      alpha.resize(static_cast<std::size_t>(m));
+      beta.resize(static_cast<std::size_t>(m));
+      // The first face: its corner at the input edge's start is at ∞ (horocycle height 1), the
+      // crossed side is the interval [p, q] scaled to [0, 1].
+      const Index x = paths.first_corner[a];
+      {
+        const double l_ap = log_lambda(t.corner_edge[prev_corner(x)]), l_aq = log_lambda(t.corner_edge[next_corner(x)]);
+        const double l_pq = log_lambda(t.corner_edge[x]);
+        rho_p[0] = 0.5 * (l_aq - l_ap - l_pq);
+        rho_q[0] = 0.5 * (l_ap - l_aq - l_pq);
+      }
+      double last = 0;  // t of the input edge's end in the last interval
+      for (Index k = 0; k < m; ++k) {
+        // Across the side into the face of y: its apex r lies under the side's semicircle.
+        const Index y = t.opposite[paths.crossed_corner[begin + k]];
+        const double l_pr = log_lambda(t.corner_edge[next_corner(y)]), l_qr = log_lambda(t.corner_edge[prev_corner(y)]);
+        const double sp = l_pr + rho_p[k], sq = l_qr + rho_q[k];
+        const double top = std::max(sp, sq);
+        const double rho_r = -(top + std::log(std::exp(sp - top) + std::exp(sq - top)));
+        const double x_r = std::exp(sp + rho_r), rest = std::exp(sq + rho_r);  // x_r + rest = 1
+        if (k + 1 == m) {
+          last = x_r;
+          break;
+        }
+        if (paths.crossed_corner[begin + k + 1] == next_corner(y)) {  // on to side p r: [0, x_r]
+          alpha[k] = 0;
+          beta[k] = x_r;
+          rho_p[k + 1] = rho_p[k] - 0.5 * std::log(x_r);
+          rho_q[k + 1] = rho_r - 0.5 * std::log(x_r);
+        } else {  // on to side r q: [x_r, 1]
+          alpha[k] = x_r;
+          beta[k] = rest;
+          rho_p[k + 1] = rho_r - 0.5 * std::log(rest);
+          rho_q[k + 1] = rho_q[k] - 0.5 * std::log(rest);
+        }
+      }
+      // Back from the end: the vertical line's place in each interval, then the point on the
+      // semicircle measured from the horocycles' halfway point: t' = t D_q / (t D_q + (1 − t) D_p).
+      double tk = last;
+      for (Index k = m - 1; k >= 0; --k) {
+        if (k + 1 < m) tk = alpha[k] + beta[k] * tk;
+        const double ratio = std::exp(2 * (rho_q[k] - rho_p[k]));
+        const double chord = tk * ratio / (tk * ratio + (1 - tk));
+        const Index c = paths.crossed_corner[begin + k], e = t.corner_edge[c];
+        fraction[static_cast<std::size_t>(begin + k)] = t.edge_corners[2 * e] == c ? chord : 1 - chord;
+      }
+    }
+  }
+  return fraction;
 }
 
 }  // namespace ricci

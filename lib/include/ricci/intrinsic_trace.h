@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,8 @@ struct InputEdgePaths {
   /// Which crossing of that edge it is: 0 for the one nearest the current edge's first vertex
   /// (edge_vertices[2e]).
   std::vector<Index> crossed_slot;
+  /// The corner opposite the crossed edge in the face the input edge leaves there.
+  std::vector<Index> crossed_corner;
   /// #E(input): the current edge the input edge coincides with (normal −1), kInvalid when it
   /// crosses edges instead.
   std::vector<Index> along;
@@ -59,6 +62,25 @@ struct InputEdgePaths {
 /// Traces every input edge over the current triangulation from its normal coordinates. O(#E +
 /// total crossings).
 InputEdgePaths trace_input_edges(const IntrinsicTriangulation& triangulation, const Topology& input);
+
+/// Where the input edges cross the current ones in the metric at u (#V): per crossing of `paths`,
+/// the position on the crossed edge e as a fraction t ∈ (0, 1) of its chord from edge_vertices[2e]
+/// (E: the point (1 − t) P₀ + t P₁ of the straight edge; H and S: that point of the chord in the
+/// plane of the edge's two ends on the hyperboloid or the sphere, projected back from the centre).
+///
+/// This is the map of Bobenko–Pinkall–Springborn 2015 and Gillespie–Springborn–Crane 2021: the
+/// metric's chords are Penner λ-lengths of one decorated ideal hyperbolic surface, every
+/// triangulation's edges (the input's and the current) are its ideal geodesics, and each triangle
+/// is mapped to its ideal triangle projectively (the ideal triangle in the Klein model of the
+/// triangle's circumdisk). In each face an input edge is therefore a straight segment, the pieces
+/// meet on the edges, and the map does not depend on the flips that led to the triangulation. An
+/// input edge from a to b is laid out over the faces it crosses in the upper half plane with a at
+/// ∞ (horocycle diameters from the λ-lengths, renormalised at each edge, so the layout's nested
+/// intervals never underflow); it is the vertical line through b, and its height on the crossed
+/// edge's semicircle, measured from the point halfway between the two ends' horocycles, gives t.
+/// O(total crossings).
+std::vector<double> input_edge_crossings(const IntrinsicTriangulation& triangulation, std::span<const double> u,
+                                         const InputEdgePaths& paths);
 
 /// The arcs of the input edges inside the face of corner c, seen from c (see the top of this header).
 struct CornerArcs {
