@@ -298,3 +298,44 @@ TEST_CASE("intrinsic trace: on points of a circle, where input edges cross the f
     }
   }
 }
+
+TEST_CASE("intrinsic flow: the stress kinds converge with flips and their input edges trace") {
+  const std::vector<ricci_shapes::StressMesh> meshes = ricci_shapes::stress_meshes(ricci_shapes::StressSize::Small, 20260101);
+  // Not solved yet (the line search stops): the pancake in S near 1.5e-10, the strips of aspect
+  // 100 and 1000 with circle boundaries in E. Each must still stop with a named status and no NaN.
+  const std::vector<std::string> open = {"pancake", "strip-100", "strip-1000"};
+  int solved = 0, refused = 0, unsolved = 0;
+  for (const ricci_shapes::StressMesh& s : meshes) {
+    INFO(s.name);
+    const ValidateResult v = validate_mesh(s.mesh);
+    if (v.status != Status::Ok) {
+      ++refused;  // refused at validation, as the pipeline refuses it (test_stress.cpp)
+      continue;
+    }
+    const Geometry g = natural_geometry(v.topology);
+    const Target target = uniform_target(v.topology, natural_boundary_mode(v.topology, g));
+    IntrinsicResult r = mesh_intrinsic_triangulation(v.mesh, v.topology, g);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    const std::vector<double> u0(static_cast<std::size_t>(v.topology.num_vertices), 0.0);
+    const FlowResult flow = solve_flow_with_flips(r.triangulation, u0, target);
+    MESSAGE(s.name << " (" << v.topology.num_faces << " faces, " << geometry_name(g) << "): "
+                   << status_name(flow.status) << ", " << flow.iterations << " Newton steps, "
+                   << r.delaunay_flips + flow.flips << " flips, max error " << flow.max_curvature_error);
+    if (std::find(open.begin(), open.end(), s.name) != open.end()) {
+      CHECK(flow.status != Status::Ok);  // when one is solved, move it out of `open`
+      CHECK(!flow.message.empty());
+      for (const double x : flow.u) REQUIRE(std::isfinite(x));
+      ++unsolved;
+      continue;
+    }
+    CHECK_MESSAGE(flow.status == Status::Ok, flow.message);
+    if (flow.status != Status::Ok) continue;
+    CHECK(flow.max_curvature_error < 1e-10);
+    const InputEdgePaths paths = trace_input_edges(r.triangulation, v.topology);
+    CHECK_MESSAGE(paths.status == Status::Ok, paths.message);
+    ++solved;
+  }
+  CHECK(solved + refused + unsolved == static_cast<int>(meshes.size()));
+  CHECK(unsolved == static_cast<int>(open.size()));
+  CHECK(solved >= 10);
+}

@@ -1,21 +1,27 @@
 // flip_sweep — the flow stage on mesh files, scheme by scheme: the paper's circle packing and
 // vertex scaling (Yamabe) on the mesh's own triangulation (solve_flow()), and vertex scaling with
 // intrinsic Delaunay flips (solve_flow_with_flips()). Prints a Markdown table of Newton
-// iterations, flips, max |K̄ − K| and seconds per mesh and scheme. A benchmark, not a test.
+// iterations, flips, max |K̄ − K| and seconds per mesh and scheme, and for the flipped solution
+// how the input's edges run on it (trace_input_edges(), input_edge_crossings()): crossings in
+// all, the most on one input edge, seconds, and whether every crossing lies inside its edge in
+// slot order. A benchmark, not a test.
 //
-//   build/tools/flip_sweep [--threads N] MESH...      (e.g. ../shared/meshes/genus*/*.off)
+//   build/tools/flip_sweep [--threads N] [--flips-only] MESH...   (e.g. ../shared/meshes/genus*/*.off)
 //
 // Geometry and target as `ricci uniformize` chooses them: S/E/H by χ for closed surfaces, E with
 // circle boundaries for genus 0 with boundary, H with geodesic boundaries otherwise. Meshes that
 // do not validate are listed with their status.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "ricci/flow.h"
 #include "ricci/intrinsic.h"
+#include "ricci/intrinsic_trace.h"
 #include "ricci/io.h"
 #include "ricci/validate.h"
 
@@ -37,35 +43,65 @@ std::string cell(const FlowResult& r, bool flips) {
   return buffer;
 }
 
+// The input's edges on the final triangulation: "N crossings (max M on one edge), S s", or why not.
+std::string trace_cell(const IntrinsicTriangulation& tri, const Topology& input, std::span<const double> u) {
+  const auto start = std::chrono::steady_clock::now();
+  const InputEdgePaths paths = trace_input_edges(tri, input);
+  if (paths.status != Status::Ok) return "trace: " + paths.message;
+  const std::vector<double> t = input_edge_crossings(tri, u, paths);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // Inside the edges and in slot order along each.
+  std::vector<std::vector<double>> along(static_cast<std::size_t>(tri.topology.num_edges));
+  for (Index e = 0; e < tri.topology.num_edges; ++e)
+    along[e].assign(static_cast<std::size_t>(std::max<std::int64_t>(0, tri.normal[e])), 0.0);
+  bool ordered = true;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    ordered = ordered && t[k] > 0 && t[k] < 1;
+    along[paths.crossed_edge[k]][paths.crossed_slot[k]] = t[k];
+  }
+  for (const auto& list : along)
+    for (std::size_t k = 1; k < list.size(); ++k) ordered = ordered && list[k - 1] < list[k];
+  Index most = 0;
+  for (std::size_t a = 0; a + 1 < paths.offsets.size(); ++a) most = std::max(most, paths.offsets[a + 1] - paths.offsets[a]);
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, "%lld crossings (max %lld on one edge), %.2f s%s",
+                static_cast<long long>(t.size()), static_cast<long long>(most), seconds,
+                ordered ? "" : ", OUT OF ORDER");
+  return buffer;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int threads = 0;
+  bool flips_only = false;
   std::vector<std::string> paths;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--threads" && i + 1 < argc) {
       threads = std::atoi(argv[++i]);
+    } else if (a == "--flips-only") {
+      flips_only = true;
     } else {
       paths.push_back(a);
     }
   }
   if (paths.empty()) {
-    std::fprintf(stderr, "usage: flip_sweep [--threads N] MESH...\n");
+    std::fprintf(stderr, "usage: flip_sweep [--threads N] [--flips-only] MESH...\n");
     return 2;
   }
-  std::printf("| mesh | faces | geometry | circle packing | yamabe, no flips | yamabe with flips |\n");
-  std::printf("|---|---:|---|---|---|---|\n");
+  std::printf("| mesh | faces | geometry | circle packing | yamabe, no flips | yamabe with flips | input edges on it |\n");
+  std::printf("|---|---:|---|---|---|---|---|\n");
   for (const std::string& path : paths) {
     const ReadResult read = read_mesh(path);
     const std::string name = path.substr(path.find_last_of('/') + 1);
     if (read.status != Status::Ok) {
-      std::printf("| %s | – | – | %s | | |\n", name.c_str(), std::string(status_name(read.status)).c_str());
+      std::printf("| %s | – | – | %s | | | |\n", name.c_str(), std::string(status_name(read.status)).c_str());
       continue;
     }
     const ValidateResult v = validate_mesh(read.mesh);
     if (v.status != Status::Ok) {
-      std::printf("| %s | – | – | %s | | |\n", name.c_str(), std::string(status_name(v.status)).c_str());
+      std::printf("| %s | – | – | %s | | | |\n", name.c_str(), std::string(status_name(v.status)).c_str());
       continue;
     }
     const Topology& t = v.topology;
@@ -73,8 +109,8 @@ int main(int argc, char** argv) {
     const Target target = uniform_target(t, natural_boundary_mode(t, g));
     FlowOptions options;
     options.threads = threads;
-    std::string cells[3];
-    for (int k = 0; k < 2; ++k) {
+    std::string cells[4];
+    for (int k = 0; k < (flips_only ? 0 : 2); ++k) {
       InitialMetricOptions o;
       o.geometry = g;
       o.scheme = k == 0 ? Scheme::CirclePacking : Scheme::Yamabe;
@@ -92,9 +128,11 @@ int main(int argc, char** argv) {
       r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       r.flips += tri.delaunay_flips;
       cells[2] = cell(r, true);
+      if (r.status == Status::Ok) cells[3] = trace_cell(tri.triangulation, t, r.u);
     }
-    std::printf("| %s | %d | %s | %s | %s | %s |\n", name.c_str(), t.num_faces, std::string(geometry_name(g)).c_str(),
-                cells[0].c_str(), cells[1].c_str(), cells[2].c_str());
+    std::printf("| %s | %d | %s | %s | %s | %s | %s |\n", name.c_str(), t.num_faces,
+                std::string(geometry_name(g)).c_str(), cells[0].c_str(), cells[1].c_str(), cells[2].c_str(),
+                cells[3].c_str());
     std::fflush(stdout);
   }
   return 0;

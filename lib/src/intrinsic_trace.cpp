@@ -228,7 +228,9 @@ std::vector<double> input_edge_crossings(const IntrinsicTriangulation& tri, std:
         const double sp = l_pr + rho_p[k], sq = l_qr + rho_q[k];
         const double top = std::max(sp, sq);
         const double rho_r = -(top + std::log(std::exp(sp - top) + std::exp(sq - top)));
-        const double x_r = std::exp(sp + rho_r), rest = std::exp(sq + rho_r);  // x_r + rest = 1
+        // x_r + rest = 1; floored at 1e-300 so that no log below meets 0 (no such face is resolved in
+        // double precision anyway).
+        const double x_r = std::max(1e-300, std::exp(sp + rho_r)), rest = std::max(1e-300, std::exp(sq + rho_r));
         if (k + 1 == m) {
           last = x_r;
           break;
@@ -250,7 +252,7 @@ std::vector<double> input_edge_crossings(const IntrinsicTriangulation& tri, std:
       double tk = last;
       for (Index k = m - 1; k >= 0; --k) {
         if (k + 1 < m) tk = alpha[k] + beta[k] * tk;
-        const double ratio = std::exp(2 * (rho_q[k] - rho_p[k]));
+        const double ratio = std::exp(std::clamp(2 * (rho_q[k] - rho_p[k]), -700.0, 700.0));
         const double chord = tk * ratio / (tk * ratio + (1 - tk));
         const Index c = paths.crossed_corner[begin + k], e = t.corner_edge[c];
         fraction[static_cast<std::size_t>(begin + k)] = t.edge_corners[2 * e] == c ? chord : 1 - chord;

@@ -78,7 +78,13 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& triangulation, co
 /// ∞ (horocycle diameters from the λ-lengths, renormalised at each edge, so the layout's nested
 /// intervals never underflow); it is the vertical line through b, and its height on the crossed
 /// edge's semicircle, measured from the point halfway between the two ends' horocycles, gives t.
-/// O(total crossings).
+///
+/// The crossings are those of the input's edges taken as ideal geodesics of that surface. They are
+/// the images of the straight input edges when the flips were all Ptolemy flips; after
+/// FlipRule::Geometric flips (make_intrinsic_triangulation() with `delaunay`) an input edge that
+/// was flipped away is not one of those geodesics, and its image crosses the same edges in the same
+/// order but elsewhere (the map of the input surface goes through its intrinsic Delaunay
+/// triangulation). O(total crossings).
 std::vector<double> input_edge_crossings(const IntrinsicTriangulation& triangulation, std::span<const double> u,
                                          const InputEdgePaths& paths);
 
