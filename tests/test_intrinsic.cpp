@@ -45,13 +45,7 @@ Case make_case(const std::string& name, const Mesh& input, Geometry g) {
   // The lengths the pipeline starts from, read off a triangulation made without flips.
   const IntrinsicResult r = mesh_intrinsic_triangulation(c.mesh, c.topology, g);
   REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
-  c.l.resize(static_cast<std::size_t>(c.topology.num_edges));
-  for (Index e = 0; e < c.topology.num_edges; ++e) {
-    const Index a = c.topology.edge_vertices[2 * e], b = c.topology.edge_vertices[2 * e + 1];
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) d2 += std::pow(c.mesh.positions[3 * a + k] - c.mesh.positions[3 * b + k], 2);
-    c.l[e] = std::sqrt(d2);
-  }
+  c.l = mesh_edge_lengths(c.mesh, c.topology);
   if (g != Geometry::Euclidean) {
     // Same scale as mesh_intrinsic_triangulation(): recover it from any edge it kept unflipped.
     const Topology& t = r.triangulation.topology;

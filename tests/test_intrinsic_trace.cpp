@@ -67,17 +67,6 @@ double crossing_parameter(Point p, Point q, Point r, Point s) {
   return d1 / (d1 - d2);
 }
 
-std::vector<double> edge_lengths(const Mesh& m, const Topology& t) {
-  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
-  for (Index e = 0; e < t.num_edges; ++e) {
-    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) d2 += std::pow(m.positions[3 * a + k] - m.positions[3 * b + k], 2);
-    l[e] = std::sqrt(d2);
-  }
-  return l;
-}
-
 // The arcs of every face are consistent: counts are whole and not negative, at most one corner of a
 // face sends arcs across the opposite side.
 void check_arcs(const IntrinsicTriangulation& tri) {
@@ -109,7 +98,7 @@ TEST_CASE("intrinsic trace: in the plane, normal coordinates count the input seg
     const Topology& input = v.topology;
     // Geometric flips to the intrinsic Delaunay triangulation: in a planar region every new edge is
     // the straight segment between its end points.
-    const IntrinsicResult r = make_intrinsic_triangulation(input, Geometry::Euclidean, edge_lengths(v.mesh, input));
+    const IntrinsicResult r = make_intrinsic_triangulation(input, Geometry::Euclidean, mesh_edge_lengths(v.mesh, input));
     REQUIRE(r.status == Status::Ok);
     REQUIRE(r.delaunay_flips > 20);
     const IntrinsicTriangulation& tri = r.triangulation;
@@ -169,7 +158,7 @@ TEST_CASE("intrinsic trace: random Ptolemy flips keep the normal coordinates con
   std::mt19937_64 rng(11);
   const ValidateResult v = validate_mesh(ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(12, 6, 2.0, 0.7), rng, 0.3, 0.03));
   REQUIRE(v.status == Status::Ok);
-  IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, edge_lengths(v.mesh, v.topology), false);
+  IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, mesh_edge_lengths(v.mesh, v.topology), false);
   REQUIRE(r.status == Status::Ok);
   IntrinsicTriangulation tri = r.triangulation;
   std::vector<Index> done;
@@ -259,7 +248,7 @@ TEST_CASE("intrinsic trace: on points of a circle, where input edges cross the f
     for (int i = 1; i + 1 < n; ++i) m.faces.insert(m.faces.end(), {0, i, i + 1});
     const ValidateResult v = validate_mesh(m);
     REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
-    const IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, edge_lengths(v.mesh, v.topology), false);
+    const IntrinsicResult r = make_intrinsic_triangulation(v.topology, Geometry::Euclidean, mesh_edge_lengths(v.mesh, v.topology), false);
     REQUIRE(r.status == Status::Ok);
     IntrinsicTriangulation tri = r.triangulation;
     for (int k = 0; k < 400; ++k) {

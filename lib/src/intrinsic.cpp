@@ -159,17 +159,8 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
 }
 
 IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry) {
-  const Index ne = topology.num_edges, nf = topology.num_faces;
-  std::vector<double> l(static_cast<std::size_t>(ne));
-  for (Index e = 0; e < ne; ++e) {
-    const Index a = topology.edge_vertices[2 * e], b = topology.edge_vertices[2 * e + 1];
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = mesh.positions[3 * a + k] - mesh.positions[3 * b + k];
-      d2 += d * d;
-    }
-    l[e] = std::sqrt(d2);
-  }
+  const Index nf = topology.num_faces;
+  std::vector<double> l = mesh_edge_lengths(mesh, topology);
   double scale = 1;
   if (geometry != Geometry::Euclidean) {
     double area = 0;

@@ -108,6 +108,20 @@ bool InitialMetricOptions::is_valid(std::string* why) const {
   return true;
 }
 
+std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology) {
+  std::vector<double> l(static_cast<std::size_t>(topology.num_edges));
+  for (Index e = 0; e < topology.num_edges; ++e) {
+    const Index a = topology.edge_vertices[2 * e], b = topology.edge_vertices[2 * e + 1];
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = mesh.positions[3 * a + k] - mesh.positions[3 * b + k];
+      d2 += d * d;
+    }
+    l[e] = std::sqrt(d2);
+  }
+  return l;
+}
+
 InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialMetricOptions& options) {
   InitialMetric r;
   if (std::string why; !options.is_valid(&why)) {

@@ -182,16 +182,7 @@ AngleDistortion angle_distortion(const Mesh& mesh, const Topology& topology, Geo
   if (l.size() != static_cast<std::size_t>(E) || mesh.faces.size() != static_cast<std::size_t>(3 * F) ||
       mesh.positions.size() < static_cast<std::size_t>(3 * topology.num_vertices))
     return a;
-  std::vector<double> l3(static_cast<std::size_t>(E));
-  for (Index e = 0; e < E; ++e) {
-    const Index u = topology.edge_vertices[2 * e], v = topology.edge_vertices[2 * e + 1];
-    double s = 0;
-    for (int d = 0; d < 3; ++d) {
-      const double x = mesh.positions[3 * u + d] - mesh.positions[3 * v + d];
-      s += x * x;
-    }
-    l3[e] = std::sqrt(s);
-  }
+  const std::vector<double> l3 = mesh_edge_lengths(mesh, topology);
   std::vector<double> t3(static_cast<std::size_t>(3 * F)), tm(static_cast<std::size_t>(3 * F));
   corner_angles(topology, Geometry::Euclidean, l3, t3);
   corner_angles(topology, g, l, tm);

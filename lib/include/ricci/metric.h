@@ -130,6 +130,9 @@ AngleRelaxation relax_intersection_angles(const Topology& topology, std::span<do
 /// Yamabe u = 0 and η reproducing l0.
 InitialMetric initial_metric(const Mesh& mesh, const Topology& topology, const InitialMetricOptions& options = {});
 
+/// The mesh's own 3D edge lengths, #E in topology's edge order.
+std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology);
+
 // ---------------------------------------------------------------------------------------------
 // Kernels. Shapes: u #V, l #E, theta #F×3 (per corner), K #V, area #F, blocks #F×9.
 
