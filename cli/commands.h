@@ -115,7 +115,8 @@ struct UniformizeCommandOptions {
   std::string output;                     ///< -o OUTDIR
   std::string metric;                     ///< layout: the metric file (then no flow runs)
   std::string geometry = "auto";          ///< auto, euclidean, hyperbolic, spherical
-  std::string scheme = "circle-packing";  ///< circle-packing, inversive-distance, yamabe
+  std::string scheme = "auto";            ///< auto (= yamabe), circle-packing, inversive-distance, yamabe
+  bool no_flips = false;                  ///< yamabe without intrinsic Delaunay flips
   std::string target = "auto";            ///< auto, uniform, cones=FILE, single-vertex=I
   std::string boundary = "auto";          ///< auto, free, fixed, circle, geodesic, loop-totals=…
   double tolerance = 1e-12;               ///< flow: max |K̄ − K| at convergence

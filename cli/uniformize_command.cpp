@@ -261,6 +261,43 @@ std::string disk_obj(const ricci::CutResult& cut, std::span<const double> x, Geo
   return s;
 }
 
+// The common subdivision (a refined result) as OBJ: its faces grouped by the input face each lies
+// in (`g input_face_F`, 0-based), positions `x` (#V×3) and, when `uv` is not empty, per-corner
+// texture coordinates (uv per cut vertex, corner_uv per corner).
+std::string refinement_obj(const std::string& what, const std::string& source, std::span<const double> x,
+                           std::span<const Index> faces, std::span<const Index> face_input, std::span<const double> uv,
+                           std::span<const Index> corner_uv) {
+  std::string s = obj_header(what + "; faces grouped by the input face they lie in (g input_face_F, 0-based)", source);
+  for (std::size_t v = 0; v + 2 < x.size(); v += 3) {
+    s += "v ";
+    for (int d = 0; d < 3; ++d) {
+      append_number(s, x[v + d]);
+      s += d < 2 ? ' ' : '\n';
+    }
+  }
+  for (std::size_t t = 0; t + 1 < uv.size(); t += 2) {
+    s += "vt ";
+    append_number(s, uv[t]);
+    s += ' ';
+    append_number(s, uv[t + 1]);
+    s += '\n';
+  }
+  Index group = ricci::kInvalid;
+  for (std::size_t f = 0; 3 * f + 2 < faces.size(); ++f) {
+    if (face_input[f] != group) {
+      group = face_input[f];
+      s += "g input_face_" + std::to_string(group) + '\n';
+    }
+    s += 'f';
+    for (int k = 0; k < 3; ++k) {
+      s += ' ' + std::to_string(faces[3 * f + k] + 1);
+      if (!uv.empty()) s += '/' + std::to_string(corner_uv[3 * f + k] + 1);
+    }
+    s += '\n';
+  }
+  return s;
+}
+
 Json moebius_json(const ricci::Moebius& m) {
   return Json{{"a", {m.a.real(), m.a.imag()}}, {"b", {m.b.real(), m.b.imag()}}};
 }
@@ -446,6 +483,7 @@ struct Run {
   double load_seconds = 0, write_seconds = 0, pictures_seconds = 0, total_seconds = 0;
   std::optional<ConformalDistortion> distortion;
   bool from_metric = false;
+  Index input_flipped_faces = 0;  ///< refined: input faces that come out flipped through the subdivision
 };
 
 Json report_json(const Run& run) {
@@ -467,6 +505,23 @@ Json report_json(const Run& run) {
   }
   j["geometry"] = have ? Json(std::string(ricci::geometry_name(r.geometry))) : Json(nullptr);
   j["scheme"] = run.from_metric ? Json(nullptr) : Json(run.scheme);
+  j["flips"] = have && r.intrinsic.used;
+  if (have && r.intrinsic.used) {
+    const ricci::IntrinsicSummary& in = r.intrinsic;
+    j["intrinsic"] = Json{{"delaunay_flips", in.delaunay_flips},
+                          {"flow_flips", in.flow_flips},
+                          {"crossings", in.crossings},
+                          {"straight_tiles", !in.refined},
+                          {"inconsistent_vertices", in.inconsistent_vertices},
+                          {"degenerate_faces", in.degenerate_faces},
+                          {"max_angle_sum_error", real(in.max_angle_sum_error)},
+                          {"refined", in.refined},
+                          {"refinement_faces", in.refined ? Json(r.refinement.topology.num_faces) : Json(nullptr)},
+                          {"input_flipped_faces", in.refined ? Json(run.input_flipped_faces) : Json(0)}};
+  } else {
+    j["intrinsic"] = nullptr;
+  }
+  j["fallback"] = have && !r.intrinsic.fallback.empty() ? Json(r.intrinsic.fallback) : Json(nullptr);
   j["boundary"] = have && run.have_mesh ? (run.topo.is_closed() ? Json("none") : Json(std::string(ricci::boundary_mode_name(r.boundary))))
                                         : Json(nullptr);
   const bool flowed = have && !run.from_metric && r.flow.status != Status::NotRun;
@@ -587,7 +642,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   Run run;
   run.embedded = o.mesh.empty();
   run.file = run.embedded ? std::string(embedded_default_name()) : o.mesh;
-  run.scheme = o.scheme;
+  run.scheme = o.scheme == "auto" ? "yamabe" : o.scheme;
   run.from_metric = !o.metric.empty();
   const char* cmd = run.from_metric ? "layout" : "uniformize";
   auto usage = [&](const std::string& m) {
@@ -602,8 +657,9 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     uo.geometry = parse_geometry(o.geometry);
     if (!uo.geometry) return usage("unknown geometry '" + o.geometry + "'");
   }
-  const std::optional<ricci::Scheme> scheme = parse_scheme(o.scheme);
+  const std::optional<ricci::Scheme> scheme = parse_scheme(o.scheme == "auto" ? std::string("yamabe") : o.scheme);
   if (!scheme) return usage("unknown scheme '" + o.scheme + "'");
+  uo.intrinsic_flips = !o.no_flips;
   const std::optional<TargetSpec> target_spec = parse_target(o.target, &why);
   if (!target_spec) return usage(why);
   const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
@@ -731,6 +787,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   }
   run.have_result = true;
   ricci::UniformizeResult& r = run.result;
+  if (!r.intrinsic.fallback.empty()) run.scheme = "circle-packing";
   for (const std::string& n : r.flow.notes) {
     run.notes.push_back(n);
     print_note(o.quiet, n);
@@ -758,15 +815,58 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   std::vector<OutFile> files;
   const bool sphere = !r.has_cut;
   ricci::Mesh surface;  // what mesh.obj holds (and the checkerboard renders)
+  // A refined result: the input's faces through the common subdivision's layout, and the
+  // subdivision itself (refinement.obj), which maps bijectively where straight input faces fold.
+  ricci::InputSurfaceLayout through;
+  if (r.intrinsic.refined) {
+    through = ricci::input_surface_layout(v.mesh, topo, r);
+    if (through.status != Status::Ok) {
+      fail(run, through.status, run.file + ": " + through.message);
+      return finish(o, run, start);
+    }
+    run.input_flipped_faces = through.flipped_faces;
+    const std::string note = std::to_string(through.flipped_faces) + " of the input's faces, made straight, come out " +
+                             "flipped or degenerate" + (through.flipped_faces > 0 ? " (first: face " +
+                             std::to_string(through.first_flipped_face) + ")" : std::string()) +
+                             "; refinement.obj holds the common subdivision, which maps bijectively";
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+    const ricci::CommonSubdivision& cs = r.refinement;
+    if (sphere) {
+      files.push_back({"refinement.obj", refinement_obj("the common subdivision of the input and the final intrinsic "
+                                                        "triangulation, on the input surface", run.file,
+                                                        cs.mesh.positions, cs.mesh.faces, cs.face_input, {}, {})});
+      files.push_back({"refinement-sphere.obj",
+                       refinement_obj("the common subdivision on the unit sphere", run.file, r.layout.positions,
+                                      cs.mesh.faces, cs.face_input, {}, {})});
+    } else {
+      std::vector<Index> tags(r.cut.surface_face_to_input.size());
+      for (std::size_t f = 0; f < tags.size(); ++f) tags[f] = cs.face_input[r.cut.surface_face_to_input[f]];
+      const std::vector<double>& sx = r.cut.surface_positions;
+      files.push_back({"refinement.obj", refinement_obj("the common subdivision of the input and the final intrinsic "
+                                                        "triangulation, with its layout as texture coordinates",
+                                                        run.file, sx, r.cut.surface_faces, tags, r.layout.positions,
+                                                        r.cut.cut_faces)});
+    }
+  }
   if (sphere) {
     surface = v.mesh;
     surface.texcoords.clear();
     surface.corner_texcoords.clear();
     files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
     ricci::Mesh s;
-    s.positions = r.layout.positions;
+    s.positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
     s.faces = v.mesh.faces;
     files.push_back({"sphere.obj", ricci::serialize_mesh(s, ricci::FileFormat::Obj)});
+  } else if (r.intrinsic.refined) {
+    surface = through.mesh;
+    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+    files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
+                                            r.cut.compact ? "the compact fundamental domain" : "the cut disk",
+                                            run.file)});
+    if (r.has_polygon && !r.domain_maps.empty())
+      files.push_back({"polygon.obj", disk_obj(r.polygon_cut, r.polygon.positions, r.geometry,
+                                               "the canonical fundamental polygon", run.file)});
   } else {
     surface = ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
     files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
@@ -780,7 +880,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   if (!run.from_metric) {
     const MetricHeader header{run.file,
                               std::string(ricci::geometry_name(r.geometry)),
-                              o.scheme,
+                              run.scheme,
                               topo.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary)),
                               target_spec->kind == TargetSpec::Kind::Uniform ? std::string("uniform") : o.target,
                               "newton"};
@@ -951,8 +1051,12 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "with boundary, hyperbolic otherwise), euclidean, hyperbolic or spherical. Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
   cmd->add_option("--scheme", o.scheme,
-                  "Discrete conformal scheme: circle-packing, inversive-distance or yamabe. Default: circle-packing.")
-      ->check(CLI::IsMember({"circle-packing", "inversive-distance", "yamabe"}));
+                  "Discrete conformal scheme: auto (= yamabe), yamabe (vertex scaling, with intrinsic Delaunay flips "
+                  "unless --no-flips), circle-packing (the paper's) or inversive-distance. Default: auto.")
+      ->check(CLI::IsMember({"auto", "circle-packing", "inversive-distance", "yamabe"}));
+  cmd->add_flag("--no-flips", o.no_flips,
+                "Vertex scaling on the input's triangulation as it is, without intrinsic Delaunay flips (stops on "
+                "many non-Delaunay meshes; for comparison).");
   cmd->add_option("--target", o.target,
                   "Target curvature: auto (= uniform), uniform, cones=FILE or single-vertex=I (as for `ricci flow`). "
                   "Default: auto.")

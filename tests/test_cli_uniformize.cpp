@@ -56,7 +56,11 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
     CHECK_MESSAGE(j.contains(key), key);
   CHECK(j["status"] == "ok");
   CHECK(j["geometry"] == "hyperbolic");
-  CHECK(j["scheme"] == "circle-packing");
+  CHECK(j["scheme"] == "yamabe");
+  CHECK(j["flips"] == true);
+  REQUIRE(j["intrinsic"].is_object());
+  CHECK(j["intrinsic"]["refined"].is_boolean());
+  CHECK(j["fallback"].is_null());
   CHECK(j["mesh"]["genus"] == 2);
   CHECK(j["iterations"].get<int>() >= 1);
   CHECK(j["max_curvature_error"].get<double>() < 1e-12);

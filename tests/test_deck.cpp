@@ -549,7 +549,10 @@ TEST_CASE("deck: side pairings moved onto exact vertex cycles") {
   // deck_through_domain() with and without the adjustment of the pairings.
   const ValidateResult v = validate_mesh(ricci_shapes::pretzel(3, 4));
   REQUIRE(v.status == Status::Ok);
-  const UniformizeResult u = uniformize(v.mesh, v.topology);
+  // The paper's circle packing: the frame comparison at the end is stated for its metric.
+  UniformizeOptions uo;
+  uo.metric.scheme = Scheme::CirclePacking;
+  const UniformizeResult u = uniformize(v.mesh, v.topology, uo);
   REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
   REQUIRE(u.cut.compact);
   REQUIRE(u.polygon_cut.canonical);

@@ -97,8 +97,9 @@ TEST_CASE("hostile: infeasible target files make uniformize exit 8 naming the ve
     const fs::path cones = dir / ("cones" + std::to_string(k++) + ".txt");
     ricci_test::write_bytes(cones, c.cones);
     const fs::path out = dir / ("out" + std::to_string(k));
+    // Theorem 4 bounds circle packing (the paper's scheme); the other checks hold for every scheme.
     const CommandResult r = run_cli({"uniformize", mesh.string(), "--target", "cones=" + cones.string(), "-o",
-                                     out.string(), "--no-pictures", "-q"});
+                                     out.string(), "--no-pictures", "-q", "--scheme", "circle-packing"});
     INFO(r.err);
     CHECK(r.exit_code == 8);
     CHECK(r.err.find("ricci: error: " + mesh.string() + ": target: ") != std::string::npos);

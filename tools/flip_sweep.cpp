@@ -43,6 +43,20 @@ std::string cell(const FlowResult& r, bool flips) {
   return buffer;
 }
 
+// Whether the straight input triangles carry the solution: "tiles (angle sums to 1e-15)" or the
+// vertices and faces where they do not.
+std::string straight_cell(const StraightInputMetric& s) {
+  if (s.status != Status::Ok) return s.message;
+  char buffer[160];
+  if (s.tiles())
+    std::snprintf(buffer, sizeof buffer, "tiles (angle sums to %.0e)", s.max_angle_sum_error);
+  else
+    std::snprintf(buffer, sizeof buffer, "%lld vertices off (max %.1e), %lld degenerate faces",
+                  static_cast<long long>(s.inconsistent_vertices), s.max_angle_sum_error,
+                  static_cast<long long>(s.degenerate_faces));
+  return buffer;
+}
+
 // The input's edges on the final triangulation: "N crossings (max M on one edge), S s", or why not.
 std::string trace_cell(const IntrinsicTriangulation& tri, const Topology& input, std::span<const double> u) {
   const auto start = std::chrono::steady_clock::now();
@@ -63,10 +77,11 @@ std::string trace_cell(const IntrinsicTriangulation& tri, const Topology& input,
     for (std::size_t k = 1; k < list.size(); ++k) ordered = ordered && list[k - 1] < list[k];
   Index most = 0;
   for (std::size_t a = 0; a + 1 < paths.offsets.size(); ++a) most = std::max(most, paths.offsets[a + 1] - paths.offsets[a]);
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, "%lld crossings (max %lld on one edge), %.2f s%s",
+  const StraightInputMetric straight = straight_input_metric(tri, u, input, paths);
+  char buffer[320];
+  std::snprintf(buffer, sizeof buffer, "%lld crossings (max %lld on one edge), %.2f s%s; straight: %s",
                 static_cast<long long>(t.size()), static_cast<long long>(most), seconds,
-                ordered ? "" : ", OUT OF ORDER");
+                ordered ? "" : ", OUT OF ORDER", straight_cell(straight).c_str());
   return buffer;
 }
 

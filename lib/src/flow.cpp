@@ -64,6 +64,7 @@
 // Determinism. Every parallel loop writes its own slots; sums use fixed chunks added in a fixed
 // order; maxima are exact. Results do not depend on the number of threads.
 #include "ricci/flow.h"
+#include "sphere_start.h"
 
 #include <omp.h>
 
@@ -2284,11 +2285,42 @@ FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::spa
     r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     return r;
   }
+  // The round sphere: the spherical energy is not convex, so start from the planar problem with
+  // one vertex at infinity (sphere_start.h), which is.
+  std::vector<double> sphere_u;
+  if (options.spherical_safeguards && options.method == Method::Newton && triangulation.geometry == Geometry::Spherical &&
+      topology.is_closed() && topology.euler_characteristic() == 2 && target.fixed_u.empty() &&
+      std::all_of(target.K.begin(), target.K.end(), [](double k) { return k == 0; })) {
+    const detail::SphereStart planar = detail::round_sphere_start(triangulation, options);
+    if (planar.status == Status::Ok) {
+      sphere_u = planar.u;
+      r.notes.push_back("started from the planar solution with vertex " + std::to_string(planar.vertex_at_infinity) +
+                        " at infinity (" + std::to_string(planar.iterations) + " Newton steps), projected to the sphere");
+    } else {
+      r.notes.push_back("no planar start for the round sphere (" + planar.message + "); Newton from the given u");
+    }
+  }
   ThreadScope threads(options.threads, topology.num_faces);
-  FlowSolver solver(topology, structure, u0, target, options, r);
-  solver.set_intrinsic(triangulation, structure);
-  solver.run();
-  solver.finish();
+  const IntrinsicTriangulation before = sphere_u.empty() ? IntrinsicTriangulation{} : triangulation;
+  {
+    FlowSolver solver(topology, structure, sphere_u.empty() ? u0 : std::span<const double>(sphere_u), target, options, r);
+    solver.set_intrinsic(triangulation, structure);
+    solver.run();
+    solver.finish();
+  }
+  if (!sphere_u.empty() && r.status != Status::Ok) {
+    // The start did not lead to the sphere: Newton from the given u instead.
+    const std::string why = r.message;
+    triangulation = before;
+    vertex_scaling_structure(triangulation, structure);
+    r = FlowResult{};
+    r.geometry = triangulation.geometry;
+    r.notes.push_back("the planar start for the round sphere did not converge (" + why + "); Newton from the given u");
+    FlowSolver solver(topology, structure, u0, target, options, r);
+    solver.set_intrinsic(triangulation, structure);
+    solver.run();
+    solver.finish();
+  }
   return r;
 }
 

@@ -16,6 +16,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kMaxFlipIterations = 60;
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -144,6 +145,105 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                    std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start);
 
+// AngleDistortion of the metric's corner angles tm (#F×3) against the mesh's 3D angles.
+AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology, std::span<const double> tm) {
+  AngleDistortion a;
+  const Index F = topology.num_faces;
+  const std::vector<double> l3 = mesh_edge_lengths(mesh, topology);
+  std::vector<double> t3(static_cast<std::size_t>(3 * F));
+  corner_angles(topology, Geometry::Euclidean, l3, t3);
+  a.ratio.resize(static_cast<std::size_t>(3 * F));
+  double sum = 0;
+  Index n = 0;
+  for (Index c = 0; c < 3 * F; ++c) {
+    const double r = tm[c] > 0 ? t3[c] / tm[c] : kInf;
+    a.ratio[c] = r;
+    if (!(r > 0) || !std::isfinite(r)) continue;
+    const double x = std::abs(std::log(r));
+    sum += x;
+    ++n;
+    a.max_abs_log = std::max(a.max_abs_log, x);
+  }
+  a.mean_abs_log = n > 0 ? sum / n : 0;
+  return a;
+}
+
+// Vertex scaling with intrinsic flips: the mesh's intrinsic Delaunay triangulation, then the
+// solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
+// and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
+// false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed.
+bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, UniformizeResult& r,
+                     IntrinsicTriangulation& tri) {
+  r.intrinsic.used = true;
+  IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry);
+  if (ir.status != Status::Ok) {
+    r.status = ir.status;
+    r.failed_stage = "initial_metric";
+    r.message = "initial_metric: " + ir.message;
+    return false;
+  }
+  tri = std::move(ir.triangulation);
+  r.intrinsic.delaunay_flips = ir.delaunay_flips;
+  const std::vector<double> u0(static_cast<std::size_t>(topology.num_vertices), 0.0);
+  // Newton with flips converges in a few steps where it converges at all (≤ 12 on every shared
+  // mesh): past kMaxFlipIterations the fallback is cheaper than more steps.
+  FlowOptions capped = fo;
+  capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
+  FlowResult f = solve_flow_with_flips(tri, u0, r.target, capped);
+  r.intrinsic.flow_flips = f.flips;
+  if (f.status == Status::Ok) {
+    r.flow = std::move(f);
+    return true;
+  }
+  r.intrinsic.used = false;
+  r.flow.notes = f.notes;
+  r.intrinsic.fallback = "vertex scaling with intrinsic flips stopped (" + std::string(status_name(f.status)) + ": " +
+                         f.message + ")";
+  r.flow.notes.push_back(r.intrinsic.fallback + "; the paper's circle packing was solved instead");
+  return false;
+}
+
+// Cut weights on the common subdivision: the 3D length, 100 times that off the input's edges (an
+// edge of the subdivision lies on an input edge when its ends are two input vertices, two crossings
+// of the same input edge, or a crossing and an end of its input edge).
+std::vector<double> refinement_cut_weights(const CommonSubdivision& s, const Topology& input) {
+  const Topology& t = s.topology;
+  const Index nv = input.num_vertices;
+  auto ends_at = [&](Index a, Index v) { return input.edge_vertices[2 * a] == v || input.edge_vertices[2 * a + 1] == v; };
+  std::vector<double> w(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double x = s.mesh.positions[3 * a + k] - s.mesh.positions[3 * b + k];
+      d2 += x * x;
+    }
+    bool on_input = true;
+    if (a >= nv && b >= nv) on_input = s.vertex_input_edge[a] == s.vertex_input_edge[b];
+    else if (a >= nv) on_input = ends_at(s.vertex_input_edge[a], b);
+    else if (b >= nv) on_input = ends_at(s.vertex_input_edge[b], a);
+    w[e] = std::sqrt(d2) * (on_input ? 1.0 : 100.0);
+  }
+  return w;
+}
+
+// Corner angles of the input's faces in the metric of the common subdivision: each input corner's
+// angle is the sum of the angles of the pieces of its face at its vertex.
+AngleDistortion refined_angle_distortion(const Mesh& mesh, const Topology& topology, Geometry g,
+                                         const CommonSubdivision& s) {
+  const Index F = topology.num_faces, nv = topology.num_vertices;
+  std::vector<double> tr(static_cast<std::size_t>(3 * s.topology.num_faces)), tm(static_cast<std::size_t>(3 * F), 0.0);
+  corner_angles(s.topology, g, s.l, tr);
+  for (Index c = 0; c < s.topology.num_corners(); ++c) {
+    const Index v = s.topology.corner_vertex[c];
+    if (v >= nv) continue;
+    const Index f = s.face_input[corner_face(c)];
+    for (Index k = 0; k < 3; ++k)
+      if (topology.corner_vertex[3 * f + k] == v) tm[3 * f + k] += tr[c];
+  }
+  return distortion_of_angles(mesh, topology, tm);
+}
+
 }  // namespace
 
 bool UniformizeOptions::is_valid(std::string* why) const {
@@ -177,29 +277,13 @@ std::string UniformizeResult::brief_report() const {
 }
 
 AngleDistortion angle_distortion(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l) {
-  AngleDistortion a;
   const Index F = topology.num_faces, E = topology.num_edges;
   if (l.size() != static_cast<std::size_t>(E) || mesh.faces.size() != static_cast<std::size_t>(3 * F) ||
       mesh.positions.size() < static_cast<std::size_t>(3 * topology.num_vertices))
-    return a;
-  const std::vector<double> l3 = mesh_edge_lengths(mesh, topology);
-  std::vector<double> t3(static_cast<std::size_t>(3 * F)), tm(static_cast<std::size_t>(3 * F));
-  corner_angles(topology, Geometry::Euclidean, l3, t3);
+    return {};
+  std::vector<double> tm(static_cast<std::size_t>(3 * F));
   corner_angles(topology, g, l, tm);
-  a.ratio.resize(static_cast<std::size_t>(3 * F));
-  double sum = 0;
-  Index n = 0;
-  for (Index c = 0; c < 3 * F; ++c) {
-    const double r = tm[c] > 0 ? t3[c] / tm[c] : kInf;
-    a.ratio[c] = r;
-    if (!(r > 0) || !std::isfinite(r)) continue;
-    const double x = std::abs(std::log(r));
-    sum += x;
-    ++n;
-    a.max_abs_log = std::max(a.max_abs_log, x);
-  }
-  a.mean_abs_log = n > 0 ? sum / n : 0;
-  return a;
+  return distortion_of_angles(mesh, topology, tm);
 }
 
 UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
@@ -247,7 +331,49 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   // error (layouts close up to the metric's residual curvature, so the last digits matter there).
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
+  if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
+    IntrinsicTriangulation tri;
+    if (flow_with_flips(mesh, topology, fo, r, tri)) {
+      stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
+      const InputEdgePaths paths = trace_input_edges(tri, topology);
+      if (paths.status != Status::Ok) return fail(paths.status, "straighten", paths.message);
+      const StraightInputMetric straight = straight_input_metric(tri, r.flow.u, topology, paths);
+      if (straight.status != Status::Ok) return fail(straight.status, "straighten", straight.message);
+      r.intrinsic.crossings = static_cast<Index>(paths.crossed_edge.size());
+      r.intrinsic.inconsistent_vertices = straight.inconsistent_vertices;
+      r.intrinsic.degenerate_faces = straight.degenerate_faces;
+      r.intrinsic.max_angle_sum_error = straight.max_angle_sum_error;
+      r.flow.l = straight.l;
+      if (straight.tiles()) {
+        stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles "
+                                     "tile the surface (angle sums to " + sci(straight.max_angle_sum_error) + ")");
+        layout_stages(mesh, topology, options, r.flow.l, r, start);
+        return r;
+      }
+      const std::vector<double> t = input_edge_crossings(tri, r.flow.u, paths);
+      r.refinement = common_subdivision(tri, r.flow.u, mesh, topology, paths, t);
+      if (r.refinement.status != Status::Ok) return fail(r.refinement.status, "straighten", r.refinement.message);
+      r.intrinsic.refined = true;
+      stage_done("straighten", std::to_string(straight.inconsistent_vertices) +
+                                   " vertices where straight input triangles fold; the common subdivision has " +
+                                   std::to_string(r.refinement.topology.num_faces) + " faces");
+      UniformizeOptions ro = options;
+      ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology);
+      layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start);
+      if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
+      return r;
+    }
+    if (r.intrinsic.fallback.empty()) return r;  // failed before the solve (status set)
+    // The solve with flips failed: the paper's circle packing instead.
+    mo.scheme = Scheme::CirclePacking;
+    r.metric = initial_metric(mesh, topology, mo);
+    if (r.metric.status != Status::Ok) return fail(r.metric.status, "initial_metric", r.metric.message);
+    const TargetCheck again = check_target(topology, r.metric.structure, r.target);
+    if (again.status != Status::Ok) return fail(again.status, "target", again.message);
+  }
+  const std::vector<std::string> notes = std::move(r.flow.notes);
   r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, fo);
+  r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
   if (r.flow.status != Status::Ok) return fail(r.flow.status, "flow", r.flow.message);
   stage_done("flow", r.flow.brief_report());
   layout_stages(mesh, topology, options, r.flow.l, r, start);
@@ -567,5 +693,65 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
 }
 
 }  // namespace
+
+InputSurfaceLayout input_surface_layout(const Mesh& mesh, const Topology& topology, const UniformizeResult& r) {
+  InputSurfaceLayout out;
+  const CommonSubdivision& s = r.refinement;
+  const Index nv = topology.num_vertices, F = topology.num_faces;
+  if (!r.intrinsic.refined || r.status != Status::Ok || s.status != Status::Ok || s.topology.num_vertices < nv ||
+      mesh.num_vertices() != nv || mesh.num_faces() != F) {
+    out.status = Status::InvalidArgument;
+    out.message = "the result has no layout of a common subdivision of this mesh";
+    return out;
+  }
+  out.mesh.faces = mesh.faces;
+  const std::vector<double>& x = r.layout.positions;
+  auto orientation = [&](const double* a, const double* b, const double* c, Index dims) {
+    if (dims == 3)
+      return a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+    double p[3][2];
+    const double* q[3] = {a, b, c};
+    for (int k = 0; k < 3; ++k) {
+      // Klein coordinates in H (geodesics straight there); the plane as it is in E.
+      const double w = r.geometry == Geometry::Hyperbolic ? 2 / (1 + q[k][0] * q[k][0] + q[k][1] * q[k][1]) : 1.0;
+      p[k][0] = w * q[k][0];
+      p[k][1] = w * q[k][1];
+    }
+    return (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+  };
+  auto count = [&](Index f, double o) {
+    if (o > 0) return;
+    if (out.flipped_faces++ == 0) out.first_flipped_face = f;
+  };
+  if (!r.has_cut) {
+    out.mesh.positions.assign(x.begin(), x.begin() + 3 * nv);
+    for (Index f = 0; f < F; ++f)
+      count(f, orientation(&x[3 * mesh.faces[3 * f]], &x[3 * mesh.faces[3 * f + 1]], &x[3 * mesh.faces[3 * f + 2]], 3));
+  } else {
+    // Each input corner takes the cut vertex of its vertex in a piece of its face.
+    const CutResult& cut = r.cut;
+    std::vector<Index> corner_cut(static_cast<std::size_t>(3 * F), kInvalid);
+    for (Index c = 0; c < static_cast<Index>(cut.cut_faces.size()); ++c) {
+      const Index sv = cut.cut_to_surface[cut.cut_faces[c]];
+      if (sv >= nv) continue;
+      const Index f = s.face_input[cut.surface_face_to_input[corner_face(c)]];
+      for (Index k = 0; k < 3; ++k)
+        if (mesh.faces[3 * f + k] == sv && corner_cut[3 * f + k] == kInvalid) corner_cut[3 * f + k] = cut.cut_faces[c];
+    }
+    if (std::find(corner_cut.begin(), corner_cut.end(), kInvalid) != corner_cut.end()) {
+      out.status = Status::NumericalFailure;
+      out.message = "an input corner has no piece in the common subdivision";
+      return out;
+    }
+    out.mesh.positions = mesh.positions;
+    out.mesh.texcoords = x;
+    out.mesh.corner_texcoords = corner_cut;
+    for (Index f = 0; f < F; ++f)
+      count(f, orientation(&x[2 * corner_cut[3 * f]], &x[2 * corner_cut[3 * f + 1]], &x[2 * corner_cut[3 * f + 2]], 2));
+  }
+  out.status = Status::Ok;
+  out.message = "ok";
+  return out;
+}
 
 }  // namespace ricci

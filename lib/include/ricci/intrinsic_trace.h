@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "ricci/intrinsic.h"
+#include "ricci/mesh.h"
 #include "ricci/status.h"
 #include "ricci/topology.h"
 
@@ -87,6 +88,74 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& triangulation, co
 /// triangulation). O(total crossings).
 std::vector<double> input_edge_crossings(const IntrinsicTriangulation& triangulation, std::span<const double> u,
                                          const InputEdgePaths& paths);
+
+/// Tolerance of StraightInputMetric's angle-sum comparison (radians).
+inline constexpr double kStraightAngleSumTolerance = 1e-9;
+
+/// The metric of a triangulation at u carried to the input's own triangulation.
+struct StraightInputMetric {
+  /// Ok; InvalidArgument (paths or sizes); TriangleInequality (a face of the metric at u has no
+  /// valid angles); NumericalFailure (an input edge's path does not walk through adjacent faces).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// #E(input): the length of the geodesic of the metric homotopic, with its ends fixed, to each
+  /// input edge (its path over the triangulation): the input edge made straight.
+  std::vector<double> l;
+  /// Input faces whose straight lengths violate the triangle inequality (a straight triangle that
+  /// is degenerate), the smallest of them.
+  Index degenerate_faces = 0;
+  Index first_degenerate_face = kInvalid;
+  /// Vertices where the angles of the straight input triangles (from `l`) do not add up to the
+  /// metric's angle sum there, within kStraightAngleSumTolerance, and the largest difference.
+  /// Both 0 exactly when the straight triangles tile the surface without folding: a straight
+  /// triangle that comes out flipped (negatively oriented) shows as a difference at its vertices.
+  Index inconsistent_vertices = 0;
+  double max_angle_sum_error = 0;
+  Index worst_vertex = kInvalid;
+
+  /// The straight input triangles carry the metric: every angle sum matches, none is degenerate.
+  /// Then `l` on the input's triangulation is the same surface as the triangulation at u.
+  bool tiles() const { return status == Status::Ok && degenerate_faces == 0 && inconsistent_vertices == 0; }
+};
+
+/// Every input edge developed along its path (`paths`, from trace_input_edges()) over the faces of
+/// the triangulation in the metric at u (#V), in the triangulation's geometry: the length of the
+/// straight (geodesic) input edge in that metric, and whether the straight input triangles tile
+/// the surface (StraightInputMetric::tiles()). When they do, the input's triangulation with these
+/// lengths is the metric at u exactly (the same cone angles at every vertex), so every stage that
+/// works on the input's connectivity (cut, layout, deck group) can take it. O(#E + crossings).
+StraightInputMetric straight_input_metric(const IntrinsicTriangulation& triangulation, std::span<const double> u,
+                                          const Topology& input, const InputEdgePaths& paths);
+
+/// The common subdivision of the input triangulation and the current one (CommonSubdivision).
+struct CommonSubdivision {
+  /// Ok; InvalidArgument (paths, crossings or sizes); TriangleInequality (a face of the metric at
+  /// u has no valid angles); NumericalFailure (the input edges do not cut a face into pieces that
+  /// each lie in one input face, or the pieces do not form a manifold triangulation).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// Vertices: the input's (same indices), then one per crossing of an input edge with a current
+  /// edge (in the order of InputEdgePaths' crossings). 3D positions: the input's; a crossing's on
+  /// its input edge's segment, at the fraction of the edge's length in the metric up to it.
+  /// Faces: every piece of a current face cut by the input edges, fan-triangulated,
+  /// counter-clockwise.
+  Mesh mesh;
+  Topology topology;                ///< build_topology() of mesh.faces
+  std::vector<double> l;            ///< #E: lengths in the metric at u (the triangulation's geometry)
+  std::vector<Index> face_input;    ///< #F: the input face each face lies in
+  std::vector<Index> vertex_input_edge;  ///< #V: kInvalid for input vertices, else the crossing's input edge
+};
+
+/// The exact common subdivision of the input triangulation (its edges as `paths` and `crossings`,
+/// from trace_input_edges() and input_edge_crossings()) and the current triangulation at u (#V):
+/// every current face cut along the input edges' pieces (straight in its model triangle), each
+/// piece triangulated. The surface it describes with `l` is the metric at u itself, and each of its
+/// faces lies in one input face, so a layout of it is a bijective map of the input surface even
+/// where straight input triangles would fold (StraightInputMetric::tiles() false). `input_mesh`
+/// gives the 3D positions. O(#F + crossings).
+CommonSubdivision common_subdivision(const IntrinsicTriangulation& triangulation, std::span<const double> u,
+                                     const Mesh& input_mesh, const Topology& input, const InputEdgePaths& paths,
+                                     std::span<const double> crossings);
 
 /// The arcs of the input edges inside the face of corner c, seen from c (see the top of this header).
 struct CornerArcs {

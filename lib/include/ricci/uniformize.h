@@ -10,7 +10,9 @@
 //                   check_target() before any iteration
 //   flow            solve_flow() (Newton by default) to FlowOptions::tolerance, then (polish) up
 //                   to two more Newton steps kept only when they lower max |K̄ − K|
-//                   (FlowOptions::polish_steps, within the same solve)
+//                   (FlowOptions::polish_steps, within the same solve). The default scheme is
+//                   vertex scaling with intrinsic Delaunay flips (below)
+//   straighten      flips only: the solution carried back to the input (below)
 //   cut             closed genus ≥ 2 in H: cut_compact(), a compact fundamental domain; otherwise
 //                   cut_surface(): the canonical polygon (genus 1), arcs to the holes (genus 0
 //                   with several boundary loops, or genus ≥ 1 with boundary), nothing for a disk;
@@ -27,6 +29,22 @@
 //                   (has_deck, not has_polygon); when no canonical cut exists at all, the pairings
 //                   alone (fit_domain_pairings())
 //   angles          corner angles of the input against those of the metric (angle_distortion)
+//
+// Vertex scaling with intrinsic Delaunay flips (the default: Scheme::Yamabe with
+// intrinsic_flips). The mesh's metric is flipped to its intrinsic Delaunay triangulation
+// (mesh_intrinsic_triangulation()), the flow runs with Ptolemy flips (solve_flow_with_flips():
+// one solution for every admissible target, Newton from any start), and the input's edges are
+// traced over the final triangulation (trace_input_edges()). Back to the input's own faces:
+//   - when the input edges made straight in the solution's metric tile it
+//     (straight_input_metric(), StraightInputMetric::tiles()), every later stage runs on the
+//     input's triangulation with those lengths — the same surface, exactly;
+//   - otherwise (a straight input triangle would fold) every later stage runs on the exact
+//     common subdivision of the two triangulations (common_subdivision(); `refined` is true and
+//     `refinement` holds it: cut, layout, polygon and deck refer to its vertices and faces, the
+//     input's vertices first). Its cut prefers the pieces of input edges (weights 100× on the
+//     other edges), so seams mostly run along input edges.
+// Should the solve with flips fail, the paper's circle packing is solved instead and
+// `intrinsic.fallback` says why (a note in flow.notes too).
 //
 // Geometry and boundary mode default to the surface's natural ones (natural_geometry():
 // S for closed genus 0, E for χ = 0 and for genus 0 with boundary, H for χ < 0;
@@ -54,6 +72,7 @@
 #include "ricci/cut.h"
 #include "ricci/deck.h"
 #include "ricci/flow.h"
+#include "ricci/intrinsic_trace.h"
 #include "ricci/layout.h"
 #include "ricci/mesh.h"
 #include "ricci/metric.h"
@@ -76,8 +95,16 @@ struct UniformizeOptions {
   std::optional<Geometry> geometry;
   /// Boundary mode for surfaces with boundary; empty: natural_boundary_mode(topology, geometry).
   std::optional<BoundaryMode> boundary;
-  /// Step 2 options (its `geometry` is overwritten by the geometry chosen above).
-  InitialMetricOptions metric;
+  /// Step 2 options (its `geometry` is overwritten by the geometry chosen above). The scheme
+  /// defaults to vertex scaling (Scheme::Yamabe), solved with intrinsic flips (below).
+  InitialMetricOptions metric = [] {
+    InitialMetricOptions m;
+    m.scheme = Scheme::Yamabe;
+    return m;
+  }();
+  /// Vertex scaling (Scheme::Yamabe) with intrinsic Delaunay flips (the header comment). Off: the
+  /// flow on the input's triangulation as it is (stops on many non-Delaunay meshes).
+  bool intrinsic_flips = true;
   /// Newton to max |K̄ − K| < 1e-12 by default.
   FlowOptions flow = [] {
     FlowOptions f;
@@ -135,6 +162,22 @@ struct AngleDistortion {
   double max_abs_log = 0;   ///< max over corners of |log ratio|
 };
 
+/// What the intrinsic flips did (UniformizeResult::intrinsic).
+struct IntrinsicSummary {
+  bool used = false;                 ///< the flow ran with intrinsic flips
+  std::int64_t delaunay_flips = 0;   ///< geometric flips to the input metric's Delaunay triangulation
+  std::int64_t flow_flips = 0;       ///< Ptolemy flips during the solve
+  Index crossings = 0;               ///< crossings of input edges with the final triangulation's edges
+  /// StraightInputMetric's figures: vertices whose straight angle sums differ, degenerate straight
+  /// faces, the largest difference.
+  Index inconsistent_vertices = 0;
+  Index degenerate_faces = 0;
+  double max_angle_sum_error = 0;
+  bool refined = false;              ///< the later stages ran on the common subdivision
+  /// Non-empty when the solve with flips failed: why (circle packing was solved instead).
+  std::string fallback;
+};
+
 /// What uniformize() and lay_out_metric() return: every stage's result.
 struct UniformizeResult {
   /// Ok when every stage that applies succeeded. Otherwise the status of the first stage that
@@ -151,7 +194,10 @@ struct UniformizeResult {
 
   InitialMetric metric;  ///< initial_metric() (status NotRun for lay_out_metric())
   Target target;         ///< the target curvature the flow ran to (empty for lay_out_metric())
-  FlowResult flow;       ///< solve_flow() with any kept polish steps (lay_out_metric(): NotRun, l = lengths)
+  /// solve_flow() with any kept polish steps (lay_out_metric(): NotRun, l = lengths). With intrinsic
+  /// flips: solve_flow_with_flips(), its `l` replaced by the input's edges made straight
+  /// (StraightInputMetric::l, #E of the input).
+  FlowResult flow;
 
   /// Cut (not for a closed genus-0 surface: has_cut false). The disk is
   /// build_topology(cut.cut_faces, cut.num_cut_vertices()) with lengths disk_lengths.
@@ -195,7 +241,11 @@ struct UniformizeResult {
   double fitted_relation_error = 0;        ///< H with generators: DomainDeck::fitted_relation_error
   double tile_consistency = 0;             ///< H with generators: DomainDeck::tile_consistency
 
-  AngleDistortion angles;  ///< angle_distortion() of the final metric
+  AngleDistortion angles;  ///< angle_distortion() of the final metric (on the input's corners)
+
+  IntrinsicSummary intrinsic;  ///< the intrinsic flips, when used
+  /// When intrinsic.refined: the common subdivision the stages from `cut` on ran on.
+  CommonSubdivision refinement;
 
   /// Seconds per stage, in order.
   std::vector<std::pair<std::string, double>> timings;
@@ -215,6 +265,27 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
 /// back from a file `ricci flow -o` wrote): flow stays empty (status NotRun, l = lengths).
 UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geometry geometry,
                                 std::span<const double> lengths, const UniformizeOptions& options = {});
+
+/// The input's own mesh mapped through a layout of the common subdivision (intrinsic.refined).
+struct InputSurfaceLayout {
+  /// Ok; InvalidArgument when r has no refined layout or does not match the mesh.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// The input's vertices and faces, in their order. Closed genus 0: positions on the unit sphere
+  /// (the layout's), no texture coordinates. Otherwise the input's positions with per-corner
+  /// texture coordinates: the layout of the copy of each corner's vertex in that face's pieces
+  /// (texcoords are the layout's positions per cut vertex of the subdivision).
+  Mesh mesh;
+  /// Input faces whose straight triangle through those three points is negatively oriented or
+  /// degenerate (E: signed area; H: signed area in Klein coordinates; S: det(x_i, x_j, x_k)),
+  /// the smallest of them (kInvalid when none).
+  Index flipped_faces = 0;
+  Index first_flipped_face = kInvalid;
+};
+
+/// The input mesh laid out through the common subdivision of a refined result (r.intrinsic.refined,
+/// r.status Ok): see InputSurfaceLayout. O(#F of the subdivision).
+InputSurfaceLayout input_surface_layout(const Mesh& mesh, const Topology& topology, const UniformizeResult& r);
 
 /// Corner-angle distortion of a metric (lengths `l` #E in geometry g) against the mesh's own 3D
 /// angles (see AngleDistortion).

@@ -1,0 +1,356 @@
+// The round sphere in vertex scaling from a plane problem: one vertex sent to infinity.
+//
+// Takes: an intrinsic triangulation in S of a closed genus-0 surface (chords B, intrinsic.h).
+// Gives: u on its vertices that solves the round-sphere problem (K = 0 everywhere in S), up to the
+// rounding of one planar solve and one layout; solve_flow_with_flips() starts from it.
+//
+// Stereographic projection σ from a point N of the unit sphere is a vertex scaling: for points
+// P, Q of the sphere and x = σ(P), y = σ(Q) in the plane, |P − Q| = 2 |x − y| ρ(x) ρ(y) with
+// ρ(x) = 1 / √(1 + |x|²), and |P − N| = 2 ρ(x). So if u solves the round sphere with N a vertex,
+// the sphere without N's star, projected from N, is a planar (E) vertex-scaling metric with
+//     U_p = u_p − 2 log ρ(x_p)   (chords L^E = e^{(U_p + U_q)/2} B_pq),
+// flat at every vertex off N's link and, at every link vertex p, U_p = −2 log B_pN − u_N. That
+// Dirichlet problem on the disk is strictly convex and (with intrinsic flips) has exactly one
+// solution (Gu–Luo–Sun–Wu 2018, I), which is therefore the projection of the round sphere
+// (Delaunay is Möbius invariant; the link edges are the planar hull). Solving it, laying it out,
+// and reading back u_p = U_p + log s + 2 log ρ(x_p) and u_N = m − log s (s: the planar scale, m:
+// the shift of the link values below) gives the sphere. Unlike the spherical energy, the planar
+// one is convex, so Newton converges from any start.
+#include "sphere_start.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "ricci/layout.h"
+
+namespace ricci::detail {
+
+namespace {
+
+constexpr double kReflexTolerance = 1e-12;
+constexpr int kMaxRounds = 100;
+constexpr int kMaxContinuation = 60;
+constexpr int kMaxPlanarIterations = 50;  // a convex problem: Newton needs far fewer
+
+// A vertex whose star is a disk of distinct faces around distinct link vertices, of largest valence.
+Index vertex_at_infinity(const Topology& t) {
+  Index best = kInvalid, best_valence = 0;
+  std::vector<Index> seen(static_cast<std::size_t>(t.num_vertices), kInvalid);
+  for (Index v = 0; v < t.num_vertices; ++v) {
+    const Index b = t.vertex_corner_offsets[v], e = t.vertex_corner_offsets[v + 1];
+    if (e - b <= best_valence) continue;
+    bool simple = true;
+    for (Index i = b; i < e && simple; ++i) {
+      const Index c = t.vertex_corners[i];
+      const Index w = t.corner_vertex[next_corner(c)];
+      simple = w != v && t.corner_vertex[prev_corner(c)] != v && seen[w] != v;
+      seen[w] = v;
+    }
+    if (simple) {
+      best = v;
+      best_valence = e - b;
+    }
+  }
+  return best;
+}
+
+// The triangulation without the faces around vertex n (a simple star), n removed from the vertex
+// numbering, as a euclidean intrinsic triangulation with the same chords: a corner table of its
+// own (edges in the order of their old indices, boundary loop walked along the faces), so that
+// several edges between two vertices survive.
+IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Index n) {
+  const Topology& t = tri.topology;
+  IntrinsicTriangulation out;
+  out.geometry = Geometry::Euclidean;
+  Topology& d = out.topology;
+  std::vector<Index> face_map(static_cast<std::size_t>(t.num_faces), kInvalid);
+  for (Index f = 0; f < t.num_faces; ++f) {
+    const Index c = 3 * f;
+    if (t.corner_vertex[c] != n && t.corner_vertex[c + 1] != n && t.corner_vertex[c + 2] != n) face_map[f] = d.num_faces++;
+  }
+  auto corner = [&](Index c) { return c == kInvalid || face_map[corner_face(c)] == kInvalid ? kInvalid : 3 * face_map[corner_face(c)] + corner_slot(c); };
+  d.num_vertices = t.num_vertices - 1;
+  const Index nc = 3 * d.num_faces;
+  d.corner_vertex.resize(static_cast<std::size_t>(nc));
+  d.opposite.resize(static_cast<std::size_t>(nc));
+  d.corner_edge.resize(static_cast<std::size_t>(nc));
+  std::vector<Index> edge_map(static_cast<std::size_t>(t.num_edges), kInvalid);
+  for (Index c = 0; c < t.num_corners(); ++c)
+    if (corner(c) != kInvalid) edge_map[t.corner_edge[c]] = 0;
+  for (Index e = 0; e < t.num_edges; ++e)
+    if (edge_map[e] == 0) {
+      edge_map[e] = d.num_edges++;
+      out.log_chord.push_back(tri.log_chord[e]);
+    }
+  d.edge_corners.assign(static_cast<std::size_t>(2 * d.num_edges), kInvalid);
+  d.edge_vertices.assign(static_cast<std::size_t>(2 * d.num_edges), kInvalid);
+  for (Index c = 0; c < t.num_corners(); ++c) {
+    const Index k = corner(c);
+    if (k == kInvalid) continue;
+    const Index v = t.corner_vertex[c];
+    d.corner_vertex[k] = v < n ? v : v - 1;
+    d.opposite[k] = corner(t.opposite[c]);
+    d.corner_edge[k] = edge_map[t.corner_edge[c]];
+  }
+  for (Index k = 0; k < nc; ++k) {  // corners in increasing order: the first seen is the smaller
+    const Index e = d.corner_edge[k];
+    if (d.edge_corners[2 * e] == kInvalid) {
+      d.edge_corners[2 * e] = k;
+      d.edge_vertices[2 * e] = d.corner_vertex[next_corner(k)];
+      d.edge_vertices[2 * e + 1] = d.corner_vertex[prev_corner(k)];
+    } else {
+      d.edge_corners[2 * e + 1] = k;
+    }
+  }
+  // Boundary loops, each from its smallest corner, along the faces.
+  std::vector<std::uint8_t> walked(static_cast<std::size_t>(nc), 0);
+  d.boundary_offsets.assign(1, 0);
+  for (Index k = 0; k < nc; ++k) {
+    if (d.opposite[k] != kInvalid || walked[k]) continue;
+    Index c = k;
+    while (!walked[c]) {
+      walked[c] = 1;
+      d.boundary_vertices.push_back(d.corner_vertex[next_corner(c)]);
+      d.boundary_corners.push_back(c);
+      Index x = prev_corner(c);  // at the edge's end; turn clockwise to the next boundary edge
+      for (Index guard = 0; d.opposite[prev_corner(x)] != kInvalid && guard < nc; ++guard) x = prev_corner(d.opposite[prev_corner(x)]);
+      c = prev_corner(x);
+    }
+    d.boundary_offsets.push_back(static_cast<Index>(d.boundary_corners.size()));
+  }
+  d.face_component.assign(static_cast<std::size_t>(d.num_faces), 0);
+  d.num_components = d.num_faces > 0 ? 1 : 0;
+  refresh_vertex_corners(d);
+  out.boundary_position.assign(static_cast<std::size_t>(d.num_edges), kInvalid);
+  for (Index p = 0; p < d.num_boundary_edges(); ++p) out.boundary_position[d.corner_edge[d.boundary_corners[p]]] = p;
+  out.normal.assign(static_cast<std::size_t>(d.num_edges), -1);
+  return out;
+}
+
+}  // namespace
+
+SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOptions& options) {
+  SphereStart out;
+  const Index nv = tri.topology.num_vertices;
+  const Index n = vertex_at_infinity(tri.topology);
+  if (n == kInvalid) {
+    out.message = "no vertex has a simple star";
+    return out;
+  }
+  out.vertex_at_infinity = n;
+  // The disk: every face off N, vertices renumbered without N; its chords read as euclidean. In
+  // rounds: solve, then flip N's edge to every link vertex where the plane is reflex (the edge is
+  // not Delaunay there: with N at infinity its circumcircles are lines), by Ptolemy in the sphere's
+  // own triangulation, which moves the vertex inside the disk; until the link is convex.
+  auto renumber = [n](Index v) { return v < n ? v : v - 1; };
+  IntrinsicTriangulation sphere = tri;
+  Target target;
+  target.K.assign(static_cast<std::size_t>(nv - 1), 0.0);
+  std::vector<double> u0(static_cast<std::size_t>(nv - 1), 0.0);
+  double c_shift = 0;
+  IntrinsicTriangulation disk_tri;
+  FlowResult plane;
+  FlowOptions eo = options;
+  eo.on_iteration = nullptr;
+  eo.max_iterations = std::min(options.max_iterations, kMaxPlanarIterations);
+  for (int round = 0;; ++round) {
+    const Topology& t2 = sphere.topology;
+    disk_tri = disk_without_star(sphere, n);
+    const Topology& d = disk_tri.topology;
+    if (d.num_boundary_loops() != 1 || d.euler_characteristic() != 1) {
+      out.message = "the sphere without the star of vertex " + std::to_string(n) + " is not a disk";
+      return out;
+    }
+    // Link vertices held at −2 log B_pN − m (m the first round's mean, so u_N = m), flat
+    // everywhere else. In the first round the inside starts from the link's values spread
+    // breadth-first (each vertex the mean of its neighbours reached before it), so that no
+    // triangle starts far from the triangle inequality; later rounds from the last solution.
+    target.fixed_u.assign(static_cast<std::size_t>(nv - 1), 0);
+    std::vector<Index> queue;
+    double sum_link = 0;
+    for (Index i = t2.vertex_corner_offsets[n]; i < t2.vertex_corner_offsets[n + 1]; ++i) {
+      const Index c = t2.vertex_corners[i];
+      const Index p = renumber(t2.corner_vertex[next_corner(c)]);
+      target.fixed_u[p] = 1;
+      u0[p] = -2 * sphere.log_chord_of(t2.corner_edge[prev_corner(c)]);  // the edge N–next(c)
+      sum_link += u0[p];
+      queue.push_back(p);
+    }
+    if (round == 0) c_shift = sum_link / static_cast<double>(queue.size());
+    for (Index p : queue) u0[p] -= c_shift;
+    if (round == 0) {
+      std::vector<std::uint8_t> reached(target.fixed_u.begin(), target.fixed_u.end());
+      for (std::size_t head = 0; head < queue.size(); ++head) {
+        const Index v = queue[head];
+        for (Index i = d.vertex_corner_offsets[v]; i < d.vertex_corner_offsets[v + 1]; ++i) {
+          const Index c = d.vertex_corners[i];
+          for (const Index w : {d.corner_vertex[next_corner(c)], d.corner_vertex[prev_corner(c)]}) {
+            if (reached[w]) continue;
+            reached[w] = 1;
+            double sum = 0;
+            int count = 0;
+            for (Index j = d.vertex_corner_offsets[w]; j < d.vertex_corner_offsets[w + 1]; ++j) {
+              const Index x = d.vertex_corners[j];
+              for (const Index y : {d.corner_vertex[next_corner(x)], d.corner_vertex[prev_corner(x)]})
+                if (reached[y] && y != w) {
+                  sum += u0[y];
+                  ++count;
+                }
+            }
+            u0[w] = count > 0 ? sum / count : 0.0;
+            queue.push_back(w);
+          }
+        }
+      }
+    }
+    {
+      const IntrinsicTriangulation fresh = disk_tri;
+      plane = solve_flow_with_flips(disk_tri, u0, target, eo);
+      out.iterations += plane.iterations;
+      if (plane.status == Status::TriangleInequality && plane.iterations == 0) {
+        // The link's values are too far from the inside's for the start's triangles: walk them
+        // there from the chords as given (u = 0, whose triangles are the sphere's flat chord
+        // triangles), each step from the last solution, halving a step whose start fails.
+        std::vector<double> u_t(u0.size(), 0.0), trial(u0.size());
+        double t = 0, step = 1;
+        disk_tri = fresh;
+        plane = solve_flow_with_flips(disk_tri, u_t, target, eo);
+        for (int k = 0; plane.status == Status::Ok && t < 1 && k < kMaxContinuation; ++k) {
+          const double next = std::min(1.0, t + step);
+          trial = plane.u;
+          for (std::size_t v = 0; v < u0.size(); ++v)
+            if (target.fixed_u[v]) trial[v] = next * u0[v];
+          IntrinsicTriangulation attempt = disk_tri;
+          FlowResult f = solve_flow_with_flips(attempt, trial, target, eo);
+          out.iterations += f.iterations;
+          if (f.status == Status::Ok) {
+            t = next;
+            step *= 2;
+            plane = std::move(f);
+            disk_tri = std::move(attempt);
+          } else {
+            step /= 2;
+          }
+        }
+        if (plane.status == Status::Ok && t < 1) {
+          plane.status = Status::NotConverged;
+          plane.message = "the link values could not be reached from the chords";
+        }
+      }
+    }
+    if (plane.status != Status::Ok) {
+      out.message = "the planar problem: " + plane.message;
+      return out;
+    }
+    // Reflex link vertices (interior angle above π, K < 0): flip N's edge to them.
+    std::vector<std::pair<Index, Index>> reflex;  // (edge N–v, v)
+    for (Index i = t2.vertex_corner_offsets[n]; i < t2.vertex_corner_offsets[n + 1]; ++i) {
+      const Index c = t2.vertex_corners[i];
+      const Index v = t2.corner_vertex[next_corner(c)];
+      if (plane.K[renumber(v)] < -kReflexTolerance) reflex.push_back({t2.corner_edge[prev_corner(c)], v});
+    }
+    Index valence = t2.vertex_corner_offsets[n + 1] - t2.vertex_corner_offsets[n], flipped = 0;
+    for (const auto& [e, v] : reflex) {
+      const Index a = sphere.topology.edge_vertices[2 * e], b = sphere.topology.edge_vertices[2 * e + 1];
+      const bool still = (a == n && b == v) || (a == v && b == n);
+      if (!still || valence <= 3 || can_flip(sphere, e) != FlipCheck::Ok) continue;
+      flip_edge(sphere, e);
+      --valence;
+      ++flipped;
+    }
+    if (flipped == 0) break;
+    refresh_vertex_corners(sphere.topology);
+    if (round >= kMaxRounds) {
+      out.message = "the link of the vertex at infinity was still not convex after " + std::to_string(kMaxRounds) + " rounds";
+      return out;
+    }
+    u0 = plane.u;
+    out.rounds = round + 1;
+  }
+  LayoutOptions lo;
+  lo.normalize = false;
+  const Layout lay = layout_disk(disk_tri.topology, Geometry::Euclidean, plane.l, lo);
+  if (lay.status != Status::Ok) {
+    out.message = "the planar layout: " + lay.message;
+    return out;
+  }
+  // Centre the plane on its vertices' mean and scale their root mean square distance to 1, so
+  // the sphere's points spread over it; then read u back.
+  double mx = 0, my = 0, r2 = 0;
+  for (Index p = 0; p < nv - 1; ++p) {
+    mx += lay.positions[2 * p];
+    my += lay.positions[2 * p + 1];
+  }
+  mx /= nv - 1;
+  my /= nv - 1;
+  for (Index p = 0; p < nv - 1; ++p)
+    r2 += std::pow(lay.positions[2 * p] - mx, 2) + std::pow(lay.positions[2 * p + 1] - my, 2);
+  const double s = 1 / std::sqrt(r2 / (nv - 1));
+  if (!std::isfinite(s) || !(s > 0)) {
+    out.message = "the planar layout has no extent";
+    return out;
+  }
+  out.u.assign(static_cast<std::size_t>(nv), 0.0);
+  for (Index v = 0; v < nv; ++v) {
+    if (v == n) {
+      out.u[v] = c_shift - std::log(s);
+      continue;
+    }
+    const Index p = renumber(v);
+    const double x = s * (lay.positions[2 * p] - mx), y = s * (lay.positions[2 * p + 1] - my);
+    out.u[v] = plane.u[p] + std::log(s) - std::log1p(x * x + y * y);
+  }
+  // Möbius centring of the points on the sphere (their mean to the centre, so the centre lies
+  // inside their hull and no face spans a hemisphere): x ↦ (1 − |c|²)(x + c)/|x + c|² + c scales
+  // chords by √(f(x) f(y)), f(x) = (1 − |c|²)/|x + c|², i.e. adds log f to u.
+  std::vector<std::array<double, 3>> P(static_cast<std::size_t>(nv));
+  for (Index v = 0; v < nv; ++v) {
+    if (v == n) {
+      P[v] = {0, 0, 1};
+      continue;
+    }
+    const Index p = renumber(v);
+    const double x = s * (lay.positions[2 * p] - mx), y = s * (lay.positions[2 * p + 1] - my), q = 1 + x * x + y * y;
+    P[v] = {2 * x / q, 2 * y / q, (x * x + y * y - 1) / q};
+  }
+  for (int it = 0; it < 100; ++it) {
+    double mu[3] = {0, 0, 0}, J[3][3] = {};
+    for (const auto& x : P)
+      for (int a = 0; a < 3; ++a) {
+        mu[a] += x[a] / nv;
+        for (int b = 0; b < 3; ++b) J[a][b] += 2 * ((a == b ? 1.0 : 0.0) - x[a] * x[b]) / nv;
+      }
+    if (std::sqrt(mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2]) < 1e-13) break;
+    // c = −J⁻¹ μ (Cramer), capped at |c| ≤ 0.5.
+    const double det = J[0][0] * (J[1][1] * J[2][2] - J[1][2] * J[2][1]) - J[0][1] * (J[1][0] * J[2][2] - J[1][2] * J[2][0]) +
+                       J[0][2] * (J[1][0] * J[2][1] - J[1][1] * J[2][0]);
+    if (!(std::abs(det) > 1e-300)) break;
+    double c[3];
+    for (int k = 0; k < 3; ++k) {
+      double M[3][3];
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) M[a][b] = b == k ? -mu[a] : J[a][b];
+      c[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) - M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+              M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+    }
+    const double cn = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    if (cn > 0.5)
+      for (double& x : c) x *= 0.5 / cn;
+    const double c2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    for (Index v = 0; v < nv; ++v) {
+      auto& x = P[v];
+      const double w[3] = {x[0] + c[0], x[1] + c[1], x[2] + c[2]};
+      const double w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+      out.u[v] += std::log((1 - c2) / w2);
+      for (int a = 0; a < 3; ++a) x[a] = (1 - c2) * w[a] / w2 + c[a];
+    }
+  }
+  out.status = Status::Ok;
+  out.message = "ok";
+  return out;
+}
+
+}  // namespace ricci::detail

@@ -1,0 +1,238 @@
+// The flipped solution carried back to the input: straight input edges (straight_input_metric())
+// and the common subdivision (common_subdivision()), the planar start of the round sphere, and
+// uniformize() with intrinsic flips as the default — invariants on seeded hard meshes in E, H, S.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ricci/flow.h"
+#include "ricci/intrinsic.h"
+#include "ricci/intrinsic_trace.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "stress_shapes.h"
+#include "support.h"
+
+using namespace ricci;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+struct Solved {
+  std::string name;
+  Mesh mesh;
+  Topology input;
+  IntrinsicTriangulation tri;
+  FlowResult flow;
+  InputEdgePaths paths;
+};
+
+Solved solve(const std::string& name, const Mesh& m, Geometry g) {
+  Solved s;
+  s.name = name;
+  const ValidateResult v = validate_mesh(m);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  s.mesh = v.mesh;
+  s.input = v.topology;
+  IntrinsicResult ir = mesh_intrinsic_triangulation(s.mesh, s.input, g);
+  REQUIRE_MESSAGE(ir.status == Status::Ok, ir.message);
+  s.tri = std::move(ir.triangulation);
+  const Target target = uniform_target(s.input, BoundaryMode::Circle);
+  const std::vector<double> u0(static_cast<std::size_t>(s.input.num_vertices), 0.0);
+  FlowOptions o;
+  o.tolerance = 1e-12;
+  s.flow = solve_flow_with_flips(s.tri, u0, target, o);
+  REQUIRE_MESSAGE(s.flow.status == Status::Ok, s.flow.message);
+  s.paths = trace_input_edges(s.tri, s.input);
+  REQUIRE_MESSAGE(s.paths.status == Status::Ok, s.paths.message);
+  return s;
+}
+
+std::vector<Solved> hard_cases() {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(11);
+  std::vector<Solved> out;
+  out.push_back(solve("torus with needles (E)", insert_needles_and_caps(torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02),
+                      Geometry::Euclidean));
+  out.push_back(solve("genus-2 pretzel with needles (H)", insert_needles_and_caps(pretzel(2, 3), rng, 0.3, 0.02),
+                      Geometry::Hyperbolic));
+  out.push_back(solve("icosphere with needles (S)", insert_needles_and_caps(icosphere(2), rng, 0.3, 0.02),
+                      Geometry::Spherical));
+  out.push_back(solve("disk with needles (E)", insert_needles_and_caps(disk(6), rng, 0.3, 0.02), Geometry::Euclidean));
+  return out;
+}
+
+// Curvature per vertex and total area of a metric given by lengths; violations of the triangle inequality.
+Index curvature_of(const Topology& t, Geometry g, const std::vector<double>& l, std::vector<double>& K, double& area) {
+  std::vector<double> theta(static_cast<std::size_t>(3 * t.num_faces)), a(static_cast<std::size_t>(t.num_faces));
+  const AngleReport r = corner_angles(t, g, l, theta);
+  K.assign(static_cast<std::size_t>(t.num_vertices), 0.0);
+  vertex_curvature(t, theta, K);
+  face_areas(t, g, l, theta, a);
+  area = 0;
+  for (double x : a) area += x;
+  return r.violations;
+}
+
+double total_area(const Solved& s) {
+  std::vector<double> K;
+  double area = 0;
+  REQUIRE(curvature_of(s.tri.topology, s.tri.geometry, s.flow.l, K, area) == 0);
+  return area;
+}
+
+}  // namespace
+
+TEST_CASE("straight input edges: where they tile, the input's triangulation carries the solution exactly") {
+  for (const Solved& s : hard_cases()) {
+    INFO(s.name);
+    const StraightInputMetric st = straight_input_metric(s.tri, s.flow.u, s.input, s.paths);
+    REQUIRE_MESSAGE(st.status == Status::Ok, st.message);
+    // An input edge that is a current edge keeps its length; a straight edge is never longer
+    // than its path, and at least as long as nothing (positive).
+    for (Index a = 0; a < s.input.num_edges; ++a) {
+      CHECK(st.l[a] > 0);
+      if (s.paths.along[a] != kInvalid) CHECK(st.l[a] == s.flow.l[s.paths.along[a]]);
+    }
+    MESSAGE(s.name << ": tiles " << st.tiles() << ", " << st.inconsistent_vertices << " vertices off, max "
+                   << st.max_angle_sum_error);
+    if (!st.tiles()) continue;
+    std::vector<double> K;
+    double area = 0;
+    REQUIRE(curvature_of(s.input, s.tri.geometry, st.l, K, area) == 0);
+    // Same curvature as the solution at every vertex, same area (Gauss–Bonnet).
+    for (Index v = 0; v < s.input.num_vertices; ++v) CHECK(std::abs(K[v] - s.flow.K[v]) <= 1e-9);
+    CHECK(std::abs(area - total_area(s)) <= 1e-9 * std::max(1.0, area));
+  }
+}
+
+TEST_CASE("common subdivision: every piece in one input face, the solution's metric, flat at every crossing") {
+  for (const Solved& s : hard_cases()) {
+    INFO(s.name);
+    const std::vector<double> t = input_edge_crossings(s.tri, s.flow.u, s.paths);
+    const CommonSubdivision cs = common_subdivision(s.tri, s.flow.u, s.mesh, s.input, s.paths, t);
+    REQUIRE_MESSAGE(cs.status == Status::Ok, cs.message);
+    const Topology& r = cs.topology;
+    const Index nv = s.input.num_vertices;
+    CHECK(r.num_vertices == nv + static_cast<Index>(t.size()));
+    CHECK(r.euler_characteristic() == s.input.euler_characteristic());
+    CHECK(r.num_boundary_loops() == s.input.num_boundary_loops());
+    CHECK(ricci_test::check_topology(r, cs.mesh.faces).empty());
+    std::vector<double> K;
+    double area = 0;
+    REQUIRE(curvature_of(r, s.tri.geometry, cs.l, K, area) == 0);
+    // Input vertices keep the solution's curvature; a crossing is flat (2π inside, π on a border).
+    for (Index v = 0; v < nv; ++v) CHECK(std::abs(K[v] - s.flow.K[v]) <= 1e-9);
+    double worst = 0;
+    for (Index v = nv; v < r.num_vertices; ++v) worst = std::max(worst, std::abs(K[v]));
+    CHECK(worst <= 1e-9);
+    CHECK(std::abs(area - total_area(s)) <= 1e-9 * std::max(1.0, area));
+    // Every input face is covered by its pieces, with the input face's corner angles positive.
+    std::vector<int> pieces(static_cast<std::size_t>(s.input.num_faces), 0);
+    for (const Index f : cs.face_input) {
+      REQUIRE(f >= 0);
+      REQUIRE(f < s.input.num_faces);
+      ++pieces[f];
+    }
+    CHECK(*std::min_element(pieces.begin(), pieces.end()) >= 1);
+    // A piece's vertices are its input face's vertices or crossings of that face's edges.
+    for (Index f = 0; f < r.num_faces; ++f) {
+      const Index g = cs.face_input[f];
+      for (Index k = 0; k < 3; ++k) {
+        const Index v = r.corner_vertex[3 * f + k];
+        if (v < nv) {
+          CHECK((s.input.corner_vertex[3 * g] == v || s.input.corner_vertex[3 * g + 1] == v ||
+                 s.input.corner_vertex[3 * g + 2] == v));
+        } else {
+          const Index a = cs.vertex_input_edge[v];
+          bool edge_of_face = false;
+          for (Index j = 0; j < 3; ++j) edge_of_face = edge_of_face || s.input.corner_edge[3 * g + j] == a;
+          CHECK(edge_of_face);
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("round sphere: the planar start with one vertex at infinity needs at most two spherical Newton steps") {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(5);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Solved s = solve("icosphere with needles, seed " + std::to_string(trial),
+                           insert_needles_and_caps(icosphere(2 + trial % 2), rng, 0.3, 0.02), Geometry::Spherical);
+    INFO(s.name);
+    const bool planar = std::any_of(s.flow.notes.begin(), s.flow.notes.end(),
+                                    [](const std::string& n) { return n.find("at infinity") != std::string::npos; });
+    CHECK(planar);
+    CHECK(s.flow.iterations <= 2);
+    CHECK(s.flow.max_curvature_error < 1e-12);
+    CHECK(std::abs(total_area(s) - 4 * kPi) <= 1e-9);
+  }
+}
+
+TEST_CASE("uniformize: vertex scaling with flips is the default, conformal beyond circle packing, in E, H and S") {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(3);
+  const std::pair<std::string, Mesh> meshes[] = {
+      {"torus with needles", insert_needles_and_caps(torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02)},
+      {"pretzel with needles", insert_needles_and_caps(pretzel(2, 3), rng, 0.3, 0.02)},
+      {"icosphere with needles", insert_needles_and_caps(icosphere(2), rng, 0.3, 0.02)},
+      {"disk with needles", insert_needles_and_caps(disk(6), rng, 0.3, 0.02)}};
+  for (const auto& [name, m] : meshes) {
+    INFO(name);
+    const ValidateResult v = validate_mesh(m);
+    REQUIRE(v.status == Status::Ok);
+    UniformizeOptions o;
+    o.seed_checks = 1;
+    const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.intrinsic.used);
+    CHECK(r.intrinsic.fallback.empty());
+    CHECK(r.metric.structure.scheme == Scheme::Yamabe);
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    // Needles of relative size 0.02 leave the layout at 1.2e-9 to 1.6e-9 (H and S) here.
+    CHECK(r.layout.max_edge_length_error < 1e-8);
+    CHECK(r.layout.flipped_faces == 0);
+    CHECK(r.seed_independence_error < 1e-8);
+    // The same surface by the paper's circle packing: the flips' map is more conformal.
+    UniformizeOptions cp = o;
+    cp.metric.scheme = Scheme::CirclePacking;
+    const UniformizeResult p = uniformize(v.mesh, v.topology, cp);
+    REQUIRE_MESSAGE(p.status == Status::Ok, p.message);
+    CHECK_FALSE(p.intrinsic.used);
+    MESSAGE(name << ": angle distortion " << r.angles.mean_abs_log << " with flips, " << p.angles.mean_abs_log
+                 << " circle packing; refined " << r.intrinsic.refined);
+    CHECK(r.angles.mean_abs_log < p.angles.mean_abs_log);
+    if (r.intrinsic.refined) {
+      const InputSurfaceLayout in = input_surface_layout(v.mesh, v.topology, r);
+      REQUIRE_MESSAGE(in.status == Status::Ok, in.message);
+      CHECK(in.mesh.faces == v.mesh.faces);
+    }
+  }
+}
+
+TEST_CASE("uniformize: the regular tetrahedron maps to the round sphere by default") {
+  Mesh tet;
+  const double s = 1 / std::sqrt(3.0);
+  tet.positions = {s, s, s, s, -s, -s, -s, s, -s, -s, -s, s};
+  tet.faces = {0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2};
+  const ValidateResult v = validate_mesh(tet);
+  REQUIRE(v.status == Status::Ok);
+  const UniformizeResult r = uniformize(v.mesh, v.topology);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  CHECK(r.intrinsic.used);
+  CHECK(r.flow.max_curvature_error < 1e-12);
+  CHECK(r.layout.flipped_faces == 0);
+  // Every edge the same length on the sphere: a regular inscribed tetrahedron, arc acos(−1/3).
+  for (const double l : r.flow.l) CHECK(std::abs(l - std::acos(-1.0 / 3)) <= 1e-10);
+  // 3D angles π/3 against the spherical regular tetrahedron's 2π/3 at every corner.
+  CHECK(std::abs(r.angles.max_abs_log - std::log(2.0)) <= 1e-9);
+  CHECK(std::abs(r.angles.mean_abs_log - std::log(2.0)) <= 1e-9);
+}
