@@ -858,17 +858,9 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     s.positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
     s.faces = v.mesh.faces;
     files.push_back({"sphere.obj", ricci::serialize_mesh(s, ricci::FileFormat::Obj)});
-  } else if (r.intrinsic.refined) {
-    surface = through.mesh;
-    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
-    files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
-                                            r.cut.compact ? "the compact fundamental domain" : "the cut disk",
-                                            run.file)});
-    if (r.has_polygon && !r.domain_maps.empty())
-      files.push_back({"polygon.obj", disk_obj(r.polygon_cut, r.polygon.positions, r.geometry,
-                                               "the canonical fundamental polygon", run.file)});
   } else {
-    surface = ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
+    // The input's faces with their layout (through the subdivision when refined).
+    surface = r.intrinsic.refined ? through.mesh : ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
     files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
     files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
                                             r.cut.compact ? "the compact fundamental domain" : "the cut disk",

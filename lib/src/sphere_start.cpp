@@ -30,8 +30,10 @@ namespace ricci::detail {
 
 namespace {
 
-constexpr double kReflexTolerance = 1e-12;
-constexpr int kMaxRounds = 100;
+constexpr double kReflexTolerance = 1e-8;  // a link vertex this far past π is flipped inside (nearer π: cocircular, either way)
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegenerateAngle = 1e-3;  // a disk triangle on the link this close to flat is flipped
+constexpr int kMaxRounds = 12;
 constexpr int kMaxContinuation = 60;
 constexpr int kMaxPlanarIterations = 50;  // a convex problem: Newton needs far fewer
 
@@ -61,7 +63,8 @@ Index vertex_at_infinity(const Topology& t) {
 // numbering, as a euclidean intrinsic triangulation with the same chords: a corner table of its
 // own (edges in the order of their old indices, boundary loop walked along the faces), so that
 // several edges between two vertices survive.
-IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Index n) {
+IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Index n, std::vector<Index>& old_edge,
+                                         std::vector<Index>& old_face) {
   const Topology& t = tri.topology;
   IntrinsicTriangulation out;
   out.geometry = Geometry::Euclidean;
@@ -69,7 +72,10 @@ IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Inde
   std::vector<Index> face_map(static_cast<std::size_t>(t.num_faces), kInvalid);
   for (Index f = 0; f < t.num_faces; ++f) {
     const Index c = 3 * f;
-    if (t.corner_vertex[c] != n && t.corner_vertex[c + 1] != n && t.corner_vertex[c + 2] != n) face_map[f] = d.num_faces++;
+    if (t.corner_vertex[c] != n && t.corner_vertex[c + 1] != n && t.corner_vertex[c + 2] != n) {
+      face_map[f] = d.num_faces++;
+      old_face.push_back(f);
+    }
   }
   auto corner = [&](Index c) { return c == kInvalid || face_map[corner_face(c)] == kInvalid ? kInvalid : 3 * face_map[corner_face(c)] + corner_slot(c); };
   d.num_vertices = t.num_vertices - 1;
@@ -83,6 +89,7 @@ IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Inde
   for (Index e = 0; e < t.num_edges; ++e)
     if (edge_map[e] == 0) {
       edge_map[e] = d.num_edges++;
+      old_edge.push_back(e);
       out.log_chord.push_back(tri.log_chord[e]);
     }
   d.edge_corners.assign(static_cast<std::size_t>(2 * d.num_edges), kInvalid);
@@ -130,6 +137,48 @@ IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Inde
   return out;
 }
 
+// Writes the disk's connectivity and chords (after its flips) back into the sphere it was cut
+// from (disk_without_star() with the same n, old_edge and old_face): the disk's faces and edges
+// keep their sphere indices; the star of n is unchanged and glued along the link again.
+void write_back(IntrinsicTriangulation& sphere, const IntrinsicTriangulation& disk, Index n,
+                const std::vector<Index>& old_edge, const std::vector<Index>& old_face) {
+  Topology& t = sphere.topology;
+  const Topology& d = disk.topology;
+  auto back = [n](Index v) { return v < n ? v : v + 1; };
+  auto sphere_corner = [&](Index c) { return 3 * old_face[corner_face(c)] + corner_slot(c); };
+  for (Index e = 0; e < d.num_edges; ++e) sphere.log_chord[old_edge[e]] = disk.log_chord[e];
+  // The star's corners across each link edge, before the disk's corners are rewritten.
+  std::vector<Index> star_across(static_cast<std::size_t>(t.num_edges), kInvalid);
+  for (Index c = 0; c < t.num_corners(); ++c) {
+    const Index f = corner_face(c);
+    if (t.corner_vertex[3 * f] == n || t.corner_vertex[3 * f + 1] == n || t.corner_vertex[3 * f + 2] == n)
+      star_across[t.corner_edge[c]] = c;
+  }
+  for (Index c = 0; c < d.num_corners(); ++c) {
+    const Index sc = sphere_corner(c), e = old_edge[d.corner_edge[c]];
+    t.corner_vertex[sc] = back(d.corner_vertex[c]);
+    t.corner_edge[sc] = e;
+    if (d.opposite[c] != kInvalid) {
+      t.opposite[sc] = sphere_corner(d.opposite[c]);
+    } else {
+      t.opposite[sc] = star_across[e];
+      t.opposite[star_across[e]] = sc;
+    }
+  }
+  std::fill(t.edge_corners.begin(), t.edge_corners.end(), kInvalid);
+  for (Index c = 0; c < t.num_corners(); ++c) {
+    const Index e = t.corner_edge[c];
+    if (t.edge_corners[2 * e] == kInvalid) {
+      t.edge_corners[2 * e] = c;
+      t.edge_vertices[2 * e] = t.corner_vertex[next_corner(c)];
+      t.edge_vertices[2 * e + 1] = t.corner_vertex[prev_corner(c)];
+    } else {
+      t.edge_corners[2 * e + 1] = c;
+    }
+  }
+  refresh_vertex_corners(t);
+}
+
 }  // namespace
 
 SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOptions& options) {
@@ -142,9 +191,13 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
   }
   out.vertex_at_infinity = n;
   // The disk: every face off N, vertices renumbered without N; its chords read as euclidean. In
-  // rounds: solve, then flip N's edge to every link vertex where the plane is reflex (the edge is
-  // not Delaunay there: with N at infinity its circumcircles are lines), by Ptolemy in the sphere's
-  // own triangulation, which moves the vertex inside the disk; until the link is convex.
+  // rounds (at most kMaxRounds), one Ptolemy flip in the sphere's own triangulation per round:
+  // where the plane is reflex at a link vertex, N's edge to it is not Delaunay (with N at infinity
+  // its circumcircles are lines) and its flip moves the vertex inside; where Newton stalls on a
+  // disk triangle on the link going flat, its vertex reaches the hull and the link edge's flip
+  // joins it to N. Until the link is convex and the plane solved. (On some meshes — the shared
+  // decimated-max and nefertiti — this alternates between two links; the caller then goes on
+  // without the start.)
   auto renumber = [n](Index v) { return v < n ? v : v - 1; };
   IntrinsicTriangulation sphere = tri;
   Target target;
@@ -158,7 +211,8 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
   eo.max_iterations = std::min(options.max_iterations, kMaxPlanarIterations);
   for (int round = 0;; ++round) {
     const Topology& t2 = sphere.topology;
-    disk_tri = disk_without_star(sphere, n);
+    std::vector<Index> old_edge, old_face;
+    disk_tri = disk_without_star(sphere, n, old_edge, old_face);
     const Topology& d = disk_tri.topology;
     if (d.num_boundary_loops() != 1 || d.euler_characteristic() != 1) {
       out.message = "the sphere without the star of vertex " + std::to_string(n) + " is not a disk";
@@ -241,18 +295,45 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
         }
       }
     }
+    // The sphere takes the disk's flips, so that a link edge is flipped in the quadrilateral the
+    // disk's solution has there.
+    write_back(sphere, disk_tri, n, old_edge, old_face);
+    Index flipped = 0;
     if (plane.status != Status::Ok) {
-      out.message = "the planar problem: " + plane.message;
-      return out;
+      // A disk triangle on a link edge that degenerates (its angle opposite the edge reaching π)
+      // stops Newton: its vertex reaches the hull, so the link edge is not Delaunay with N at
+      // infinity. Flip it in the sphere (Ptolemy), which joins that vertex to N.
+      const Topology& dt = disk_tri.topology;
+      std::vector<double> theta(static_cast<std::size_t>(3 * dt.num_faces));
+      corner_angles(dt, Geometry::Euclidean, plane.l, theta);
+      // One flip per round, the flattest triangle (several at once can overshoot and cycle).
+      Index flattest = kInvalid;
+      for (const Index c : dt.boundary_corners)
+        if (theta[c] > kPi - kDegenerateAngle && can_flip(sphere, old_edge[dt.corner_edge[c]]) == FlipCheck::Ok &&
+            (flattest == kInvalid || theta[c] > theta[flattest]))
+          flattest = c;
+      if (flattest != kInvalid) {
+        flip_edge(sphere, old_edge[dt.corner_edge[flattest]]);
+        ++flipped;
+      }
+      if (flipped == 0) {
+        out.message = "the planar problem: " + plane.message;
+        return out;
+      }
     }
     // Reflex link vertices (interior angle above π, K < 0): flip N's edge to them.
+    // One per round, the most reflex.
     std::vector<std::pair<Index, Index>> reflex;  // (edge N–v, v)
-    for (Index i = t2.vertex_corner_offsets[n]; i < t2.vertex_corner_offsets[n + 1]; ++i) {
+    double most = -kReflexTolerance;
+    for (Index i = t2.vertex_corner_offsets[n]; i < t2.vertex_corner_offsets[n + 1] && flipped == 0; ++i) {
       const Index c = t2.vertex_corners[i];
       const Index v = t2.corner_vertex[next_corner(c)];
-      if (plane.K[renumber(v)] < -kReflexTolerance) reflex.push_back({t2.corner_edge[prev_corner(c)], v});
+      if (plane.K[renumber(v)] < most) {
+        most = plane.K[renumber(v)];
+        reflex.assign(1, {t2.corner_edge[prev_corner(c)], v});
+      }
     }
-    Index valence = t2.vertex_corner_offsets[n + 1] - t2.vertex_corner_offsets[n], flipped = 0;
+    Index valence = t2.vertex_corner_offsets[n + 1] - t2.vertex_corner_offsets[n];
     for (const auto& [e, v] : reflex) {
       const Index a = sphere.topology.edge_vertices[2 * e], b = sphere.topology.edge_vertices[2 * e + 1];
       const bool still = (a == n && b == v) || (a == v && b == n);
