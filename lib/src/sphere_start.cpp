@@ -34,29 +34,42 @@ constexpr double kReflexTolerance = 1e-8;  // a link vertex this far past π is 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegenerateAngle = 1e-3;  // a disk triangle on the link this close to flat is flipped
 constexpr int kMaxRounds = 12;
+constexpr std::size_t kCandidates = 3;  // vertices at infinity tried
 constexpr int kMaxContinuation = 60;
 constexpr int kMaxPlanarIterations = 50;  // a convex problem: Newton needs far fewer
 
-// A vertex whose star is a disk of distinct faces around distinct link vertices, of largest valence.
-Index vertex_at_infinity(const Topology& t) {
-  Index best = kInvalid, best_valence = 0;
+// Vertices whose star is a disk of distinct faces around distinct link vertices: up to `count`,
+// the ones where the starting metric is flattest first (least |K| in S at u = 0; ties: smaller
+// index). A vertex whose neighbourhood is already round is likely to keep its star at the
+// solution, which the planar problem assumes.
+std::vector<Index> vertices_at_infinity(const IntrinsicTriangulation& tri, std::size_t count) {
+  const Topology& t = tri.topology;
+  ConformalStructure structure;
+  vertex_scaling_structure(tri, structure);
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges)), theta(static_cast<std::size_t>(3 * t.num_faces)),
+      K(static_cast<std::size_t>(t.num_vertices), 0.0);
+  const std::vector<double> zero(static_cast<std::size_t>(t.num_vertices), 0.0);
+  if (edge_lengths(t, structure, zero, l) == kInvalid) {
+    corner_angles(t, Geometry::Spherical, l, theta);
+    vertex_curvature(t, theta, K);
+  }
+  std::vector<std::pair<double, Index>> simple;  // (|K|, vertex)
   std::vector<Index> seen(static_cast<std::size_t>(t.num_vertices), kInvalid);
   for (Index v = 0; v < t.num_vertices; ++v) {
     const Index b = t.vertex_corner_offsets[v], e = t.vertex_corner_offsets[v + 1];
-    if (e - b <= best_valence) continue;
-    bool simple = true;
-    for (Index i = b; i < e && simple; ++i) {
+    bool ok = e - b >= 3;
+    for (Index i = b; i < e && ok; ++i) {
       const Index c = t.vertex_corners[i];
       const Index w = t.corner_vertex[next_corner(c)];
-      simple = w != v && t.corner_vertex[prev_corner(c)] != v && seen[w] != v;
+      ok = w != v && t.corner_vertex[prev_corner(c)] != v && seen[w] != v;
       seen[w] = v;
     }
-    if (simple) {
-      best = v;
-      best_valence = e - b;
-    }
+    if (ok) simple.push_back({std::abs(K[v]), v});
   }
-  return best;
+  std::sort(simple.begin(), simple.end());
+  std::vector<Index> out;
+  for (std::size_t i = 0; i < simple.size() && i < count; ++i) out.push_back(simple[i].second);
+  return out;
 }
 
 // The triangulation without the faces around vertex n (a simple star), n removed from the vertex
@@ -181,23 +194,18 @@ void write_back(IntrinsicTriangulation& sphere, const IntrinsicTriangulation& di
 
 }  // namespace
 
-SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOptions& options) {
+static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const FlowOptions& options) {
   SphereStart out;
   const Index nv = tri.topology.num_vertices;
-  const Index n = vertex_at_infinity(tri.topology);
-  if (n == kInvalid) {
-    out.message = "no vertex has a simple star";
-    return out;
-  }
   out.vertex_at_infinity = n;
   // The disk: every face off N, vertices renumbered without N; its chords read as euclidean. In
   // rounds (at most kMaxRounds), one Ptolemy flip in the sphere's own triangulation per round:
   // where the plane is reflex at a link vertex, N's edge to it is not Delaunay (with N at infinity
   // its circumcircles are lines) and its flip moves the vertex inside; where Newton stalls on a
   // disk triangle on the link going flat, its vertex reaches the hull and the link edge's flip
-  // joins it to N. Until the link is convex and the plane solved. (On some meshes — the shared
-  // decimated-max and nefertiti — this alternates between two links; the caller then goes on
-  // without the start.)
+  // joins it to N. Until the link is convex and the plane solved. For some vertices the link
+  // alternates (an edge flipped back: on the shared decimated-max and nefertiti the vertex of
+  // largest valence does); round_sphere_start() then tries the next vertex.
   auto renumber = [n](Index v) { return v < n ? v : v - 1; };
   IntrinsicTriangulation sphere = tri;
   Target target;
@@ -209,6 +217,12 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
   FlowOptions eo = options;
   eo.on_iteration = nullptr;
   eo.max_iterations = std::min(options.max_iterations, kMaxPlanarIterations);
+  std::vector<Index> flipped_before;  // link flips so far: flipping one back means the link alternates
+  auto alternates = [&](Index e) {
+    if (std::find(flipped_before.begin(), flipped_before.end(), e) != flipped_before.end()) return true;
+    flipped_before.push_back(e);
+    return false;
+  };
   for (int round = 0;; ++round) {
     const Topology& t2 = sphere.topology;
     std::vector<Index> old_edge, old_face;
@@ -313,7 +327,12 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
             (flattest == kInvalid || theta[c] > theta[flattest]))
           flattest = c;
       if (flattest != kInvalid) {
-        flip_edge(sphere, old_edge[dt.corner_edge[flattest]]);
+        const Index e = old_edge[dt.corner_edge[flattest]];
+        if (alternates(e)) {
+          out.message = "the link of the vertex at infinity alternates (edge " + std::to_string(e) + ")";
+          return out;
+        }
+        flip_edge(sphere, e);
         ++flipped;
       }
       if (flipped == 0) {
@@ -338,6 +357,10 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
       const Index a = sphere.topology.edge_vertices[2 * e], b = sphere.topology.edge_vertices[2 * e + 1];
       const bool still = (a == n && b == v) || (a == v && b == n);
       if (!still || valence <= 3 || can_flip(sphere, e) != FlipCheck::Ok) continue;
+      if (alternates(e)) {
+        out.message = "the link of the vertex at infinity alternates (edge " + std::to_string(e) + ")";
+        return out;
+      }
       flip_edge(sphere, e);
       --valence;
       ++flipped;
@@ -431,6 +454,22 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
   }
   out.status = Status::Ok;
   out.message = "ok";
+  return out;
+}
+
+SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOptions& options) {
+  // A few vertices at infinity in turn: where one's link does not settle, another's may.
+  SphereStart out;
+  out.message = "no vertex has a simple star";
+  int iterations = 0;
+  for (const Index n : vertices_at_infinity(tri, kCandidates)) {
+    SphereStart s = start_from(tri, n, options);
+    iterations += s.iterations;
+    s.iterations = iterations;
+    if (s.status == Status::Ok) return s;
+    if (out.vertex_at_infinity == kInvalid) out = std::move(s);
+  }
+  out.iterations = iterations;
   return out;
 }
 
