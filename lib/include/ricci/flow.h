@@ -208,8 +208,12 @@ FlowResult solve_flow(const Topology& topology, const ConformalStructure& struct
 /// flips in E and H (Bobenko–Pinkall–Springborn 2015; Gu–Luo–Sun–Wu 2018), is evaluated with the
 /// curvature of its own Delaunay triangulation; the Newton matrix is assembled on the current
 /// triangulation (a changed pattern is analysed again with the first fill-reducing ordering).
-/// Targets and options as solve_flow() (its spherical safeguards, made for circle schemes, do not
-/// apply). On return `triangulation` is the Delaunay triangulation of the final u; FlowResult::l
+/// Targets and options as solve_flow(). The round sphere (S, closed genus 0, K̄ = 0, nothing held,
+/// spherical_safeguards on) starts from the planar problem with one vertex at infinity — the
+/// sphere minus that vertex's star, projected stereographically, is a convex euclidean Dirichlet
+/// problem — solved with flips, laid out, projected back and Möbius-centred (the flattest of up to
+/// three vertices is sent to infinity; a note says which); Newton from u0 when none gives a start,
+/// or when the start does not converge. The circle schemes' other spherical safeguards do not apply. On return `triangulation` is the Delaunay triangulation of the final u; FlowResult::l
 /// are its edge lengths and `flips` counts the flips from the start.
 FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::span<const double> u0,
                                  const Target& target, const FlowOptions& options = {});
