@@ -484,6 +484,7 @@ struct Run {
   std::optional<ConformalDistortion> distortion;
   bool from_metric = false;
   Index input_flipped_faces = 0;  ///< refined: input faces that come out flipped through the subdivision
+  Index refinement_faces = 0;     ///< refined: faces written to refinement.obj
 };
 
 Json report_json(const Run& run) {
@@ -516,7 +517,7 @@ Json report_json(const Run& run) {
                           {"degenerate_faces", in.degenerate_faces},
                           {"max_angle_sum_error", real(in.max_angle_sum_error)},
                           {"refined", in.refined},
-                          {"refinement_faces", in.refined ? Json(r.refinement.topology.num_faces) : Json(nullptr)},
+                          {"refinement_faces", in.refined ? Json(run.refinement_faces) : Json(nullptr)},
                           {"input_flipped_faces", in.refined ? Json(run.input_flipped_faces) : Json(0)}};
   } else {
     j["intrinsic"] = nullptr;
@@ -832,6 +833,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     run.notes.push_back(note);
     print_note(o.quiet, note);
     const ricci::CommonSubdivision& cs = r.refinement;
+    run.refinement_faces = sphere ? cs.topology.num_faces : static_cast<Index>(r.cut.surface_faces.size() / 3);
     if (sphere) {
       files.push_back({"refinement.obj", refinement_obj("the common subdivision of the input and the final intrinsic "
                                                         "triangulation, on the input surface", run.file,

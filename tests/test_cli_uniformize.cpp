@@ -14,6 +14,8 @@
 
 #include <cmath>
 #include <complex>
+#include <random>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -21,6 +23,8 @@
 #include "ricci/deck.h"
 #include "pictures.h"
 #include "ricci/io.h"
+#include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 namespace {
@@ -373,4 +377,61 @@ TEST_CASE("cli uniformize: an interrupted run leaves no partial output and keeps
   }
   // No staging or set-aside directories are left behind.
   for (const std::string& name : listing(tmp.path())) CHECK_MESSAGE(name.rfind(".", 0) != 0, name);
+}
+
+TEST_CASE("cli uniformize: where straight input faces would fold, refinement.obj holds the common subdivision") {
+  // A torus with needles and caps: its straight input triangles fold at a few vertices.
+  std::mt19937_64 rng(3);
+  const ricci::Mesh m = ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02);
+  TempDir dir;
+  const fs::path mesh = dir / "needles.obj";
+  REQUIRE(ricci::write_mesh(mesh.string(), m).status == ricci::Status::Ok);
+  const fs::path out = dir / "out";
+  const auto r = run_cli({"uniformize", mesh.string(), "-o", out.string(), "--no-pictures", "--json", "-q"});
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const Json j = parse(r.out);
+  REQUIRE(j.is_object());
+  CHECK(j["flips"] == true);
+  REQUIRE(j["intrinsic"]["refined"] == true);
+  CHECK(j["intrinsic"]["inconsistent_vertices"].get<int>() > 0);
+  // refinement.obj: one face line per face of the subdivision, each under a group naming its
+  // input face; mesh.obj keeps the input's faces.
+  const std::string text = ricci_test::read_bytes(out / "refinement.obj");
+  ricci::Index faces = 0, groups = 0, bad_group = 0;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("f ", 0) == 0) ++faces;
+    if (line.rfind("g input_face_", 0) == 0) {
+      ++groups;
+      const long f = std::stol(line.substr(13));
+      if (f < 0 || f >= static_cast<long>(m.num_faces())) ++bad_group;
+    }
+  }
+  CHECK(faces == j["intrinsic"]["refinement_faces"].get<ricci::Index>());
+  CHECK(groups >= static_cast<ricci::Index>(m.num_faces()));
+  CHECK(bad_group == 0);
+  const ricci::ReadResult back = ricci::read_mesh((out / "mesh.obj").string());
+  REQUIRE(back.status == ricci::Status::Ok);
+  CHECK(back.mesh.faces == m.faces);
+  CHECK(back.mesh.has_texcoords());
+  for (const char* name : {"report.json", "domain.obj", "metric.csv"}) CHECK_MESSAGE(fs::exists(out / name), name);
+}
+
+TEST_CASE("cli uniformize: --no-flips and the paper's scheme run without flips") {
+  TempDir dir;
+  for (const std::vector<std::string>& extra : {std::vector<std::string>{"--no-flips"},
+                                                std::vector<std::string>{"--scheme", "circle-packing"}}) {
+    CAPTURE(extra[0]);
+    const fs::path out = dir / ("out" + extra[0]);
+    std::vector<std::string> args = {"uniformize", "-o", out.string(), "--no-pictures", "--json", "-q", "--seed-checks", "0"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = run_cli(args);
+    REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+    const Json j = parse(r.out);
+    REQUIRE(j.is_object());
+    CHECK(j["flips"] == false);
+    CHECK(j["intrinsic"].is_null());
+    CHECK(j["scheme"] == (extra[0] == "--no-flips" ? "yamabe" : "circle-packing"));
+    CHECK(!fs::exists(out / "refinement.obj"));
+  }
 }

@@ -147,6 +147,7 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
   if (delaunay) {
     DelaunayOptions options;
     options.rule = FlipRule::Geometric;
+    options.keep_boundary_fans = true;
     const std::vector<double> zero(static_cast<std::size_t>(topology.num_vertices), 0.0);
     const DelaunayReport report = make_delaunay(tri, zero, options);
     r.delaunay_flips = report.flips;
@@ -358,6 +359,19 @@ double delaunay_margin(const IntrinsicTriangulation& tri, std::span<const double
   return (il * ki + jk * lj) * (il * jk + ki * lj) - ij * ij * (jk * ki + il * lj);
 }
 
+namespace {
+
+// Whether flipping interior edge e leaves one of its ends on the boundary in a single face: both
+// faces of e have their other edge at that end on the boundary.
+bool makes_ear(const Topology& t, Index e) {
+  const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+  const bool first = t.opposite[prev_corner(c0)] == kInvalid && t.opposite[next_corner(c1)] == kInvalid;
+  const bool second = t.opposite[next_corner(c0)] == kInvalid && t.opposite[prev_corner(c1)] == kInvalid;
+  return first || second;
+}
+
+}  // namespace
+
 DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, const DelaunayOptions& options) {
   DelaunayReport report;
   Topology& t = tri.topology;
@@ -381,7 +395,7 @@ DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double
       report.complete = false;
       break;
     }
-    if (can_flip(tri, e) != FlipCheck::Ok ||
+    if (can_flip(tri, e) != FlipCheck::Ok || (options.keep_boundary_fans && makes_ear(t, e)) ||
         (options.rule == FlipRule::Geometric && !flip_edge_geometric(tri, u, e))) {
       refused.push_back(e);
       continue;

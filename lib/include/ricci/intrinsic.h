@@ -92,7 +92,8 @@ struct IntrinsicResult {
 
 /// The triangulation of `topology` with the metric of edge lengths l (#E) in `geometry`, keeping
 /// normal coordinates (all −1 at the start: every edge is an input edge); with `delaunay`, flipped by FlipRule::Geometric to the intrinsic Delaunay triangulation of that
-/// metric (the same surface; where the flow's conformal class is read from), its `flips` reset to 0.
+/// metric (the same surface; where the flow's conformal class is read from), its `flips` reset to 0;
+/// flips that would make a boundary vertex an ear are refused (DelaunayOptions::keep_boundary_fans).
 IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry geometry, std::span<const double> l,
                                              bool delaunay = true);
 
@@ -149,6 +150,10 @@ struct DelaunayOptions {
   /// Stop after this many flips (0: 100 · #E + 1000). Edge flipping to Delaunay terminates in exact
   /// arithmetic; this bounds the work on rounding.
   std::int64_t max_flips = 0;
+  /// Refuse a flip that would leave a boundary vertex in a single face (an ear: its angle is
+  /// below π, which circle and geodesic targets on inner loops cannot have). Such edges are
+  /// counted in DelaunayReport::refused.
+  bool keep_boundary_fans = false;
 };
 
 /// What make_delaunay() did.
