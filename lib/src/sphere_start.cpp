@@ -72,6 +72,23 @@ std::vector<Index> vertices_at_infinity(const IntrinsicTriangulation& tri, std::
   return out;
 }
 
+// edge_corners and edge_vertices from corner_edge: corners in increasing order, so an edge's first
+// corner is its smaller one, and the edge runs as in that corner's face.
+void edges_from_corners(Topology& t) {
+  t.edge_corners.assign(static_cast<std::size_t>(2 * t.num_edges), kInvalid);
+  t.edge_vertices.assign(static_cast<std::size_t>(2 * t.num_edges), kInvalid);
+  for (Index c = 0; c < t.num_corners(); ++c) {
+    const Index e = t.corner_edge[c];
+    if (t.edge_corners[2 * e] == kInvalid) {
+      t.edge_corners[2 * e] = c;
+      t.edge_vertices[2 * e] = t.corner_vertex[next_corner(c)];
+      t.edge_vertices[2 * e + 1] = t.corner_vertex[prev_corner(c)];
+    } else {
+      t.edge_corners[2 * e + 1] = c;
+    }
+  }
+}
+
 // The triangulation without the faces around vertex n (a simple star), n removed from the vertex
 // numbering, as a euclidean intrinsic triangulation with the same chords: a corner table of its
 // own (edges in the order of their old indices, boundary loop walked along the faces), so that
@@ -105,8 +122,6 @@ IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Inde
       old_edge.push_back(e);
       out.log_chord.push_back(tri.log_chord[e]);
     }
-  d.edge_corners.assign(static_cast<std::size_t>(2 * d.num_edges), kInvalid);
-  d.edge_vertices.assign(static_cast<std::size_t>(2 * d.num_edges), kInvalid);
   for (Index c = 0; c < t.num_corners(); ++c) {
     const Index k = corner(c);
     if (k == kInvalid) continue;
@@ -115,16 +130,7 @@ IntrinsicTriangulation disk_without_star(const IntrinsicTriangulation& tri, Inde
     d.opposite[k] = corner(t.opposite[c]);
     d.corner_edge[k] = edge_map[t.corner_edge[c]];
   }
-  for (Index k = 0; k < nc; ++k) {  // corners in increasing order: the first seen is the smaller
-    const Index e = d.corner_edge[k];
-    if (d.edge_corners[2 * e] == kInvalid) {
-      d.edge_corners[2 * e] = k;
-      d.edge_vertices[2 * e] = d.corner_vertex[next_corner(k)];
-      d.edge_vertices[2 * e + 1] = d.corner_vertex[prev_corner(k)];
-    } else {
-      d.edge_corners[2 * e + 1] = k;
-    }
-  }
+  edges_from_corners(d);
   // Boundary loops, each from its smallest corner, along the faces.
   std::vector<std::uint8_t> walked(static_cast<std::size_t>(nc), 0);
   d.boundary_offsets.assign(1, 0);
@@ -178,17 +184,7 @@ void write_back(IntrinsicTriangulation& sphere, const IntrinsicTriangulation& di
       t.opposite[star_across[e]] = sc;
     }
   }
-  std::fill(t.edge_corners.begin(), t.edge_corners.end(), kInvalid);
-  for (Index c = 0; c < t.num_corners(); ++c) {
-    const Index e = t.corner_edge[c];
-    if (t.edge_corners[2 * e] == kInvalid) {
-      t.edge_corners[2 * e] = c;
-      t.edge_vertices[2 * e] = t.corner_vertex[next_corner(c)];
-      t.edge_vertices[2 * e + 1] = t.corner_vertex[prev_corner(c)];
-    } else {
-      t.edge_corners[2 * e + 1] = c;
-    }
-  }
+  edges_from_corners(t);
   refresh_vertex_corners(t);
 }
 
