@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <random>
 #include <string>
@@ -158,6 +159,97 @@ TEST_CASE("common subdivision: every piece in one input face, the solution's met
         }
       }
     }
+  }
+}
+
+namespace {
+
+// Per current edge, its crossings' positions in slot order.
+std::vector<std::vector<double>> positions_by_edge(const Solved& s, const std::vector<double>& t) {
+  std::vector<std::vector<double>> by(static_cast<std::size_t>(s.tri.topology.num_edges));
+  for (Index e = 0; e < s.tri.topology.num_edges; ++e)
+    by[static_cast<std::size_t>(e)].assign(static_cast<std::size_t>(std::max<std::int64_t>(0, s.tri.normal[e])), NAN);
+  for (std::size_t k = 0; k < t.size(); ++k)
+    by[static_cast<std::size_t>(s.paths.crossed_edge[k])][static_cast<std::size_t>(s.paths.crossed_slot[k])] = t[k];
+  return by;
+}
+
+// The length of input edge a in the common subdivision: the sum of its pieces.
+double piecewise_length(const Solved& s, const CommonSubdivision& cs, Index a) {
+  const Topology& r = cs.topology;
+  auto length_between = [&](Index x, Index y) {
+    for (Index e = 0; e < r.num_edges; ++e)
+      if ((r.edge_vertices[2 * e] == x && r.edge_vertices[2 * e + 1] == y) ||
+          (r.edge_vertices[2 * e] == y && r.edge_vertices[2 * e + 1] == x))
+        return cs.l[e];
+    return static_cast<double>(NAN);
+  };
+  const Index nv = s.input.num_vertices;
+  Index prev = s.input.edge_vertices[2 * a];
+  double sum = 0;
+  for (Index k = s.paths.offsets[a]; k < s.paths.offsets[a + 1]; ++k) {
+    sum += length_between(prev, nv + k);
+    prev = nv + k;
+  }
+  return sum + length_between(prev, s.input.edge_vertices[2 * a + 1]);
+}
+
+}  // namespace
+
+TEST_CASE("straightest crossings: in order on every edge, straight where the gaps allow, straight input edges where they tile") {
+  for (const Solved& s : hard_cases()) {
+    INFO(s.name);
+    const StraightInputMetric st = straight_input_metric(s.tri, s.flow.u, s.input, s.paths);
+    REQUIRE_MESSAGE(st.status == Status::Ok, st.message);
+    REQUIRE(st.crossings.size() == s.paths.crossed_edge.size());
+    const std::vector<double> ideal = input_edge_crossings(s.tri, s.flow.u, s.paths);
+    const std::vector<double> t = straightest_crossings(s.tri, s.paths, st.crossings, ideal);
+    REQUIRE(t.size() == ideal.size());
+    const auto by_t = positions_by_edge(s, t), by_straight = positions_by_edge(s, st.crossings),
+               by_ideal = positions_by_edge(s, ideal);
+    Index straight_edges = 0, crossed_edges = 0;
+    for (std::size_t e = 0; e < by_t.size(); ++e) {
+      const std::vector<double>& x = by_t[e];
+      if (x.empty()) continue;
+      ++crossed_edges;
+      // In slot order, inside the edge, each gap at least the fraction of the ideal one.
+      bool gaps_kept = true, straight_kept = true;
+      for (std::size_t j = 0; j <= x.size(); ++j) {
+        const double lo = j == 0 ? 0.0 : x[j - 1], hi = j == x.size() ? 1.0 : x[j];
+        const double ideal_gap = (j == x.size() ? 1.0 : by_ideal[e][j]) - (j == 0 ? 0.0 : by_ideal[e][j - 1]);
+        const double straight_gap =
+            (j == x.size() ? 1.0 : by_straight[e][j]) - (j == 0 ? 0.0 : by_straight[e][j - 1]);
+        CHECK(hi - lo >= kCrossingGapFraction * ideal_gap * (1 - 1e-12) - 1e-15);
+        gaps_kept = gaps_kept && hi - lo > 0;
+        straight_kept = straight_kept && straight_gap >= kCrossingGapFraction * ideal_gap;
+      }
+      CHECK(gaps_kept);
+      // Where the straight positions keep the gaps, they are taken as they are.
+      if (straight_kept) {
+        ++straight_edges;
+        for (std::size_t j = 0; j < x.size(); ++j) CHECK(x[j] == by_straight[e][j]);
+      }
+    }
+    MESSAGE(s.name << ": " << straight_edges << " of " << crossed_edges << " crossed edges keep the straight positions");
+    const CommonSubdivision cs = common_subdivision(s.tri, s.flow.u, s.mesh, s.input, s.paths, t);
+    REQUIRE_MESSAGE(cs.status == Status::Ok, cs.message);
+    std::vector<double> K;
+    double area = 0;
+    REQUIRE(curvature_of(cs.topology, s.tri.geometry, cs.l, K, area) == 0);
+    CHECK(std::abs(area - total_area(s)) <= 1e-9 * std::max(1.0, area));
+    if (!st.tiles()) continue;
+    // Where the straight triangles tile, every straight position lies inside its edge, and an input
+    // edge whose crossings all kept them is straight: its pieces add up to the straight length.
+    for (const double x : st.crossings) CHECK((x > 0 && x < 1));
+    Index checked = 0;
+    for (Index a = 0; a < s.input.num_edges; ++a) {
+      bool straight = true;
+      for (Index k = s.paths.offsets[a]; k < s.paths.offsets[a + 1]; ++k) straight = straight && t[k] == st.crossings[k];
+      if (!straight || s.paths.offsets[a] == s.paths.offsets[a + 1]) continue;
+      ++checked;
+      CHECK(std::abs(piecewise_length(s, cs, a) - st.l[a]) <= 1e-9 * st.l[a]);
+    }
+    CHECK(checked > 0);
   }
 }
 

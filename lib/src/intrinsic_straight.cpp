@@ -29,6 +29,22 @@ namespace {
 
 using namespace model;
 
+// A model point as a vector of R³ whose span is the point's line through the origin: E's plane
+// z = 0 is lifted to z = 1, so that in all three models a geodesic is the model's section by a
+// plane through the origin.
+P3 lift(Geometry g, const P3& x) { return g == Geometry::Euclidean ? P3{x[0], x[1], 1} : x; }
+
+// Where the geodesic through (lifted) a and b meets the chord from p to q: the fraction s with
+// (1 − s) p + s q on the line where the two planes meet. Outside [0, 1] when the geodesic misses
+// the segment; NaN when the two coincide.
+double chord_crossing(const P3& a, const P3& b, const P3& p, const P3& q) {
+  const P3 n = cross(p, q);
+  const P3 x = cross(cross(a, b), n);
+  const double alpha = dot(cross(x, q), n), beta = dot(cross(p, x), n);
+  const double s = beta / (alpha + beta);
+  return std::isfinite(s) ? s : NAN;
+}
+
 }  // namespace
 
 StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std::span<const double> u,
@@ -59,7 +75,10 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
   }
 
   r.l.assign(static_cast<std::size_t>(nin), 0.0);
+  r.crossings.assign(paths.crossed_edge.size(), NAN);
   std::vector<std::uint8_t> broken(static_cast<std::size_t>(nin), 0);
+  // Per crossing, the crossed edge's ends in the development: at next(cc), then at prev(cc).
+  std::vector<P3> ends(2 * paths.crossed_edge.size());
 #pragma omp parallel for schedule(dynamic, 256) if (nin >= detail::kParallelMin)
   for (Index a = 0; a < nin; ++a) {
     if (paths.along[a] != kInvalid) {
@@ -84,6 +103,8 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
       // Across the edge opposite cc: its ends keep their images; oc's vertex goes to the left of
       // the edge from next(oc) to prev(oc), at the corner angle of next(oc).
       const P3 p = at(prev_corner(cc)), q = at(next_corner(cc));
+      ends[2 * static_cast<std::size_t>(k)] = q;
+      ends[2 * static_cast<std::size_t>(k) + 1] = p;
       at(next_corner(oc)) = p;
       at(prev_corner(oc)) = q;
       at(oc) = turn_and_walk(g, p, q, theta[next_corner(oc)], l[t.corner_edge[prev_corner(oc)]]);
@@ -95,6 +116,13 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
       continue;
     }
     r.l[a] = from_pole(g, at(last));
+    const P3 b = lift(g, at(last));
+    for (Index k = paths.offsets[a]; k < paths.offsets[a + 1]; ++k) {
+      const Index cc = paths.crossed_corner[k], e = t.corner_edge[cc];
+      const double s = chord_crossing(lift(g, pole(g)), b, lift(g, ends[2 * static_cast<std::size_t>(k)]),
+                                      lift(g, ends[2 * static_cast<std::size_t>(k) + 1]));
+      r.crossings[static_cast<std::size_t>(k)] = t.edge_corners[2 * e] == cc ? s : 1 - s;
+    }
   }
   for (Index a = 0; a < nin; ++a)
     if (broken[a] || !(r.l[a] > 0) || !std::isfinite(r.l[a])) {
@@ -124,6 +152,57 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
   r.status = Status::Ok;
   r.message = "ok";
   return r;
+}
+
+std::vector<double> straightest_crossings(const IntrinsicTriangulation& tri, const InputEdgePaths& paths,
+                                          std::span<const double> straight, std::span<const double> ideal) {
+  const Topology& t = tri.topology;
+  const std::size_t n = paths.crossed_edge.size();
+  if (straight.size() != n || ideal.size() != n) return std::vector<double>(ideal.begin(), ideal.end());
+  // The crossings of every current edge, in slot order.
+  std::vector<Index> offset(static_cast<std::size_t>(t.num_edges) + 1, 0), by_slot(n, kInvalid);
+  for (std::size_t k = 0; k < n; ++k) ++offset[static_cast<std::size_t>(paths.crossed_edge[k]) + 1];
+  for (Index e = 0; e < t.num_edges; ++e) offset[e + 1] += offset[e];
+  for (std::size_t k = 0; k < n; ++k)
+    by_slot[static_cast<std::size_t>(offset[paths.crossed_edge[k]] + paths.crossed_slot[k])] = static_cast<Index>(k);
+
+  std::vector<double> out(ideal.begin(), ideal.end());
+#pragma omp parallel for schedule(dynamic, 256) if (t.num_edges >= detail::kParallelMin)
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index begin = offset[e], end = offset[e + 1];
+    if (begin == end) continue;
+    // Every gap g(s) = (1 − s) g_straight + s g_ideal must reach kCrossingGapFraction · g_ideal: a
+    // lower bound on s per gap (the gaps from 0 to the first crossing, between neighbours, and
+    // from the last to 1).
+    double s = 0;
+    auto need = [&s](double g_straight, double g_ideal) {
+      const double floor = kCrossingGapFraction * g_ideal;
+      if (!(g_straight >= floor)) s = std::max(s, std::isfinite(g_straight) ? (floor - g_straight) / (g_ideal - g_straight) : 1.0);
+    };
+    double prev_straight = 0, prev_ideal = 0;
+    for (Index j = begin; j <= end; ++j) {
+      double x_straight = 1, x_ideal = 1;
+      if (j < end) {
+        const Index k = by_slot[static_cast<std::size_t>(j)];
+        if (k == kInvalid) {
+          s = 1;
+          break;
+        }
+        x_straight = straight[static_cast<std::size_t>(k)];
+        x_ideal = ideal[static_cast<std::size_t>(k)];
+      }
+      need(x_straight - prev_straight, x_ideal - prev_ideal);
+      prev_straight = x_straight;
+      prev_ideal = x_ideal;
+    }
+    s = std::min(s, 1.0);
+    if (s == 1) continue;
+    for (Index j = begin; j < end; ++j) {
+      const std::size_t k = static_cast<std::size_t>(by_slot[static_cast<std::size_t>(j)]);
+      out[k] = (1 - s) * straight[k] + s * ideal[k];
+    }
+  }
+  return out;
 }
 
 }  // namespace ricci

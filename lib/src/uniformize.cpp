@@ -350,7 +350,8 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
         layout_stages(mesh, topology, options, r.flow.l, r, start);
         return r;
       }
-      const std::vector<double> t = input_edge_crossings(tri, r.flow.u, paths);
+      const std::vector<double> t =
+          straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, r.flow.u, paths));
       r.refinement = common_subdivision(tri, r.flow.u, mesh, topology, paths, t);
       if (r.refinement.status != Status::Ok) return fail(r.refinement.status, "straighten", r.refinement.message);
       r.intrinsic.refined = true;

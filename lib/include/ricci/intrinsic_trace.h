@@ -101,6 +101,11 @@ struct StraightInputMetric {
   /// #E(input): the length of the geodesic of the metric homotopic, with its ends fixed, to each
   /// input edge (its path over the triangulation): the input edge made straight.
   std::vector<double> l;
+  /// Per crossing of the paths: where the straight input edge crosses the current edge, as
+  /// input_edge_crossings() gives it (a fraction of the chord from edge_vertices[2e]). Outside
+  /// (0, 1) where the straight edge leaves its path's faces (a folding straight triangle), NaN
+  /// where it runs along the crossed edge.
+  std::vector<double> crossings;
   /// Input faces whose straight lengths violate the triangle inequality (a straight triangle that
   /// is degenerate), the smallest of them.
   Index degenerate_faces = 0;
@@ -126,6 +131,22 @@ struct StraightInputMetric {
 /// works on the input's connectivity (cut, layout, deck group) can take it. O(#E + crossings).
 StraightInputMetric straight_input_metric(const IntrinsicTriangulation& triangulation, std::span<const double> u,
                                           const Topology& input, const InputEdgePaths& paths);
+
+/// The smallest gap the straightest crossings keep, as a fraction of the ideal-geodesic gap.
+inline constexpr double kCrossingGapFraction = 0.5;
+
+/// Crossing positions for common_subdivision() that keep the input edges as straight as the
+/// subdivision allows. Per current edge, its crossings' positions are (1 − s)·straight + s·ideal
+/// with the smallest s ∈ [0, 1] that keeps them in the order the normal coordinates give, every gap
+/// between two of them or to an end of the edge at least kCrossingGapFraction of the same gap
+/// among the ideal positions. `straight`: StraightInputMetric::crossings; `ideal`:
+/// input_edge_crossings(), which are always in that order. An edge whose straight positions
+/// already keep the gaps takes them as they are (s = 0), so where the straight input triangles
+/// tile the surface the subdivision's input edges are straight; an edge with a NaN straight
+/// position takes the ideal ones (s = 1). Each current face's chords stay pairwise disjoint
+/// whatever s each edge takes, since their ends keep their order around the face. O(crossings).
+std::vector<double> straightest_crossings(const IntrinsicTriangulation& triangulation, const InputEdgePaths& paths,
+                                          std::span<const double> straight, std::span<const double> ideal);
 
 /// The common subdivision of the input triangulation and the current one (CommonSubdivision).
 struct CommonSubdivision {

@@ -15,9 +15,10 @@
 //   S  dims 3  unit vectors (the unit sphere, curvature +1)
 //
 // Propagation (the paper's Section 5 Step 4). The seed face is placed first (corner 0 at the
-// origin / north pole, its edge to corner 1 along +x), then faces are taken breadth-first through a
-// queue over the dual graph: every face that shares an edge with a face already taken gets its
-// third vertex placed, when that vertex has no position yet, as an intersection of the two
+// origin / north pole, its edge to corner 1 along +x), then faces are taken cheapest-first over the
+// dual graph (Dijkstra; each face costs 1 − log sin of its smallest angle in E and S, so slivers
+// are entered last, and 1 in H, which makes it breadth-first): every face reached across an edge
+// of a face already taken gets its third vertex placed, when that vertex has no position yet, as an intersection of the two
 // geodesic circles about the edge's placed ends (radii: the face's two other edge lengths; on the
 // left of the edge, since faces are counter-clockwise). The intersection is solved in closed form:
 //   E  the angle at the edge's first end from the three side lengths (half-angle formula, the
@@ -178,7 +179,7 @@ struct Layout {
   int dims = 0;                   ///< 2 (E, H) or 3 (S)
   std::vector<double> positions;  ///< #V×dims (see the top of this header)
   Index seed_face = -1;           ///< the seed face used
-  Index depth = 0;                ///< breadth-first depth of the last face from the seed
+  Index depth = 0;                ///< the most faces between the seed and a face along the propagation
 
   /// Max over edges of |d(x_i, x_j) − l_ij| / l_ij (S with Möbius centring: before centring).
   double max_edge_length_error = 0;
