@@ -2297,7 +2297,7 @@ FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::spa
       r.notes.push_back("started from the planar solution with vertex " + std::to_string(planar.vertex_at_infinity) +
                         " at infinity (" + std::to_string(planar.iterations) + " Newton steps), projected to the sphere");
     } else {
-      r.notes.push_back("no planar start for the round sphere (" + planar.message + "); Newton from the given u");
+      r.notes.push_back("no planar start for the round sphere (" + planar.message + ", after " + std::to_string(planar.iterations) + " planar Newton steps); Newton from the given u");
     }
   }
   ThreadScope threads(options.threads, topology.num_faces);

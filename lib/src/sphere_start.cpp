@@ -37,6 +37,11 @@ constexpr int kMaxRounds = 12;
 constexpr std::size_t kCandidates = 3;  // vertices at infinity tried
 constexpr int kMaxContinuation = 60;
 constexpr int kMaxPlanarIterations = 50;  // a convex problem: Newton needs far fewer
+// The planar solves' work over every vertex tried, counted as each solve's Newton steps plus one
+// (a solve that stops in its first line search still evaluated the energy there up to ~30 times):
+// past this the start costs more than solving on the sphere directly (≤ 12 steps where that
+// converges), so it stops.
+constexpr int kStartBudget = 40;
 
 // Vertices whose star is a disk of distinct faces around distinct link vertices: up to `count`,
 // the ones where the starting metric is flattest first (least |K| in S at u = 0; ties: smaller
@@ -190,7 +195,8 @@ void write_back(IntrinsicTriangulation& sphere, const IntrinsicTriangulation& di
 
 }  // namespace
 
-static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const FlowOptions& options) {
+static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const FlowOptions& options, int budget,
+                              int& spent) {
   SphereStart out;
   const Index nv = tri.topology.num_vertices;
   out.vertex_at_infinity = n;
@@ -220,6 +226,11 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
     return false;
   };
   for (int round = 0;; ++round) {
+    if (spent >= budget) {
+      out.message = "the planar solves used up their budget (" + std::to_string(kStartBudget) +
+                    " Newton steps and solves)";
+      return out;
+    }
     const Topology& t2 = sphere.topology;
     std::vector<Index> old_edge, old_face;
     disk_tri = disk_without_star(sphere, n, old_edge, old_face);
@@ -274,6 +285,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
       const IntrinsicTriangulation fresh = disk_tri;
       plane = solve_flow_with_flips(disk_tri, u0, target, eo);
       out.iterations += plane.iterations;
+      spent += plane.iterations + 1;
       if (plane.status == Status::TriangleInequality && plane.iterations == 0) {
         // The link's values are too far from the inside's for the start's triangles: walk them
         // there from the chords as given (u = 0, whose triangles are the sphere's flat chord
@@ -282,7 +294,9 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
         double t = 0, step = 1;
         disk_tri = fresh;
         plane = solve_flow_with_flips(disk_tri, u_t, target, eo);
-        for (int k = 0; plane.status == Status::Ok && t < 1 && k < kMaxContinuation; ++k) {
+        out.iterations += plane.iterations;
+        spent += plane.iterations + 1;
+        for (int k = 0; plane.status == Status::Ok && t < 1 && k < kMaxContinuation && spent < budget; ++k) {
           const double next = std::min(1.0, t + step);
           trial = plane.u;
           for (std::size_t v = 0; v < u0.size(); ++v)
@@ -290,6 +304,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
           IntrinsicTriangulation attempt = disk_tri;
           FlowResult f = solve_flow_with_flips(attempt, trial, target, eo);
           out.iterations += f.iterations;
+          spent += f.iterations + 1;
           if (f.status == Status::Ok) {
             t = next;
             step *= 2;
@@ -457,9 +472,10 @@ SphereStart round_sphere_start(const IntrinsicTriangulation& tri, const FlowOpti
   // A few vertices at infinity in turn: where one's link does not settle, another's may.
   SphereStart out;
   out.message = "no vertex has a simple star";
-  int iterations = 0;
+  int iterations = 0, spent = 0;
   for (const Index n : vertices_at_infinity(tri, kCandidates)) {
-    SphereStart s = start_from(tri, n, options);
+    if (spent >= kStartBudget) break;
+    SphereStart s = start_from(tri, n, options, kStartBudget, spent);
     iterations += s.iterations;
     s.iterations = iterations;
     if (s.status == Status::Ok) return s;
