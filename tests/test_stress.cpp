@@ -105,10 +105,13 @@ TEST_CASE("stress: every stress kind uniformizes to the documented accuracy or s
     }
     const UniformizeResult r = uniformize(v.mesh, v.topology, fast_options());
     MESSAGE(s.name << ": " << r.brief_report());
-    if (check_outcome(r)) ++converged;
+    const bool ok = check_outcome(r);
+    if (ok) ++converged;
+    // Every kind converges but the long strips, whose circle domains crowd: mapped onto a disk,
+    // the ends of a 100 × 1 strip shrink by about e^(−π·50), far below what coordinates resolve.
+    if (s.name != "strip-100" && s.name != "strip-1000") CHECK(ok);
   }
-  // Most kinds are well within reach; only the extreme strip is expected to be refused.
-  CHECK(converged >= static_cast<int>(meshes.size()) - 3);
+  CHECK(converged >= static_cast<int>(meshes.size()) - 2);
 }
 
 TEST_CASE("stress: the needles and caps reach angles of 1e-4 rad and valence 512") {

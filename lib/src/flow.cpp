@@ -307,7 +307,7 @@ class FlowSolver {
   void target_derivative(std::span<const double> x, std::span<double> dK);
   void apply_boundary_operator(std::span<const double> w, std::span<double> out);
   bool gmres(double relative_tolerance, int max_iterations);
-  void setup_boundary_direct();
+  void setup_boundary_direct(bool force = false);
   bool boundary_direct_solve();
   bool coupled_direction(std::span<const double> g);
   void setup_moebius_modes();
@@ -390,6 +390,7 @@ class FlowSolver {
   // the current factorization.
   bool boundary_direct_ = false;
   bool boundary_factored_ = false;
+  int direct_fallbacks_ = 0;  // Newton steps whose boundary system went direct after GMRES failed
   std::vector<Index> block_position_;
   std::vector<std::int64_t> block_unknown_;
   std::vector<double> block_gram_, boundary_lu_;
@@ -973,8 +974,12 @@ bool FlowSolver::gmres(double relative_tolerance, int max_iterations) {
 // where GMRES stops at the forcing tolerance. A failure (e.g. a singular boundary matrix) falls
 // back to GMRES for that system.
 constexpr double kDirectBoundarySolves = 16;
+// Where GMRES does not reach its tolerance (an ill-conditioned boundary system: boundary edges
+// many orders of magnitude apart), the direct solve is set up whatever its cost, up to this many
+// boundary positions (dense LU, (2/3)·P³ flops once per Newton step).
+constexpr Index kDirectBoundaryFallback = 3000;
 
-void FlowSolver::setup_boundary_direct() {
+void FlowSolver::setup_boundary_direct(bool force) {
   const auto positions = static_cast<Index>(position_unknown_.size());
   block_position_.clear();
   block_unknown_.clear();
@@ -988,7 +993,7 @@ void FlowSolver::setup_boundary_direct() {
   const auto P = static_cast<double>(positions);
   const double flops = block_flops + (2.0 / 3.0) * P * P * P + 8 * P * P;
   const double solve_flops = 4 * solver_.factor_nonzeros();
-  if (!(flops <= kDirectBoundarySolves * solve_flops)) return;
+  if (!force && !(flops <= kDirectBoundarySolves * solve_flops)) return;
   const auto k = block_unknown_.size();
   block_gram_.assign(k * k, 0.0);
   boundary_lu_.assign(static_cast<std::size_t>(positions) * static_cast<std::size_t>(positions), 0.0);
@@ -1074,6 +1079,11 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   if (!ok) {
     const double forcing = std::clamp(0.01 * error_, 1e-13, 1e-3);
     ok = gmres(forcing, kGmresMaxIterations);
+    if (!ok && !boundary_direct_ && positions <= kDirectBoundaryFallback) {
+      setup_boundary_direct(true);
+      ok = boundary_direct_ && boundary_direct_solve();
+      if (ok) ++direct_fallbacks_;
+    }
   }
   if (ok) {
     // δ = y + H⁻¹ E_B w.
@@ -1790,6 +1800,9 @@ void FlowSolver::finish() {
         std::to_string(spherical_pins_[0]) + ", " + std::to_string(spherical_pins_[1]) + " and " +
         std::to_string(spherical_pins_[2]) + " kept their starting u");
   }
+  if (direct_fallbacks_ > 0)
+    r_.notes.push_back("GMRES did not converge on the boundary system of the length-dependent target in " +
+                       std::to_string(direct_fallbacks_) + " solve(s); it was solved directly (dense LU) instead");
   if (gmres_failures_ > 0)
     r_.notes.push_back("the boundary system of the length-dependent target did not converge in " +
                        std::to_string(gmres_failures_) + " step(s); the step with the target held was used");
