@@ -69,6 +69,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -424,6 +425,8 @@ class FlowSolver {
   Index flips_refused_ = 0;
   int reanalyses_ = 0, pattern_reuses_ = 0;
   std::vector<std::int64_t> analysis_order_;
+  double ordered_fill_ = 0;  // nonzeros of the factor with the last fresh ordering
+  int reorderings_ = 0;      // fresh orderings after flips
   std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
   std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
@@ -493,6 +496,10 @@ Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, Intr
 // After flips changed the triangulation: the Newton pattern of the new one, analysed again (with
 // the first analysis's ordering, which skips most of the analysis's cost) unless it has the same
 // entries; what depends on the analysis follows. False (with the status set) when it fails.
+// Fill growth of the Cholesky factor (over the last fresh ordering) past which a pattern changed by
+// flips gets a fresh ordering (see refresh_pattern()).
+constexpr double kRefillGrowth = 1.25;
+
 bool FlowSolver::refresh_pattern() {
   pattern_stale_ = false;
   detail::HessianPattern next = detail::build_hessian_pattern(t_, unknown_);
@@ -507,9 +514,25 @@ bool FlowSolver::refresh_pattern() {
   const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                      : detail::FactorKind::PositiveDefinite;
   solver_.reset();
-  const detail::FactorOutcome analysis =
+  detail::FactorOutcome analysis =
       solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
   ++reanalyses_;
+  // The first ordering keeps the analysis cheap while the flips leave the fill near what it was;
+  // once the factor has grown by kRefillGrowth over the fill of the last fresh ordering, a fresh
+  // one (AMD, or METIS on large systems) is computed and kept for the later patterns.
+  if (analysis == detail::FactorOutcome::Ok && ordered_fill_ > 0 && solver_.factor_nonzeros() > kRefillGrowth * ordered_fill_) {
+    solver_.reset();
+    const detail::FactorOutcome fresh = solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, {});
+    if (fresh != detail::FactorOutcome::Ok) {
+      solver_.reset();
+      analysis = solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
+    } else {
+      ++reorderings_;
+      ordered_fill_ = solver_.factor_nonzeros();
+      analysis_order_.resize(static_cast<std::size_t>(pattern_.num_unknowns));
+      if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
+    }
+  }
   if (analysis == detail::FactorOutcome::Ok && coupled_) {
     boundary_direct_ = false;
     setup_boundary_direct();
@@ -1713,6 +1736,7 @@ void FlowSolver::run() {
     if (analysis == detail::FactorOutcome::Ok && tri_) {
       analysis_order_.resize(static_cast<std::size_t>(n));
       if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
+      ordered_fill_ = solver_.factor_nonzeros();
     }
     if (analysis == detail::FactorOutcome::Ok && order_out_) {
       ordering.resize(static_cast<std::size_t>(n));
@@ -1786,8 +1810,11 @@ void FlowSolver::finish() {
     if (reanalyses_ + pattern_reuses_ > 0)
       r_.notes.push_back("intrinsic flips changed the Newton matrix's pattern in " +
                          std::to_string(reanalyses_ + pattern_reuses_) + " step(s): " +
-                         std::to_string(reanalyses_) + " new symbolic analyses (with the first ordering), " +
-                         std::to_string(pattern_reuses_) + " with the same pattern");
+                         std::to_string(reanalyses_) + " new symbolic analyses (" +
+                         (reorderings_ > 0 ? std::to_string(reorderings_) + " of them with a fresh ordering, the factor having grown by over " +
+                                                 format_double("%.3g", kRefillGrowth) + "x with the last one"
+                                           : std::string("with the first ordering")) +
+                         "), " + std::to_string(pattern_reuses_) + " with the same pattern");
     if (flips_refused_ > 0)
       r_.notes.push_back(std::to_string(flips_refused_) +
                          " non-Delaunay edge(s) were left unflipped at some point: both sides of the edge lie in one "
