@@ -328,3 +328,82 @@ TEST_CASE("uniformize: the regular tetrahedron maps to the round sphere by defau
   CHECK(std::abs(r.angles.max_abs_log - std::log(2.0)) <= 1e-9);
   CHECK(std::abs(r.angles.mean_abs_log - std::log(2.0)) <= 1e-9);
 }
+
+TEST_CASE("uniformize: cone targets are laid out through a cut that passes through every cone (E, H, bordered H)") {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(17);
+  struct Case {
+    std::string name;
+    Mesh mesh;
+    double cone;  // ± this curvature at two random interior vertices (E: they must cancel)
+  };
+  const Case cases[] = {
+      {"torus (E)", torus(16, 8, 2.0, 0.7), 0.5},
+      {"pretzel (H)", pretzel(2, 3), 0.4},
+      {"pretzel with two holes (H, geodesic boundary)", remove_vertex_stars(pretzel(2, 3), {5, 60}), 0.4},
+  };
+  for (const Case& c : cases) {
+    INFO(c.name);
+    const ValidateResult v = validate_mesh(c.mesh);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const Topology& t = v.topology;
+    UniformizeOptions o;
+    o.seed_checks = 1;
+    const Geometry g = natural_geometry(t);
+    Target target = uniform_target(t, natural_boundary_mode(t, g));
+    std::vector<Index> interior;
+    for (Index x = 0; x < t.num_vertices; ++x)
+      if (!t.is_boundary_vertex(x)) interior.push_back(x);
+    std::shuffle(interior.begin(), interior.end(), rng);
+    const Index a = interior[0], b = interior[1];
+    target.K[a] += c.cone;
+    target.K[b] -= c.cone;
+    const UniformizeResult r = uniformize(v.mesh, t, o, &target);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.intrinsic.used);
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    CHECK(r.layout.max_edge_length_error < 1e-9);
+    CHECK(r.layout.flipped_faces == 0);
+    CHECK(r.seed_independence_error < 1e-9);
+    CHECK_FALSE(r.has_deck);
+    // Both cones lie on the domain's boundary (the cut passes through them).
+    for (const Index cone : {a, b}) {
+      bool on_cut = false;
+      for (Index x = 0; x < r.cut.num_cut_vertices(); ++x)
+        on_cut = on_cut || (r.cut.cut_to_surface[x] == cone && r.disk.is_boundary_vertex(x));
+      CHECK_MESSAGE(on_cut, "cone vertex " << cone);
+    }
+    // In E the layout's angles around a cone add up to its cone angle 2π − K̄.
+    if (g == Geometry::Euclidean) {
+      const std::vector<double>& p = r.layout.positions;
+      for (const Index cone : {a, b}) {
+        double sum = 0;
+        for (Index f = 0; f < r.disk.num_faces; ++f)
+          for (Index k = 0; k < 3; ++k) {
+            const Index x = r.disk.corner_vertex[3 * f + k];
+            if (r.cut.cut_to_surface[x] != cone) continue;
+            const Index y = r.disk.corner_vertex[3 * f + (k + 1) % 3], z = r.disk.corner_vertex[3 * f + (k + 2) % 3];
+            const double ux = p[2 * y] - p[2 * x], uy = p[2 * y + 1] - p[2 * x + 1];
+            const double vx = p[2 * z] - p[2 * x], vy = p[2 * z + 1] - p[2 * x + 1];
+            sum += std::atan2(ux * vy - uy * vx, ux * vx + uy * vy);
+          }
+        CHECK(std::abs(sum - (2 * kPi - target.K[cone])) <= 1e-9);
+      }
+    }
+  }
+  // A disk is laid out uncut: cones there are refused by name.
+  const ValidateResult d = validate_mesh(ricci_shapes::disk(6));
+  REQUIRE(d.status == Status::Ok);
+  Target target = uniform_target(d.topology, BoundaryMode::Circle);
+  double cone = 0.3;  // +0.3 and −0.3 at the first two interior vertices
+  for (Index x = 0; x < d.topology.num_vertices && cone > -1; ++x)
+    if (!d.topology.is_boundary_vertex(x)) {
+      target.K[x] += cone;
+      cone = cone > 0 ? -0.3 : -2;
+    }
+  const UniformizeResult r = uniformize(d.mesh, d.topology, UniformizeOptions{}, &target);
+  INFO(r.message);
+  CHECK(r.status != Status::Ok);
+  CHECK(r.failed_stage == "cut");
+  CHECK(r.message.find("cone vertices") != std::string::npos);
+}

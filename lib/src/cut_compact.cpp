@@ -89,7 +89,8 @@ std::uint64_t pair_key(Index u, Index v) {
 
 }  // namespace
 
-CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const double> lengths, Index centre_face) {
+CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const double> lengths, Index centre_face,
+                      std::span<const Index> keep) {
   const auto t0 = std::chrono::steady_clock::now();
   CutResult r;
   auto fail = [&](Status s, const std::string& m) {
@@ -144,9 +145,14 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
       ++degree[topo.edge_vertices[2 * e + 1]];
     }
   {
+    // Vertices to keep on the cut (cones) are never pruned: the branch to each stays, a slit
+    // whose two sides are paired by the rotation about it.
+    std::vector<char> kept(static_cast<std::size_t>(V), 0);
+    for (const Index v : keep)
+      if (v >= 0 && v < V) kept[v] = 1;
     std::vector<Index> stack;
     for (Index v = 0; v < V; ++v)
-      if (degree[v] == 1) stack.push_back(v);
+      if (degree[v] == 1 && !kept[v]) stack.push_back(v);
     while (!stack.empty()) {
       const Index v = stack.back();
       stack.pop_back();
@@ -158,7 +164,7 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
           cut[e] = 0;
           for (int s = 0; s < 2; ++s) {
             const Index u = topo.edge_vertices[2 * e + s];
-            if (--degree[u] == 1) stack.push_back(u);
+            if (--degree[u] == 1 && !kept[u]) stack.push_back(u);
           }
         }
       }
@@ -198,18 +204,19 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   for (Index i = 0; i < topo.num_boundary_loops(); ++i)
     for (Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) loop_of[topo.boundary_vertices[j]] = i;
 
-  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3; boundary edges count).
+  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3, boundary edges counted,
+  // and the ends of kept branches, degree 1).
   const Index b0 = dt.boundary_offsets[0], m = dt.boundary_offsets[1] - b0;
   Index first = kInvalid;
   for (Index k = 0; k < m && first == kInvalid; ++k)
-    if (degree[r.cut_to_surface[dt.boundary_vertices[b0 + k]]] >= 3) first = k;
+    if (degree[r.cut_to_surface[dt.boundary_vertices[b0 + k]]] != 2) first = k;
   if (first == kInvalid) return fail(Status::NumericalFailure, "the cut graph has no node");
   auto at = [&](Index k) { return dt.boundary_vertices[b0 + (first + k) % m]; };
   r.side_offsets.push_back(0);
   for (Index k = 0; k < m;) {
     r.side_vertices.push_back(at(k));
     Index j = k + 1;
-    while (j < m && degree[r.cut_to_surface[at(j)]] < 3) r.side_vertices.push_back(at(j++));
+    while (j < m && degree[r.cut_to_surface[at(j)]] == 2) r.side_vertices.push_back(at(j++));
     r.side_vertices.push_back(at(j));  // the closing node (at(m) == at(0))
     r.side_offsets.push_back(static_cast<Index>(r.side_vertices.size()));
     k = j;

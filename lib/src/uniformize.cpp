@@ -443,9 +443,24 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   // cut fail there, the canonical cut below is used instead.
   const bool bordered_h = !topology.is_closed() && r.geometry == Geometry::Hyperbolic &&
                           !(topology.genus() == 0 && topology.num_boundary_loops() == 1);
+  // Cone vertices (interior, target K̄ ≠ 0) stay on the compact domain's cut, so that its layout
+  // is consistent around them.
+  std::vector<Index> cones;
+  for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
+    if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) cones.push_back(v);
+  const bool disk_like = sphere || (topology.genus() == 0 && topology.num_boundary_loops() == 1);
+  if (!cones.empty() && disk_like)
+    return (void)fail(Status::InvalidArgument, "cut",
+                      "the target has " + std::to_string(cones.size()) + " cone vertices (the first: vertex " +
+                          std::to_string(cones[0]) + ") on a " + (sphere ? "sphere" : "disk") +
+                          ", which is laid out uncut: a metric with cones is laid out only on surfaces whose "
+                          "fundamental domain can be cut through them (genus >= 1, or several boundary loops)");
+  // With cones every surface but a sphere and a disk takes the compact domain, whose cut passes
+  // through them.
   CutResult compact_cut;
-  if (closed_h || bordered_h) compact_cut = cut_compact(mesh, topology, metric_l);
-  const bool compact = closed_h || (bordered_h && compact_cut.status == Status::Ok);
+  if (closed_h || bordered_h || !cones.empty()) compact_cut = cut_compact(mesh, topology, metric_l, -1, cones);
+  const bool compact = closed_h || (!cones.empty() && compact_cut.status == Status::Ok) ||
+                       (bordered_h && compact_cut.status == Status::Ok);
 
   // ---- cut and layout ----
   if (sphere) {
@@ -526,7 +541,13 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   }
 
   // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
-  if (closed_h) {
+  // A metric with cones is no uniformization: its side pairings generate no surface group (the
+  // cycle at a cone turns by the cone angle), so there is no deck group, polygon or cover.
+  if (!cones.empty())
+    r.flow.notes.push_back("the target has " + std::to_string(cones.size()) +
+                           " cone vertices: the compact domain's cut passes through each, and no deck group, canonical "
+                           "polygon or cover is made (the metric is not a uniformization)");
+  if (closed_h && cones.empty()) {
     std::vector<Index> bases;
     if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
     else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
@@ -671,8 +692,8 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
                            "), residual max " + sci(r.deck.residual_max) + ", relation error " +
                            sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
     }
-  } else if (!sphere && topology.is_closed() && topology.genus() == 1 && r.geometry == Geometry::Euclidean &&
-             r.cut.canonical) {
+  } else if (cones.empty() && !sphere && topology.is_closed() && topology.genus() == 1 &&
+             r.geometry == Geometry::Euclidean && r.cut.canonical) {
     r.has_polygon = true;
     r.polygon_cut = r.cut;
     r.polygon_disk = r.disk;

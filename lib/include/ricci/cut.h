@@ -203,9 +203,12 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topology, const CutOptio
 /// InvalidArgument (sizes, lengths, closed of genus 0, a disk), MultipleComponents, NumericalFailure.
 /// Bordered surfaces (all but a disk) get the same construction: the cut graph then ends on the
 /// boundary loops, and the pieces of boundary between its nodes are sides of kind Boundary
-/// (labelled ∂i, no partner). boundary_loops is set; `compact` is true.
+/// (labelled ∂i, no partner). boundary_loops is set; `compact` is true. Vertices in `keep` (the
+/// cones of a metric with cone singularities) stay on the cut: the branch of the cut graph to each
+/// is not pruned, so each ends a slit whose two sides are a pair x_k, x_k^-1 (paired by the
+/// rotation about the cone), and the disk's layout is consistent.
 CutResult cut_compact(const Mesh& mesh, const Topology& topology, std::span<const double> lengths,
-                      Index centre_face = -1);
+                      Index centre_face = -1, std::span<const Index> keep = {});
 
 /// Per-vertex data (#rows×dims, row-major) carried to the cut vertices (#Vc×dims). `data` is
 /// either per surface vertex (#V'×dims) or per input vertex (#V×dims; added vertices are then
