@@ -3,17 +3,24 @@
 // uniformize() with intrinsic flips as the default — invariants on seeded hard meshes in E, H, S.
 #include <doctest/doctest.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <filesystem>
 #include <numbers>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "ricci/deck.h"
 #include "ricci/flow.h"
 #include "ricci/intrinsic.h"
 #include "ricci/intrinsic_trace.h"
+#include "ricci/io.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
@@ -406,4 +413,36 @@ TEST_CASE("uniformize: cone targets are laid out through a cut that passes throu
   CHECK(r.status != Status::Ok);
   CHECK(r.failed_stage == "cut");
   CHECK(r.message.find("cone vertices") != std::string::npos);
+}
+
+TEST_CASE("the library prints nothing: Ceres stopping on invalid steps stays silent") {
+  // The side pairings of a cone metric's domain are no surface group's: fitting them anyway makes
+  // Ceres' minimizer stop on consecutive invalid steps, which glog would report on stderr.
+  const LoadResult lr = load_mesh((ricci_test::fixtures_dir() / "genus2.obj").string());
+  REQUIRE(lr.status == Status::Ok);
+  Target target = uniform_target(lr.validated.topology, BoundaryMode::Free);
+  target.K[0] += 0.5;
+  target.K[5] -= 0.3;
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  o.intrinsic_flips = false;
+  const UniformizeResult r = uniformize(lr.validated.mesh, lr.validated.topology, o, &target);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  std::fflush(stderr);
+  const std::string path = (std::filesystem::temp_directory_path() / "ricci-test-stderr.txt").string();
+  const int saved = dup(2);
+  const int file = open(path.c_str(), O_CREAT | O_TRUNC | O_WRONLY, 0600);
+  REQUIRE(saved >= 0);
+  REQUIRE(file >= 0);
+  dup2(file, 2);
+  const DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, DeckOptions{});
+  std::fflush(stderr);
+  dup2(saved, 2);
+  close(saved);
+  close(file);
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  std::filesystem::remove(path, ec);
+  CHECK(dd.status != Status::NotRun);
+  CHECK(bytes == 0);
 }

@@ -3,6 +3,8 @@
 // surface-group relation. Conventions and the relation: ricci/deck.h.
 #include "ricci/deck.h"
 
+#include "ceres_quiet.h"
+
 #include <algorithm>
 #include <array>
 #include <cfenv>
@@ -259,14 +261,7 @@ bool fit_hyperbolic(const std::vector<Pair>& pairs, const DeckOptions& options, 
     sopts.minimizer_progress_to_stdout = false;
     sopts.num_threads = 1;
     ceres::Solver::Summary summary;
-    {
-      // Ceres may evaluate trial points that raise floating-point flags; keep the caller's
-      // trap settings out of it and restore them afterwards.
-      std::fenv_t env;
-      std::feholdexcept(&env);
-      ceres::Solve(sopts, &problem, &summary);
-      std::fesetenv(&env);
-    }
+    detail::quiet_solve(sopts, &problem, &summary);
     ceres_iterations += static_cast<int>(summary.iterations.size());
     // A round that cannot improve (Ceres FAILURE after consecutive invalid steps at the
     // optimum, or a non-finite update) keeps the current map: it is valid, and the residuals

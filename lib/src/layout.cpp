@@ -2,6 +2,8 @@
 // layouts up to isometries. See layout.h for the algorithms and conventions.
 #include "ricci/layout.h"
 
+#include "ceres_quiet.h"
+
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 
@@ -672,10 +674,7 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
     so.logging_type = ceres::SILENT;
     so.num_threads = 1;
     ceres::Solver::Summary summary;
-    std::fenv_t env;
-    std::feholdexcept(&env);
-    ceres::Solve(so, &problem, &summary);
-    std::fesetenv(&env);
+    detail::quiet_solve(so, &problem, &summary);
     out.patch_fit_iterations = static_cast<int>(summary.iterations.size());
   }
 
