@@ -754,6 +754,51 @@ void polish_euclidean(const Topology& t, std::span<const double> l, std::vector<
   }
 }
 
+/// The same sweeps on the unit sphere: each vertex takes one Gauss–Newton step in its tangent
+/// plane on Σ_j ((d(x, x_j) − l_j)/l_j)² (d the great-circle distance; its gradient at x is minus
+/// the unit tangent towards x_j) and is put back on the sphere.
+void polish_spherical(const Topology& t, std::span<const double> l, std::vector<double>& x, int sweeps) {
+  const Index nv = t.num_vertices;
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (Index v = 0; v < nv; ++v) {
+      const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
+      if (k0 == k1) continue;
+      const V3 X{x[3 * v], x[3 * v + 1], x[3 * v + 2]};
+      // A tangent basis at X.
+      const V3 seed = std::abs(X[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0};
+      const V3 e1 = normalized(cross(X, seed)), e2 = cross(X, e1);
+      double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
+      auto add = [&](Index j, Index e) {
+        const V3 Y{x[3 * j], x[3 * j + 1], x[3 * j + 2]};
+        const double d = sphere_distance(X, Y);
+        if (!(d > 0)) return;
+        // Unit tangent at X pointing away from Y: −(Y − (X·Y) X)/|…|.
+        const double c = dot(X, Y);
+        V3 away{c * X[0] - Y[0], c * X[1] - Y[1], c * X[2] - Y[2]};
+        const double n = norm(away);
+        if (!(n > 0)) return;
+        const double ux = dot(away, e1) / n, uy = dot(away, e2) / n;
+        const double w = 1 / (l[e] * l[e]), r = d - l[e];
+        g0 += w * r * ux;
+        g1 += w * r * uy;
+        h00 += w * ux * ux;
+        h01 += w * ux * uy;
+        h11 += w * uy * uy;
+      };
+      for (Index k = k0; k < k1; ++k) {
+        const Index c = t.vertex_corners[k];
+        add(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
+      }
+      const double det = h00 * h11 - h01 * h01;
+      if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) continue;
+      const double a = -(h11 * g0 - h01 * g1) / det, b = -(h00 * g1 - h01 * g0) / det;
+      V3 Z{X[0] + a * e1[0] + b * e2[0], X[1] + a * e1[1] + b * e2[1], X[2] + a * e1[2] + b * e2[2]};
+      Z = normalized(Z);
+      for (int d = 0; d < 3; ++d) x[3 * v + d] = Z[d];
+    }
+  }
+}
+
 // ---- the propagation -----------------------------------------------------------------------
 
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
@@ -886,6 +931,10 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     const Cx o = P.z(s0), d = P.z(s1) - o;
     const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
     for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
+  }
+  if (g == Geometry::Spherical && options.polish_sweeps > 0) {
+    polish_spherical(t, l, x, options.polish_sweeps);
+    out.polish_sweeps = options.polish_sweeps;
   }
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
 
