@@ -116,10 +116,10 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
       continue;
     }
     r.l[a] = from_pole(g, at(last));
-    const P3 b = lift(g, at(last));
+    const P3 a0 = lift(g, pole(g)), b = lift(g, at(last));
     for (Index k = paths.offsets[a]; k < paths.offsets[a + 1]; ++k) {
       const Index cc = paths.crossed_corner[k], e = t.corner_edge[cc];
-      const double s = chord_crossing(lift(g, pole(g)), b, lift(g, ends[2 * static_cast<std::size_t>(k)]),
+      const double s = chord_crossing(a0, b, lift(g, ends[2 * static_cast<std::size_t>(k)]),
                                       lift(g, ends[2 * static_cast<std::size_t>(k) + 1]));
       r.crossings[static_cast<std::size_t>(k)] = t.edge_corners[2 * e] == cc ? s : 1 - s;
     }

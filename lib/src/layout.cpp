@@ -713,87 +713,79 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   return true;
 }
 
-// ---- polishing (E) ----------------------------------------------------------------------------
+// ---- polishing (E and S) ----------------------------------------------------------------------
 
-/// Nonlinear Gauss–Seidel on planar positions: each vertex in turn takes one Gauss–Newton step on
-/// Σ_j ((|x − x_j| − l_j)/l_j)² over its incident edges. The breadth-first propagation leaves its
-/// error where the fronts meet (one seam of mismatched edges); the sweeps spread it.
-void polish_euclidean(const Topology& t, std::span<const double> l, std::vector<double>& x, int sweeps) {
-  const Index nv = t.num_vertices;
-  for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (Index v = 0; v < nv; ++v) {
-      const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
-      if (k0 == k1) continue;
-      double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
-      auto add = [&](Index j, Index e) {
-        const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
-        const double d = std::hypot(dx, dy);
-        if (!(d > 0)) return;
-        const double w = 1 / (l[e] * l[e]), r = d - l[e], ux = dx / d, uy = dy / d;
-        g0 += w * r * ux;
-        g1 += w * r * uy;
-        h00 += w * ux * ux;
-        h01 += w * ux * uy;
-        h11 += w * uy * uy;
-      };
-      // Every incident edge once: the edge to vertex(next(c)) of each corner, and for a boundary
-      // vertex also the edge to vertex(prev(c)) of its last (counter-clockwise) corner.
-      for (Index k = k0; k < k1; ++k) {
-        const Index c = t.vertex_corners[k];
-        add(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
-      }
-      if (t.is_boundary_vertex(v)) {
-        const Index c = t.vertex_corners[k1 - 1];
-        add(t.corner_vertex[prev_corner(c)], t.corner_edge[next_corner(c)]);
-      }
-      const double det = h00 * h11 - h01 * h01;
-      if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) continue;
-      x[2 * v] -= (h11 * g0 - h01 * g1) / det;
-      x[2 * v + 1] -= (h00 * g1 - h01 * g0) / det;
-    }
+/// One Gauss–Newton step in two dimensions on Σ w (r + u·δ)² (r a residual, u the unit direction
+/// along which it grows): δ = −H⁻¹ g. False when H is (nearly) singular.
+struct GaussNewton2 {
+  double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
+  void add(double w, double r, double ux, double uy) {
+    g0 += w * r * ux;
+    g1 += w * r * uy;
+    h00 += w * ux * ux;
+    h01 += w * ux * uy;
+    h11 += w * uy * uy;
+  }
+  bool step(double& a, double& b) const {
+    const double det = h00 * h11 - h01 * h01;
+    if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) return false;
+    a = -(h11 * g0 - h01 * g1) / det;
+    b = -(h00 * g1 - h01 * g0) / det;
+    return true;
+  }
+};
+
+/// f(j, e) for every edge e of vertex v once, j its other end: the edge to vertex(next(c)) of each
+/// corner, and for a boundary vertex also the edge to vertex(prev(c)) of its last
+/// (counter-clockwise) corner.
+template <class F>
+void for_each_incident_edge(const Topology& t, Index v, F&& f) {
+  const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
+  for (Index k = k0; k < k1; ++k) {
+    const Index c = t.vertex_corners[k];
+    f(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
+  }
+  if (k1 > k0 && t.is_boundary_vertex(v)) {
+    const Index c = t.vertex_corners[k1 - 1];
+    f(t.corner_vertex[prev_corner(c)], t.corner_edge[next_corner(c)]);
   }
 }
 
-/// The same sweeps on the unit sphere: each vertex takes one Gauss–Newton step in its tangent
-/// plane on Σ_j ((d(x, x_j) − l_j)/l_j)² (d the great-circle distance; its gradient at x is minus
-/// the unit tangent towards x_j) and is put back on the sphere.
-void polish_spherical(const Topology& t, std::span<const double> l, std::vector<double>& x, int sweeps) {
+/// Nonlinear Gauss–Seidel on layout positions: each vertex in turn takes one Gauss–Newton step on
+/// Σ_j ((d(x, x_j) − l_j)/l_j)² over its incident edges — E in the plane; S in its tangent plane
+/// (the gradient of the great-circle distance at x is minus the unit tangent towards x_j), then
+/// back onto the sphere. The propagation leaves its error where the fronts meet (one seam of
+/// mismatched edges); the sweeps spread it.
+void polish(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x, int sweeps) {
   const Index nv = t.num_vertices;
+  const bool sphere = g == Geometry::Spherical;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (Index v = 0; v < nv; ++v) {
-      const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
-      if (k0 == k1) continue;
-      const V3 X{x[3 * v], x[3 * v + 1], x[3 * v + 2]};
-      // A tangent basis at X.
-      const V3 seed = std::abs(X[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0};
-      const V3 e1 = normalized(cross(X, seed)), e2 = cross(X, e1);
-      double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
-      auto add = [&](Index j, Index e) {
-        const V3 Y{x[3 * j], x[3 * j + 1], x[3 * j + 2]};
-        const double d = sphere_distance(X, Y);
-        if (!(d > 0)) return;
-        // Unit tangent at X pointing away from Y: −(Y − (X·Y) X)/|…|.
-        const double c = dot(X, Y);
-        V3 away{c * X[0] - Y[0], c * X[1] - Y[1], c * X[2] - Y[2]};
-        const double n = norm(away);
-        if (!(n > 0)) return;
-        const double ux = dot(away, e1) / n, uy = dot(away, e2) / n;
-        const double w = 1 / (l[e] * l[e]), r = d - l[e];
-        g0 += w * r * ux;
-        g1 += w * r * uy;
-        h00 += w * ux * ux;
-        h01 += w * ux * uy;
-        h11 += w * uy * uy;
-      };
-      for (Index k = k0; k < k1; ++k) {
-        const Index c = t.vertex_corners[k];
-        add(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
+      GaussNewton2 gn;
+      if (!sphere) {
+        for_each_incident_edge(t, v, [&](Index j, Index e) {
+          const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
+          const double d = std::hypot(dx, dy);
+          if (d > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dx / d, dy / d);
+        });
+        double a = 0, b = 0;
+        if (!gn.step(a, b)) continue;
+        x[2 * v] += a;
+        x[2 * v + 1] += b;
+        continue;
       }
-      const double det = h00 * h11 - h01 * h01;
-      if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) continue;
-      const double a = -(h11 * g0 - h01 * g1) / det, b = -(h00 * g1 - h01 * g0) / det;
-      V3 Z{X[0] + a * e1[0] + b * e2[0], X[1] + a * e1[1] + b * e2[1], X[2] + a * e1[2] + b * e2[2]};
-      Z = normalized(Z);
+      const V3 X{x[3 * v], x[3 * v + 1], x[3 * v + 2]};
+      const V3 e1 = normalized(cross(X, std::abs(X[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0})), e2 = cross(X, e1);
+      for_each_incident_edge(t, v, [&](Index j, Index e) {
+        const V3 Y{x[3 * j], x[3 * j + 1], x[3 * j + 2]};
+        const double d = sphere_distance(X, Y), c = dot(X, Y);
+        const V3 away{c * X[0] - Y[0], c * X[1] - Y[1], c * X[2] - Y[2]};  // tangent at X, away from Y
+        const double n = norm(away);
+        if (d > 0 && n > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dot(away, e1) / n, dot(away, e2) / n);
+      });
+      double a = 0, b = 0;
+      if (!gn.step(a, b)) continue;
+      const V3 Z = normalized(V3{X[0] + a * e1[0] + b * e2[0], X[1] + a * e1[1] + b * e2[1], X[2] + a * e1[2] + b * e2[2]});
       for (int d = 0; d < 3; ++d) x[3 * v + d] = Z[d];
     }
   }
@@ -925,7 +917,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     }
   }
   if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.patches > 1)) {
-    polish_euclidean(t, l, x, options.polish_sweeps);
+    polish(t, g, l, x, options.polish_sweeps);
     out.polish_sweeps = options.polish_sweeps;
     // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
     const Cx o = P.z(s0), d = P.z(s1) - o;
@@ -933,7 +925,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
   }
   if (g == Geometry::Spherical && options.polish_sweeps > 0) {
-    polish_spherical(t, l, x, options.polish_sweeps);
+    polish(t, g, l, x, options.polish_sweeps);
     out.polish_sweeps = options.polish_sweeps;
   }
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
