@@ -536,6 +536,8 @@ Json report_json(const Run& run) {
                        {"max_edge_length_error", real(L.max_edge_length_error)},
                        {"flipped_faces", L.flipped_faces},
                        {"rounding_floor", real(L.rounding_floor)},
+                       {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
+                       {"polish_steps", L.polish_steps},
                        {"seed_face", L.seed_face},
                        {"depth", L.depth},
                        {"patches", L.patches},

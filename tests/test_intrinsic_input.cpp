@@ -297,10 +297,12 @@ TEST_CASE("uniformize: vertex scaling with flips is the default, conformal beyon
     CHECK(r.intrinsic.fallback.empty());
     CHECK(r.metric.structure.scheme == Scheme::Yamabe);
     CHECK(r.flow.max_curvature_error < 1e-12);
-    // Needles of relative size 0.02 leave the layout at 1.2e-9 to 1.6e-9 (H and S) here.
-    CHECK(r.layout.max_edge_length_error < 1e-8);
+    // Needles of relative size 0.02 leave the propagation at up to 9e-9 (H) here; the global
+    // Gauss–Newton steps bring it to the coordinates' own precision.
+    CHECK(r.layout.max_edge_length_error < std::max(1e-9, 8 * r.layout.rounding_floor));
+    CHECK(r.layout.max_error_above_rounding < 1e-10);
     CHECK(r.layout.flipped_faces == 0);
-    CHECK(r.seed_independence_error < 1e-8);
+    CHECK(r.seed_independence_error < 1e-9);
     // The same surface by the paper's circle packing: the flips' map is more conformal.
     UniformizeOptions cp = o;
     cp.metric.scheme = Scheme::CirclePacking;
@@ -308,7 +310,9 @@ TEST_CASE("uniformize: vertex scaling with flips is the default, conformal beyon
     REQUIRE_MESSAGE(p.status == Status::Ok, p.message);
     CHECK_FALSE(p.intrinsic.used);
     MESSAGE(name << ": angle distortion " << r.angles.mean_abs_log << " with flips, " << p.angles.mean_abs_log
-                 << " circle packing; refined " << r.intrinsic.refined);
+                 << " circle packing; refined " << r.intrinsic.refined << "; layout error "
+                 << r.layout.max_edge_length_error << " (floor " << r.layout.rounding_floor << ", above it "
+                 << r.layout.max_error_above_rounding << ", " << r.layout.polish_steps << " global steps)");
     CHECK(r.angles.mean_abs_log < p.angles.mean_abs_log);
     if (r.intrinsic.refined) {
       const InputSurfaceLayout in = input_surface_layout(v.mesh, v.topology, r);
@@ -461,6 +465,7 @@ TEST_CASE("layout: Gauss–Seidel sweeps on the sphere keep every point on it an
     if (!st.tiles()) continue;
     LayoutOptions raw, polished;
     raw.polish_sweeps = 0;
+    raw.polish_steps = polished.polish_steps = 0;  // the sweeps alone
     polished.polish_sweeps = 30;
     raw.sphere_mobius = polished.sphere_mobius = false;
     const Layout a = layout_sphere(s.input, st.l, raw), b = layout_sphere(s.input, st.l, polished);

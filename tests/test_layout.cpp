@@ -408,6 +408,7 @@ TEST_CASE("layout: divide and conquer matches the metric, the single propagation
     LayoutOptions single;
     single.patches = 0;
     single.polish_sweeps = 0;
+    single.polish_steps = 0;  // the patches alone (the global steps are tested in test_layout_polish)
     LayoutOptions split = single;
     split.patches = 12;
     const Layout a = layout_disk(d.topo, u.geometry, d.l, single);

@@ -1995,11 +1995,12 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
   if (flat.u.empty() || !(flat.max_curvature_error < 1e-4)) return {};
 
   // The planar layout (no normalisation: the circle is fitted below). One propagation without
-  // polish sweeps or patches: the disk is solved to 1e-8 only and the result is a start, so the
+  // polishing or patches: the disk is solved to 1e-8 only and the result is a start, so the
   // layout's refinements (which cost as much as the spherical analysis on brain-32k) buy nothing.
   LayoutOptions plane_layout;
   plane_layout.normalize = false;
   plane_layout.polish_sweeps = 0;
+  plane_layout.polish_steps = 0;
   plane_layout.patches = 0;
   const Layout laid = layout_disk(d, Geometry::Euclidean, flat.l, plane_layout);
   if (laid.status != Status::Ok || laid.unplaced_vertices > 0) return {};

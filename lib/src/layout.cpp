@@ -3,6 +3,7 @@
 #include "ricci/layout.h"
 
 #include "ceres_quiet.h"
+#include "layout_polish.h"
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
@@ -32,6 +33,11 @@ using Cx = std::complex<double>;
 using V3 = std::array<double, 3>;
 constexpr double kPi = std::numbers::pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// Layouts whose relative edge-length error after the sweeps exceeds the edges' own rounding floor
+// by more than this get global Gauss–Newton steps (LayoutOptions::polish_steps): a tenth of the
+// 1e-9 that uniformize() promises, so that the cost (a sparse factorization of 2·#V unknowns) is
+// paid only where the sweeps leave the layout near that promise.
+constexpr double kGlobalPolishAbove = 1e-10;
 
 std::string num(double x) {
   char buf[64];
@@ -215,6 +221,7 @@ void measure_edges(const Topology& t, Geometry g, std::span<const double> l, con
   o.max_edge_length_error = 0;
   o.worst_edge = kInvalid;
   o.rounding_floor = 0;
+  o.max_error_above_rounding = 0;
   constexpr double u = 0x1p-53;
   for (Index e = 0; e < t.num_edges; ++e) {
     const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
@@ -230,6 +237,7 @@ void measure_edges(const Topology& t, Geometry g, std::span<const double> l, con
       drift = 2 * u * std::sqrt(3.0);
     }
     o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
+    if (!(err - drift / l[e] <= o.max_error_above_rounding)) o.max_error_above_rounding = err - drift / l[e];
     if (!(err <= o.max_edge_length_error)) {
       o.max_edge_length_error = err;
       o.worst_edge = e;
@@ -713,84 +721,6 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   return true;
 }
 
-// ---- polishing (E and S) ----------------------------------------------------------------------
-
-/// One Gauss–Newton step in two dimensions on Σ w (r + u·δ)² (r a residual, u the unit direction
-/// along which it grows): δ = −H⁻¹ g. False when H is (nearly) singular.
-struct GaussNewton2 {
-  double g0 = 0, g1 = 0, h00 = 0, h01 = 0, h11 = 0;
-  void add(double w, double r, double ux, double uy) {
-    g0 += w * r * ux;
-    g1 += w * r * uy;
-    h00 += w * ux * ux;
-    h01 += w * ux * uy;
-    h11 += w * uy * uy;
-  }
-  bool step(double& a, double& b) const {
-    const double det = h00 * h11 - h01 * h01;
-    if (!(det > 1e-12 * (h00 + h11) * (h00 + h11))) return false;
-    a = -(h11 * g0 - h01 * g1) / det;
-    b = -(h00 * g1 - h01 * g0) / det;
-    return true;
-  }
-};
-
-/// f(j, e) for every edge e of vertex v once, j its other end: the edge to vertex(next(c)) of each
-/// corner, and for a boundary vertex also the edge to vertex(prev(c)) of its last
-/// (counter-clockwise) corner.
-template <class F>
-void for_each_incident_edge(const Topology& t, Index v, F&& f) {
-  const Index k0 = t.vertex_corner_offsets[v], k1 = t.vertex_corner_offsets[v + 1];
-  for (Index k = k0; k < k1; ++k) {
-    const Index c = t.vertex_corners[k];
-    f(t.corner_vertex[next_corner(c)], t.corner_edge[prev_corner(c)]);
-  }
-  if (k1 > k0 && t.is_boundary_vertex(v)) {
-    const Index c = t.vertex_corners[k1 - 1];
-    f(t.corner_vertex[prev_corner(c)], t.corner_edge[next_corner(c)]);
-  }
-}
-
-/// Nonlinear Gauss–Seidel on layout positions: each vertex in turn takes one Gauss–Newton step on
-/// Σ_j ((d(x, x_j) − l_j)/l_j)² over its incident edges — E in the plane; S in its tangent plane
-/// (the gradient of the great-circle distance at x is minus the unit tangent towards x_j), then
-/// back onto the sphere. The propagation leaves its error where the fronts meet (one seam of
-/// mismatched edges); the sweeps spread it.
-void polish(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x, int sweeps) {
-  const Index nv = t.num_vertices;
-  const bool sphere = g == Geometry::Spherical;
-  for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (Index v = 0; v < nv; ++v) {
-      GaussNewton2 gn;
-      if (!sphere) {
-        for_each_incident_edge(t, v, [&](Index j, Index e) {
-          const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
-          const double d = std::hypot(dx, dy);
-          if (d > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dx / d, dy / d);
-        });
-        double a = 0, b = 0;
-        if (!gn.step(a, b)) continue;
-        x[2 * v] += a;
-        x[2 * v + 1] += b;
-        continue;
-      }
-      const V3 X{x[3 * v], x[3 * v + 1], x[3 * v + 2]};
-      const V3 e1 = normalized(cross(X, std::abs(X[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0})), e2 = cross(X, e1);
-      for_each_incident_edge(t, v, [&](Index j, Index e) {
-        const V3 Y{x[3 * j], x[3 * j + 1], x[3 * j + 2]};
-        const double d = sphere_distance(X, Y), c = dot(X, Y);
-        const V3 away{c * X[0] - Y[0], c * X[1] - Y[1], c * X[2] - Y[2]};  // tangent at X, away from Y
-        const double n = norm(away);
-        if (d > 0 && n > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dot(away, e1) / n, dot(away, e2) / n);
-      });
-      double a = 0, b = 0;
-      if (!gn.step(a, b)) continue;
-      const V3 Z = normalized(V3{X[0] + a * e1[0] + b * e2[0], X[1] + a * e1[1] + b * e2[1], X[2] + a * e1[2] + b * e2[2]});
-      for (int d = 0; d < 3; ++d) x[3 * v + d] = Z[d];
-    }
-  }
-}
-
 // ---- the propagation -----------------------------------------------------------------------
 
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
@@ -916,18 +846,29 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
       x = kept;
     }
   }
-  if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.patches > 1)) {
-    polish(t, g, l, x, options.polish_sweeps);
-    out.polish_sweeps = options.polish_sweeps;
+  // E and S: Gauss–Seidel sweeps; then (E, H and S) global Gauss–Newton steps when the layout is
+  // still coarser than kGlobalPolishAbove above its rounding floor (layout_polish.h).
+  auto polish = [&](std::vector<double>& pos) {
+    if (g != Geometry::Hyperbolic) {
+      detail::polish_by_sweeps(t, g, l, pos, options.polish_sweeps);
+      out.polish_sweeps = options.polish_sweeps;
+    }
+    if (options.polish_steps <= 0) return;
+    Layout now;
+    measure_edges(t, g, l, P, now);
+    if (!(now.max_error_above_rounding > kGlobalPolishAbove)) return;
+    const detail::GlobalPolish gp = detail::polish_globally(t, g, l, pos, options.polish_steps);
+    out.polish_steps = gp.steps;
+  };
+  if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.polish_steps > 0 || options.patches > 1)) {
+    polish(x);
     // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
     const Cx o = P.z(s0), d = P.z(s1) - o;
     const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
     for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
   }
-  if (g == Geometry::Spherical && options.polish_sweeps > 0) {
-    polish(t, g, l, x, options.polish_sweeps);
-    out.polish_sweeps = options.polish_sweeps;
-  }
+  if (g == Geometry::Spherical && (options.polish_sweeps > 0 || options.polish_steps > 0)) polish(x);
+  if (g == Geometry::Hyperbolic && options.polish_steps > 0) polish(x);
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
 
   // Edge-length error of the isometric layout.
@@ -992,6 +933,10 @@ bool LayoutOptions::is_valid(std::string* why) const {
   }
   if (polish_sweeps < 0 || polish_sweeps > 10000) {
     if (why) *why = "polish_sweeps must be in 0..10000, got " + std::to_string(polish_sweeps);
+    return false;
+  }
+  if (polish_steps < 0 || polish_steps > 20) {
+    if (why) *why = "polish_steps must be in 0..20, got " + std::to_string(polish_steps);
     return false;
   }
   if (seed_face < -1) {

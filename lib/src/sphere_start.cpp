@@ -387,6 +387,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
   }
   LayoutOptions lo;
   lo.normalize = false;
+  lo.polish_steps = 0;  // a start: the flow refines it
   const Layout lay = layout_disk(disk_tri.topology, Geometry::Euclidean, plane.l, lo);
   if (lay.status != Status::Ok) {
     out.message = "the planar layout: " + lay.message;

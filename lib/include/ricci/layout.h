@@ -150,6 +150,13 @@ struct LayoutOptions {
   /// (tools/sweep_uniformize --polish-sweeps compares; on the shared nefertiti's subdivision,
   /// 1.7e-7 → 4.4e-9). 0: none.
   int polish_sweeps = 30;
+  /// E, H and S: then, when the relative edge-length error still exceeds the edges' rounding floors
+  /// by more than 1e-10 (Layout::max_error_above_rounding), up to this many
+  /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
+  /// factorization reused by every step; a step is kept only when it lowers the max error). The sweeps reduce
+  /// short-range error; these remove the long-range drift that the propagation accumulates over
+  /// hundreds of faces. 0: none.
+  int polish_steps = 3;
   /// E and H: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
   /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
   /// over the dual graph, each patch is laid out by its own propagation, and the patches' isometries
@@ -159,7 +166,7 @@ struct LayoutOptions {
   /// -1 (default): automatic, min(32, #F / 4000) patches (off below 8000 faces). At most 256.
   int patches = -1;
 
-  /// True when seed_face ≥ -1 and polish_sweeps is in 0..10000; otherwise false, with the reason
+  /// True when seed_face ≥ -1, polish_sweeps is in 0..10000 and polish_steps in 0..20; otherwise false, with the reason
   /// in *why (when why is not null). A seed face beyond the mesh is refused by the layout call.
   bool is_valid(std::string* why) const;
 };
@@ -192,6 +199,10 @@ struct Layout {
   /// more accurate; H layouts that reach far from the origin (long, thin cut polygons) or have very
   /// short edges there are limited by it.
   double rounding_floor = 0;
+  /// Max over edges of the relative error minus that edge's own rounding floor (≤ 0 when every
+  /// edge is as accurate as its coordinates allow): the part of the error a better layout of the
+  /// same coordinates could remove.
+  double max_error_above_rounding = 0;
   /// Faces whose geodesic triangle is negatively oriented in the final positions.
   Index flipped_faces = 0;
   Index first_flipped_face = kInvalid;  ///< smallest flipped face; kInvalid when there is none
@@ -206,6 +217,8 @@ struct Layout {
   int propagation_passes = 0;
   /// E and S: Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
   int polish_sweeps = 0;
+  /// E, H and S: global Gauss–Newton steps kept (LayoutOptions::polish_steps).
+  int polish_steps = 0;
   /// Divide and conquer: patches used (0: off, or not kept), Ceres iterations of the joint fit,
   /// and the largest distance between two fitted copies of a shared vertex relative to its mean
   /// edge length.

@@ -1,0 +1,47 @@
+// ricci (internal) — polishing a developed layout so that it reproduces its metric more closely.
+//
+// Takes: a disk (E, H) or closed genus-0 surface (S) in corner-table form, its edge lengths l, and
+// positions x from the face-by-face propagation of layout.cpp (E: #V×2 plane coordinates; H: #V×2
+// Poincaré-disk coordinates; S: #V×3 unit vectors). Gives: the same array, moved so that the relative edge-length errors
+// (d(x_i, x_j) − l_ij) / l_ij shrink. Two tools, used in this order:
+//
+// - polish_by_sweeps() (E and S): nonlinear Gauss–Seidel, each vertex in turn taking one 2×2 Gauss–Newton
+//   step over its own edges. Cheap, and it removes the short-range error that the propagation
+//   leaves where its fronts meet.
+// - polish_globally(): Gauss–Newton on all positions at once, min Σ_e ((d_e − l_e) / l_e)², with
+//   one sparse Cholesky factorization of JᵀJ (CHOLMOD, through SymmetricSolver) reused by every
+//   step. The
+//   long-range part of the error (a drift accumulated along hundreds of faces, which local sweeps
+//   reduce only by a factor close to 1 each) goes in one or two steps. A step is kept only when
+//   it lowers the largest relative error.
+//
+// Both are deterministic and single-threaded (the factorization may use the BLAS's threads).
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "ricci/metric.h"
+#include "ricci/topology.h"
+
+namespace ricci::detail {
+
+/// `sweeps` Gauss–Seidel sweeps over the vertices in index order (E or S only).
+void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
+                      int sweeps);
+
+/// What polish_globally() did.
+struct GlobalPolish {
+  int steps = 0;              ///< Gauss–Newton steps kept
+  double error_before = 0;    ///< max relative edge-length error on entry
+  double error_after = 0;     ///< … on return (≤ error_before)
+  bool factorized = true;     ///< false when the normal equations could not be factorized
+};
+
+/// Up to `max_steps` global Gauss–Newton steps (E, H or S; in H the unknowns are the Poincaré
+/// coordinates, ∂d/∂z the conformal factor 2/(1 − |z|²) times the geodesic's direction); stops early when a step does not
+/// lower the max relative edge-length error by at least a tenth.
+GlobalPolish polish_globally(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
+                             int max_steps);
+
+}  // namespace ricci::detail

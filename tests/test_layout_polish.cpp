@@ -1,0 +1,174 @@
+// Layout polishing (white box, lib/src/layout_polish.h): exact positions of a seeded jittered disk
+// (E; H: the same disk shrunk to radius 0.8 in the Poincaré disk) and icosphere (S) give exact
+// edge lengths; the positions are then bent by a smooth drift
+// (what a long propagation accumulates) plus noise. Global Gauss–Newton brings the layout back to
+// the lengths' own precision, holds the gauge vertex fixed, never raises the max error, and does
+// what the local sweeps alone cannot; a consistent layout is left as it is.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <complex>
+#include <random>
+#include <vector>
+
+#include "layout_polish.h"
+#include "ricci/layout.h"
+#include "ricci/topology.h"
+#include "shapes.h"
+
+using namespace ricci;
+
+namespace {
+
+struct Case {
+  Topology topo;
+  Geometry g = Geometry::Euclidean;
+  std::vector<double> exact;  // positions with which the lengths agree exactly
+  std::vector<double> l;
+};
+
+double dist(const Case& c, const std::vector<double>& x, Index a, Index b) {
+  if (c.g == Geometry::Euclidean) return std::hypot(x[2 * a] - x[2 * b], x[2 * a + 1] - x[2 * b + 1]);
+  if (c.g == Geometry::Hyperbolic) {
+    const std::complex<double> z(x[2 * a], x[2 * a + 1]), w(x[2 * b], x[2 * b + 1]);
+    return 2 * std::atanh(std::abs(z - w) / std::abs(1.0 - std::conj(z) * w));
+  }
+  const double ax = x[3 * a], ay = x[3 * a + 1], az = x[3 * a + 2], bx = x[3 * b], by = x[3 * b + 1], bz = x[3 * b + 2];
+  const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+  return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz);
+}
+
+double max_error(const Case& c, const std::vector<double>& x) {
+  double worst = 0;
+  for (Index e = 0; e < c.topo.num_edges; ++e) {
+    const double d = dist(c, x, c.topo.edge_vertices[2 * e], c.topo.edge_vertices[2 * e + 1]);
+    worst = std::max(worst, std::abs(d - c.l[e]) / c.l[e]);
+  }
+  return worst;
+}
+
+Case make_case(Geometry g, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  Case c;
+  c.g = g;
+  const Mesh m = g == Geometry::Spherical ? ricci_shapes::icosphere(4) : ricci_shapes::disk(24);
+  const TopologyResult tr = build_topology(m.faces, static_cast<Index>(m.positions.size() / 3));
+  REQUIRE(tr.status == Status::Ok);
+  c.topo = tr.topology;
+  const Index nv = c.topo.num_vertices;
+  std::uniform_real_distribution<double> jitter(-0.25, 0.25);
+  const double h = g == Geometry::Spherical ? 0.07 : 1.0 / 24;  // about one edge length
+  const double radius = g == Geometry::Hyperbolic ? 0.8 : 1.0;
+  for (Index v = 0; v < nv; ++v) {
+    if (g != Geometry::Spherical) {
+      c.exact.push_back(radius * (m.positions[3 * v] + jitter(rng) * h));
+      c.exact.push_back(radius * (m.positions[3 * v + 1] + jitter(rng) * h));
+    } else {
+      double p[3];
+      for (int d = 0; d < 3; ++d) p[d] = m.positions[3 * v + d] + jitter(rng) * h;
+      const double n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+      for (double& q : p) c.exact.push_back(q / n);
+    }
+  }
+  for (Index e = 0; e < c.topo.num_edges; ++e)
+    c.l.push_back(dist(c, c.exact, c.topo.edge_vertices[2 * e], c.topo.edge_vertices[2 * e + 1]));
+  return c;
+}
+
+/// The exact positions bent by a smooth drift of relative size `drift` (E, H: a slow rotation and
+/// stretch growing with the distance from the origin; S: a rotation about an axis by an angle that
+/// varies with height) plus uniform noise of size `noise` times an edge length.
+std::vector<double> bent(const Case& c, double drift, double noise, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<double> x = c.exact;
+  const Index nv = c.topo.num_vertices;
+  for (Index v = 0; v < nv; ++v) {
+    if (c.g != Geometry::Spherical) {
+      const double X = x[2 * v], Y = x[2 * v + 1], r2 = X * X + Y * Y;
+      const double a = drift * r2, s = 1 + drift * X * (c.g == Geometry::Hyperbolic ? 0.1 : 1.0);
+      x[2 * v] = s * (std::cos(a) * X - std::sin(a) * Y) + noise * u(rng) / 24;
+      x[2 * v + 1] = s * (std::sin(a) * X + std::cos(a) * Y) + noise * u(rng) / 24;
+    } else {
+      const double X = x[3 * v], Y = x[3 * v + 1], Z = x[3 * v + 2];
+      const double a = drift * (1 + Z) * (1 + Z);  // a twist about the z axis, growing towards +z
+      double p[3] = {std::cos(a) * X - std::sin(a) * Y + noise * u(rng) * 0.07,
+                     std::sin(a) * X + std::cos(a) * Y + noise * u(rng) * 0.07, Z + noise * u(rng) * 0.07};
+      const double n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+      for (int d = 0; d < 3; ++d) x[3 * v + d] = p[d] / n;
+    }
+  }
+  return x;
+}
+
+}  // namespace
+
+TEST_CASE("layout polish: global Gauss–Newton removes a smooth drift in E, H and S") {
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      CAPTURE(static_cast<int>(g));
+      CAPTURE(seed);
+      const Case c = make_case(g, seed);
+      const std::vector<double> start = bent(c, 1e-6, 1e-9, seed + 100);
+      const double before = max_error(c, start);
+      REQUIRE(before > 1e-8);
+
+      std::vector<double> x = start;
+      const detail::GlobalPolish gp = detail::polish_globally(c.topo, g, c.l, x, 5);
+      CHECK(gp.factorized);
+      CHECK(gp.steps >= 1);
+      CHECK(gp.error_before == doctest::Approx(before).epsilon(1e-12));
+      CHECK(gp.error_after == doctest::Approx(max_error(c, x)).epsilon(1e-12));
+      CHECK(gp.error_after < 1e-13);
+      // The gauge: the first edge's first vertex does not move.
+      const Index p = c.topo.edge_vertices[0];
+      const int dims = g == Geometry::Spherical ? 3 : 2;
+      for (int d = 0; d < dims; ++d) CHECK(x[dims * p + d] == start[dims * p + d]);
+
+      // Local sweeps (E and S) alone reduce the smooth part only slowly.
+      if (g == Geometry::Hyperbolic) continue;
+      std::vector<double> swept = start;
+      detail::polish_by_sweeps(c.topo, g, c.l, swept, 30);
+      CHECK(max_error(c, swept) > 100 * gp.error_after);
+    }
+  }
+}
+
+TEST_CASE("layout polish: a consistent layout stays, and no step raises the max error") {
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    const Case c = make_case(g, 7);
+    std::vector<double> x = c.exact;
+    const double e0 = max_error(c, x);
+    const detail::GlobalPolish gp = detail::polish_globally(c.topo, g, c.l, x, 5);
+    CHECK(gp.error_after <= e0);
+    CHECK(max_error(c, x) <= e0);
+    CHECK(max_error(c, x) < 1e-14);
+
+    // Noise at the level of double rounding: whatever is kept is no worse.
+    std::vector<double> y = bent(c, 0, 1e-15, 11);
+    const double e1 = max_error(c, y);
+    const detail::GlobalPolish gq = detail::polish_globally(c.topo, g, c.l, y, 5);
+    CHECK(gq.error_after <= e1);
+    CHECK(max_error(c, y) == doctest::Approx(gq.error_after).epsilon(1e-12));
+
+    // No steps asked: nothing moves.
+    std::vector<double> z = bent(c, 1e-6, 0, 12);
+    const std::vector<double> z0 = z;
+    const detail::GlobalPolish none = detail::polish_globally(c.topo, g, c.l, z, 0);
+    CHECK(none.steps == 0);
+    CHECK(z == z0);
+  }
+}
+
+TEST_CASE("layout polish: polish_steps is validated and reported") {
+  LayoutOptions o;
+  std::string why;
+  CHECK(o.is_valid(&why));
+  o.polish_steps = -1;
+  CHECK_FALSE(o.is_valid(&why));
+  CHECK(why.find("polish_steps") != std::string::npos);
+  o.polish_steps = 21;
+  CHECK_FALSE(o.is_valid(&why));
+  o.polish_steps = 0;
+  CHECK(o.is_valid(&why));
+}
