@@ -1,11 +1,14 @@
 // ricci — the whole job: metric, flow, cut, layout, seed check, deck maps, angle distortion.
 #include "ricci/uniformize.h"
 
+#include "crowding.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <queue>
 #include <utility>
@@ -375,7 +378,28 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   const std::vector<std::string> notes = std::move(r.flow.notes);
   r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, fo);
   r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
-  if (r.flow.status != Status::Ok) return fail(r.flow.status, "flow", r.flow.message);
+  if (r.flow.status != Status::Ok) {
+    // A circle domain that crowds beyond double precision is named as such, not as the solver's
+    // symptom (crowding.h): its boundary pieces would be too short to lay out anyway.
+    if (r.boundary == BoundaryMode::Circle && r.geometry == Geometry::Euclidean) {
+      const detail::Crowding c = detail::circle_domain_crowding(mesh, topology);
+      const double arc = 2 * std::numbers::pi * c.min_measure;  // of the unit circle
+      const double resolvable = 0x1p-52 / options.max_layout_error;
+      if (c.computed && !(arc > resolvable))
+        return fail(Status::NumericalFailure, "flow",
+                    "the circle domain crowds beyond double precision: with vertex " + std::to_string(c.centre) +
+                        " (in the middle of the boundary's longest extent) at the centre, " +
+                        (c.vertex == c.other ? "the boundary at vertex " + std::to_string(c.vertex)
+                                             : "the boundary edge from vertex " + std::to_string(c.vertex) +
+                                                   " to vertex " + std::to_string(c.other)) +
+                        " gets an arc of " + (arc > 0 ? sci(arc) : std::string("below 1e-16")) +
+                        " of the unit circle (harmonic measure), and coordinates near the circle resolve arcs "
+                        "of " + sci(resolvable) + " to the layout limit " + sci(options.max_layout_error) +
+                        "; long thin parts crowd exponentially (a 100 × 1 strip: e^(−π·50)); --boundary fixed "
+                        "needs no circle (the flow stopped: " + r.flow.message + ")");
+    }
+    return fail(r.flow.status, "flow", r.flow.message);
+  }
   stage_done("flow", r.flow.brief_report());
   layout_stages(mesh, topology, options, r.flow.l, r, start);
   return r;
