@@ -392,6 +392,14 @@ class FlowSolver {
   bool boundary_direct_ = false;
   bool boundary_factored_ = false;
   int direct_fallbacks_ = 0;  // Newton steps whose boundary system went direct after GMRES failed
+  // Measured choice: full solves GMRES spent on the boundary systems since the last factorization,
+  // the estimated work of the direct solve and of one full solve (setup_boundary_direct()), and
+  // whether GMRES once cost more than the direct solve would have (then direct for good).
+  double operator_solves_ = 0;
+  double direct_flops_ = -1, solve_flops_ = 0;
+  bool prefer_direct_ = false;
+  int switched_direct_at_ = 0;         // the Newton step from which prefer_direct_ holds (0: never)
+  double switched_after_solves_ = 0;   // GMRES's full solves in the step before
   std::vector<Index> block_position_;
   std::vector<std::int64_t> block_unknown_;
   std::vector<double> block_gram_, boundary_lu_;
@@ -884,6 +892,7 @@ void FlowSolver::target_derivative(std::span<const double> x, std::span<double> 
 // unknown are identity rows with no coupling).
 void FlowSolver::apply_boundary_operator(std::span<const double> w, std::span<double> out) {
   const Index n = pattern_.num_unknowns;
+  ++operator_solves_;
   const auto positions = static_cast<Index>(position_unknown_.size());
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
   for (Index j = 0; j < n; ++j) tmp_[j] = 0;
@@ -1016,7 +1025,9 @@ void FlowSolver::setup_boundary_direct(bool force) {
   const auto P = static_cast<double>(positions);
   const double flops = block_flops + (2.0 / 3.0) * P * P * P + 8 * P * P;
   const double solve_flops = 4 * solver_.factor_nonzeros();
-  if (!force && !(flops <= kDirectBoundarySolves * solve_flops)) return;
+  direct_flops_ = flops;
+  solve_flops_ = solve_flops;
+  if (!force && !prefer_direct_ && !(flops <= kDirectBoundarySolves * solve_flops)) return;
   const auto k = block_unknown_.size();
   block_gram_.assign(k * k, 0.0);
   boundary_lu_.assign(static_cast<std::size_t>(positions) * static_cast<std::size_t>(positions), 0.0);
@@ -1326,6 +1337,17 @@ bool FlowSolver::compute_direction() {
   }
   iter_.factorization += lap(mark);
   boundary_factored_ = false;
+  // GMRES needed more full solves in the last step than the direct solve's estimated work: the
+  // direct solve from now on (the estimate of GMRES's iterations in setup_boundary_direct() is a
+  // guess; this is the count).
+  if (coupled_ && !boundary_direct_ && direct_flops_ > 0 && operator_solves_ * solve_flops_ > direct_flops_ &&
+      static_cast<Index>(position_unknown_.size()) <= kDirectBoundaryFallback) {
+    prefer_direct_ = true;
+    switched_direct_at_ = iteration_;
+    switched_after_solves_ = operator_solves_;
+    setup_boundary_direct(true);
+  }
+  operator_solves_ = 0;
   if (outcome == detail::FactorOutcome::OutOfMemory) {
     fail(Status::OutOfMemory,
          "out of memory in the sparse Cholesky factorization at Newton step " + std::to_string(iteration_));
@@ -1827,6 +1849,11 @@ void FlowSolver::finish() {
         std::to_string(spherical_pins_[0]) + ", " + std::to_string(spherical_pins_[1]) + " and " +
         std::to_string(spherical_pins_[2]) + " kept their starting u");
   }
+  if (switched_direct_at_ > 0)
+    r_.notes.push_back("the boundary system of the length-dependent target was solved directly from Newton step " +
+                       std::to_string(switched_direct_at_) + " on: GMRES had needed " +
+                       std::to_string(static_cast<long long>(switched_after_solves_)) +
+                       " full solves in the step before, more work than the direct solve's");
   if (direct_fallbacks_ > 0)
     r_.notes.push_back("GMRES did not converge on the boundary system of the length-dependent target in " +
                        std::to_string(direct_fallbacks_) + " solve(s); it was solved directly (dense LU) instead");
