@@ -538,6 +538,7 @@ Json report_json(const Run& run) {
                        {"rounding_floor", real(L.rounding_floor)},
                        {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
                        {"polish_steps", L.polish_steps},
+                       {"shape_solve", L.shape_solve},
                        {"seed_face", L.seed_face},
                        {"depth", L.depth},
                        {"patches", L.patches},

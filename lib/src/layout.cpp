@@ -38,6 +38,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // 1e-9 that uniformize() promises, so that the cost (a sparse factorization of 2·#V unknowns) is
 // paid only where the sweeps leave the layout near that promise.
 constexpr double kGlobalPolishAbove = 1e-10;
+// E layouts whose propagation misses the metric by more than this (above the rounding floor) are
+// also computed from the triangles' shapes by one least-squares solve (LayoutOptions::polish_steps).
+constexpr double kShapeLayoutAbove = 1e-8;
 
 std::string num(double x) {
   char buf[64];
@@ -860,6 +863,24 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     const detail::GlobalPolish gp = detail::polish_globally(t, g, l, pos, options.polish_steps);
     out.polish_steps = gp.steps;
   };
+  // E: where the propagation is far from its metric (needle triangles placed from short bases can
+  // grow an error geometrically along a chain), the layout from the triangles' shapes by one
+  // least-squares solve instead, when it is closer (layout_polish.h).
+  if (g == Geometry::Euclidean && options.polish_steps > 0) {
+    Layout now;
+    measure_edges(t, g, l, P, now);
+    if (now.max_error_above_rounding > kShapeLayoutAbove) {
+      std::vector<double> trial = x;
+      if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
+        std::vector<double> kept = x;
+        x.swap(trial);
+        Layout shaped;
+        measure_edges(t, g, l, P, shaped);
+        if (shaped.max_edge_length_error < now.max_edge_length_error) out.shape_solve = true;
+        else x.swap(kept);
+      }
+    }
+  }
   if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.polish_steps > 0 || options.patches > 1)) {
     polish(x);
     // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.

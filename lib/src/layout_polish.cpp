@@ -283,4 +283,85 @@ GlobalPolish polish_globally(const Topology& t, Geometry g, std::span<const doub
   return out;
 }
 
+bool develop_by_shapes(const Topology& t, std::span<const double> l, std::span<const double> theta, Index s0,
+                       Index s1, std::vector<double>& x) {
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  const std::int64_t n = 2 * static_cast<std::int64_t>(nv);
+  const Index s01 = [&] {  // the edge s0–s1
+    for (Index k = t.vertex_corner_offsets[s0]; k < t.vertex_corner_offsets[s0 + 1]; ++k) {
+      const Index c = t.vertex_corners[k];
+      if (t.corner_vertex[next_corner(c)] == s1) return t.corner_edge[prev_corner(c)];
+      if (t.corner_vertex[prev_corner(c)] == s1) return t.corner_edge[next_corner(c)];
+    }
+    return kInvalid;
+  }();
+  if (s01 == kInvalid) return false;
+  // Fixed unknowns and their values.
+  std::vector<double> fixed_value(static_cast<std::size_t>(n), 0.0);
+  std::vector<std::uint8_t> fixed(static_cast<std::size_t>(n), 0);
+  fixed[2 * s0] = fixed[2 * s0 + 1] = fixed[2 * s1] = fixed[2 * s1 + 1] = 1;
+  fixed_value[2 * s1] = l[s01];
+  for (Index v = 0; v < nv; ++v)
+    if (t.vertex_corner_offsets[v] == t.vertex_corner_offsets[v + 1]) fixed[2 * v] = fixed[2 * v + 1] = 1;
+
+  using Sparse = Eigen::SparseMatrix<double, Eigen::ColMajor, std::int64_t>;
+  std::vector<Eigen::Triplet<double, std::int64_t>> entries;
+  entries.reserve(static_cast<std::size_t>(nf) * 3 * 21 + static_cast<std::size_t>(n));
+  std::vector<double> rhs(static_cast<std::size_t>(n), 0.0);
+  for (Index f = 0; f < nf; ++f) {
+    for (int k = 0; k < 3; ++k) {
+      const Index ci = 3 * f + k, cj = next_corner(ci), ck = prev_corner(ci);
+      const Index vi = t.corner_vertex[ci], vj = t.corner_vertex[cj], vk = t.corner_vertex[ck];
+      const double lij = l[t.corner_edge[ck]], lik = l[t.corner_edge[cj]];
+      const double ratio = lik / lij, a = ratio * std::cos(theta[ci]), b = ratio * std::sin(theta[ci]);
+      const double w = 1 / (lij * lij);
+      // r = z_k − (1 − c) z_i − c z_j with c = a + ib; a complex coefficient α = p + iq acts on
+      // (x, y) as Re: (p, −q), Im: (q, p).
+      const Index vs[3] = {vk, vi, vj};
+      const double ps[3] = {1, -(1 - a), -a}, qs[3] = {0, b, -b};
+      for (int part = 0; part < 2; ++part) {  // real and imaginary rows
+        double row[6];
+        std::int64_t col[6];
+        for (int m = 0; m < 3; ++m) {
+          col[2 * m] = 2 * static_cast<std::int64_t>(vs[m]);
+          col[2 * m + 1] = col[2 * m] + 1;
+          row[2 * m] = part == 0 ? ps[m] : qs[m];
+          row[2 * m + 1] = part == 0 ? -qs[m] : ps[m];
+        }
+        double known = 0;  // the fixed unknowns' part of the row
+        for (int m = 0; m < 6; ++m)
+          if (fixed[col[m]]) known += row[m] * fixed_value[col[m]];
+        for (int m = 0; m < 6; ++m) {
+          if (fixed[col[m]]) continue;
+          rhs[col[m]] -= w * row[m] * known;
+          for (int q = 0; q < 6; ++q)
+            if (!fixed[col[q]] && col[m] <= col[q]) entries.emplace_back(col[m], col[q], w * row[m] * row[q]);
+        }
+      }
+    }
+  }
+  for (std::int64_t i = 0; i < n; ++i)
+    if (fixed[i]) {
+      entries.emplace_back(i, i, 1.0);
+      rhs[i] = fixed_value[i];
+    }
+  Sparse A(n, n);
+  A.setFromTriplets(entries.begin(), entries.end());
+  A.makeCompressed();
+  SymmetricSolver solver;
+  const std::span<const std::int64_t> cp(A.outerIndexPtr(), static_cast<std::size_t>(n) + 1);
+  const std::span<const std::int64_t> rows(A.innerIndexPtr(), static_cast<std::size_t>(A.nonZeros()));
+  if (solver.analyze(n, cp, rows, FactorKind::PositiveDefinite) != FactorOutcome::Ok) return false;
+  std::copy(A.valuePtr(), A.valuePtr() + A.nonZeros(), solver.values().begin());
+  std::vector<double> z(static_cast<std::size_t>(n));
+  if (solver.factorize() != FactorOutcome::Ok || !solver.solve(rhs, z)) return false;
+  // Vertices used by no face keep their place.
+  for (Index v = 0; v < nv; ++v)
+    if (t.vertex_corner_offsets[v] < t.vertex_corner_offsets[v + 1]) {
+      x[2 * v] = z[2 * v];
+      x[2 * v + 1] = z[2 * v + 1];
+    }
+  return true;
+}
+
 }  // namespace ricci::detail

@@ -44,4 +44,15 @@ struct GlobalPolish {
 GlobalPolish polish_globally(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                              int max_steps);
 
+/// E only: plane positions from the triangles' shapes alone, by one sparse linear least-squares
+/// solve. Each corner i of a face (i, j, k) asks z_k − z_i = (l_ik / l_ij) e^{iθ_i} (z_j − z_i),
+/// θ_i its angle from the lengths, weighted by 1/l_ij²; vertex s0 is held at 0 and s1 at l_01 on
+/// the +x axis. A flat metric on a disk satisfies every equation exactly, so this is its layout;
+/// unlike the face-by-face propagation, whose error can grow geometrically along chains of
+/// needle triangles (each placed from a short base), the solve spreads every rounding over the
+/// whole disk (its matrix is a Laplacian of the shapes). False, with x unchanged, when the system
+/// cannot be factorized. theta: 3·#F corner angles; x: #V×2.
+bool develop_by_shapes(const Topology& t, std::span<const double> l, std::span<const double> theta, Index s0,
+                       Index s1, std::vector<double>& x);
+
 }  // namespace ricci::detail

@@ -155,7 +155,11 @@ struct LayoutOptions {
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
   /// factorization reused by every step; a step is kept only when it lowers the max error). The sweeps reduce
   /// short-range error; these remove the long-range drift that the propagation accumulates over
-  /// hundreds of faces. 0: none.
+  /// hundreds of faces. In E, a propagation that misses its metric by more than 1e-8 (needle
+  /// triangles placed from short bases grow an error geometrically along a chain) is first
+  /// replaced by the layout from the triangles' shapes alone — z_k − z_i = (l_ik/l_ij) e^{iθ_i}
+  /// (z_j − z_i) per corner, one sparse linear least-squares solve — when that is closer
+  /// (Layout::shape_solve). 0: none of this.
   int polish_steps = 3;
   /// E and H: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
   /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
@@ -219,6 +223,9 @@ struct Layout {
   int polish_sweeps = 0;
   /// E, H and S: global Gauss–Newton steps kept (LayoutOptions::polish_steps).
   int polish_steps = 0;
+  /// E: the propagation missed the metric by more than 1e-8 and the layout from the triangles'
+  /// shapes (one sparse least-squares solve; see LayoutOptions::polish_steps) was closer and kept.
+  bool shape_solve = false;
   /// Divide and conquer: patches used (0: off, or not kept), Ceres iterations of the joint fit,
   /// and the largest distance between two fitted copies of a shared vertex relative to its mean
   /// edge length.
