@@ -15,6 +15,9 @@
 //   --threads N        OpenMP threads (default 0: the OpenMP default, all cores)
 //   --gd-seconds S     cap of the gradient-descent comparison per input (default 20; 0 skips it)
 //   --flow-only        skip the stages after the flow (cut, layout, deck, angles, writing)
+//   --all-shared       every shared mesh of genus*/, boundary/ and derived/ instead of five large ones
+//                      (with --max-faces 0 --gd-seconds 0: the table of the default against circle
+//                      packing, tools/BENCHMARK-flips.md)
 //
 // Every input runs in a child process (fork), so that its peak resident memory is its own: the
 // peak of each stage is read from /proc/self/status (VmHWM), reset between stages by writing 5 to
@@ -66,6 +69,7 @@ struct Settings {
   int threads = 0;
   double gd_seconds = 20;
   bool flow_only = false;
+  bool all_shared = false;
 };
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -102,8 +106,20 @@ std::vector<Input> inputs(const Settings& s) {
   using namespace ricci_shapes;
   std::vector<Input> in;
   const fs::path m = s.meshes;
-  for (const char* f : {"boundary/face.obj", "genus1/kitten-106k.obj", "genus0/brain-conte69-32k-lh.off",
-                        "genus3plus/botijo.obj", "derived/kitten-425k-midpoint-subdiv.off"})
+  std::vector<std::string> files = {"boundary/face.obj", "genus1/kitten-106k.obj", "genus0/brain-conte69-32k-lh.off",
+                                    "genus3plus/botijo.obj", "derived/kitten-425k-midpoint-subdiv.off"};
+  if (s.all_shared) {
+    // Every mesh of genus*/, boundary/ and derived/, in name order.
+    files.clear();
+    std::error_code ec;
+    for (const char* dir : {"genus0", "genus1", "genus2", "genus3plus", "boundary", "derived"})
+      for (const auto& e : fs::directory_iterator(m / dir, ec)) {
+        const std::string ext = e.path().extension().string();
+        if (ext == ".obj" || ext == ".off" || ext == ".ply") files.push_back(std::string(dir) + "/" + e.path().filename().string());
+      }
+    std::sort(files.begin(), files.end());
+  }
+  for (const std::string& f : files)
     if (fs::exists(m / f)) in.push_back({f, 0, {}, (m / f).string()});
   // Torus: 2·(2m)·m faces. Genus 2: pretzel(2, c) has 100·c² faces, ×4 per midpoint subdivision.
   struct Size {
@@ -425,6 +441,28 @@ Row run_input(const Input& input, const Settings& s) {
     fs::remove(path, ec);
     if (w.status != ricci::Status::Ok) row["write_error"] = w.message;
   }
+  // The default's flow (vertex scaling with intrinsic flips) against the paper's circle packing on
+  // the same input: the CP flow stage as uniformize() runs it with scheme = CirclePacking (the same
+  // tolerance and polishing steps; the initial metric is its own stage in both).
+  if (!stop_after_flow && u.intrinsic.used && stage_seconds.count("flow")) {
+    row["flips"] = std::to_string(u.intrinsic.flow_flips);
+    row["flips_stage"] = fmt("%.4f", stage_seconds["flow"]);
+    ricci::InitialMetricOptions mo;
+    mo.geometry = u.geometry;
+    mo.scheme = ricci::Scheme::CirclePacking;
+    const ricci::InitialMetric cm = ricci::initial_metric(v.mesh, topo, mo);
+    if (cm.status == ricci::Status::Ok) {
+      ricci::FlowOptions cf = o.flow;
+      cf.polish_steps = std::max(cf.polish_steps, 2);
+      const ricci::FlowResult c = ricci::solve_flow(topo, cm.structure, cm.u, u.target, cf);
+      row["cp_status"] = std::string(ricci::status_name(c.status));
+      row["cp_flow"] = fmt("%.4f", c.seconds);
+      row["cp_iterations"] = std::to_string(c.iterations);
+      if (c.seconds > 0) row["flips_over_cp"] = fmt("%.2f", stage_seconds["flow"] / c.seconds);
+      row["cp_distortion"] = fmt("%.4f", ricci::angle_distortion(v.mesh, topo, u.geometry, c.l).mean_abs_log);
+    }
+    row["distortion"] = fmt("%.4f", u.angles.mean_abs_log);
+  }
   // Time to 1e-6: the paper's gradient descent (step 0.05), capped.
   if (s.gd_seconds > 0 && u.metric.status == ricci::Status::Ok) {
     ricci::FlowOptions gd;
@@ -552,7 +590,7 @@ std::string mb(const Row& r, const std::string& k) {
 int usage(const char* argv0) {
   std::cerr << "usage: " << argv0
             << " [MESHES_DIR] [--out FILE.md] [--only TEXT]… [--max-faces N] [--sphere] [--threads N] "
-               "[--gd-seconds S] [--flow-only]\n";
+               "[--gd-seconds S] [--flow-only] [--all-shared]\n";
   return 2;
 }
 
@@ -566,6 +604,8 @@ int main(int argc, char** argv) {
     auto value = [&]() -> const char* { return i + 1 < argc ? argv[++i] : nullptr; };
     if (a == "--sphere") {
       s.sphere = true;
+    } else if (a == "--all-shared") {
+      s.all_shared = true;
     } else if (a == "--flow-only") {
       s.flow_only = true;
     } else if (a == "--out" || a == "--only") {
@@ -610,8 +650,8 @@ int main(int argc, char** argv) {
          (std::getenv("OMP_WAIT_POLICY") ? std::string(std::getenv("OMP_WAIT_POLICY")) : std::string("unset")) +
          (s.flow_only ? "; --flow-only" : "") +
          ".\n\n";
-  doc += "Uniformization with `uniformize()` defaults (geometry by topology, circle packing, circle boundary in E, "
-         "geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "
+  doc += "Uniformization with `uniformize()` defaults (geometry by topology, vertex scaling with intrinsic "
+         "flips, circle boundary in E, geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "
          "the cotangent Laplacian (one vertex pinned) with the flow's own solver and pattern (CHOLMOD supernodal "
          "LLᵀ, METIS ≥ 20k unknowns); *flow s* is the whole Newton solve to the tolerance (setup and symbolic "
          "analysis included, from the call to the first iterate below 1e-10), *+ polish* the steps `uniformize()` "
@@ -671,6 +711,20 @@ int main(int argc, char** argv) {
     if (r.count("message")) status += ": " + get(r, "message");
     if (r.count("error") && !r.count("faces")) status = get(r, "error");
     doc += " " + get(r, "stage_write") + " | " + status + " |\n";
+  }
+  doc += "\n## The default (vertex scaling with intrinsic flips) against the paper's circle packing\n\n";
+  doc += "*flow s*: the default's flow stage (the intrinsic Delaunay triangulation of the input's metric and "
+         "the Newton solve with flips, polishing included); *CP flow s*: `solve_flow()` with circle packing on "
+         "the same input, target, tolerance and polishing; iterations include the polishing steps; angle "
+         "distortion is the mean |log θ_input/θ_output| over the input's corners.\n\n";
+  doc += "| input | #F | Newton it. | flips | flow s | CP it. | CP flow s | flow/CP | distortion | CP distortion |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const auto& [name, r] : rows) {
+    if (!r.count("flips")) continue;
+    doc += "| " + name + " | " + get(r, "faces") + " | " + get(r, "iterations") + " + " + get(r, "polish_iterations") +
+           " | " + get(r, "flips") + " | " + get(r, "flips_stage") + " | " + get(r, "cp_iterations") + " | " +
+           get(r, "cp_flow") + " | " + get(r, "flips_over_cp") + " | " + get(r, "distortion") + " | " +
+           get(r, "cp_distortion") + " |\n";
   }
   doc += "\n## Time to max |K̄ − K| < 1e-6: Newton against the paper's gradient descent (step 0.05)\n\n";
   doc += "A descent that reaches its time cap is extrapolated at the rate of its last chunk (log error per "
