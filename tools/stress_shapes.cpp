@@ -238,6 +238,9 @@ std::vector<StressMesh> stress_meshes(StressSize size, std::uint64_t seed) {
       small ? strip(200, 2, 100, 1) : strip(1000, 4, 100, 1));
   add("strip-1000", "long thin strip, 1000 x 1 (flat grid; mapped to a disk its ends shrink beyond double range), E",
       small ? strip(1000, 1, 1000, 1) : strip(4000, 2, 1000, 1));
+  add("needle-annulus", "annulus of 60 x 40 thin quads (120 x 60 medium): its circle domain squeezes one side into "
+      "needles that a face-by-face layout cannot follow, E",
+      small ? annulus(60, 40) : annulus(120, 60));
   add("graded-disk", "disk with edges from ~1e-6 to ~0.1 (geometric rings), E",
       small ? graded_disk(32, 60, 1e-6) : graded_disk(64, 150, 1e-6));
   add("tiny-huge-torus", "torus whose meridians alternate gaps of 1e-3 and 1 (relative): tiny edges beside long ones, E",
