@@ -549,72 +549,83 @@ TEST_CASE("deck: side pairings moved onto exact vertex cycles") {
   // deck_through_domain() with and without the adjustment of the pairings.
   const ValidateResult v = validate_mesh(ricci_shapes::pretzel(3, 4));
   REQUIRE(v.status == Status::Ok);
-  // The paper's circle packing: the frame comparison at the end is stated for its metric.
-  UniformizeOptions uo;
-  uo.metric.scheme = Scheme::CirclePacking;
-  const UniformizeResult u = uniformize(v.mesh, v.topology, uo);
-  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
-  REQUIRE(u.cut.compact);
-  REQUIRE(u.polygon_cut.canonical);
-  DeckOptions raw;
-  raw.adjust_pairings = false;
-  const DomainDeck a = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, raw);
-  const DomainDeck b = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions);
-  REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
-  REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
-  MESSAGE("genus 3: cycles " << a.cycle_error << " -> " << b.adjusted_cycle_error << " (pairings moved by "
-                             << b.pairing_adjustment << "); relation " << a.deck.relation_error << " -> "
-                             << b.deck.relation_error);
-  // Without the adjustment nothing moves and both relations are the fitted one.
-  CHECK(a.pairing_adjustment == 0);
-  CHECK(a.adjusted_cycle_error == a.cycle_error);
-  CHECK(a.fitted_relation_error == a.deck.relation_error);
-  // The fit is good: cycles to ~1e-13, not to rounding; the adjustment removes that rest.
-  CHECK(a.cycle_error > 1e-17);
-  CHECK(a.cycle_error < 1e-11);
-  CHECK(b.cycle_error == a.cycle_error);
-  CHECK(b.adjusted_cycle_error < 1e-26);
-  CHECK(b.pairing_adjustment > 0);
-  CHECK(b.pairing_adjustment < 1e-10);
-  CHECK(b.deck.relation_error < 1e-20);
-  CHECK(b.fitted_relation_error < 1e-9);
-  // The adjusted pairings still fit their sides, and the generators the polygon's sides.
-  for (const DeckGenerator& G : b.side_maps) CHECK(G.residual_max < 1e-10);
-  CHECK(b.deck.residual_max < 1e-9);
-  CHECK(b.tile_consistency < 1e-9);
-  // The polygon comes centred: on its hyperboloid centre of mass, or (default) on the centre of
-  // the smallest disk holding it, whose radius is then no larger.
-  DeckOptions com;
-  com.polygon_centre = PolygonCentre::CentreOfMass;
-  const DomainDeck b2 = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, com);
-  REQUIRE(b2.status == Status::Ok);
-  REQUIRE(!b.canonical_positions.empty());
-  REQUIRE(!b2.canonical_positions.empty());
-  auto radius = [](const std::vector<double>& x) {
-    double r = 0;
-    for (std::size_t i = 0; i + 1 < x.size(); i += 2) r = std::max(r, std::hypot(x[i], x[i + 1]));
-    return 2 * std::atanh(r);
-  };
-  MESSAGE("polygon radius: minimax " << radius(b.canonical_positions) << ", centre of mass "
-                                     << radius(b2.canonical_positions));
-  CHECK(radius(b.canonical_positions) <= radius(b2.canonical_positions) + 1e-9);
-  CHECK(b2.deck.relation_error < 1e-20);
-  double T = 0, X = 0, Y = 0;
-  for (std::size_t i = 0; i + 1 < b2.canonical_positions.size(); i += 2) {
-    const cplx z(b2.canonical_positions[i], b2.canonical_positions[i + 1]);
-    const double q = 1 - std::norm(z);
-    T += (1 + std::norm(z)) / q;
-    X += 2 * z.real() / q;
-    Y += 2 * z.imag() / q;
-  }
-  CHECK(std::hypot(X, Y) / T < 1e-9);
-  // The two frames differ by polygon_frame: a generator of the unadjusted run, conjugated into
-  // b's frame, is b's generator up to the adjustment.
-  for (std::size_t i = 0; i < b.deck.generators.size(); ++i) {
-    const Moebius F = b.polygon_frame * a.polygon_frame.inverse();
-    const Moebius Ga = F * a.deck.generators[i].map * F.inverse();
-    const cplx z(0.1, 0.2);
-    CHECK(hyperbolic_distance(Ga.apply(z), b.deck.generators[i].map.apply(z)) < 1e-8);
+  // The paper's circle packing and the default (vertex scaling with flips), whose canonical
+  // polygon reaches farther (radius 9.96 against 8.39 here).
+  for (const Scheme scheme : {Scheme::CirclePacking, Scheme::Yamabe}) {
+    CAPTURE(static_cast<int>(scheme));
+    UniformizeOptions uo;
+    uo.metric.scheme = scheme;
+    const UniformizeResult u = uniformize(v.mesh, v.topology, uo);
+    REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+    REQUIRE(u.cut.compact);
+    REQUIRE(u.polygon_cut.canonical);
+    DeckOptions raw;
+    raw.adjust_pairings = false;
+    const DomainDeck a = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, raw);
+    const DomainDeck b = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions);
+    REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
+    REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+    MESSAGE("genus 3: cycles " << a.cycle_error << " -> " << b.adjusted_cycle_error << " (pairings moved by "
+                               << b.pairing_adjustment << "); relation " << a.deck.relation_error << " -> "
+                               << b.deck.relation_error);
+    // Without the adjustment nothing moves and both relations are the fitted one.
+    CHECK(a.pairing_adjustment == 0);
+    CHECK(a.adjusted_cycle_error == a.cycle_error);
+    CHECK(a.fitted_relation_error == a.deck.relation_error);
+    // The fit is good: cycles to ~1e-13, not to rounding; the adjustment removes that rest.
+    CHECK(a.cycle_error > 1e-17);
+    CHECK(a.cycle_error < 1e-11);
+    CHECK(b.cycle_error == a.cycle_error);
+    CHECK(b.adjusted_cycle_error < 1e-26);
+    CHECK(b.pairing_adjustment > 0);
+    CHECK(b.pairing_adjustment < 1e-10);
+    CHECK(b.deck.relation_error < 1e-20);
+    CHECK(b.fitted_relation_error < 1e-9);
+    // The adjusted pairings still fit their sides, and the generators the polygon's sides.
+    for (const DeckGenerator& G : b.side_maps) CHECK(G.residual_max < 1e-10);
+    CHECK(b.deck.residual_max < 1e-9);
+    CHECK(b.tile_consistency < 1e-9);
+    // The polygon comes centred: on its hyperboloid centre of mass, or (default) on the centre of
+    // the smallest disk holding it, whose radius is then no larger.
+    DeckOptions com;
+    com.polygon_centre = PolygonCentre::CentreOfMass;
+    const DomainDeck b2 = deck_through_domain(u.polygon_cut, u.cut, u.layout.positions, com);
+    REQUIRE(b2.status == Status::Ok);
+    REQUIRE(!b.canonical_positions.empty());
+    REQUIRE(!b2.canonical_positions.empty());
+    auto radius = [](const std::vector<double>& x) {
+      double r = 0;
+      for (std::size_t i = 0; i + 1 < x.size(); i += 2) r = std::max(r, std::hypot(x[i], x[i + 1]));
+      return 2 * std::atanh(r);
+    };
+    MESSAGE("polygon radius: minimax " << radius(b.canonical_positions) << ", centre of mass "
+                                       << radius(b2.canonical_positions));
+    CHECK(radius(b.canonical_positions) <= radius(b2.canonical_positions) + 1e-9);
+    CHECK(b2.deck.relation_error < 1e-20);
+    double T = 0, X = 0, Y = 0;
+    for (std::size_t i = 0; i + 1 < b2.canonical_positions.size(); i += 2) {
+      const cplx z(b2.canonical_positions[i], b2.canonical_positions[i + 1]);
+      const double q = 1 - std::norm(z);
+      T += (1 + std::norm(z)) / q;
+      X += 2 * z.real() / q;
+      Y += 2 * z.imag() / q;
+    }
+    CHECK(std::hypot(X, Y) / T < 1e-9);
+    // The two frames differ by polygon_frame: a generator of the unadjusted run, conjugated into
+    // b's frame, is b's generator up to the adjustment. A generator carries the polygon's centre
+    // up to twice its radius R away, where a change δ of its pairings shows as about δ·e^{2R}:
+    // 10× that bound (at least 1e-8), and never above 1e-3 (a wrong frame is off by O(1)).
+    const double R = radius(b.canonical_positions);
+    const double bound = std::max(1e-8, 10 * b.pairing_adjustment * std::exp(2 * R));
+    for (std::size_t i = 0; i < b.deck.generators.size(); ++i) {
+      const Moebius F = b.polygon_frame * a.polygon_frame.inverse();
+      const Moebius Ga = F * a.deck.generators[i].map * F.inverse();
+      const cplx z(0.1, 0.2);
+      const double apart = hyperbolic_distance(Ga.apply(z), b.deck.generators[i].map.apply(z));
+      CHECK(apart < bound);
+      CHECK(apart < 1e-3);
+      if (scheme == Scheme::CirclePacking) CHECK(apart < 1e-8);  // measured ≤ 1.1e-9 there
+    }
   }
 }
 
