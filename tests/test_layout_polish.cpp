@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "layout_polish.h"
+#include "model_geometry.h"
 #include "ricci/layout.h"
 #include "ricci/metric.h"
 #include "ricci/uniformize.h"
@@ -32,13 +33,9 @@ struct Case {
 
 double dist(const Case& c, const std::vector<double>& x, Index a, Index b) {
   if (c.g == Geometry::Euclidean) return std::hypot(x[2 * a] - x[2 * b], x[2 * a + 1] - x[2 * b + 1]);
-  if (c.g == Geometry::Hyperbolic) {
-    const std::complex<double> z(x[2 * a], x[2 * a + 1]), w(x[2 * b], x[2 * b + 1]);
-    return 2 * std::atanh(std::abs(z - w) / std::abs(1.0 - std::conj(z) * w));
-  }
-  const double ax = x[3 * a], ay = x[3 * a + 1], az = x[3 * a + 2], bx = x[3 * b], by = x[3 * b + 1], bz = x[3 * b + 2];
-  const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
-  return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), ax * bx + ay * by + az * bz);
+  if (c.g == Geometry::Hyperbolic)
+    return model::disk_distance({x[2 * a], x[2 * a + 1]}, {x[2 * b], x[2 * b + 1]});
+  return model::sphere_distance({x[3 * a], x[3 * a + 1], x[3 * a + 2]}, {x[3 * b], x[3 * b + 1], x[3 * b + 2]});
 }
 
 double max_error(const Case& c, const std::vector<double>& x) {

@@ -19,8 +19,6 @@ namespace ricci::detail {
 
 namespace {
 
-Crowding measure(const Mesh& mesh, const Topology& topology);
-
 /// The mesh with every edge split at its midpoint and every face into four; parent[v] (new #V) is
 /// v for an old vertex and an end of the split edge for a new one.
 Mesh subdivided(const Mesh& mesh, const Topology& t, std::vector<Index>& parent) {
@@ -47,43 +45,6 @@ Mesh subdivided(const Mesh& mesh, const Topology& t, std::vector<Index>& parent)
   }
   return m;
 }
-
-}  // namespace
-
-Crowding circle_domain_crowding(const Mesh& mesh, const Topology& topology) {
-  Crowding out;
-  if (topology.is_closed() || topology.genus() != 0 || topology.num_components != 1) {
-    out.why_not = "not a connected genus-0 surface with boundary";
-    return out;
-  }
-  // Harmonic measure needs an interior point: a mesh whose vertices all lie on the boundary (a
-  // strip one triangle wide) is subdivided once, and a new vertex is named by an end of its edge.
-  bool interior = false;
-  for (Index v = 0; v < topology.num_vertices && !interior; ++v)
-    interior = topology.valence(v) > 0 && !topology.is_boundary_vertex(v);
-  std::vector<Index> parent;
-  Mesh fine;
-  Topology fine_topology;
-  if (!interior) {
-    fine = subdivided(mesh, topology, parent);
-    TopologyResult tr = build_topology(fine.faces, static_cast<Index>(fine.positions.size() / 3));
-    if (tr.status != Status::Ok) {
-      out.why_not = tr.message;
-      return out;
-    }
-    fine_topology = std::move(tr.topology);
-  }
-  const Crowding c = interior ? measure(mesh, topology) : measure(fine, fine_topology);
-  out = c;
-  if (!interior && out.computed) {
-    out.centre = parent[out.centre];
-    out.vertex = parent[out.vertex];
-    out.other = parent[out.other];
-  }
-  return out;
-}
-
-namespace {
 
 Crowding measure(const Mesh& mesh, const Topology& topology) {
   Crowding out;
@@ -228,5 +189,38 @@ Crowding measure(const Mesh& mesh, const Topology& topology) {
 }
 
 }  // namespace
+
+Crowding circle_domain_crowding(const Mesh& mesh, const Topology& topology) {
+  Crowding out;
+  if (topology.is_closed() || topology.genus() != 0 || topology.num_components != 1) {
+    out.why_not = "not a connected genus-0 surface with boundary";
+    return out;
+  }
+  // Harmonic measure needs an interior point: a mesh whose vertices all lie on the boundary (a
+  // strip one triangle wide) is subdivided once, and a new vertex is named by an end of its edge.
+  bool interior = false;
+  for (Index v = 0; v < topology.num_vertices && !interior; ++v)
+    interior = topology.valence(v) > 0 && !topology.is_boundary_vertex(v);
+  std::vector<Index> parent;
+  Mesh fine;
+  Topology fine_topology;
+  if (!interior) {
+    fine = subdivided(mesh, topology, parent);
+    TopologyResult tr = build_topology(fine.faces, static_cast<Index>(fine.positions.size() / 3));
+    if (tr.status != Status::Ok) {
+      out.why_not = tr.message;
+      return out;
+    }
+    fine_topology = std::move(tr.topology);
+  }
+  const Crowding c = interior ? measure(mesh, topology) : measure(fine, fine_topology);
+  out = c;
+  if (!interior && out.computed) {
+    out.centre = parent[out.centre];
+    out.vertex = parent[out.vertex];
+    out.other = parent[out.other];
+  }
+  return out;
+}
 
 }  // namespace ricci::detail

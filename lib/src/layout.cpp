@@ -4,6 +4,7 @@
 
 #include "ceres_quiet.h"
 #include "layout_polish.h"
+#include "model_geometry.h"
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
@@ -82,19 +83,11 @@ double angle_from_lengths(Geometry g, double a, double b, double c) {
   return 2 * std::atan2(std::sqrt(std::max(0.0, fb * fc)), std::sqrt(std::max(0.0, fs * fa)));
 }
 
-/// Great-circle distance of two unit vectors.
-double sphere_distance(const V3& x, const V3& y) { return std::atan2(norm(cross(x, y)), dot(x, y)); }
-
-/// Hyperbolic distance in the Poincaré disk; +∞ for points on or outside the unit circle.
-double disk_distance(Cx z, Cx w) {
-  const double az = std::abs(z), aw = std::abs(w);
-  const double dz = (1 - az) * (1 + az), dw = (1 - aw) * (1 + aw);
-  if (!(dz > 0 && dw > 0)) return kInf;
-  return 2 * std::asinh(std::abs(z - w) / std::sqrt(dz * dw));
-}
+using model::disk_distance;    // Poincaré disk; +∞ on or outside the unit circle
+using model::sphere_distance;  // great circle of two unit vectors
 
 /// z ↦ (z − p)/(1 − p̄ z), the disk automorphism taking p to 0, and its inverse.
-Cx to_origin(Cx p, Cx z) { return (z - p) / (1.0 - std::conj(p) * z); }
+Cx to_origin(Cx p, Cx z) { return model::disk_to_origin(p, z); }
 Cx from_origin(Cx p, Cx z) { return (z + p) / (1.0 + std::conj(p) * z); }
 
 /// Hyperboloid point (t, x, y) of a Poincaré disk point.
@@ -724,6 +717,50 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   return true;
 }
 
+// ---- refining the propagation's layout -------------------------------------------------------
+
+/// After the propagation: in E, the layout from the triangles' shapes where the propagation misses
+/// its metric by more than kShapeLayoutAbove above the rounding floor (needle triangles placed
+/// from short bases can grow an error geometrically along a chain), kept when closer; the
+/// Gauss–Seidel sweeps (E, S); global Gauss–Newton steps where the layout is still coarser than
+/// kGlobalPolishAbove above its rounding floor (E, H, S; layout_polish.h). E then goes back to
+/// its rigid frame: seed corner 0 at the origin, corner 1 on +x.
+void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index s0,
+                   Index s1, const LayoutOptions& options, Positions& P, Layout& out) {
+  std::vector<double>& x = P.x;
+  const bool steps = options.polish_steps > 0;
+  if (g == Geometry::Euclidean && steps) {
+    Layout now;
+    measure_edges(t, g, l, P, now);
+    std::vector<double> trial = x;
+    if (now.max_error_above_rounding > kShapeLayoutAbove && detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
+      Layout shaped;
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped);
+      if (shaped.max_edge_length_error < now.max_edge_length_error) {
+        x.swap(trial);
+        out.shape_solve = true;
+      }
+    }
+  }
+  const bool sweeps = g != Geometry::Hyperbolic && options.polish_sweeps > 0;
+  if (!sweeps && !steps && !(g == Geometry::Euclidean && options.patches > 1)) return;
+  if (g != Geometry::Hyperbolic) {
+    detail::polish_by_sweeps(t, g, l, x, options.polish_sweeps);
+    out.polish_sweeps = options.polish_sweeps;
+  }
+  if (steps) {
+    Layout now;
+    measure_edges(t, g, l, P, now);
+    if (now.max_error_above_rounding > kGlobalPolishAbove)
+      out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
+  }
+  if (g == Geometry::Euclidean) {
+    const Cx o = P.z(s0), d = P.z(s1) - o;
+    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
+    for (Index v = 0; v < t.num_vertices; ++v) P.set(v, (P.z(v) - o) * rot);
+  }
+}
+
 // ---- the propagation -----------------------------------------------------------------------
 
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
@@ -849,47 +886,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
       x = kept;
     }
   }
-  // E and S: Gauss–Seidel sweeps; then (E, H and S) global Gauss–Newton steps when the layout is
-  // still coarser than kGlobalPolishAbove above its rounding floor (layout_polish.h).
-  auto polish = [&](std::vector<double>& pos) {
-    if (g != Geometry::Hyperbolic) {
-      detail::polish_by_sweeps(t, g, l, pos, options.polish_sweeps);
-      out.polish_sweeps = options.polish_sweeps;
-    }
-    if (options.polish_steps <= 0) return;
-    Layout now;
-    measure_edges(t, g, l, P, now);
-    if (!(now.max_error_above_rounding > kGlobalPolishAbove)) return;
-    const detail::GlobalPolish gp = detail::polish_globally(t, g, l, pos, options.polish_steps);
-    out.polish_steps = gp.steps;
-  };
-  // E: where the propagation is far from its metric (needle triangles placed from short bases can
-  // grow an error geometrically along a chain), the layout from the triangles' shapes by one
-  // least-squares solve instead, when it is closer (layout_polish.h).
-  if (g == Geometry::Euclidean && options.polish_steps > 0) {
-    Layout now;
-    measure_edges(t, g, l, P, now);
-    if (now.max_error_above_rounding > kShapeLayoutAbove) {
-      std::vector<double> trial = x;
-      if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
-        std::vector<double> kept = x;
-        x.swap(trial);
-        Layout shaped;
-        measure_edges(t, g, l, P, shaped);
-        if (shaped.max_edge_length_error < now.max_edge_length_error) out.shape_solve = true;
-        else x.swap(kept);
-      }
-    }
-  }
-  if (g == Geometry::Euclidean && (options.polish_sweeps > 0 || options.polish_steps > 0 || options.patches > 1)) {
-    polish(x);
-    // Back to the rigid normalisation: seed corner 0 at the origin, corner 1 on +x.
-    const Cx o = P.z(s0), d = P.z(s1) - o;
-    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
-    for (Index v = 0; v < nv; ++v) P.set(v, (P.z(v) - o) * rot);
-  }
-  if (g == Geometry::Spherical && (options.polish_sweeps > 0 || options.polish_steps > 0)) polish(x);
-  if (g == Geometry::Hyperbolic && options.polish_steps > 0) polish(x);
+  refine_layout(t, g, l, theta, s0, s1, options, P, out);
   for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
 
   // Edge-length error of the isometric layout.

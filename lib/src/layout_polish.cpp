@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdint>
 
 #include "model_geometry.h"
@@ -15,16 +16,18 @@ namespace ricci::detail {
 
 namespace {
 
+using Cx = std::complex<double>;
 using model::cross;
+using model::disk_distance;
 using model::dot;
 using model::P3;
+using model::sphere_distance;
 
 double norm(const P3& a) { return std::sqrt(dot(a, a)); }
 P3 normalized(const P3& a) {
   const double n = norm(a);
   return n > 0 ? model::mul(a, 1 / n) : P3{0, 0, 1};
 }
-double sphere_distance(const P3& x, const P3& y) { return std::atan2(norm(cross(x, y)), dot(x, y)); }
 P3 point(const std::vector<double>& x, Index v) { return {x[3 * v], x[3 * v + 1], x[3 * v + 2]}; }
 
 /// A unit tangent basis (e1, e2) at the unit vector X, with e1 × e2 = X.
@@ -49,33 +52,26 @@ bool away_from(const P3& X, const P3& Y, P3& u) {
   return true;
 }
 
-/// The Poincaré-disk distance of z and w.
-double disk_distance(double zx, double zy, double wx, double wy) {
-  const double nx = zx - wx, ny = zy - wy;                          // z − w
-  const double dx = 1 - (zx * wx + zy * wy), dy = -(zx * wy - zy * wx);  // 1 − z̄w
-  return 2 * std::atanh(std::min(std::hypot(nx, ny) / std::hypot(dx, dy), 1.0));
+/// ∂d(z, w)/∂z in the Poincaré disk, as a plane vector: the conformal factor 2/(1 − |z|²) times the
+/// unit vector at z pointing away from w along the geodesic. The isometry taking z to the origin
+/// has a positive real derivative at z, so that direction is minus the direction of w's image.
+void disk_gradient(Cx z, Cx w, double& gx, double& gy) {
+  const Cx t = model::disk_to_origin(z, w);
+  const double n = std::abs(t), az = std::abs(z);
+  const double lambda = 2 / ((1 - az) * (1 + az));
+  gx = n > 0 ? -lambda * t.real() / n : 0;
+  gy = n > 0 ? -lambda * t.imag() / n : 0;
 }
 
-/// ∂d(z, w)/∂z in the Poincaré disk, as a plane vector: the conformal factor 2/(1 − |z|²) times the
-/// unit vector at z pointing away from w along the geodesic. The Möbius map ζ ↦ (ζ − z)/(1 − z̄ζ)
-/// has a positive real derivative at z, so that direction is minus the direction of the image of w.
-void disk_gradient(double zx, double zy, double wx, double wy, double& gx, double& gy) {
-  const double nx = wx - zx, ny = wy - zy;                          // w − z
-  const double dx = 1 - (zx * wx + zy * wy), dy = (zy * wx - zx * wy);  // 1 − z̄w
-  const double den = dx * dx + dy * dy;
-  const double tx = (nx * dx + ny * dy) / den, ty = (ny * dx - nx * dy) / den;  // (w − z)/(1 − z̄w)
-  const double n = std::hypot(tx, ty);
-  const double lambda = 2 / ((1 - std::hypot(zx, zy)) * (1 + std::hypot(zx, zy)));
-  gx = n > 0 ? -lambda * tx / n : 0;
-  gy = n > 0 ? -lambda * ty / n : 0;
-}
+/// Point v of a Poincaré layout.
+Cx disk_point(const std::vector<double>& x, Index v) { return {x[2 * v], x[2 * v + 1]}; }
 
 double max_relative_error(const Topology& t, Geometry g, std::span<const double> l, const std::vector<double>& x) {
   double worst = 0;
   for (Index e = 0; e < t.num_edges; ++e) {
     const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
     const double d = g == Geometry::Spherical    ? sphere_distance(point(x, a), point(x, b))
-                     : g == Geometry::Hyperbolic ? disk_distance(x[2 * a], x[2 * a + 1], x[2 * b], x[2 * b + 1])
+                     : g == Geometry::Hyperbolic ? disk_distance(disk_point(x, a), disk_point(x, b))
                                                  : std::hypot(x[2 * a] - x[2 * b], x[2 * a + 1] - x[2 * b + 1]);
     const double err = std::abs(d - l[e]) / l[e];
     if (!(err <= worst)) worst = err;  // NaN propagates as the worst
@@ -181,7 +177,7 @@ GlobalPolish polish_globally(const Topology& t, Geometry g, std::span<const doub
     fixed[2 * q + (std::abs(dx) >= std::abs(dy) ? 1 : 0)] = 1;  // a rotation about p moves q across p → q
   } else if (g == Geometry::Hyperbolic) {
     double dx = 0, dy = 0;  // the geodesic direction at q (away from p); a rotation about p moves q across it
-    disk_gradient(x[2 * q], x[2 * q + 1], x[2 * p], x[2 * p + 1], dx, dy);
+    disk_gradient(disk_point(x, q), disk_point(x, p), dx, dy);
     fixed[2 * q + (std::abs(dx) >= std::abs(dy) ? 1 : 0)] = 1;
   } else {
     P3 e1, e2;
@@ -216,11 +212,11 @@ GlobalPolish polish_globally(const Topology& t, Geometry g, std::span<const doub
         if (!(d > 0)) continue;
         grad[0][0] = dx / d, grad[0][1] = dy / d, grad[1][0] = -dx / d, grad[1][1] = -dy / d;
       } else if (g == Geometry::Hyperbolic) {
-        const double ax = x[2 * ends[0]], ay = x[2 * ends[0] + 1], bx = x[2 * ends[1]], by = x[2 * ends[1] + 1];
-        d = disk_distance(ax, ay, bx, by);
+        const Cx za = disk_point(x, ends[0]), zb = disk_point(x, ends[1]);
+        d = disk_distance(za, zb);
         if (!(d > 0) || !std::isfinite(d)) continue;
-        disk_gradient(ax, ay, bx, by, grad[0][0], grad[0][1]);
-        disk_gradient(bx, by, ax, ay, grad[1][0], grad[1][1]);
+        disk_gradient(za, zb, grad[0][0], grad[0][1]);
+        disk_gradient(zb, za, grad[1][0], grad[1][1]);
       } else {
         const P3 X = point(x, ends[0]), Y = point(x, ends[1]);
         P3 ux, uy;

@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
+#include <limits>
 
 #include "ricci/metric.h"
 
@@ -86,6 +88,26 @@ inline double distance(Geometry g, const P3& p, const P3& q) {
     case Geometry::Hyperbolic: return 2 * std::asinh(0.5 * std::sqrt(std::max(0.0, lorentz(d, d))));
   }
   return 0;
+}
+
+// Great-circle distance of two unit vectors (accurate for close and for nearly antipodal points).
+inline double sphere_distance(const P3& x, const P3& y) {
+  const P3 c = cross(x, y);
+  return std::atan2(std::sqrt(dot(c, c)), dot(x, y));
+}
+
+// Hyperbolic distance of two Poincaré-disk points (accurate for close points); +∞ for points on
+// or outside the unit circle.
+inline double disk_distance(std::complex<double> z, std::complex<double> w) {
+  const double az = std::abs(z), aw = std::abs(w);
+  const double dz = (1 - az) * (1 + az), dw = (1 - aw) * (1 + aw);
+  if (!(dz > 0 && dw > 0)) return std::numeric_limits<double>::infinity();
+  return 2 * std::asinh(std::abs(z - w) / std::sqrt(dz * dw));
+}
+
+// The disk isometry that takes p to the origin, applied to z.
+inline std::complex<double> disk_to_origin(std::complex<double> p, std::complex<double> z) {
+  return (z - p) / (1.0 - std::conj(p) * z);
 }
 
 // The point a fraction t of the way from p to q along the chord, projected back onto the model.
