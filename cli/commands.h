@@ -74,7 +74,7 @@ int run_convert(const ConvertOptions& options);
 struct FlowCommandOptions {
   std::string mesh;                        ///< input path; empty: the embedded default mesh
   std::string geometry = "auto";           ///< auto, euclidean, hyperbolic, spherical
-  std::string scheme = "circle-packing";   ///< circle-packing, inversive-distance, yamabe
+  std::string scheme = "auto";             ///< auto (= yamabe), circle-packing, inversive-distance, yamabe
   std::string target = "auto";             ///< auto, uniform, cones=FILE, single-vertex=I
   std::string boundary = "auto";           ///< auto, free, fixed, circle, geodesic, loop-totals=T1,…
   std::string method = "newton";           ///< newton, gradient
@@ -89,6 +89,7 @@ struct FlowCommandOptions {
   bool no_angle_relax = false;             ///< circle packing: Step 2's angles exactly
   bool no_circle_normalization = false;    ///< circle domains: K̄ ∝ length exactly
   bool no_split_ears = false;              ///< keep ears the boundary target cannot realise (no split)
+  bool no_flips = false;                   ///< yamabe on the input's triangulation, without intrinsic flips
 };
 int run_flow(const FlowCommandOptions& options);
 

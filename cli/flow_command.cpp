@@ -6,7 +6,8 @@
 //
 //   OUT ends in ".json": one JSON object
 //     { "format": "ricci-flow-metric", "version": 1, "vertex_numbering": "…",
-//       "mesh": …, "geometry": …, "scheme": …, "boundary": …, "target": …, "method": …,
+//       "mesh": …, "geometry": …, "scheme": …, "flips": …, "straight_tiles": …, "boundary": …,
+//       "target": …, "method": …,
 //       "iterations": …, "max_curvature_error": …, "gauss_bonnet_error": …,
 //       "num_vertices": V, "num_edges": E, "num_faces": F,
 //       "vertices": { "input_vertex": [V], "u": [V], "K": [V], "K_target": [V] },
@@ -15,6 +16,12 @@
 //   anything else: CSV with `#` comment lines, two sections, each introduced by its header line
 //     # vertex,input_vertex,u,K,K_target      then V rows
 //     # edge,v0,v1,length                     then E rows
+//
+// With intrinsic flips (the default: yamabe with flips) the edges are still the input's: their
+// lengths are those of the input's edges made straight in the solution's metric, which is carried
+// by the intrinsic Delaunay triangulation; "straight_tiles" (CSV: `# flips=yes straight_tiles=…`)
+// says whether the input's triangles with those lengths tile the surface (`ricci layout` needs it;
+// `ricci uniformize` lays out the common subdivision otherwise). u and K are exact either way.
 //
 // Vertices are numbered 0-based after validation (vertices used by no face are dropped, and with
 // --largest-component the vertices of other components too); `input_vertex` is the 0-based index
@@ -46,6 +53,7 @@
 #include "ricci/io.h"
 #include "ricci/metric.h"
 #include "ricci/topology.h"
+#include "ricci/uniformize.h"
 #include "ricci/validate.h"
 
 namespace ricci_cli {
@@ -310,6 +318,8 @@ struct FlowReport {
   // Flow.
   bool have_flow = false;
   ricci::FlowResult flow;
+  bool flips = false;               ///< solved with intrinsic flips
+  ricci::IntrinsicSummary intrinsic;  ///< what the flips did (when `flips`)
   double total_seconds = 0;
   std::string output;  ///< the file written, "" if none
   std::vector<std::string> notes;
@@ -331,6 +341,13 @@ Json flow_json(const FlowReport& r) {
   count("genus", r.genus);
   j["geometry"] = r.geometry ? Json(std::string(ricci::geometry_name(*r.geometry))) : Json(nullptr);
   j["scheme"] = std::string(ricci::scheme_name(r.scheme));
+  j["flips"] = r.flips;
+  j["intrinsic"] = r.flips ? Json{{"delaunay_flips", r.intrinsic.delaunay_flips},
+                                  {"flow_flips", r.intrinsic.flow_flips},
+                                  {"crossings", r.intrinsic.crossings},
+                                  {"straight_tiles", r.intrinsic.straight_tiles},
+                                  {"inconsistent_vertices", r.intrinsic.inconsistent_vertices}}
+                           : Json(nullptr);
   j["boundary"] = r.boundary.empty() ? Json(nullptr) : Json(r.boundary);
   j["loop_totals"] = r.loop_totals;
   j["target"] = r.target;
@@ -401,6 +418,8 @@ std::string metric_file_text(const MetricHeader& h, const ricci::FlowResult& f, 
     j["mesh"] = h.mesh;
     j["geometry"] = geometry;
     j["scheme"] = h.scheme;
+    j["flips"] = h.flips;
+    j["straight_tiles"] = h.straight_tiles;
     j["boundary"] = h.boundary;
     j["target"] = h.target;
     j["method"] = h.method;
@@ -433,6 +452,10 @@ std::string metric_file_text(const MetricHeader& h, const ricci::FlowResult& f, 
   s += "# ricci flow metric of " + h.mesh + '\n';
   s += "# geometry=" + geometry + " scheme=" + h.scheme + " boundary=" +
        h.boundary + " target=" + h.target + " method=" + h.method + '\n';
+  s += std::string("# flips=") + (h.flips ? "yes" : "no") + " straight_tiles=" + (h.straight_tiles ? "yes" : "no") + '\n';
+  if (h.flips)
+    s += "# intrinsic flips: u and K are exact; lengths are the input's edges made straight in the solution's "
+         "metric" + std::string(h.straight_tiles ? ".\n" : ", whose triangles do not tile the surface (some fold).\n");
   s += "# iterations=" + std::to_string(f.iterations) + " max_curvature_error=";
   append_number(s, f.max_curvature_error);
   s += " gauss_bonnet_error=";
@@ -468,6 +491,96 @@ std::string metric_file_text(const MetricHeader& h, const ricci::FlowResult& f, 
   return s;
 }
 
+// Writes the metric to options.output (when given) and finishes the run.
+int write_metric(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start, const ricci::Topology& topo,
+                 std::span<const Index> vertex_to_input, const std::vector<std::string>& protected_paths) {
+  if (!options.output.empty()) {
+    const bool json = has_extension(options.output, {".json"});
+    const MetricHeader header{r.file, r.geometry ? std::string(ricci::geometry_name(*r.geometry)) : std::string(),
+                              std::string(ricci::scheme_name(r.scheme)), r.boundary, r.target,
+                              std::string(method_name(r.method)), r.flips,
+                              !r.flips || r.intrinsic.straight_tiles};
+    const std::string data = metric_file_text(header, r.flow, topo, vertex_to_input, json);
+    ricci::WriteResult w;
+    {
+      const InterruptsDeferred deferred;
+      w = ricci::write_file_atomic(options.output, data, protected_paths);
+    }
+    if (w.status != Status::Ok) {
+      print_error(w.message);
+      if (w.status == Status::OutputIsInput)
+        print_error("the output must be a different file from the input; nothing was written");
+      r.status = w.status;
+      r.message = w.message;
+      return finish(options, r, start);
+    }
+    r.output = options.output;
+    print_note(options.quiet, "wrote " + options.output + " (" + (json ? "JSON" : "CSV") + ", " +
+                                  std::to_string(topo.num_vertices) + " vertices, " +
+                                  std::to_string(topo.num_edges) + " edges, " + std::to_string(w.bytes_written) +
+                                  " bytes)");
+  }
+  return finish(options, r, start);
+}
+
+// Vertex scaling with intrinsic flips (ricci::conformal_metric(): the flow stages of uniformize,
+// with its fallback to circle packing), then the output.
+int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
+                    const ricci::ValidateResult& validated, BoundaryMode mode, const TargetSpec& target_spec,
+                    const BoundarySpec& boundary_spec, const ricci::FlowOptions& fo,
+                    const std::vector<std::string>& protected_paths) {
+  const ricci::Topology& topo = validated.topology;
+  TargetBuild tb = build_target(topo, mode, target_spec, boundary_spec, options.target, options.boundary);
+  if (tb.usage) {
+    fail(r, Status::InvalidArgument, tb.message);
+    return finish(options, r, start, kExitUsage);
+  }
+  if (tb.status != Status::Ok) {
+    fail(r, tb.status, tb.message);
+    return finish(options, r, start);
+  }
+  r.loop_totals = tb.target.loop_total;
+  ricci::UniformizeOptions uo;
+  uo.geometry = *r.geometry;
+  if (!topo.is_closed()) uo.boundary = mode;
+  uo.metric.scheme = Scheme::Yamabe;
+  uo.flow = fo;
+  uo.intrinsic_flips = true;
+  ricci::UniformizeResult u = ricci::conformal_metric(validated.mesh, topo, uo, &tb.target);
+  r.flips = u.intrinsic.used;
+  r.intrinsic = u.intrinsic;
+  if (u.metric.status == Status::Ok) {
+    r.have_metric = true;
+    r.length_scale = u.metric.length_scale;
+    r.clamped_high = u.metric.edges_clamped_high;
+    r.clamped_low = u.metric.edges_clamped_low;
+  }
+  if (!u.intrinsic.fallback.empty()) r.scheme = Scheme::CirclePacking;
+  r.have_flow = u.flow.status != Status::NotRun;
+  r.flow = std::move(u.flow);
+  for (const std::string& n : r.flow.notes) {
+    r.notes.push_back(n);
+    print_note(options.quiet, n);
+  }
+  if (r.flips && !r.intrinsic.straight_tiles) {
+    const std::string note = "the input's edges made straight in the solution's metric fold at " +
+                             std::to_string(r.intrinsic.inconsistent_vertices) +
+                             " vertices: u and K are exact, but a layout of the input's own triangles with these "
+                             "lengths is not (ricci uniformize lays out the common subdivision instead)";
+    r.notes.push_back(note);
+    print_note(options.quiet, note);
+  }
+  if (u.status != Status::Ok) {
+    fail(r, u.status, r.file + ": " + u.message);
+    if (!options.output.empty() && u.failed_stage == "flow")
+      print_error("no output written to " + options.output + " (the flow did not converge)");
+    return finish(options, r, start);
+  }
+  r.status = Status::Ok;
+  r.message = r.flow.message;
+  return write_metric(options, r, start, topo, validated.vertex_to_input, protected_paths);
+}
+
 int run_flow(const FlowCommandOptions& options) {
   const Clock::time_point start = Clock::now();
   FlowReport r;
@@ -489,9 +602,10 @@ int run_flow(const FlowCommandOptions& options) {
     geometry = parse_geometry(options.geometry);
     if (!geometry) return usage("unknown geometry '" + options.geometry + "'");
   }
-  const std::optional<Scheme> scheme = parse_scheme(options.scheme);
+  const std::optional<Scheme> scheme = parse_scheme(options.scheme == "auto" ? std::string("yamabe") : options.scheme);
   if (!scheme) return usage("unknown scheme '" + options.scheme + "'");
   r.scheme = *scheme;
+  const bool flips = *scheme == Scheme::Yamabe && !options.no_flips;
   const std::optional<Method> method = parse_method(options.method);
   if (!method) return usage("unknown method '" + options.method + "'");
   r.method = *method;
@@ -597,6 +711,15 @@ int run_flow(const FlowCommandOptions& options) {
     }
   }
 
+  if (!options.quiet) {
+    fo.on_iteration = [](const ricci::IterationRecord& rec) {
+      std::cerr << "ricci: iteration " << rec.iteration << ": max error " << sci(rec.max_error) << ", energy "
+                << sci(rec.energy, "%.6e") << ", step " << sci(rec.step, "%.3g") << ", " << sci(rec.seconds, "%.3f")
+                << " s\n";
+    };
+  }
+  if (flips) return flow_with_flips(options, r, start, validated, mode, *target_spec, *boundary_spec, fo, protected_paths);
+
   // ---- initial metric ----
   ricci::InitialMetricOptions mo;
   mo.geometry = *r.geometry;
@@ -647,13 +770,6 @@ int run_flow(const FlowCommandOptions& options) {
   }
 
   // ---- flow ----
-  if (!options.quiet) {
-    fo.on_iteration = [](const ricci::IterationRecord& rec) {
-      std::cerr << "ricci: iteration " << rec.iteration << ": max error " << sci(rec.max_error) << ", energy "
-                << sci(rec.energy, "%.6e") << ", step " << sci(rec.step, "%.3g") << ", " << sci(rec.seconds, "%.3f")
-                << " s\n";
-    };
-  }
   r.flow = ricci::solve_flow(topo, metric.structure, metric.u, target, fo);
   r.have_flow = true;
   r.status = r.flow.status;
@@ -668,33 +784,7 @@ int run_flow(const FlowCommandOptions& options) {
     return finish(options, r, start);
   }
 
-  // ---- output ----
-  if (!options.output.empty()) {
-    const bool json = has_extension(options.output, {".json"});
-    const MetricHeader header{r.file, r.geometry ? std::string(ricci::geometry_name(*r.geometry)) : std::string(),
-                              std::string(ricci::scheme_name(r.scheme)), r.boundary, r.target,
-                              std::string(method_name(r.method))};
-    const std::string data = metric_file_text(header, r.flow, topo, validated.vertex_to_input, json);
-    ricci::WriteResult w;
-    {
-      const InterruptsDeferred deferred;
-      w = ricci::write_file_atomic(options.output, data, protected_paths);
-    }
-    if (w.status != Status::Ok) {
-      print_error(w.message);
-      if (w.status == Status::OutputIsInput)
-        print_error("the output must be a different file from the input; nothing was written");
-      r.status = w.status;
-      r.message = w.message;
-      return finish(options, r, start);
-    }
-    r.output = options.output;
-    print_note(options.quiet, "wrote " + options.output + " (" + (json ? "JSON" : "CSV") + ", " +
-                                  std::to_string(topo.num_vertices) + " vertices, " +
-                                  std::to_string(topo.num_edges) + " edges, " + std::to_string(w.bytes_written) +
-                                  " bytes)");
-  }
-  return finish(options, r, start);
+  return write_metric(options, r, start, topo, validated.vertex_to_input, protected_paths);
 }
 
 CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
@@ -713,9 +803,13 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
                   "genus 0, hyperbolic otherwise), euclidean, hyperbolic or spherical. Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
   cmd->add_option("--scheme", o.scheme,
-                  "Discrete conformal scheme: circle-packing (Thurston, the paper's), "
-                  "inversive-distance or yamabe (vertex scaling). Default: circle-packing.")
-      ->check(CLI::IsMember({"circle-packing", "inversive-distance", "yamabe"}));
+                  "Discrete conformal scheme: auto (= yamabe), yamabe (vertex scaling, with intrinsic Delaunay "
+                  "flips unless --no-flips; circle packing should that solve fail, with a note), circle-packing "
+                  "(Thurston, the paper's) or inversive-distance. Default: auto.")
+      ->check(CLI::IsMember({"auto", "circle-packing", "inversive-distance", "yamabe"}));
+  cmd->add_flag("--no-flips", o.no_flips,
+                "Vertex scaling on the input's triangulation as it is, without intrinsic Delaunay flips (stops on "
+                "many non-Delaunay meshes; for comparison).");
   cmd->add_option("--target", o.target,
                   "Target curvature: auto (= uniform), uniform (0 at interior vertices: "
                   "uniformization), cones=FILE (lines 'vertex curvature', vertex 0-based after "

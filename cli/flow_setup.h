@@ -102,6 +102,10 @@ struct MetricHeader {
   std::string boundary;  ///< boundary_mode_name(), or "none" for a closed surface
   std::string target;    ///< "uniform", "cones=FILE", "single-vertex=I"
   std::string method;    ///< "newton" or "gradient"
+  /// Vertex scaling with intrinsic flips: the lengths are the input's edges made straight in the
+  /// solution's metric; `straight_tiles` says whether those straight triangles tile the surface.
+  bool flips = false;
+  bool straight_tiles = true;
 };
 
 /// The metric file written by `ricci flow -o` and `ricci uniformize` (format at the top of

@@ -512,7 +512,7 @@ Json report_json(const Run& run) {
     j["intrinsic"] = Json{{"delaunay_flips", in.delaunay_flips},
                           {"flow_flips", in.flow_flips},
                           {"crossings", in.crossings},
-                          {"straight_tiles", !in.refined},
+                          {"straight_tiles", in.straight_tiles},
                           {"inconsistent_vertices", in.inconsistent_vertices},
                           {"degenerate_faces", in.degenerate_faces},
                           {"max_angle_sum_error", real(in.max_angle_sum_error)},
@@ -880,7 +880,9 @@ int run_uniformize(const UniformizeCommandOptions& o) {
                               run.scheme,
                               topo.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary)),
                               target_spec->kind == TargetSpec::Kind::Uniform ? std::string("uniform") : o.target,
-                              "newton"};
+                              "newton",
+                              r.intrinsic.used,
+                              !r.intrinsic.used || r.intrinsic.straight_tiles};
     files.push_back({"metric.csv", metric_file_text(header, r.flow, topo, v.vertex_to_input, false)});
   }
   ricci::CoverResult cover;

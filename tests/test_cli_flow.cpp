@@ -15,7 +15,10 @@
 #include <vector>
 
 #include "ricci/io.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
 #include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 namespace {
@@ -158,7 +161,8 @@ TEST_CASE("cli flow: --help states every option's default and the flow exit code
   CHECK(option_help(r.out, "--tol").find("1e-10") != std::string::npos);
   CHECK(option_help(r.out, "--step").find("0.05") != std::string::npos);
   CHECK(option_help(r.out, "--geometry").find("Default: auto") != std::string::npos);
-  CHECK(option_help(r.out, "--scheme").find("Default: circle-packing") != std::string::npos);
+  CHECK(option_help(r.out, "--scheme").find("Default: auto") != std::string::npos);
+  CHECK(option_help(r.out, "--no-flips").find("without intrinsic Delaunay flips") != std::string::npos);
   CHECK(option_help(r.out, "--method").find("Default: newton") != std::string::npos);
   CHECK(option_help(r.out, "-o,--output").find("only when the flow converged") != std::string::npos);
   CHECK(r.out.find("Exit codes") != std::string::npos);
@@ -181,11 +185,14 @@ TEST_CASE("cli flow: the embedded default mesh converges in hyperbolic geometry"
   CHECK(j["embedded_default"] == true);
   CHECK(j["genus"] == 2);
   CHECK(j["geometry"] == "hyperbolic");
-  CHECK(j["scheme"] == "circle-packing");
+  CHECK(j["scheme"] == "yamabe");
+  CHECK(j["flips"] == true);
+  CHECK(j["intrinsic"].is_object());
   CHECK(j["boundary"] == "none");
   CHECK(j["target"] == "uniform");
   CHECK(j["method"] == "newton");
-  CHECK(j["edges_clamped"].is_number_integer());
+  CHECK(j["edges_clamped"].is_null());  // a circle packing figure
+  CHECK(run_flow({"--scheme", "circle-packing"}).j["edges_clamped"].is_number_integer());
   CHECK(j["notes"].is_array());
   CHECK(j["output"].is_null());
   CHECK(j["seconds"].get<double>() >= 0);
@@ -388,7 +395,7 @@ TEST_CASE("cli flow: separating cycles get relaxed angles by default, --no-angle
       ricci_shapes::split_random_faces(ricci_shapes::torus(16, 8, 2.0, 0.8), rng, 0.3), rng, 0.3);
   const path input = dir / "torus.obj";
   REQUIRE(ricci::write_mesh(input.string(), mesh).status == ricci::Status::Ok);
-  const FlowRun relaxed = run_flow({input.string()});
+  const FlowRun relaxed = run_flow({input.string(), "--scheme", "circle-packing"});
   check_converged(relaxed);
   REQUIRE(relaxed.j["edges_relaxed"].is_number_integer());
   CHECK(relaxed.j["edges_relaxed"].get<int>() > 0);
@@ -397,7 +404,7 @@ TEST_CASE("cli flow: separating cycles get relaxed angles by default, --no-angle
   for (const auto& note : relaxed.j["notes"]) noted = noted || note.get<std::string>().find("lowered the angles") != std::string::npos;
   CHECK(noted);
 
-  const FlowRun strict = run_flow({input.string(), "--no-angle-relax"});
+  const FlowRun strict = run_flow({input.string(), "--scheme", "circle-packing", "--no-angle-relax"});
   CHECK(strict.r.exit_code == 8);
   CHECK(strict.j["status"] == "infeasible_target");
   CHECK(strict.j["edges_relaxed"] == 0);
@@ -530,6 +537,52 @@ TEST_CASE("cli flow: loop totals and single-vertex targets on the disk and annul
   const FlowRun fixed = run_flow({disk.string(), "--boundary", "fixed"});
   check_converged(fixed);
   CHECK(fixed.j["boundary"] == "fixed");
+}
+
+TEST_CASE("cli flow: vertex scaling with intrinsic flips by default; its metric holds the input's edges") {
+  // Needles and caps make the mesh far from Delaunay; vertex scaling on it as it is stops.
+  TempDir dir;
+  std::mt19937_64 rng(7);
+  const ricci::Mesh mesh = ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02);
+  const path input = dir / "needles.obj";
+  REQUIRE(ricci::write_mesh(input.string(), mesh).status == ricci::Status::Ok);
+  const path out = dir / "metric.json";
+  const FlowRun f = run_flow({input.string(), "-o", out.string()});
+  check_converged(f, 1e-12);
+  CHECK(f.j["scheme"] == "yamabe");
+  CHECK(f.j["flips"] == true);
+  REQUIRE(f.j["intrinsic"].is_object());
+  CHECK(f.j["intrinsic"]["delaunay_flips"].get<std::int64_t>() + f.j["intrinsic"]["flow_flips"].get<std::int64_t>() > 0);
+  CHECK(f.j["iterations"].get<int>() <= 12);
+  const Json m = parse_json(ricci_test::read_bytes(out));
+  REQUIRE(m.is_object());
+  CHECK(m["flips"] == true);
+  CHECK(m["straight_tiles"] == f.j["intrinsic"]["straight_tiles"]);
+  // The same as uniformize's metric.csv, and laid out by `ricci layout` as it is.
+  const ricci::ValidateResult v = ricci::validate_mesh(mesh);
+  REQUIRE(v.status == ricci::Status::Ok);
+  CHECK(m["edges"]["length"].size() == static_cast<std::size_t>(v.topology.num_edges));
+  const ricci::UniformizeResult lib = ricci::conformal_metric(v.mesh, v.topology);
+  REQUIRE(lib.status == ricci::Status::Ok);
+  REQUIRE(m["vertices"]["u"].size() == lib.flow.u.size());
+  for (std::size_t i = 0; i < lib.flow.u.size(); ++i) CHECK(m["vertices"]["u"][i].get<double>() == lib.flow.u[i]);
+  if (m["straight_tiles"] == true) {
+    const CommandResult lay = run_cli({"layout", input.string(), "--metric", out.string(), "-o", (dir / "laid").string(),
+                                       "--json", "-q"});
+    INFO(lay.err);
+    CHECK(lay.exit_code == 0);
+    const Json lj = parse_json(lay.out);
+    REQUIRE(lj.is_object());
+    CHECK(lj["layout"]["flipped_faces"] == 0);
+    CHECK(lj["layout"]["max_edge_length_error"].get<double>() < 1e-9);
+  }
+  // --no-flips: today's vertex scaling on the input's triangulation, reported without flips.
+  const FlowRun plain = run_flow({input.string(), "--no-flips"});
+  CHECK(plain.j["flips"] == false);
+  CHECK(plain.j["status"] != "converged");  // stops on this mesh (line search at the triangle inequality)
+  CHECK(plain.j["intrinsic"].is_null());
+  MESSAGE("needle torus: flips " << f.j["iterations"] << " Newton steps; --no-flips: " << plain.j["status"] << " after "
+                                 << plain.j["iterations"] << " steps");
 }
 
 TEST_CASE("cli flow: the other schemes and gradient descent") {

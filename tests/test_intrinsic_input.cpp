@@ -322,6 +322,54 @@ TEST_CASE("uniformize: vertex scaling with flips is the default, conformal beyon
   }
 }
 
+TEST_CASE("conformal_metric: uniformize's metric stages alone, bit for bit, in E, H and S") {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(5);
+  const std::pair<std::string, Mesh> meshes[] = {
+      {"torus with needles", insert_needles_and_caps(torus(12, 6, 2.0, 0.7), rng, 0.3, 0.02)},
+      {"pretzel with needles", insert_needles_and_caps(pretzel(2, 2), rng, 0.3, 0.02)},
+      {"icosphere with needles", insert_needles_and_caps(icosphere(2), rng, 0.3, 0.02)},
+      {"annulus", annulus(24, 6)}};
+  for (const auto& [name, m] : meshes) {
+    INFO(name);
+    const ValidateResult v = validate_mesh(m);
+    REQUIRE(v.status == Status::Ok);
+    UniformizeOptions o;
+    o.seed_checks = 0;
+    const UniformizeResult full = uniformize(v.mesh, v.topology, o);
+    REQUIRE_MESSAGE(full.status == Status::Ok, full.message);
+    const UniformizeResult c = conformal_metric(v.mesh, v.topology, o);
+    REQUIRE_MESSAGE(c.status == Status::Ok, c.message);
+    CHECK(c.intrinsic.used);
+    CHECK(c.flow.u == full.flow.u);
+    CHECK(c.flow.K == full.flow.K);
+    CHECK(c.flow.l == full.flow.l);  // the input's edges, straight in the solution's metric
+    REQUIRE(c.flow.l.size() == static_cast<std::size_t>(v.topology.num_edges));
+    CHECK(c.intrinsic.straight_tiles == !full.intrinsic.refined);
+    CHECK(c.flow.max_curvature_error < 1e-12);
+    // Stops after the metric: no cut, no layout.
+    CHECK(c.layout.status == Status::NotRun);
+    CHECK(c.cut.cut_faces.empty());
+    std::vector<std::string> stages;
+    for (const auto& [stage, seconds] : c.timings) stages.push_back(stage);
+    CHECK(stages == std::vector<std::string>{"initial_metric", "target", "flow", "straighten"});
+    // Where the straight triangles tile, their lengths lay the input out as the metric is.
+    if (c.intrinsic.straight_tiles) {
+      const UniformizeResult laid = lay_out_metric(v.mesh, v.topology, c.geometry, c.flow.l, o);
+      REQUIRE_MESSAGE(laid.status == Status::Ok, laid.message);
+      CHECK(laid.layout.max_edge_length_error < 1e-9);
+      CHECK(laid.layout.flipped_faces == 0);
+    }
+  }
+  // Errors come back as uniformize's, naming the stage.
+  const ValidateResult v = validate_mesh(ricci_shapes::torus(8, 4, 2.0, 0.7));
+  UniformizeOptions bad;
+  bad.flow.tolerance = -1;
+  const UniformizeResult b = conformal_metric(v.mesh, v.topology, bad);
+  CHECK(b.status == Status::InvalidArgument);
+  CHECK(b.failed_stage == "options");
+}
+
 TEST_CASE("uniformize: the regular tetrahedron maps to the round sphere by default") {
   Mesh tet;
   const double s = 1 / std::sqrt(3.0);

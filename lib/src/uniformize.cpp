@@ -289,33 +289,52 @@ AngleDistortion angle_distortion(const Mesh& mesh, const Topology& topology, Geo
   return distortion_of_angles(mesh, topology, tm);
 }
 
-UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                            const Target* target) {
-  const Clock::time_point start = Clock::now();
-  UniformizeResult r;
-  std::string why;
-  auto fail = [&](Status s, const std::string& stage, const std::string& message) -> UniformizeResult& {
+namespace {
+
+// Times the stages into r.timings and reports each through options.on_stage.
+struct StageClock {
+  UniformizeResult& r;
+  const UniformizeOptions& options;
+  Clock::time_point t0 = Clock::now();
+  void operator()(const char* name, const std::string& summary) {
+    const double s = since(t0);
+    r.timings.emplace_back(name, s);
+    if (options.on_stage) options.on_stage(StageRecord{name, s, summary});
+    t0 = Clock::now();
+  }
+};
+
+// What metric_stages() leaves for the stages after it.
+struct MetricStages {
+  bool ok = false;     // the flow converged; false: r.status, failed_stage and message are set
+  bool flips = false;  // solved with intrinsic flips: tri, paths and straight are filled in
+  IntrinsicTriangulation tri;
+  InputEdgePaths paths;
+  StraightInputMetric straight;
+};
+
+// The stages initial_metric, target, flow and (with flips) the input's edges traced and made
+// straight in the solution's metric, into r (r.flow.l: the input's edges' lengths). The
+// `straighten` stage is timed by the caller, which decides what it includes.
+MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                           const Target* target, UniformizeResult& r, Clock::time_point start, StageClock& stage_done) {
+  MetricStages m;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) {
     r.status = s;
     r.failed_stage = stage;
     r.message = stage + ": " + message;
     r.seconds = since(start);
-    return r;
+    m.ok = false;
+    return std::move(m);
   };
+  std::string why;
   if (!options.is_valid(&why)) return fail(Status::InvalidArgument, "options", why);
   if (mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
       mesh.num_vertices() != topology.num_vertices)
     return fail(Status::InvalidArgument, "options", "the mesh does not match its topology");
   if (topology.num_components != 1) return fail(Status::MultipleComponents, "options", "the mesh is not connected");
+  stage_done.t0 = Clock::now();
 
-  Clock::time_point t0 = Clock::now();
-  auto stage_done = [&](const char* name, const std::string& summary) {
-    const double s = since(t0);
-    r.timings.emplace_back(name, s);
-    if (options.on_stage) options.on_stage(StageRecord{name, s, summary});
-    t0 = Clock::now();
-  };
-
-  // ---- metric, target, flow ----
   r.geometry = options.geometry ? *options.geometry : natural_geometry(topology);
   r.boundary = topology.is_closed() ? BoundaryMode::Free
                                     : (options.boundary ? *options.boundary : natural_boundary_mode(topology, r.geometry));
@@ -335,39 +354,26 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    IntrinsicTriangulation tri;
-    if (flow_with_flips(mesh, topology, fo, r, tri)) {
+    if (flow_with_flips(mesh, topology, fo, r, m.tri)) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
-      const InputEdgePaths paths = trace_input_edges(tri, topology);
-      if (paths.status != Status::Ok) return fail(paths.status, "straighten", paths.message);
-      const StraightInputMetric straight = straight_input_metric(tri, r.flow.u, topology, paths);
-      if (straight.status != Status::Ok) return fail(straight.status, "straighten", straight.message);
-      r.intrinsic.crossings = static_cast<Index>(paths.crossed_edge.size());
-      r.intrinsic.inconsistent_vertices = straight.inconsistent_vertices;
-      r.intrinsic.degenerate_faces = straight.degenerate_faces;
-      r.intrinsic.max_angle_sum_error = straight.max_angle_sum_error;
-      r.flow.l = straight.l;
-      if (straight.tiles()) {
-        stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles "
-                                     "tile the surface (angle sums to " + sci(straight.max_angle_sum_error) + ")");
-        layout_stages(mesh, topology, options, r.flow.l, r, start);
-        return r;
-      }
-      const std::vector<double> t =
-          straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, r.flow.u, paths));
-      r.refinement = common_subdivision(tri, r.flow.u, mesh, topology, paths, t);
-      if (r.refinement.status != Status::Ok) return fail(r.refinement.status, "straighten", r.refinement.message);
-      r.intrinsic.refined = true;
-      stage_done("straighten", std::to_string(straight.inconsistent_vertices) +
-                                   " vertices where straight input triangles fold; the common subdivision has " +
-                                   std::to_string(r.refinement.topology.num_faces) + " faces");
-      UniformizeOptions ro = options;
-      ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology);
-      layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start);
-      if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
-      return r;
+      m.paths = trace_input_edges(m.tri, topology);
+      if (m.paths.status != Status::Ok) return fail(m.paths.status, "straighten", m.paths.message);
+      m.straight = straight_input_metric(m.tri, r.flow.u, topology, m.paths);
+      if (m.straight.status != Status::Ok) return fail(m.straight.status, "straighten", m.straight.message);
+      r.intrinsic.crossings = static_cast<Index>(m.paths.crossed_edge.size());
+      r.intrinsic.inconsistent_vertices = m.straight.inconsistent_vertices;
+      r.intrinsic.degenerate_faces = m.straight.degenerate_faces;
+      r.intrinsic.max_angle_sum_error = m.straight.max_angle_sum_error;
+      r.intrinsic.straight_tiles = m.straight.tiles();
+      r.flow.l = m.straight.l;
+      m.flips = true;
+      m.ok = true;
+      return m;
     }
-    if (r.intrinsic.fallback.empty()) return r;  // failed before the solve (status set)
+    if (r.intrinsic.fallback.empty()) {  // failed before the solve (status set)
+      r.seconds = since(start);
+      return m;
+    }
     // The solve with flips failed: the paper's circle packing instead.
     mo.scheme = Scheme::CirclePacking;
     r.metric = initial_metric(mesh, topology, mo);
@@ -401,7 +407,61 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
     return fail(r.flow.status, "flow", r.flow.message);
   }
   stage_done("flow", r.flow.brief_report());
-  layout_stages(mesh, topology, options, r.flow.l, r, start);
+  m.ok = true;
+  return m;
+}
+
+}  // namespace
+
+UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                            const Target* target) {
+  const Clock::time_point start = Clock::now();
+  UniformizeResult r;
+  StageClock stage_done{r, options};
+  MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done);
+  if (!m.ok) return r;
+  if (!m.flips || m.straight.tiles()) {
+    if (m.flips)
+      stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles "
+                               "tile the surface (angle sums to " + sci(m.straight.max_angle_sum_error) + ")");
+    layout_stages(mesh, topology, options, r.flow.l, r, start);
+    return r;
+  }
+  const std::vector<double> t =
+      straightest_crossings(m.tri, m.paths, m.straight.crossings, input_edge_crossings(m.tri, r.flow.u, m.paths));
+  r.refinement = common_subdivision(m.tri, r.flow.u, mesh, topology, m.paths, t);
+  if (r.refinement.status != Status::Ok) {
+    r.status = r.refinement.status;
+    r.failed_stage = "straighten";
+    r.message = "straighten: " + r.refinement.message;
+    r.seconds = since(start);
+    return r;
+  }
+  r.intrinsic.refined = true;
+  stage_done("straighten", std::to_string(m.straight.inconsistent_vertices) +
+                               " vertices where straight input triangles fold; the common subdivision has " +
+                               std::to_string(r.refinement.topology.num_faces) + " faces");
+  UniformizeOptions ro = options;
+  ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology);
+  layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start);
+  if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
+  return r;
+}
+
+UniformizeResult conformal_metric(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                  const Target* target) {
+  const Clock::time_point start = Clock::now();
+  UniformizeResult r;
+  StageClock stage_done{r, options};
+  const MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done);
+  if (!m.ok) return r;
+  if (m.flips)
+    stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles " +
+                                 (m.straight.tiles() ? "tile the surface" : "fold at " +
+                                  std::to_string(m.straight.inconsistent_vertices) + " vertices"));
+  r.status = Status::Ok;
+  r.message = "ok";
+  r.seconds = since(start);
   return r;
 }
 

@@ -173,6 +173,9 @@ struct IntrinsicSummary {
   Index inconsistent_vertices = 0;
   Index degenerate_faces = 0;
   double max_angle_sum_error = 0;
+  /// The input's edges made straight in the solution's metric tile the surface (no common
+  /// subdivision needed).
+  bool straight_tiles = false;
   bool refined = false;              ///< the later stages ran on the common subdivision
   /// Non-empty when the solve with flips failed: why (circle packing was solved instead).
   std::string fallback;
@@ -260,6 +263,15 @@ struct UniformizeResult {
 /// Deterministic for fixed options (OpenMP loops included).
 UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options = {},
                             const Target* target = nullptr);
+
+/// The stages up to the metric alone: initial_metric, target, flow and, with intrinsic flips,
+/// straighten without the common subdivision — what `ricci flow` runs. flow.u, flow.K are per
+/// vertex; flow.l are the input's edges' lengths (with flips: made straight in the solution's
+/// metric; intrinsic.straight_tiles says whether those straight triangles tile the surface, which
+/// a layout of them needs). Status Ok when the flow converged; `cut`, `layout` and later stay
+/// empty. Fallback to circle packing as uniformize(). Deterministic for fixed options.
+UniformizeResult conformal_metric(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options = {},
+                                  const Target* target = nullptr);
 
 /// The stages from `cut` on for a metric given by its edge lengths (#E, in `geometry`; e.g. read
 /// back from a file `ricci flow -o` wrote): flow stays empty (status NotRun, l = lengths).
