@@ -539,7 +539,7 @@ TEST_CASE("cli flow: loop totals and single-vertex targets on the disk and annul
   CHECK(fixed.j["boundary"] == "fixed");
 }
 
-TEST_CASE("cli flow: vertex scaling with intrinsic flips by default; its metric holds the input's edges") {
+TEST_CASE("cli flow: vertex scaling with intrinsic flips by default, its metric on the input's edges") {
   // Needles and caps make the mesh far from Delaunay; vertex scaling on it as it is stops.
   TempDir dir;
   std::mt19937_64 rng(7);
