@@ -1623,14 +1623,19 @@ bool FlowSolver::newton_step() {
 // analysis: kept only when it lowers the maximal error (the line search rejects every other trial).
 // False when no step is left, the error is at the rounding level, or the step was not kept; u is
 // then unchanged.
+// Polishing stops once max |K̄ − K| is within this many ulps of the largest angle sum: a
+// curvature evaluated from a vertex's angles carries about that much rounding, so a step there
+// buys digits no layout can use (a residual of 1e-14 closes a layout to far below its 1e-9).
+constexpr double kPolishUlps = 16;
+
 bool FlowSolver::polish_step() {
   if (polish_tried_ >= options_.polish_steps || polish_tried_ > polished_) return false;
-  // At the rounding level of the curvatures (a few ulps of the angle sums) no step can be ranked:
-  // stop there instead of paying for a factorization whose step the line search rejects.
+  // At the rounding level of the curvatures (a few ulps of the angle sums, kPolishUlps) no step
+  // can be ranked: stop there instead of paying for a factorization the line search rejects.
   double largest_target = 0;
   for (Index v = 0; v < t_.num_vertices; ++v)
     if (condition_[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
-  if (!(error_ > 4 * kEps * (4 * kPi + largest_target))) return false;
+  if (!(error_ > kPolishUlps * kEps * (4 * kPi + largest_target))) return false;
   if (polish_tried_ == 0) error_before_polish_ = error_;
   ++polish_tried_;
   ++iteration_;

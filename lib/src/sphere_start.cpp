@@ -37,6 +37,7 @@ constexpr int kMaxRounds = 12;
 constexpr std::size_t kCandidates = 3;  // vertices at infinity tried
 constexpr int kMaxContinuation = 60;
 constexpr int kMaxPlanarIterations = 50;  // a convex problem: Newton needs far fewer
+constexpr double kPlanarTolerance = 1e-8;  // max |K| of a planar solve good enough for a start
 // The planar solves' work over every vertex tried, counted as each solve's Newton steps plus one
 // (a solve that stops in its first line search still evaluated the energy there up to ~30 times):
 // past this the start costs more than solving on the sphere directly (≤ 12 steps where that
@@ -219,6 +220,9 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
   FlowOptions eo = options;
   eo.on_iteration = nullptr;
   eo.max_iterations = std::min(options.max_iterations, kMaxPlanarIterations);
+  // A start: the spherical Newton steps after it converge quadratically from here.
+  eo.tolerance = std::max(options.tolerance, kPlanarTolerance);
+  eo.polish_steps = 0;
   std::vector<Index> flipped_before;  // link flips so far: flipping one back means the link alternates
   auto alternates = [&](Index e) {
     if (std::find(flipped_before.begin(), flipped_before.end(), e) != flipped_before.end()) return true;
@@ -388,6 +392,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
   LayoutOptions lo;
   lo.normalize = false;
   lo.polish_steps = 0;  // a start: the flow refines it
+  lo.polish_sweeps = 0;
   const Layout lay = layout_disk(disk_tri.topology, Geometry::Euclidean, plane.l, lo);
   if (lay.status != Status::Ok) {
     out.message = "the planar layout: " + lay.message;
