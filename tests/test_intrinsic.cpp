@@ -247,6 +247,36 @@ TEST_CASE("intrinsic: the chord test of Delaunay agrees with the angle test (E: 
   }
 }
 
+TEST_CASE("intrinsic: non_delaunay_edges() finds exactly the edges the margin flags, and seeds make_delaunay() to the same result") {
+  std::mt19937_64 rng(17);
+  for (const Case& c : cases()) {
+    INFO(c.name);
+    const IntrinsicTriangulation start = intrinsic(c, false);
+    const Topology& t = start.topology;
+    // Mild, strong and extreme factors: the last sends chords past 1e100, where the test falls
+    // back to delaunay_margin() itself.
+    for (const double scale : {0.0, 0.5, 3.0, 300.0}) {
+      CAPTURE(scale);
+      const std::vector<double> u = random_u(t.num_vertices, rng, scale);
+      const double tol = DelaunayOptions{}.tolerance;
+      std::vector<Index> expected;
+      for (Index e = 0; e < t.num_edges; ++e)
+        if (delaunay_margin(start, u, e) < -tol) expected.push_back(e);
+      const std::vector<Index> found = non_delaunay_edges(start, u);
+      CHECK(found == expected);
+      if (scale == 0.0) CHECK(!found.empty());  // the needles: some edges are not Delaunay
+      if (scale > 100) continue;  // chords beyond double range: no metric to flip to
+      IntrinsicTriangulation a = start, b = start;
+      const DelaunayReport ra = make_delaunay(a, u);
+      const DelaunayReport rb = make_delaunay(b, u, found);
+      CHECK(ra.flips == rb.flips);
+      CHECK(a.log_chord == b.log_chord);
+      CHECK(a.topology.corner_vertex == b.topology.corner_vertex);
+      CHECK(non_delaunay_edges(a, u).size() == static_cast<std::size_t>(ra.refused));
+    }
+  }
+}
+
 TEST_CASE("intrinsic: the metric at u does not depend on the flips before it — any flip path, then Delaunay, gives the same curvature") {
   for (const Case& c : cases()) {
     INFO(c.name);

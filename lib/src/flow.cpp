@@ -483,15 +483,10 @@ Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, Intr
                                  ConformalStructure& s, bool& flipped) {
   flipped = false;
   if (tri_) {
-    const Index ne = t_.num_edges;
-    const double tolerance = DelaunayOptions{}.tolerance;
-    int any = 0;
-#pragma omp parallel for schedule(static) if (ne >= kParallelMin) reduction(max : any)
-    for (Index e = 0; e < ne; ++e)
-      if (delaunay_margin(*tri_, u, e) < -tolerance) any = 1;
-    if (any) {
+    const std::vector<Index> suspects = non_delaunay_edges(*tri_, u);
+    if (!suspects.empty()) {
       tri = *tri_;
-      const DelaunayReport report = make_delaunay(tri, u);
+      const DelaunayReport report = make_delaunay(tri, u, suspects);
       flips_refused_ = std::max(flips_refused_, report.refused);
       if (!report.complete) return Validity::FlipLimit;
       vertex_scaling_structure(tri, s);

@@ -394,19 +394,61 @@ bool makes_ear(const Topology& t, Index e) {
 
 }  // namespace
 
+std::vector<Index> non_delaunay_edges(const IntrinsicTriangulation& tri, std::span<const double> u, double tolerance) {
+  const Topology& t = tri.topology;
+  const Index ne = t.num_edges, nv = t.num_vertices;
+  std::vector<double> scale(static_cast<std::size_t>(nv)), chord(static_cast<std::size_t>(ne));
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) scale[v] = std::exp(0.5 * u[v]);
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+  for (Index e = 0; e < ne; ++e) chord[e] = std::exp(tri.log_chord_of(e));
+  std::vector<std::uint8_t> flagged(static_cast<std::size_t>(ne), 0);
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
+  for (Index e = 0; e < ne; ++e) {
+    const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+    if (c1 == kInvalid) continue;
+    const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
+    const double sk = scale[t.corner_vertex[c0]], si = scale[t.corner_vertex[n0]], sj = scale[t.corner_vertex[p0]],
+                 sl = scale[t.corner_vertex[c1]];
+    // The chords of ki, jk, il, lj, ij at u, as in delaunay_margin().
+    double L[5] = {chord[t.corner_edge[p0]] * sk * si, chord[t.corner_edge[n0]] * sj * sk,
+                   chord[t.corner_edge[n1]] * si * sl, chord[t.corner_edge[p1]] * sl * sj, chord[e] * si * sj};
+    const double top = *std::max_element(L, L + 5), bottom = *std::min_element(L, L + 5);
+    double margin = 0;
+    if (top < 1e100 && bottom > 1e-100) {
+      for (double& x : L) x /= top;
+      const double ki = L[0], jk = L[1], il = L[2], lj = L[3], ij = L[4];
+      margin = (il * ki + jk * lj) * (il * jk + ki * lj) - ij * ij * (jk * ki + il * lj);
+    } else {
+      margin = delaunay_margin(tri, u, e);
+    }
+    flagged[e] = margin < -tolerance ? 1 : 0;
+  }
+  std::vector<Index> out;
+  for (Index e = 0; e < ne; ++e)
+    if (flagged[e]) out.push_back(e);
+  return out;
+}
+
 DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, const DelaunayOptions& options) {
+  const std::vector<Index> suspects = non_delaunay_edges(tri, u, options.tolerance);
+  return make_delaunay(tri, u, suspects, options);
+}
+
+DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, std::span<const Index> suspects,
+                             const DelaunayOptions& options) {
   DelaunayReport report;
   Topology& t = tri.topology;
   const Index ne = t.num_edges;
   const std::int64_t max_flips = options.max_flips > 0 ? options.max_flips : 100 * std::int64_t{ne} + 1000;
   const double tol = options.tolerance;
-  // The first pass tests every edge in parallel (each writes its own flag).
   std::vector<std::uint8_t> queued(static_cast<std::size_t>(ne), 0);
-#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
-  for (Index e = 0; e < ne; ++e) queued[e] = delaunay_margin(tri, u, e) < -tol ? 1 : 0;
   std::deque<Index> queue;
-  for (Index e = 0; e < ne; ++e)
-    if (queued[e]) queue.push_back(e);
+  for (const Index e : suspects)
+    if (e >= 0 && e < ne && !queued[e]) {
+      queued[e] = 1;
+      queue.push_back(e);
+    }
   std::vector<Index> refused;
   while (!queue.empty()) {
     const Index e = queue.front();

@@ -168,6 +168,18 @@ struct DelaunayReport {
 DelaunayReport make_delaunay(IntrinsicTriangulation& triangulation, std::span<const double> u,
                              const DelaunayOptions& options = {});
 
+/// The interior edges whose Delaunay margin at u (#V) is below −tolerance, in index order — what
+/// make_delaunay() would start from. Chords from e^{u/2} per vertex and B per edge (#V + #E
+/// exponentials instead of five per edge; the quadrilaterals whose chords leave [1e-100, 1e100]
+/// take delaunay_margin() itself). Parallel over edges, deterministic. O(#E).
+std::vector<Index> non_delaunay_edges(const IntrinsicTriangulation& triangulation, std::span<const double> u,
+                                      double tolerance = DelaunayOptions{}.tolerance);
+
+/// make_delaunay() when every non-Delaunay edge at u is among `suspects` (non_delaunay_edges(),
+/// say): they seed the queue in their order instead of a first test of every edge.
+DelaunayReport make_delaunay(IntrinsicTriangulation& triangulation, std::span<const double> u,
+                             std::span<const Index> suspects, const DelaunayOptions& options = {});
+
 /// Recomputes topology.vertex_corners (and offsets) from corner_vertex and opposite, in the order
 /// build_topology() gives. O(#F).
 void refresh_vertex_corners(Topology& topology);
