@@ -370,6 +370,54 @@ TEST_CASE("conformal_metric: uniformize's metric stages alone, bit for bit, in E
   CHECK(b.failed_stage == "options");
 }
 
+TEST_CASE("uniformize: a planar disk with needles and its boundary held keeps u = 0 and is laid out as it is") {
+  // A flat disk whose needles and caps make it far from Delaunay: its metric is already flat, so
+  // the solution is the metric itself, and the layout is the input up to a rigid motion.
+  std::mt19937_64 rng(11);
+  Mesh flat = ricci_shapes::disk(6);
+  for (std::size_t v = 0; v < flat.positions.size(); v += 3) flat.positions[v + 2] = 0;
+  const Mesh m = ricci_shapes::insert_needles_and_caps(flat, rng, 0.4, 0.02);
+  const ValidateResult v = validate_mesh(m);
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.boundary = BoundaryMode::FixedLengths;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  CHECK(r.intrinsic.used);
+  CHECK(r.intrinsic.delaunay_flips > 0);
+  CHECK(r.intrinsic.flow_flips == 0);
+  for (const double x : r.flow.u) CHECK(std::abs(x) <= 1e-12);
+  CHECK(r.intrinsic.straight_tiles);
+  REQUIRE_FALSE(r.intrinsic.refined);
+  // Rigid fit of the layout onto the input's (x, y): centroids, then the rotation.
+  const Index nv = v.topology.num_vertices;
+  REQUIRE(r.layout.positions.size() >= static_cast<std::size_t>(2 * nv));
+  double cx = 0, cy = 0, px = 0, py = 0;
+  for (Index i = 0; i < nv; ++i) {
+    cx += v.mesh.positions[3 * i] / nv;
+    cy += v.mesh.positions[3 * i + 1] / nv;
+    px += r.layout.positions[2 * i] / nv;
+    py += r.layout.positions[2 * i + 1] / nv;
+  }
+  double dot = 0, cross = 0;
+  for (Index i = 0; i < nv; ++i) {
+    const double ax = r.layout.positions[2 * i] - px, ay = r.layout.positions[2 * i + 1] - py;
+    const double bx = v.mesh.positions[3 * i] - cx, by = v.mesh.positions[3 * i + 1] - cy;
+    dot += ax * bx + ay * by;
+    cross += ax * by - ay * bx;
+  }
+  const double angle = std::atan2(cross, dot), c = std::cos(angle), s = std::sin(angle);
+  double worst = 0;
+  for (Index i = 0; i < nv; ++i) {
+    const double ax = r.layout.positions[2 * i] - px, ay = r.layout.positions[2 * i + 1] - py;
+    const double bx = v.mesh.positions[3 * i] - cx, by = v.mesh.positions[3 * i + 1] - cy;
+    worst = std::max(worst, std::hypot(c * ax - s * ay - bx, s * ax + c * ay - by));
+  }
+  CHECK(worst < 1e-11);  // the disk has radius 1
+  CHECK(r.angles.mean_abs_log < 1e-10);
+}
+
 TEST_CASE("uniformize: the regular tetrahedron maps to the round sphere by default") {
   Mesh tet;
   const double s = 1 / std::sqrt(3.0);
