@@ -581,6 +581,83 @@ int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::tim
   return write_metric(options, r, start, topo, validated.vertex_to_input, protected_paths);
 }
 
+// The flow on the input's own triangulation (circle packing, inversive distance, or vertex
+// scaling with --no-flips): initial metric, target, check, solve_flow(), then the output.
+int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
+                  const ricci::ValidateResult& validated, BoundaryMode mode, const TargetSpec& target_spec,
+                  const BoundarySpec& boundary_spec, const ricci::FlowOptions& fo,
+                  const std::vector<std::string>& protected_paths) {
+  const ricci::Topology& topo = validated.topology;
+  // ---- initial metric ----
+  ricci::InitialMetricOptions mo;
+  mo.geometry = *r.geometry;
+  mo.scheme = r.scheme;
+  mo.relax_angles = !options.no_angle_relax;
+  const ricci::InitialMetric metric = ricci::initial_metric(validated.mesh, topo, mo);
+  if (metric.status != Status::Ok) {
+    fail(r, metric.status, r.file + ": initial metric: " + metric.message);
+    return finish(options, r, start);
+  }
+  r.have_metric = true;
+  r.length_scale = metric.length_scale;
+  r.clamped_high = metric.edges_clamped_high;
+  r.clamped_low = metric.edges_clamped_low;
+  r.cycles_relaxed = metric.cycles_relaxed;
+  r.edges_relaxed = metric.edges_relaxed;
+  if (r.scheme == Scheme::CirclePacking && metric.edges_clamped_high + metric.edges_clamped_low > 0) {
+    const std::string note = "circle packing: " + std::to_string(metric.edges_clamped_high) +
+                             " edge angles clamped to pi/2 and " + std::to_string(metric.edges_clamped_low) +
+                             " to 0 (the packing metric only approximates the mesh's lengths there)";
+    r.notes.push_back(note);
+    print_note(options.quiet, note);
+  }
+
+  if (metric.edges_relaxed > 0) {
+    const std::string note = "circle packing: lowered the angles of " + std::to_string(metric.edges_relaxed) +
+                             " edges on " + std::to_string(metric.cycles_relaxed) +
+                             " separating 3- or 4-cycles where Step 2's angles make zero curvature inside them "
+                             "infeasible (--no-angle-relax keeps them)";
+    r.notes.push_back(note);
+    print_note(options.quiet, note);
+  }
+
+  // ---- target ----
+  TargetBuild tb = build_target(topo, mode, target_spec, boundary_spec, options.target, options.boundary);
+  if (tb.usage) {
+    fail(r, Status::InvalidArgument, tb.message);
+    return finish(options, r, start, kExitUsage);
+  }
+  if (tb.status != Status::Ok) {
+    fail(r, tb.status, tb.message);
+    return finish(options, r, start);
+  }
+  ricci::Target target = std::move(tb.target);
+  r.loop_totals = target.loop_total;
+
+  const ricci::TargetCheck check = ricci::check_target(topo, metric.structure, target);
+  if (check.status != Status::Ok) {
+    fail(r, check.status, r.file + ": target: " + check.message);
+    return finish(options, r, start);
+  }
+
+  // ---- flow ----
+  r.flow = ricci::solve_flow(topo, metric.structure, metric.u, target, fo);
+  r.have_flow = true;
+  r.status = r.flow.status;
+  r.message = r.flow.message;
+  for (const std::string& n : r.flow.notes) {
+    r.notes.push_back(n);
+    print_note(options.quiet, n);
+  }
+  if (r.flow.status != Status::Ok) {
+    print_error(r.file + ": " + r.flow.message);
+    if (!options.output.empty()) print_error("no output written to " + options.output + " (the flow did not converge)");
+    return finish(options, r, start);
+  }
+
+  return write_metric(options, r, start, topo, validated.vertex_to_input, protected_paths);
+}
+
 int run_flow(const FlowCommandOptions& options) {
   const Clock::time_point start = Clock::now();
   FlowReport r;
@@ -720,71 +797,7 @@ int run_flow(const FlowCommandOptions& options) {
   }
   if (flips) return flow_with_flips(options, r, start, validated, mode, *target_spec, *boundary_spec, fo, protected_paths);
 
-  // ---- initial metric ----
-  ricci::InitialMetricOptions mo;
-  mo.geometry = *r.geometry;
-  mo.scheme = *scheme;
-  mo.relax_angles = !options.no_angle_relax;
-  const ricci::InitialMetric metric = ricci::initial_metric(validated.mesh, topo, mo);
-  if (metric.status != Status::Ok) {
-    fail(r, metric.status, r.file + ": initial metric: " + metric.message);
-    return finish(options, r, start);
-  }
-  r.have_metric = true;
-  r.length_scale = metric.length_scale;
-  r.clamped_high = metric.edges_clamped_high;
-  r.clamped_low = metric.edges_clamped_low;
-  r.cycles_relaxed = metric.cycles_relaxed;
-  r.edges_relaxed = metric.edges_relaxed;
-  if (*scheme == Scheme::CirclePacking && metric.edges_clamped_high + metric.edges_clamped_low > 0) {
-    const std::string note = "circle packing: " + std::to_string(metric.edges_clamped_high) +
-                             " edge angles clamped to pi/2 and " + std::to_string(metric.edges_clamped_low) +
-                             " to 0 (the packing metric only approximates the mesh's lengths there)";
-    r.notes.push_back(note);
-    print_note(options.quiet, note);
-  }
-
-  if (metric.edges_relaxed > 0) {
-    const std::string note = "circle packing: lowered the angles of " + std::to_string(metric.edges_relaxed) +
-                             " edges on " + std::to_string(metric.cycles_relaxed) +
-                             " separating 3- or 4-cycles where Step 2's angles make zero curvature inside them "
-                             "infeasible (--no-angle-relax keeps them)";
-    r.notes.push_back(note);
-    print_note(options.quiet, note);
-  }
-
-  // ---- target ----
-  TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, options.target, options.boundary);
-  if (tb.usage) return usage(tb.message);
-  if (tb.status != Status::Ok) {
-    fail(r, tb.status, tb.message);
-    return finish(options, r, start);
-  }
-  ricci::Target target = std::move(tb.target);
-  r.loop_totals = target.loop_total;
-
-  const ricci::TargetCheck check = ricci::check_target(topo, metric.structure, target);
-  if (check.status != Status::Ok) {
-    fail(r, check.status, r.file + ": target: " + check.message);
-    return finish(options, r, start);
-  }
-
-  // ---- flow ----
-  r.flow = ricci::solve_flow(topo, metric.structure, metric.u, target, fo);
-  r.have_flow = true;
-  r.status = r.flow.status;
-  r.message = r.flow.message;
-  for (const std::string& n : r.flow.notes) {
-    r.notes.push_back(n);
-    print_note(options.quiet, n);
-  }
-  if (r.flow.status != Status::Ok) {
-    print_error(r.file + ": " + r.flow.message);
-    if (!options.output.empty()) print_error("no output written to " + options.output + " (the flow did not converge)");
-    return finish(options, r, start);
-  }
-
-  return write_metric(options, r, start, topo, validated.vertex_to_input, protected_paths);
+  return flow_as_given(options, r, start, validated, mode, *target_spec, *boundary_spec, fo, protected_paths);
 }
 
 CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
