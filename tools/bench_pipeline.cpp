@@ -56,6 +56,12 @@
 
 namespace {
 
+/// Flows shorter than this (flips and circle packing together, seconds) are timed kShortRepeats
+/// times each for the comparison table, the best kept.
+constexpr double kShortFlow = 1.0;
+constexpr int kShortRepeats = 5;
+
+
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using ricci::Index;
@@ -446,7 +452,6 @@ Row run_input(const Input& input, const Settings& s) {
   // tolerance and polishing steps; the initial metric is its own stage in both).
   if (!stop_after_flow && u.intrinsic.used && stage_seconds.count("flow")) {
     row["flips"] = std::to_string(u.intrinsic.flow_flips);
-    row["flips_stage"] = fmt("%.4f", stage_seconds["flow"]);
     ricci::InitialMetricOptions mo;
     mo.geometry = u.geometry;
     mo.scheme = ricci::Scheme::CirclePacking;
@@ -455,10 +460,23 @@ Row run_input(const Input& input, const Settings& s) {
       ricci::FlowOptions cf = o.flow;
       cf.polish_steps = std::max(cf.polish_steps, 2);
       const ricci::FlowResult c = ricci::solve_flow(topo, cm.structure, cm.u, u.target, cf);
+      // Short flows are timed again (the best of kShortRepeats runs of each, alternating), so that
+      // the ratio of two tenths of a second is not one scheduler hiccup.
+      double flips_best = stage_seconds["flow"], cp_best = c.seconds;
+      ricci::UniformizeOptions repeat = o;
+      repeat.on_stage = nullptr;  // the stage table keeps the first run's figures
+      if (flips_best + cp_best < kShortFlow)
+        for (int k = 1; k < kShortRepeats; ++k) {
+          const ricci::UniformizeResult again = ricci::conformal_metric(v.mesh, topo, repeat, &u.target);
+          for (const auto& [stage, seconds] : again.timings)
+            if (stage == "flow") flips_best = std::min(flips_best, seconds);
+          cp_best = std::min(cp_best, ricci::solve_flow(topo, cm.structure, cm.u, u.target, cf).seconds);
+        }
+      row["flips_stage"] = fmt("%.4f", flips_best);
       row["cp_status"] = std::string(ricci::status_name(c.status));
-      row["cp_flow"] = fmt("%.4f", c.seconds);
+      row["cp_flow"] = fmt("%.4f", cp_best);
       row["cp_iterations"] = std::to_string(c.iterations);
-      if (c.seconds > 0) row["flips_over_cp"] = fmt("%.2f", stage_seconds["flow"] / c.seconds);
+      if (cp_best > 0) row["flips_over_cp"] = fmt("%.2f", flips_best / cp_best);
       row["cp_distortion"] = fmt("%.4f", ricci::angle_distortion(v.mesh, topo, u.geometry, c.l).mean_abs_log);
     }
     row["distortion"] = fmt("%.4f", u.angles.mean_abs_log);
@@ -715,8 +733,9 @@ int main(int argc, char** argv) {
   doc += "\n## The default (vertex scaling with intrinsic flips) against the paper's circle packing\n\n";
   doc += "*flow s*: the default's flow stage (the intrinsic Delaunay triangulation of the input's metric and "
          "the Newton solve with flips, polishing included); *CP flow s*: `solve_flow()` with circle packing on "
-         "the same input, target, tolerance and polishing; iterations include the polishing steps; angle "
-         "distortion is the mean |log θ_input/θ_output| over the input's corners.\n\n";
+         "the same input, target, tolerance and polishing; where the two take under " + fmt("%g", kShortFlow) +
+         " s together, each is the best of " + std::to_string(kShortRepeats) + " runs; iterations include the "
+         "polishing steps; angle distortion is the mean |log θ_input/θ_output| over the input's corners.\n\n";
   doc += "| input | #F | Newton it. | flips | flow s | CP it. | CP flow s | flow/CP | distortion | CP distortion |\n"
          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : rows) {
