@@ -298,6 +298,8 @@ class FlowSolver {
   bool gram_solve();
   bool line_search();
   bool polish_step();
+  /// max |K̄ − K| at the rounding level of the angle sums (kPolishUlps ulps of the largest).
+  double curvature_rounding() const;
   bool energy_difference(double t, double& dE);
   double directional_derivative(const Topology& t);
   void remove_gauge_mean(std::span<double> step);
@@ -1109,7 +1111,12 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   // relative accuracy that tightens with the error.
   bool ok = boundary_direct_ && boundary_direct_solve();
   if (!ok) {
-    const double forcing = std::clamp(0.01 * error_, 1e-13, 1e-3);
+    // The relative residual left in the boundary system becomes about forcing × error in the next
+    // curvature error: 0.01 × error keeps Newton quadratic, and nothing below a tenth of the
+    // curvatures' rounding level (curvature_rounding()) can show in it, so the polishing steps
+    // near that level need only a loose solve.
+    const double forcing =
+        std::clamp(std::max(0.01 * error_, 0.1 * curvature_rounding() / std::max(error_, 1e-300)), 1e-13, 1e-3);
     ok = gmres(forcing, kGmresMaxIterations);
     if (!ok && !boundary_direct_ && positions <= kDirectBoundaryFallback) {
       setup_boundary_direct(true);
@@ -1626,14 +1633,18 @@ bool FlowSolver::newton_step() {
 // buys digits no layout can use (a residual of 1e-14 closes a layout to far below its 1e-9).
 constexpr double kPolishUlps = 16;
 
+double FlowSolver::curvature_rounding() const {
+  double largest_target = 0;
+  for (Index v = 0; v < t_.num_vertices; ++v)
+    if (condition_[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
+  return kPolishUlps * kEps * (4 * kPi + largest_target);
+}
+
 bool FlowSolver::polish_step() {
   if (polish_tried_ >= options_.polish_steps || polish_tried_ > polished_) return false;
   // At the rounding level of the curvatures (a few ulps of the angle sums, kPolishUlps) no step
   // can be ranked: stop there instead of paying for a factorization the line search rejects.
-  double largest_target = 0;
-  for (Index v = 0; v < t_.num_vertices; ++v)
-    if (condition_[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
-  if (!(error_ > kPolishUlps * kEps * (4 * kPi + largest_target))) return false;
+  if (!(error_ > curvature_rounding())) return false;
   if (polish_tried_ == 0) error_before_polish_ = error_;
   ++polish_tried_;
   ++iteration_;
