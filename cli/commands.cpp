@@ -79,6 +79,15 @@ void print_note(bool quiet, const std::string& message) {
   if (!quiet) std::cerr << "ricci: " << message << '\n';
 }
 
+int usable_threads(int requested, std::string& note) {
+  const int available = ricci::available_threads();
+  if (requested <= available) return requested;
+  note = "--threads " + std::to_string(requested) + ": " + std::to_string(available) +
+         " processor" + (available == 1 ? " is" : "s are") + " available to this process; using " +
+         std::to_string(available);
+  return available;
+}
+
 void print_error(const std::string& message) {
   std::cerr << "ricci: error: " << message << '\n';
 }
@@ -662,6 +671,9 @@ int run(int argc, const char* const* argv) {
   CoverCommandOptions cover;
   CLI::App* cover_cmd = add_cover_command(app, cover);
 
+  // An OpenMP default above the processors available (a mistaken OMP_NUM_THREADS) is lowered to
+  // them: every parallel region would otherwise try to start that many threads.
+  ricci::cap_default_threads();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -156,6 +156,10 @@ CLI::App* add_cover_command(CLI::App& app, CoverCommandOptions& o);
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.
 void print_note(bool quiet, const std::string& message);
+
+/// --threads N as the library will use it: N, or ricci::available_threads() when N is above that
+/// (then `note` says so, for the caller to print and report).
+int usable_threads(int requested, std::string& note);
 /// "ricci: error: MESSAGE" on stderr.
 void print_error(const std::string& message);
 

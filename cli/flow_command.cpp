@@ -699,7 +699,13 @@ int run_flow(const FlowCommandOptions& options) {
                           ? options.max_iterations
                           : (*method == Method::Newton ? ricci::FlowOptions{}.max_iterations : kGradientMaxIterations);
   fo.gradient_step = options.step;
-  fo.threads = options.threads;
+  std::string threads_note;
+  fo.threads = usable_threads(options.threads, threads_note);
+  r.threads = fo.threads;
+  if (!threads_note.empty()) {
+    r.notes.push_back(threads_note);
+    print_note(options.quiet, threads_note);
+  }
   fo.normalize_circle_domains = !options.no_circle_normalization;
   r.max_iterations = fo.max_iterations;
   if (options.max_iterations < 0) return usage("--max-iter must be positive");

@@ -672,7 +672,12 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   uo.metric.relax_angles = !o.no_angle_relax;
   uo.flow.tolerance = o.tolerance;
   if (o.max_iterations > 0) uo.flow.max_iterations = o.max_iterations;
-  uo.flow.threads = o.threads;
+  std::string threads_note;
+  uo.flow.threads = usable_threads(o.threads, threads_note);
+  if (!threads_note.empty()) {
+    run.notes.push_back(threads_note);
+    print_note(o.quiet, threads_note);
+  }
   uo.flow.normalize_circle_domains = !o.no_circle_normalization;
   uo.base_candidates = o.base_candidates;
   uo.seed_checks = o.seed_checks;

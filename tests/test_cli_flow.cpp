@@ -326,6 +326,29 @@ TEST_CASE("cli flow: one and two threads write identical metrics") {
   CHECK(ta == ricci_test::read_bytes(dir / "b.csv"));
 }
 
+TEST_CASE("cli flow and uniformize: --threads past the processors is clamped with a note") {
+  TempDir dir;
+  const FlowRun one = run_flow({"--threads", "1", "-o", (dir / "one.csv").string()});
+  const FlowRun many = run_flow({"--threads", "1000000", "-o", (dir / "many.csv").string()});
+  check_converged(many);
+  bool flow_noted = false;  // --quiet: the note is in the summary's notes
+  for (const auto& n : many.j["notes"])
+    flow_noted = flow_noted || (n.get<std::string>().find("--threads 1000000") != std::string::npos &&
+                                n.get<std::string>().find("available to this process") != std::string::npos);
+  CHECK(flow_noted);
+  CHECK(many.j["threads"].get<int>() >= 1);
+  CHECK(many.j["threads"].get<int>() < 1000000);
+  CHECK(ricci_test::read_bytes(dir / "one.csv") == ricci_test::read_bytes(dir / "many.csv"));
+  const CommandResult u =
+      run_cli({"uniformize", "-o", (dir / "out").string(), "--no-pictures", "--json", "-q", "--threads", "1000000"});
+  CHECK(u.exit_code == 0);
+  const Json j = parse_json(u.out);
+  REQUIRE(j.is_object());
+  bool noted = false;
+  for (const auto& n : j["notes"]) noted = noted || n.get<std::string>().find("available to this process") != std::string::npos;
+  CHECK(noted);
+}
+
 TEST_CASE("cli flow: an infeasible target exits 8 and writes nothing") {
   TempDir dir;
   const path out = dir / "metric.csv";

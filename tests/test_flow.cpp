@@ -373,6 +373,33 @@ TEST_CASE("flow: the euclidean result is invariant under global scaling (u shift
   }
 }
 
+TEST_CASE("flow: thread counts past the processors are clamped, never a crash") {
+  const int saved = omp_get_max_threads();
+  const int available = available_threads();
+  CHECK(available >= 1);
+  const Problem p = closed_problems().front();
+  FlowOptions o;
+  o.threads = 1;
+  const FlowResult one = solve(p, o);
+  REQUIRE(one.status == Status::Ok);
+  // A count no system can start (it crashed the OpenMP runtime before).
+  o.threads = 1000000;
+  const FlowResult many = solve(p, o);
+  CHECK(many.status == Status::Ok);
+  CHECK(many.u == one.u);
+  CHECK(omp_get_max_threads() == saved);
+  // The same through the OpenMP default (OMP_NUM_THREADS or omp_set_num_threads()).
+  omp_set_num_threads(available + 7);
+  o.threads = 0;
+  const FlowResult fallback = solve(p, o);
+  CHECK(fallback.status == Status::Ok);
+  CHECK(fallback.u == one.u);
+  CHECK(cap_default_threads() == available + 7);
+  CHECK(omp_get_max_threads() == available);
+  CHECK(cap_default_threads() == 0);
+  omp_set_num_threads(saved);
+}
+
 TEST_CASE("flow: results are bitwise identical for 1 and 2 threads") {
   const int saved = omp_get_max_threads();
   std::vector<Problem> problems = closed_problems();

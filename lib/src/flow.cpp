@@ -125,11 +125,26 @@ constexpr double kEstimateSpread = 0.1;
 // spin). The results do not depend on the thread count.
 constexpr Index kSmallMeshFaces = 20000;
 
-// Sets the OpenMP thread count for the duration of a solve.
+}  // namespace
+
+int available_threads() { return std::max(1, omp_get_num_procs()); }
+
+int cap_default_threads() {
+  const int current = omp_get_max_threads();
+  if (current <= available_threads()) return 0;
+  omp_set_num_threads(available_threads());
+  return current;
+}
+
+namespace {
+
+// Sets the OpenMP thread count for the duration of a solve (at most available_threads()).
 class ThreadScope {
  public:
   ThreadScope(int threads, Index num_faces) {
     if (threads == 0 && num_faces < kSmallMeshFaces) threads = 1;
+    if (threads == 0 && omp_get_max_threads() > available_threads()) threads = available_threads();
+    threads = std::min(threads, available_threads());
     if (threads > 0) {
       saved_ = omp_get_max_threads();
       omp_set_num_threads(threads);

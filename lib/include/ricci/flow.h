@@ -114,6 +114,7 @@ struct FlowOptions {
   double gradient_step = 0.05;
   /// OpenMP threads for the kernels; 0 keeps the current setting (but solves meshes under 20 000
   /// faces on one thread, where forking costs more than the work). Results do not depend on it.
+  /// Counts above available_threads() — this one or the current setting — are clamped to it.
   int threads = 0;
   /// S is not convex; Newton's safeguards there (targets that do not depend on the lengths):
   /// the round sphere (closed genus 0, K̄ = 0) starts from the stereographic image of a planar
@@ -196,6 +197,16 @@ struct FlowResult {
   /// One line: status, geometry, iterations, error, time.
   std::string brief_report() const;
 };
+
+/// The processors available to this process (omp_get_num_procs()), at least 1: the most threads
+/// a solve uses. More only add overhead on these compute-bound kernels, and a count past what the
+/// system can start (OMP_NUM_THREADS=100000, say) would bring the OpenMP runtime down.
+int available_threads();
+
+/// Lowers the OpenMP default thread count (OMP_NUM_THREADS, omp_set_num_threads()) to
+/// available_threads() when it is above; returns the count it was, or 0 when it was not above.
+/// For programs whose own parallel regions should not fail on a mistaken environment.
+int cap_default_threads();
 
 /// Solves for u such that K(u) = K̄ from the start u0 (#V).
 FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure, std::span<const double> u0,
