@@ -392,8 +392,11 @@ int finish(const FlowCommandOptions& options, FlowReport& r, Clock::time_point s
   r.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (options.json) {
     std::cout << flow_json(r).dump(2) << '\n';
-  } else if (r.have_flow) {
+  } else if (r.have_flow && r.status == r.flow.status) {
     std::cout << r.flow.brief_report() << '\n';
+  } else if (r.have_flow) {
+    // The flow converged but writing its metric failed: no "ok".
+    std::cout << ricci::status_name(r.status) << ": " << r.message << '\n';
   }
   return finish_stdout(code ? *code : exit_code(r.status));
 }

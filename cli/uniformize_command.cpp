@@ -627,8 +627,11 @@ int finish(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
   run.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (o.json) {
     std::cout << report_json(run).dump(2) << '\n';
-  } else if (run.have_result) {
+  } else if (run.have_result && run.status == run.result.status) {
     std::cout << run.result.brief_report() << '\n';
+  } else if (run.have_result) {
+    // The pipeline's result stands, but what came after it (writing OUTDIR) failed: no "ok".
+    std::cout << ricci::status_name(run.status) << ": " << run.message << '\n';
   }
   return finish_stdout(code ? *code : exit_code(run.status));
 }

@@ -352,6 +352,30 @@ int interrupt_while_writing(const fs::path& out, int sig) {
 
 }  // namespace
 
+TEST_CASE("cli uniformize and flow: a failed write prints no ok summary, exits 6 and leaves nothing") {
+  // A name past the file system's 255 bytes fails to be created: a write failure any user can
+  // meet (a full disk fails the same way, later), reproducible without one.
+  TempDir tmp;
+  const fs::path out = tmp / std::string(250, 'a');
+  const auto u = run_cli({"uniformize", "-o", out.string(), "--no-pictures", "-q"});
+  INFO(u.err);
+  CHECK(u.exit_code == 6);
+  CHECK(u.out.find("ok") != 0);
+  CHECK(u.out.rfind("write_failed: ", 0) == 0);
+  CHECK(u.err.find("nothing was written") != std::string::npos);
+  CHECK(fs::is_empty(tmp.path()));
+  const auto j = run_cli({"uniformize", "-o", out.string(), "--no-pictures", "-q", "--json"});
+  CHECK(j.exit_code == 6);
+  const Json report = parse(j.out);
+  REQUIRE(report.is_object());
+  CHECK(report["status"] == "write_failed");
+  const auto f = run_cli({"flow", "-q", "-o", (tmp / (std::string(300, 'a') + ".json")).string()});
+  INFO(f.err);
+  CHECK(f.exit_code == 6);
+  CHECK(f.out.rfind("write_failed: ", 0) == 0);
+  CHECK(fs::is_empty(tmp.path()));
+}
+
 TEST_CASE("cli uniformize: an interrupted run leaves no partial output and keeps the previous OUTDIR") {
   TempDir tmp;
   for (int sig : {SIGINT, SIGTERM}) {
