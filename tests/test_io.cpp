@@ -1138,3 +1138,56 @@ TEST_CASE("io: a shared mesh round trips exactly through every format") {
     }
   }
 }
+
+TEST_CASE("io: OBJ and OFF in another encoding or with binary content are named, not read as no faces") {
+  const std::string obj = std::string(kTriangleObj);
+  const std::string off = "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  // UTF-16 and UTF-32 as a Windows editor saves them: each ASCII character widened.
+  auto widen = [](const std::string& text, int width, bool big_endian, bool mark) {
+    std::string out;
+    auto put = [&](unsigned code) {
+      for (int k = 0; k < width; ++k) {
+        const int shift = 8 * (big_endian ? width - 1 - k : k);
+        out.push_back(static_cast<char>((code >> shift) & 0xFF));
+      }
+    };
+    if (mark) put(0xFEFF);
+    for (const char c : text) put(static_cast<unsigned char>(c));
+    return out;
+  };
+  for (const FileFormat format : {FileFormat::Obj, FileFormat::Off}) {
+    const std::string& text = format == FileFormat::Obj ? obj : off;
+    CAPTURE(extension(format));
+    struct Case {
+      std::string what, bytes, expected;
+    };
+    std::mt19937_64 rng(29);
+    std::string noise(4096, '\0');
+    for (char& c : noise) c = static_cast<char>(rng() & 0xFF);
+    std::string controls = text;  // ASCII with control bytes but no NUL
+    for (int k = 0; k < 20; ++k) controls.insert(controls.begin() + 2 * k, static_cast<char>(1 + k % 7));
+    const Case cases[] = {
+        {"UTF-16 LE with mark", widen(text, 2, false, true), "UTF-16 text (byte-order mark)"},
+        {"UTF-16 BE with mark", widen(text, 2, true, true), "UTF-16 text (byte-order mark)"},
+        {"UTF-32 LE with mark", widen(text, 4, false, true), "UTF-32 text (byte-order mark)"},
+        {"UTF-16 LE without mark", widen(text, 2, false, false), "UTF-16 text without a byte-order mark"},
+        {"random bytes", noise, "binary content"},
+        {"control bytes", controls, "binary content"},
+    };
+    for (const Case& c : cases) {
+      CAPTURE(c.what);
+      const ReadResult r = parse(c.bytes, format);
+      CHECK(r.status == Status::ParseError);
+      CHECK(r.message.find(c.expected) != std::string::npos);
+      CHECK(r.message.find("test" + extension(format)) == 0);  // names the file
+      CHECK(r.message.find("byte ") != std::string::npos);     // and where
+    }
+    // Text that is still text: UTF-8 in a comment, a DOS end-of-file mark, a few stray control bytes.
+    const std::string kept[] = {"# räumlich — maillage\n" + text, text + "\x1a", "#\x01\x02\x03 odd\n" + text};
+    for (const std::string& k : kept) {
+      const ReadResult r = parse(k, format);
+      CHECK_MESSAGE(r.status == Status::Ok, r.message);
+      CHECK(r.mesh.faces.size() == 3);
+    }
+  }
+}

@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <charconv>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <new>
@@ -362,10 +363,48 @@ std::string summary(const ReadResult& r) {
 }
 
 /// Parses bytes in a known format into ctx.result().
+// OBJ and OFF are text: a file in another encoding (UTF-16, UTF-32) or with binary content is
+// named as such instead of being read as lines that say nothing ("no faces"). The first 64 KiB
+// decide: a byte-order mark of UTF-16/32, any NUL byte, or more than kMaxControlBytes control
+// bytes other than whitespace and the DOS end-of-file mark (0x1A) that old files carry.
+bool check_text(std::string_view data, ReadContext& ctx) {
+  constexpr std::size_t kWindow = 64 * 1024;
+  constexpr int kMaxControlBytes = 8;
+  auto byte = [&](std::size_t i) { return static_cast<unsigned char>(data[i]); };
+  const char* reread = ": re-save it as UTF-8 or ASCII text";
+  if (data.size() >= 4 && ((byte(0) == 0xFF && byte(1) == 0xFE && byte(2) == 0 && byte(3) == 0) ||
+                           (byte(0) == 0 && byte(1) == 0 && byte(2) == 0xFE && byte(3) == 0xFF)))
+    return ctx.fail_at_byte(Status::ParseError, 0, std::string("the file is UTF-32 text (byte-order mark)") + reread);
+  if (data.size() >= 2 && ((byte(0) == 0xFF && byte(1) == 0xFE) || (byte(0) == 0xFE && byte(1) == 0xFF)))
+    return ctx.fail_at_byte(Status::ParseError, 0, std::string("the file is UTF-16 text (byte-order mark)") + reread);
+  const std::size_t n = std::min(data.size(), kWindow);
+  int control = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char c = byte(i);
+    if (c == 0) {
+      // UTF-16 without a mark has a NUL beside every ASCII character.
+      const bool utf16 = n >= 4 && (byte(i ^ 1) != 0) && ((i + 2 < n && byte(i + 2) == 0) || (i >= 2 && byte(i - 2) == 0));
+      return ctx.fail_at_byte(Status::ParseError, static_cast<std::int64_t>(i),
+                              utf16 ? std::string("NUL bytes between the characters: UTF-16 text without a "
+                                                  "byte-order mark") + reread
+                                    : std::string("a NUL byte: binary content, not a text mesh file"));
+    }
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\v' && c != '\f' && c != '\r' && c != 0x1A && ++control > kMaxControlBytes) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", c);
+      return ctx.fail_at_byte(Status::ParseError, static_cast<std::int64_t>(i),
+                              std::string("control byte ") + hex + " (the " + std::to_string(control) +
+                                  "th in the first 64 KiB): binary content, not a text mesh file");
+    }
+  }
+  return true;
+}
+
 void parse_bytes(std::string_view data, FileFormat format, const ReadOptions& options, ReadContext& ctx) {
   ReadResult& r = ctx.result();
   if (format == FileFormat::Auto) return fail_unknown_format(ctx);
   r.format = format;
+  if ((format == FileFormat::Obj || format == FileFormat::Off) && !check_text(data, ctx)) return;
   bool ok = false;
   switch (format) {
     case FileFormat::Obj:
