@@ -418,6 +418,33 @@ TEST_CASE("uniformize: a planar disk with needles and its boundary held keeps u 
   CHECK(r.angles.mean_abs_log < 1e-10);
 }
 
+TEST_CASE("uniformize: a sphere with one vertex far out maps to the round sphere (vertex scaling scales to edges below π)") {
+  // The area-4π scale of such a mesh puts its long edges past π; the sphere's metric must not
+  // depend on the embedding's extent.
+  for (const double far : {1e3, 1e6}) {
+    CAPTURE(far);
+    Mesh m = ricci_shapes::icosphere(2);
+    m.positions[0] = far;
+    m.positions[1] = 0;
+    m.positions[2] = 0;
+    const ValidateResult v = validate_mesh(m);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    UniformizeOptions o;
+    o.seed_checks = 0;
+    const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.geometry == Geometry::Spherical);
+    CHECK(r.intrinsic.used);
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    CHECK(r.layout.max_edge_length_error < 1e-9);
+    CHECK(r.layout.flipped_faces == 0);
+    // Every edge of the initial metric is below π, the longest at 0.9 π.
+    double longest = 0;
+    for (const double x : r.metric.l0) longest = std::max(longest, x);
+    CHECK(longest <= 0.9 * kPi * (1 + 1e-12));
+  }
+}
+
 TEST_CASE("uniformize: the regular tetrahedron maps to the round sphere by default") {
   Mesh tet;
   const double s = 1 / std::sqrt(3.0);

@@ -162,6 +162,15 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     if (g == Geometry::Hyperbolic) target = 2 * kPi * std::max(1.0, -chi);
     scale = (target > 0 && area > 0) ? std::sqrt(target / area) : 1;
   }
+  // Vertex scaling on the sphere needs every edge below π, not the euclidean area: where the
+  // area-4π scale puts an edge past π (a mesh whose extent is dominated by a few long edges, e.g. a
+  // vertex far out), the lengths are scaled so that the longest is 0.9 π instead, and the flow
+  // (with flips, the intrinsic triangulation's own scaling) does the rest.
+  if (g == Geometry::Spherical && options.scheme == Scheme::Yamabe && options.length_scale == 0) {
+    double longest = 0;
+    for (const double x : r.l0) longest = std::max(longest, x);
+    if (longest > 0 && !(longest * scale < kPi)) scale = 0.9 * kPi / longest;
+  }
   r.length_scale = scale;
   for (double& x : r.l0) x *= scale;
 

@@ -71,7 +71,8 @@ struct InitialMetricOptions {
   Geometry geometry = Geometry::Euclidean;  ///< background geometry of the metric
   Scheme scheme = Scheme::CirclePacking;    ///< conformal scheme
   /// Uniform scale applied to the 3D edge lengths before they are read in H or S; 0 picks the
-  /// default: 1 in E; in S the scale making the total area 4π; in H the scale making the total
+  /// default: 1 in E; in S the scale making the total area 4π (vertex scaling: lowered where that
+  /// puts an edge past π, so that the longest is 0.9 π); in H the scale making the total
   /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
   double length_scale = 0;
   /// Circle packing: after Step 2, lower Φ on the separating 3- and 4-cycles that would make
