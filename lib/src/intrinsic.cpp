@@ -397,11 +397,17 @@ bool makes_ear(const Topology& t, Index e) {
 std::vector<Index> non_delaunay_edges(const IntrinsicTriangulation& tri, std::span<const double> u, double tolerance) {
   const Topology& t = tri.topology;
   const Index ne = t.num_edges, nv = t.num_vertices;
+  // Factors e^{u/2} and chords B whose logs exceed kSafeLog are left at 0 (their quadrilaterals take
+  // delaunay_margin()): a chord times two factors then stays within e^{±2 kSafeLog}, inside double.
+  constexpr double kSafeLog = 300;
   std::vector<double> scale(static_cast<std::size_t>(nv)), chord(static_cast<std::size_t>(ne));
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
-  for (Index v = 0; v < nv; ++v) scale[v] = std::exp(0.5 * u[v]);
+  for (Index v = 0; v < nv; ++v) scale[v] = std::abs(0.5 * u[v]) < 0.5 * kSafeLog ? std::exp(0.5 * u[v]) : 0.0;
 #pragma omp parallel for schedule(static) if (ne >= kParallelMin)
-  for (Index e = 0; e < ne; ++e) chord[e] = std::exp(tri.log_chord_of(e));
+  for (Index e = 0; e < ne; ++e) {
+    const double y = tri.log_chord_of(e);
+    chord[e] = std::abs(y) < kSafeLog ? std::exp(y) : 0.0;
+  }
   std::vector<std::uint8_t> flagged(static_cast<std::size_t>(ne), 0);
 #pragma omp parallel for schedule(static) if (ne >= kParallelMin)
   for (Index e = 0; e < ne; ++e) {
@@ -415,7 +421,7 @@ std::vector<Index> non_delaunay_edges(const IntrinsicTriangulation& tri, std::sp
                    chord[t.corner_edge[n1]] * si * sl, chord[t.corner_edge[p1]] * sl * sj, chord[e] * si * sj};
     const double top = *std::max_element(L, L + 5), bottom = *std::min_element(L, L + 5);
     double margin = 0;
-    if (top < 1e100 && bottom > 1e-100) {
+    if (bottom > 1e-100 && top < 1e100) {  // a 0 (out of range) fails the first test
       for (double& x : L) x /= top;
       const double ki = L[0], jk = L[1], il = L[2], lj = L[3], ij = L[4];
       margin = (il * ki + jk * lj) * (il * jk + ki * lj) - ij * ij * (jk * ki + il * lj);

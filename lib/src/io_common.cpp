@@ -383,7 +383,9 @@ bool check_text(std::string_view data, ReadContext& ctx) {
     const unsigned char c = byte(i);
     if (c == 0) {
       // UTF-16 without a mark has a NUL beside every ASCII character.
-      const bool utf16 = n >= 4 && (byte(i ^ 1) != 0) && ((i + 2 < n && byte(i + 2) == 0) || (i >= 2 && byte(i - 2) == 0));
+      const std::size_t partner = i ^ 1;  // the other byte of a UTF-16 code unit
+      const bool utf16 = partner < n && byte(partner) != 0 &&
+                         ((i + 2 < n && byte(i + 2) == 0) || (i >= 2 && byte(i - 2) == 0));
       return ctx.fail_at_byte(Status::ParseError, static_cast<std::int64_t>(i),
                               utf16 ? std::string("NUL bytes between the characters: UTF-16 text without a "
                                                   "byte-order mark") + reread
