@@ -529,27 +529,16 @@ int write_metric(const FlowCommandOptions& options, FlowReport& r, Clock::time_p
 // Vertex scaling with intrinsic flips (ricci::conformal_metric(): the flow stages of uniformize,
 // with its fallback to circle packing), then the output.
 int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
-                    const ricci::ValidateResult& validated, BoundaryMode mode, const TargetSpec& target_spec,
-                    const BoundarySpec& boundary_spec, const ricci::FlowOptions& fo,
-                    const std::vector<std::string>& protected_paths) {
+                    const ricci::ValidateResult& validated, BoundaryMode mode, const ricci::Target& target,
+                    const ricci::FlowOptions& fo, const std::vector<std::string>& protected_paths) {
   const ricci::Topology& topo = validated.topology;
-  TargetBuild tb = build_target(topo, mode, target_spec, boundary_spec, options.target, options.boundary);
-  if (tb.usage) {
-    fail(r, Status::InvalidArgument, tb.message);
-    return finish(options, r, start, kExitUsage);
-  }
-  if (tb.status != Status::Ok) {
-    fail(r, tb.status, tb.message);
-    return finish(options, r, start);
-  }
-  r.loop_totals = tb.target.loop_total;
   ricci::UniformizeOptions uo;
   uo.geometry = *r.geometry;
   if (!topo.is_closed()) uo.boundary = mode;
   uo.metric.scheme = Scheme::Yamabe;
   uo.flow = fo;
   uo.intrinsic_flips = true;
-  ricci::UniformizeResult u = ricci::conformal_metric(validated.mesh, topo, uo, &tb.target);
+  ricci::UniformizeResult u = ricci::conformal_metric(validated.mesh, topo, uo, &target);
   r.flips = u.intrinsic.used;
   r.intrinsic = u.intrinsic;
   if (u.metric.status == Status::Ok) {
@@ -587,8 +576,7 @@ int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::tim
 // The flow on the input's own triangulation (circle packing, inversive distance, or vertex
 // scaling with --no-flips): initial metric, target, check, solve_flow(), then the output.
 int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
-                  const ricci::ValidateResult& validated, BoundaryMode mode, const TargetSpec& target_spec,
-                  const BoundarySpec& boundary_spec, const ricci::FlowOptions& fo,
+                  const ricci::ValidateResult& validated, const ricci::Target& target, const ricci::FlowOptions& fo,
                   const std::vector<std::string>& protected_paths) {
   const ricci::Topology& topo = validated.topology;
   // ---- initial metric ----
@@ -623,19 +611,6 @@ int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_
     r.notes.push_back(note);
     print_note(options.quiet, note);
   }
-
-  // ---- target ----
-  TargetBuild tb = build_target(topo, mode, target_spec, boundary_spec, options.target, options.boundary);
-  if (tb.usage) {
-    fail(r, Status::InvalidArgument, tb.message);
-    return finish(options, r, start, kExitUsage);
-  }
-  if (tb.status != Status::Ok) {
-    fail(r, tb.status, tb.message);
-    return finish(options, r, start);
-  }
-  ricci::Target target = std::move(tb.target);
-  r.loop_totals = target.loop_total;
 
   const ricci::TargetCheck check = ricci::check_target(topo, metric.structure, target);
   if (check.status != Status::Ok) {
@@ -804,9 +779,17 @@ int run_flow(const FlowCommandOptions& options) {
                 << " s\n";
     };
   }
-  if (flips) return flow_with_flips(options, r, start, validated, mode, *target_spec, *boundary_spec, fo, protected_paths);
+  // ---- target (both solves take it as built here) ----
+  TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, options.target, options.boundary);
+  if (tb.usage) return usage(tb.message);
+  if (tb.status != Status::Ok) {
+    fail(r, tb.status, tb.message);
+    return finish(options, r, start);
+  }
+  r.loop_totals = tb.target.loop_total;
+  if (flips) return flow_with_flips(options, r, start, validated, mode, tb.target, fo, protected_paths);
 
-  return flow_as_given(options, r, start, validated, mode, *target_spec, *boundary_spec, fo, protected_paths);
+  return flow_as_given(options, r, start, validated, tb.target, fo, protected_paths);
 }
 
 CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {

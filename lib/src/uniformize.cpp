@@ -507,18 +507,12 @@ namespace {
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                    std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start) {
-  Clock::time_point t0 = Clock::now();
+  StageClock stage_done{r, options};
   auto fail = [&](Status s, const std::string& stage, const std::string& message) {
     r.status = s;
     r.failed_stage = stage;
     r.message = stage + ": " + message;
     r.seconds = since(start);
-  };
-  auto stage_done = [&](const char* name, const std::string& summary) {
-    const double s = since(t0);
-    r.timings.emplace_back(name, s);
-    if (options.on_stage) options.on_stage(StageRecord{name, s, summary});
-    t0 = Clock::now();
   };
   const bool sphere = topology.is_closed() && topology.euler_characteristic() == 2;
   const bool closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
@@ -578,13 +572,13 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     r.disk_lengths = std::move(d.lengths);
     r.layout = std::move(d.layout);
     if (d.status != Status::Ok) return (void)fail(d.status, d.stage, d.message);
-    const double total = since(t0);
+    const double total = since(stage_done.t0);
     const double lay_s = std::min(total, r.layout.seconds);
     r.timings.emplace_back("cut", total - lay_s);
     if (options.on_stage) options.on_stage(StageRecord{"cut", total - lay_s, r.cut.brief_report()});
     r.timings.emplace_back("layout", lay_s);
     if (options.on_stage) options.on_stage(StageRecord{"layout", lay_s, r.layout.brief_report()});
-    t0 = Clock::now();
+    stage_done.t0 = Clock::now();
   }
 
   // ---- the accuracy gate: a layout that does not reproduce the metric is no result ----
