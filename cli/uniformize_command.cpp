@@ -506,6 +506,10 @@ Json report_json(const Run& run) {
   }
   j["geometry"] = have ? Json(std::string(ricci::geometry_name(r.geometry))) : Json(nullptr);
   j["scheme"] = run.from_metric ? Json(nullptr) : Json(run.scheme);
+  // Lengths and euclidean layouts are in the input's unit times length_scale (input_scale: the
+  // exact power of two applied to positions spanning less than 2^-100 or more than 2^100).
+  j["input_scale"] = have ? real(r.input_scale) : Json(nullptr);
+  j["length_scale"] = have && r.metric.status == Status::Ok ? real(r.metric.length_scale) : Json(nullptr);
   j["flips"] = have && r.intrinsic.used;
   if (have && r.intrinsic.used) {
     const ricci::IntrinsicSummary& in = r.intrinsic;

@@ -182,20 +182,31 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
 }
 
 IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry) {
-  const Index nf = topology.num_faces;
   std::vector<double> l = mesh_edge_lengths(mesh, topology);
   double scale = 1;
-  if (geometry != Geometry::Euclidean) {
+  if (geometry == Geometry::Euclidean) {
+    double longest = 0;
+    for (const double x : l) longest = std::max(longest, x);
+    scale = unit_power_of_two(longest);
+  } else {
+    const double chi = static_cast<double>(topology.euler_characteristic());
+    // Heron on the lengths times a power of two that keeps its products in range (exact).
+    double longest = 0;
+    for (const double x : l) longest = std::max(longest, x);
+    int exponent = 0;
+    std::frexp(longest, &exponent);
+    const double p = std::ldexp(1.0, -exponent);
     double area = 0;
-    for (Index f = 0; f < nf; ++f) {
-      const double a = l[topology.corner_edge[3 * f]], b = l[topology.corner_edge[3 * f + 1]],
-                   c = l[topology.corner_edge[3 * f + 2]];
+    for (Index f = 0; f < topology.num_faces; ++f) {
+      const double a = l[topology.corner_edge[3 * f]] * p, b = l[topology.corner_edge[3 * f + 1]] * p,
+                   c = l[topology.corner_edge[3 * f + 2]] * p;
       const double s = 0.5 * (a + b + c);
       area += std::sqrt(std::max(0.0, s * (s - a) * (s - b) * (s - c)));
     }
-    const double chi = static_cast<double>(topology.euler_characteristic());
-    if (geometry == Geometry::Hyperbolic && chi < 0 && area > 0) scale = std::sqrt(2 * std::numbers::pi * -chi / area);
-    if (geometry == Geometry::Spherical && area > 0) scale = spherical_scale(topology, l, std::sqrt(4 * std::numbers::pi / area));
+    // scale = sqrt(target / (area / p²)), with the power of two taken out of the root exactly.
+    if (geometry == Geometry::Hyperbolic && chi < 0 && area > 0) scale = std::sqrt(2 * std::numbers::pi * -chi / area) * p;
+    if (geometry == Geometry::Spherical && area > 0)
+      scale = spherical_scale(topology, l, std::sqrt(4 * std::numbers::pi / area) * p);
   }
   for (double& x : l) x *= scale;
   return make_intrinsic_triangulation(topology, geometry, l, true);

@@ -111,15 +111,41 @@ bool InitialMetricOptions::is_valid(std::string* why) const {
 std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology) {
   std::vector<double> l(static_cast<std::size_t>(topology.num_edges));
   for (Index e = 0; e < topology.num_edges; ++e) {
-    const Index a = topology.edge_vertices[2 * e], b = topology.edge_vertices[2 * e + 1];
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = mesh.positions[3 * a + k] - mesh.positions[3 * b + k];
-      d2 += d * d;
-    }
-    l[e] = std::sqrt(d2);
+    const double* a = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e])];
+    const double* b = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e + 1])];
+    const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    // hypot where the squares leave the normal range (any scale a double holds).
+    l[e] = d2 < 0x1p-1000 || !(d2 < 0x1p1000) ? std::hypot(dx, dy, dz) : std::sqrt(d2);
   }
   return l;
+}
+
+double unit_power_of_two(double extent) {
+  if (!(extent > 0) || !std::isfinite(extent)) return 1;
+  if (extent >= 0x1p-100 && extent <= 0x1p100) return 1;
+  int e = 0;
+  std::frexp(extent, &e);  // extent = m·2^e, m in [0.5, 1)
+  return std::ldexp(1.0, std::min(1 - e, 1023));  // subnormal extents: the largest power of two
+}
+
+double euclidean_area_scale(const Topology& t, std::span<const double> l, double target_area) {
+  double longest = 0;
+  for (const double x : l)
+    if (std::isfinite(x)) longest = std::max(longest, x);
+  if (!(longest > 0)) return 1;
+  int e = 0;
+  std::frexp(longest, &e);
+  const double p = std::ldexp(1.0, -e);  // l·p ≤ 1: the products below stay in range
+  double area = 0;  // of the triangles of lengths l·p
+  for (Index f = 0; f < t.num_faces; ++f) {
+    // Kahan's stable Heron: sort a ≥ b ≥ c.
+    double x[3] = {l[t.corner_edge[3 * f]] * p, l[t.corner_edge[3 * f + 1]] * p, l[t.corner_edge[3 * f + 2]] * p};
+    std::sort(x, x + 3, std::greater<>());
+    const double q = (x[0] + (x[1] + x[2])) * (x[2] - (x[0] - x[1])) * (x[2] + (x[0] - x[1])) * (x[0] + (x[1] - x[2]));
+    area += q > 0 ? 0.25 * std::sqrt(q) : 0;
+  }
+  return area > 0 ? std::sqrt(target_area / area) * p : 1;
 }
 
 InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialMetricOptions& options) {
@@ -130,7 +156,7 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     return r;
   }
   const Geometry g = options.geometry;
-  const Index nv = t.num_vertices, ne = t.num_edges, nf = t.num_faces;
+  const Index nv = t.num_vertices, ne = t.num_edges;
   ConformalStructure& s = r.structure;
   s.geometry = g;
   s.scheme = options.scheme;
@@ -143,32 +169,22 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     const double* b = &mesh.positions[3 * static_cast<std::size_t>(t.edge_vertices[2 * e + 1])];
     r.l0[e] = std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
   }
+  double longest = 0;
+  for (const double x : r.l0) longest = std::max(longest, x);
   double scale = options.length_scale;
   if (scale == 0) {
-    double area = 0;
-    for (Index f = 0; f < nf; ++f) {
-      const double a = r.l0[t.corner_edge[3 * f]], b = r.l0[t.corner_edge[3 * f + 1]], c = r.l0[t.corner_edge[3 * f + 2]];
-      // Kahan's stable Heron: sort a ≥ b ≥ c.
-      double x[3] = {a, b, c};
-      std::sort(x, x + 3, std::greater<>());
-      const double p = (x[0] + (x[1] + x[2])) * (x[2] - (x[0] - x[1])) * (x[2] + (x[0] - x[1])) * (x[0] + (x[1] - x[2]));
-      area += p > 0 ? 0.25 * std::sqrt(p) : 0;
-    }
     const double chi = static_cast<double>(t.euler_characteristic());
-    double target = 0;
-    if (g == Geometry::Spherical) target = 4 * kPi;
     // H: the area Gauss–Bonnet gives a closed surface (2π|χ|); surfaces with χ ≥ 0 (a disk or an
     // annulus forced into H) get 2π, so that lengths in any unit stay far from sinh² overflow.
-    if (g == Geometry::Hyperbolic) target = 2 * kPi * std::max(1.0, -chi);
-    scale = (target > 0 && area > 0) ? std::sqrt(target / area) : 1;
+    if (g == Geometry::Spherical) scale = euclidean_area_scale(t, r.l0, 4 * kPi);
+    else if (g == Geometry::Hyperbolic) scale = euclidean_area_scale(t, r.l0, 2 * kPi * std::max(1.0, -chi));
+    else scale = unit_power_of_two(longest);
   }
   // Vertex scaling on the sphere needs every edge below π, not the euclidean area: where the
   // area-4π scale puts an edge past π (a mesh whose extent is dominated by a few long edges, e.g. a
   // vertex far out), the lengths are scaled so that the longest is 0.9 π instead, and the flow
   // (with flips, the intrinsic triangulation's own scaling) does the rest.
   if (g == Geometry::Spherical && options.scheme == Scheme::Yamabe && options.length_scale == 0) {
-    double longest = 0;
-    for (const double x : r.l0) longest = std::max(longest, x);
     if (longest > 0 && !(longest * scale < kPi)) scale = 0.9 * kPi / longest;
   }
   r.length_scale = scale;

@@ -413,8 +413,10 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
 
 }  // namespace
 
-UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                            const Target* target) {
+namespace {
+
+UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                 const Target* target) {
   const Clock::time_point start = Clock::now();
   UniformizeResult r;
   StageClock stage_done{r, options};
@@ -448,8 +450,8 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   return r;
 }
 
-UniformizeResult conformal_metric(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                                  const Target* target) {
+UniformizeResult conformal_metric_unit(const Mesh& mesh, const Topology& topology,
+                                       const UniformizeOptions& options, const Target* target) {
   const Clock::time_point start = Clock::now();
   UniformizeResult r;
   StageClock stage_done{r, options};
@@ -465,8 +467,8 @@ UniformizeResult conformal_metric(const Mesh& mesh, const Topology& topology, co
   return r;
 }
 
-UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geometry geometry,
-                                std::span<const double> lengths, const UniformizeOptions& options) {
+UniformizeResult lay_out_metric_unit(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                     std::span<const double> lengths, const UniformizeOptions& options) {
   const Clock::time_point start = Clock::now();
   UniformizeResult r;
   r.geometry = geometry;
@@ -500,6 +502,74 @@ UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geom
   r.flow.status = Status::NotRun;
   r.flow.message = "given metric";
   layout_stages(mesh, topology, options, lengths, r, start);
+  return r;
+}
+
+// The input's positions as the stages read them: times unit_power_of_two() of the bounding box's
+// largest side, which is exact, so that every 3D product the stages form (cut weights, corner
+// angles, crowding, the common subdivision) stays in range at any scale a double holds. `mesh`
+// points at the input itself when the factor is 1.
+struct UnitMesh {
+  double scale = 1;
+  Mesh copy;
+  const Mesh* mesh = nullptr;
+};
+
+UnitMesh unit_mesh(const Mesh& in) {
+  UnitMesh u;
+  u.mesh = &in;
+  const std::size_t nv = in.positions.size() / 3;
+  if (nv == 0) return u;
+  double extent = 0, largest = 0;
+  for (int k = 0; k < 3; ++k) {
+    double lo = in.positions[k], hi = lo;
+    for (std::size_t v = 0; v < nv; ++v) {
+      lo = std::min(lo, in.positions[3 * v + k]);
+      hi = std::max(hi, in.positions[3 * v + k]);
+    }
+    extent = std::max(extent, hi - lo);
+    largest = std::max({largest, std::abs(lo), std::abs(hi)});
+  }
+  if (!std::isfinite(extent)) extent = largest;  // a side longer than the largest double
+  u.scale = unit_power_of_two(extent);
+  if (u.scale == 1) return u;
+  u.copy = in;
+  for (double& x : u.copy.positions) x *= u.scale;
+  u.mesh = &u.copy;
+  return u;
+}
+
+// Back to the input's unit where the result holds 3D positions, and the scale on record.
+void record_unit(const UnitMesh& u, UniformizeResult& r) {
+  r.input_scale = u.scale;
+  if (u.scale == 1) return;
+  if (r.metric.status != Status::NotRun) r.metric.length_scale *= u.scale;
+  for (double& x : r.refinement.mesh.positions) x /= u.scale;
+}
+
+}  // namespace
+
+UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                            const Target* target) {
+  const UnitMesh u = unit_mesh(mesh);
+  UniformizeResult r = uniformize_unit(*u.mesh, topology, options, target);
+  record_unit(u, r);
+  return r;
+}
+
+UniformizeResult conformal_metric(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                  const Target* target) {
+  const UnitMesh u = unit_mesh(mesh);
+  UniformizeResult r = conformal_metric_unit(*u.mesh, topology, options, target);
+  record_unit(u, r);
+  return r;
+}
+
+UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                std::span<const double> lengths, const UniformizeOptions& options) {
+  const UnitMesh u = unit_mesh(mesh);
+  UniformizeResult r = lay_out_metric_unit(*u.mesh, topology, geometry, lengths, options);
+  record_unit(u, r);
   return r;
 }
 

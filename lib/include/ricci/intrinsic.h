@@ -98,9 +98,10 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
                                              bool delaunay = true);
 
 /// The intrinsic Delaunay triangulation of a mesh's own metric for a vertex-scaling solve in
-/// `geometry`: the 3D edge lengths, read as E lengths as they are; in H scaled as
-/// initial_metric() does (total area 2π|χ|); in S scaled so that, read as spherical arcs, their
-/// triangles have total area 4π (by bisection; where the spherical triangle inequality ends that
+/// `geometry`: the 3D edge lengths, in E times unit_power_of_two() of the longest (as they are
+/// unless that is shorter than 2^-100 or longer than 2^100); in H scaled as initial_metric() does
+/// (total area 2π|χ|); in S scaled so that, read as spherical arcs, their triangles have total
+/// area 4π (by regula falsi; where the spherical triangle inequality ends that
 /// first, 0.9 of the largest admissible scale). Reading them at euclidean area 4π instead breaks the
 /// spherical triangle inequality on coarse meshes (a tetrahedron) and starts far from the round
 /// sphere's scale. Statuses as make_intrinsic_triangulation().

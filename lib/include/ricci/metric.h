@@ -70,8 +70,9 @@ struct ConformalStructure {
 struct InitialMetricOptions {
   Geometry geometry = Geometry::Euclidean;  ///< background geometry of the metric
   Scheme scheme = Scheme::CirclePacking;    ///< conformal scheme
-  /// Uniform scale applied to the 3D edge lengths before they are read in H or S; 0 picks the
-  /// default: 1 in E; in S the scale making the total area 4π (vertex scaling: lowered where that
+  /// Uniform scale applied to the 3D edge lengths before they are read; 0 picks the default: in E
+  /// unit_power_of_two() of the longest edge (1, the input's unit, unless that edge is shorter
+  /// than 2^-100 or longer than 2^100); in S the scale making the total area 4π (vertex scaling: lowered where that
   /// puts an edge past π, so that the longest is 0.9 π); in H the scale making the total
   /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
   double length_scale = 0;
@@ -131,8 +132,22 @@ AngleRelaxation relax_intersection_angles(const Topology& topology, std::span<do
 /// Yamabe u = 0 and η reproducing l0.
 InitialMetric initial_metric(const Mesh& mesh, const Topology& topology, const InitialMetricOptions& options = {});
 
-/// The mesh's own 3D edge lengths, #E in topology's edge order.
+/// The mesh's own 3D edge lengths, #E in topology's edge order (hypot: no overflow or underflow
+/// of the squares at any scale).
 std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology);
+
+/// The power of two by which lengths (or positions) whose largest size is `extent` are multiplied
+/// before any product of them is formed: 1 when extent lies in [2^-100, 2^100] (the input's own
+/// unit is kept), otherwise the power of two that brings extent into [1, 2). Multiplying by it is
+/// exact in binary floating point, so the geometry is unchanged, and squares and Heron's products
+/// stay far from underflow and overflow at any scale a double holds. 1 when extent is 0, infinite
+/// or NaN; 2^1023 for extents below 2^-1022 (subnormal).
+double unit_power_of_two(double extent);
+
+/// The factor s for which the euclidean triangles of lengths s·l (#E) have total area
+/// target_area (Heron's formula in Kahan's stable form, evaluated on l times a power of two so
+/// that no product under- or overflows at any scale); 1 when that area is 0.
+double euclidean_area_scale(const Topology& topology, std::span<const double> l, double target_area);
 
 // ---------------------------------------------------------------------------------------------
 // Kernels. Shapes: u #V, l #E, theta #F×3 (per corner), K #V, area #F, blocks #F×9.

@@ -194,6 +194,12 @@ struct UniformizeResult {
 
   Geometry geometry = Geometry::Euclidean;  ///< the geometry used
   BoundaryMode boundary = BoundaryMode::Free;  ///< Free for a closed surface
+  /// The power of two the input's positions were multiplied by before the stages
+  /// (unit_power_of_two() of the bounding box's largest side): 1 unless that side is shorter than
+  /// 2^-100 or longer than 2^100. Exact, so the geometry is the input's; the lengths and euclidean
+  /// layouts are in the scaled unit (metric.length_scale includes this factor), 3D positions
+  /// (refinement.mesh) in the input's.
+  double input_scale = 1;
 
   InitialMetric metric;  ///< initial_metric() (status NotRun for lay_out_metric())
   Target target;         ///< the target curvature the flow ran to (empty for lay_out_metric())
