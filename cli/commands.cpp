@@ -271,9 +271,29 @@ ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptio
 
 Json repairs_json(const std::vector<ricci::Repair>& repairs) {
   Json out = Json::array();
-  for (const ricci::Repair& rep : repairs)
-    out.push_back(Json{{"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}});
+  for (const ricci::Repair& rep : repairs) {
+    Json j{{"kind", std::string(ricci::repair_name(rep.kind))}, {"count", rep.count}, {"message", rep.message}};
+    if (rep.kind == ricci::RepairKind::LengthsMollified) j["relative_epsilon"] = rep.value;
+    out.push_back(std::move(j));
+  }
   return out;
+}
+
+std::optional<ricci::Repair> mollification_repair(const ricci::Mollification& m) {
+  if (!(m.epsilon > 0)) return std::nullopt;
+  ricci::Repair rep;
+  rep.kind = ricci::RepairKind::LengthsMollified;
+  rep.count = m.faces;
+  rep.value = m.mean_edge > 0 ? m.epsilon / m.mean_edge : 0;
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "mollified the edge lengths: %lld triangle(s) (the flattest: face %lld) came within %.3g mean "
+                "edge lengths of breaking the triangle inequality; %.3g mean edge lengths were added to every "
+                "edge (the map is conformal for the mollified lengths)",
+                static_cast<long long>(m.faces), static_cast<long long>(m.worst_face), m.delta / m.mean_edge,
+                rep.value);
+  rep.message = buf;
+  return rep;
 }
 
 std::vector<ricci::Index> infeasible_ears(const ricci::Topology& topo, const ricci::Target& target) {

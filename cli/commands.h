@@ -24,6 +24,7 @@
 #include <string_view>
 #include <vector>
 
+#include "ricci/metric.h"
 #include "ricci/status.h"
 #include "ricci/validate.h"
 
@@ -195,6 +196,8 @@ ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptio
 
 /// The `repairs` array of the JSON reports.
 nlohmann::ordered_json repairs_json(const std::vector<ricci::Repair>& repairs);
+/// The repair to list when the metric's lengths were mollified (epsilon > 0), else nothing.
+std::optional<ricci::Repair> mollification_repair(const ricci::Mollification& m);
 /// Best-effort early test that `a` and `b` name the same file (atomic writes check again).
 bool same_file(const std::string& a, const std::string& b);
 /// Appends the shortest round-trip decimal of x.

@@ -541,6 +541,10 @@ int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::tim
   ricci::UniformizeResult u = ricci::conformal_metric(validated.mesh, topo, uo, &target);
   r.flips = u.intrinsic.used;
   r.intrinsic = u.intrinsic;
+  if (const auto rep = mollification_repair(u.metric.mollification)) {
+    r.repairs.push_back(*rep);
+    print_note(options.quiet, rep->message);
+  }
   if (u.metric.status == Status::Ok) {
     r.have_metric = true;
     r.length_scale = u.metric.length_scale;
@@ -588,6 +592,10 @@ int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_
   if (metric.status != Status::Ok) {
     fail(r, metric.status, r.file + ": initial metric: " + metric.message);
     return finish(options, r, start);
+  }
+  if (const auto rep = mollification_repair(metric.mollification)) {
+    r.repairs.push_back(*rep);
+    print_note(options.quiet, rep->message);
   }
   r.have_metric = true;
   r.length_scale = metric.length_scale;

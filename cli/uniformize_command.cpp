@@ -804,6 +804,10 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   run.have_result = true;
   ricci::UniformizeResult& r = run.result;
   if (!r.intrinsic.fallback.empty()) run.scheme = "circle-packing";
+  if (const auto rep = mollification_repair(r.metric.mollification)) {
+    run.repairs.push_back(*rep);
+    print_note(o.quiet, rep->message);
+  }
   for (const std::string& n : r.flow.notes) {
     run.notes.push_back(n);
     print_note(o.quiet, n);

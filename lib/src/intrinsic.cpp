@@ -181,8 +181,10 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
   return r;
 }
 
-IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry) {
+IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                             double mollify_margin) {
   std::vector<double> l = mesh_edge_lengths(mesh, topology);
+  const Mollification mollification = mollify_lengths(topology, l, mollify_margin);
   double scale = 1;
   if (geometry == Geometry::Euclidean) {
     double longest = 0;
@@ -209,7 +211,9 @@ IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& t
       scale = spherical_scale(topology, l, std::sqrt(4 * std::numbers::pi / area) * p);
   }
   for (double& x : l) x *= scale;
-  return make_intrinsic_triangulation(topology, geometry, l, true);
+  IntrinsicResult r = make_intrinsic_triangulation(topology, geometry, l, true);
+  r.mollification = mollification;
+  return r;
 }
 
 void vertex_scaling_structure(const IntrinsicTriangulation& tri, ConformalStructure& structure) {

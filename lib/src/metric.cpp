@@ -105,6 +105,10 @@ bool InitialMetricOptions::is_valid(std::string* why) const {
     if (why) *why = "length_scale must be finite and non-negative (0 picks the default)";
     return false;
   }
+  if (!(mollify_margin >= 0 && mollify_margin <= 1e-3)) {
+    if (why) *why = "mollify_margin must be in [0, 1e-3] (0 turns mollification off)";
+    return false;
+  }
   return true;
 }
 
@@ -119,6 +123,30 @@ std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology
     l[e] = d2 < 0x1p-1000 || !(d2 < 0x1p1000) ? std::hypot(dx, dy, dz) : std::sqrt(d2);
   }
   return l;
+}
+
+Mollification mollify_lengths(const Topology& t, std::span<double> l, double relative_margin) {
+  Mollification m;
+  if (l.empty() || !(relative_margin > 0)) return m;
+  const double n = static_cast<double>(l.size());
+  for (const double x : l) m.mean_edge += x / n;  // no overflow of the sum at any scale
+  m.delta = relative_margin * m.mean_edge;
+  for (Index f = 0; f < t.num_faces; ++f) {
+    bool below = false;
+    for (int k = 0; k < 3; ++k) {
+      const double need = l[t.corner_edge[3 * f + k]] - l[t.corner_edge[3 * f + (k + 1) % 3]] -
+                          l[t.corner_edge[3 * f + (k + 2) % 3]] + m.delta;
+      if (need > 0) below = true;
+      if (need > m.epsilon) {
+        m.epsilon = need;
+        m.worst_face = f;
+      }
+    }
+    if (below) ++m.faces;
+  }
+  if (m.epsilon > 0)
+    for (double& x : l) x += m.epsilon;
+  return m;
 }
 
 double unit_power_of_two(double extent) {
@@ -169,6 +197,7 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     const double* b = &mesh.positions[3 * static_cast<std::size_t>(t.edge_vertices[2 * e + 1])];
     r.l0[e] = std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
   }
+  r.mollification = mollify_lengths(t, r.l0, options.mollify_margin);
   double longest = 0;
   for (const double x : r.l0) longest = std::max(longest, x);
   double scale = options.length_scale;

@@ -175,10 +175,10 @@ AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology,
 // solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
 // and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
 // false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed.
-bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, UniformizeResult& r,
-                     IntrinsicTriangulation& tri) {
+bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
+                     UniformizeResult& r, IntrinsicTriangulation& tri) {
   r.intrinsic.used = true;
-  IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry);
+  IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry, mollify_margin);
   if (ir.status != Status::Ok) {
     r.status = ir.status;
     r.failed_stage = "initial_metric";
@@ -354,7 +354,7 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    if (flow_with_flips(mesh, topology, fo, r, m.tri)) {
+    if (flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri)) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
       m.paths = trace_input_edges(m.tri, topology);
       if (m.paths.status != Status::Ok) return fail(m.paths.status, "straighten", m.paths.message);

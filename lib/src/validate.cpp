@@ -16,6 +16,7 @@ std::string_view repair_name(RepairKind k) {
     case RepairKind::ComponentsDropped: return "components_dropped";
     case RepairKind::PolygonsTriangulated: return "polygons_triangulated";
     case RepairKind::EarsSplit: return "ears_split";
+    case RepairKind::LengthsMollified: return "lengths_mollified";
   }
   return "unknown_repair";
 }
@@ -183,9 +184,21 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
   for (Index i = 0; i < kf; ++i) {
     if (detail::is_degenerate(shape_of(input, faces, i), options.degenerate_tolerance)) {
       const Index f = kept_faces[i];
+      // Name why: two vertices at one position, or three on a line. (Faces of small but
+      // non-zero area pass: the metric mollifies them, mollify_lengths().)
+      std::string why = "its vertices are collinear";
+      for (int k = 0; k < 3; ++k) {
+        const Index a = faces[3 * i + k], b = faces[3 * i + (k + 1) % 3];
+        const double* p = &input.positions[3 * static_cast<std::size_t>(a)];
+        const double* q = &input.positions[3 * static_cast<std::size_t>(b)];
+        if (p[0] == q[0] && p[1] == q[1] && p[2] == q[2]) {
+          why = "vertices " + str(std::min(a, b)) + " and " + str(std::max(a, b)) + " are at the same position";
+          break;
+        }
+      }
       return fail(Status::DegenerateFace, Element::Face, f,
                   "face " + str(f) + " (vertices " + str(faces[3 * i]) + ", " + str(faces[3 * i + 1]) + ", " +
-                      str(faces[3 * i + 2]) + ") has zero area");
+                      str(faces[3 * i + 2]) + ") has zero area: " + why);
     }
   }
   // 7: duplicates.

@@ -88,6 +88,7 @@ struct IntrinsicResult {
   IntrinsicTriangulation triangulation;
   std::int64_t delaunay_flips = 0;  ///< geometric flips to the intrinsic Delaunay triangulation
   Index delaunay_refused = 0;       ///< non-Delaunay edges left there (flip refused, see can_flip())
+  Mollification mollification;      ///< mesh_intrinsic_triangulation(): of the 3D lengths
 };
 
 /// The triangulation of `topology` with the metric of edge lengths l (#E) in `geometry`, keeping
@@ -105,7 +106,10 @@ IntrinsicResult make_intrinsic_triangulation(const Topology& topology, Geometry 
 /// first, 0.9 of the largest admissible scale). Reading them at euclidean area 4π instead breaks the
 /// spherical triangle inequality on coarse meshes (a tetrahedron) and starts far from the round
 /// sphere's scale. Statuses as make_intrinsic_triangulation().
-IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry);
+/// The 3D lengths are mollified first (mollify_lengths() with mollify_margin; 0: not at all), as
+/// initial_metric() does.
+IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& topology, Geometry geometry,
+                                             double mollify_margin = kMollifyMargin);
 
 /// ConformalStructure of the Yamabe scheme (metric.h) for the current triangulation: η_e = B_e²/2.
 /// Overwrites `structure` (its eta is resized to #E).

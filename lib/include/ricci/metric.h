@@ -66,6 +66,28 @@ struct ConformalStructure {
   std::vector<double> eta;   ///< #E: η_ij (cos Φ_ij, inversive distance, or the Yamabe weight)
 };
 
+/// Default margin of mollify_lengths(), relative to the mean edge length.
+inline constexpr double kMollifyMargin = 1e-12;
+
+/// What mollify_lengths() did.
+struct Mollification {
+  double delta = 0;       ///< the margin: afterwards l_i + l_j ≥ l_k + delta in every triangle
+  double epsilon = 0;     ///< the length added to every edge; 0 when no triangle was below the margin
+  double mean_edge = 0;   ///< the mean edge length before (delta = margin × mean_edge)
+  Index faces = 0;        ///< triangles below the margin before
+  Index worst_face = kInvalid;  ///< the triangle that set epsilon (kInvalid when epsilon is 0)
+};
+
+/// Intrinsic mollification (Sharp & Crane 2020, "A Laplacian for nonmanifold triangle meshes",
+/// §4.5): adds the smallest ε ≥ 0 to every edge length l (#E) so that every triangle satisfies
+/// the triangle inequalities with the margin δ = relative_margin × mean edge length,
+/// ε = max over corners of (l_k − l_i − l_j + δ). Near-degenerate triangles (needles with an edge
+/// below δ, caps whose longest edge is within δ of the other two) get a metric the flow and the
+/// layout resolve; where no triangle is below the margin nothing changes (ε = 0). Being the same
+/// shift for every edge, it changes the metric by ε/l relative, the least uniform repair.
+/// relative_margin ≤ 0 or no edges: nothing is done.
+Mollification mollify_lengths(const Topology& topology, std::span<double> l, double relative_margin = kMollifyMargin);
+
 /// Options of initial_metric().
 struct InitialMetricOptions {
   Geometry geometry = Geometry::Euclidean;  ///< background geometry of the metric
@@ -79,6 +101,9 @@ struct InitialMetricOptions {
   /// Circle packing: after Step 2, lower Φ on the separating 3- and 4-cycles that would make
   /// curvature 0 inside them infeasible (relax_intersection_angles()). Off: Step 2 exactly.
   bool relax_angles = true;
+  /// mollify_lengths() margin applied to the 3D edge lengths before anything else (relative to
+  /// the mean edge length; 0 turns it off). In [0, 1e-3].
+  double mollify_margin = kMollifyMargin;
 
   /// True when length_scale is finite and ≥ 0; otherwise false, with the reason in *why (when why
   /// is not null).
@@ -97,6 +122,8 @@ struct InitialMetric {
   std::vector<double> gamma;    ///< #V: initial radii γ_i (circle schemes; empty for Yamabe)
   std::vector<double> l0;       ///< #E: the scaled 3D edge lengths the metric approximates
   double length_scale = 1;      ///< the scale that was applied
+  /// The mollification of the 3D lengths (before length_scale; epsilon 0 when none was needed).
+  Mollification mollification;
   Index edges_clamped_high = 0; ///< circle packing: Φ clamped to π/2 (cos Φ < 0)
   Index edges_clamped_low = 0;  ///< circle packing: Φ clamped to 0 (circles did not meet)
   Index cycles_relaxed = 0;     ///< circle packing: 3- and 4-cycles whose Φ were lowered

@@ -15,8 +15,11 @@
 //   5. MultipleComponents       faces form several components (connected through shared vertices);
 //                               with keep_largest_component the largest (most faces; ties: the
 //                               one with the smallest face index) is kept and the rest dropped
-//   6. DegenerateFace           a face has (numerically) zero area: twice its area is at most
-//                               degenerate_tolerance × (its longest edge)²
+//   6. DegenerateFace           a face has zero area: twice its area is at most
+//                               degenerate_tolerance × (its longest edge)² (default 0: exactly
+//                               zero, two vertices at one position or three on a line, named in
+//                               the message; nearly flat faces pass and the metric mollifies
+//                               them, mollify_lengths())
 //   7. DuplicateFace            two faces use the same three vertices (in any order)
 //   8. NonManifoldEdge          an edge has more than two faces
 //   9. NonOrientable            no consistent orientation exists; otherwise inconsistent
@@ -83,8 +86,9 @@ struct ValidateOptions {
   /// Repair inconsistent face orientation by flipping faces; false makes it an error
   /// (Status::InconsistentOrientation).
   bool repair_orientation = true;
-  /// A face is degenerate when 2·area ≤ degenerate_tolerance · (longest edge)². In [0, 1).
-  double degenerate_tolerance = 1e-12;
+  /// A face is degenerate when 2·area ≤ degenerate_tolerance · (longest edge)². In [0, 1); the
+  /// default 0 refuses exactly flat faces only (initial_metric() mollifies nearly flat ones).
+  double degenerate_tolerance = 0;
   /// After all checks passed, split every ear with split_ears() (reported as RepairKind::EarsSplit).
   /// Off by default: the mesh is then changed only where a check requires it. An ear's angle is
   /// below π whatever the metric, so a boundary target giving it a curvature ≤ 0 (the inner loops
@@ -103,6 +107,9 @@ enum class RepairKind : int {
   ComponentsDropped,            ///< components other than the largest were removed (keep_largest_component)
   PolygonsTriangulated,         ///< the reader fan-triangulated polygons with more than three sides
   EarsSplit,                    ///< the edge opposite each ear was split at its midpoint (split_ears)
+  /// The metric's lengths were mollified (mollify_lengths(); made by initial_metric(), listed by
+  /// the CLI next to validation's repairs): `value` is ε relative to the mean edge length.
+  LengthsMollified,
 };
 
 /// Stable snake_case name of a repair ("faces_flipped", …).
@@ -111,9 +118,11 @@ std::string_view repair_name(RepairKind k);
 /// One change made to a mesh, as listed in ValidateResult::repairs and LoadResult::repairs.
 struct Repair {
   RepairKind kind;         ///< what was changed
-  /// vertices dropped, faces flipped, components dropped, polygons split or ears split
+  /// vertices dropped, faces flipped, components dropped, polygons split, ears split or faces
+  /// below the mollification margin
   std::int64_t count = 0;
   std::string message;     ///< a full sentence, e.g. "dropped 1113 vertices used by no face (first: 34835)"
+  double value = 0;        ///< lengths_mollified: ε / mean edge length; 0 for the others
 };
 
 /// What validate_mesh() returns.

@@ -1,0 +1,217 @@
+// Near-degenerate triangles (issue 23): validation refuses only faces of exactly zero area, naming
+// their vertices; triangles that are nearly flat are mollified (mollify_lengths(), Sharp & Crane
+// 2020) and map.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "ricci/metric.h"
+#include "ricci/topology.h"
+#include "ricci/uniformize.h"
+#include "ricci/validate.h"
+#include "shapes.h"
+#include "support.h"
+#include <nlohmann/json.hpp>
+
+using namespace ricci;
+
+namespace {
+
+// A planar n×n grid of unit size split into triangles along one diagonal, with the edge from
+// vertex (5, 5) to (6, 5) shortened to `fraction` of the others by moving (5, 5) along it.
+Mesh grid_with_short_edge(double fraction) {
+  const int n = 10;
+  Mesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) m.positions.insert(m.positions.end(), {double(i) / n, double(j) / n, 0.0});
+  auto id = [&](int i, int j) { return static_cast<Index>(j * (n + 1) + i); };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i)
+      m.faces.insert(m.faces.end(), {id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+  m.positions[3 * id(5, 5)] = m.positions[3 * id(6, 5)] - fraction / n;
+  return m;
+}
+
+// The same grid with vertex (5, 5) moved to `offset` off the middle of the edge from (5, 4) to
+// (6, 5): the triangle on that edge becomes a cap whose angle at (5, 5) is π up to ~offset.
+Mesh grid_with_cap(double offset) {
+  Mesh m = grid_with_short_edge(1);
+  const Index v = 5 * 11 + 5;
+  m.positions[3 * v] = 0.55 - offset;
+  m.positions[3 * v + 1] = 0.45 + offset;
+  return m;
+}
+
+std::string obj_text(const Mesh& m) {
+  std::string s;
+  char buf[128];
+  for (Index v = 0; v < m.num_vertices(); ++v) {
+    std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g\n", m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+    s += buf;
+  }
+  for (Index f = 0; f < m.num_faces(); ++f)
+    s += "f " + std::to_string(m.faces[3 * f] + 1) + " " + std::to_string(m.faces[3 * f + 1] + 1) + " " +
+         std::to_string(m.faces[3 * f + 2] + 1) + "\n";
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("mollify_lengths: the smallest shift that gives every triangle the margin, none when all have it") {
+  // One triangle (1, 1, 2 − 1e-15): a cap below any margin.
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 0.5, 1e-9, 0};
+  m.faces = {0, 1, 2};
+  const TopologyResult tr = build_topology(m.faces, 3);
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  std::vector<double> l = mesh_edge_lengths(m, t);
+  const std::vector<double> before = l;
+  const Mollification mo = mollify_lengths(t, l, 1e-6);
+  CHECK(mo.faces == 1);
+  CHECK(mo.worst_face == 0);
+  CHECK(mo.epsilon > 0);
+  CHECK(std::abs(mo.mean_edge - (before[0] + before[1] + before[2]) / 3) < 1e-15);
+  for (int k = 0; k < 3; ++k) {
+    CHECK(l[k] == before[k] + mo.epsilon);
+    // The margin holds, and ε is the least that gives it (the tight inequality sits at δ).
+    CHECK(l[(k + 1) % 3] + l[(k + 2) % 3] - l[k] >= mo.delta * (1 - 1e-9));
+  }
+  double tight = INFINITY;
+  for (int k = 0; k < 3; ++k) tight = std::min(tight, l[(k + 1) % 3] + l[(k + 2) % 3] - l[k]);
+  CHECK(std::abs(tight - mo.delta) < 1e-15);
+  // Well-shaped triangles: nothing changes.
+  std::vector<double> good = {1, 1, 1};
+  const Mollification none = mollify_lengths(t, good, 1e-6);
+  CHECK(none.epsilon == 0);
+  CHECK(none.faces == 0);
+  CHECK(none.worst_face == kInvalid);
+  CHECK(good == std::vector<double>{1, 1, 1});
+  // Margin 0: off.
+  std::vector<double> cap = before;
+  CHECK(mollify_lengths(t, cap, 0).epsilon == 0);
+  CHECK(cap == before);
+}
+
+TEST_CASE("validate: a face of exactly zero area names its coincident or collinear vertices") {
+  Mesh m;
+  m.positions = {0, 0, 0, 1, 0, 0, 2, 0, 0, 1, 0, 0};
+  m.faces = {0, 1, 2};
+  ValidateResult r = validate_mesh(m);
+  CHECK(r.status == Status::DegenerateFace);
+  CHECK(r.message.find("collinear") != std::string::npos);
+  m.faces = {0, 1, 3};
+  r = validate_mesh(m);
+  CHECK(r.status == Status::DegenerateFace);
+  CHECK(r.message.find("vertices 1 and 3 are at the same position") != std::string::npos);
+}
+
+TEST_CASE("uniformize: a grid disk with one edge at 1e-13 of its neighbours is mollified and maps") {
+  for (const double fraction : {1e-13, 1e-14, 1e-6}) {
+    CAPTURE(fraction);
+    const ValidateResult v = validate_mesh(grid_with_short_edge(fraction));
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    for (const Scheme scheme : {Scheme::Yamabe, Scheme::CirclePacking}) {
+      CAPTURE(std::string(scheme_name(scheme)));
+      UniformizeOptions o;
+      o.metric.scheme = scheme;
+      const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+      REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+      const Mollification& mo = r.metric.mollification;
+      MESSAGE(scheme_name(scheme) << " at " << fraction << ": epsilon " << mo.epsilon << " (delta " << mo.delta << "), "
+                                  << mo.faces << " faces below the margin; " << r.brief_report());
+      if (fraction < 1e-12) {
+        CHECK(mo.epsilon > 0);
+        CHECK(mo.faces >= 1);
+        CHECK(mo.epsilon <= 2 * mo.delta);
+      } else {
+        CHECK(mo.epsilon == 0);  // a short edge, but no triangle below the margin
+      }
+      CHECK(r.flow.max_curvature_error < 1e-12);
+      CHECK(r.layout.max_edge_length_error < 1e-9);
+      CHECK(r.layout.flipped_faces == 0);
+      for (const double x : r.layout.positions) REQUIRE(std::isfinite(x));
+      CHECK(std::isfinite(r.angles.mean_abs_log));
+    }
+  }
+}
+
+TEST_CASE("uniformize: a cap flat to rounding is mollified and every scheme maps it with and without flips") {
+  for (const double offset : {1e-16, 1e-12}) {
+    const ValidateResult v = validate_mesh(grid_with_cap(offset));
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    for (const Scheme scheme : {Scheme::Yamabe, Scheme::CirclePacking, Scheme::InversiveDistance}) {
+      for (const bool flips : {true, false}) {
+        if (!flips && scheme != Scheme::Yamabe) continue;
+        CAPTURE(offset);
+        CAPTURE(std::string(scheme_name(scheme)));
+        CAPTURE(flips);
+        UniformizeOptions o;
+        o.metric.scheme = scheme;
+        o.intrinsic_flips = flips;
+        const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+        UniformizeOptions off = o;
+        off.metric.mollify_margin = 0;
+        const UniformizeResult r0 = uniformize(v.mesh, v.topology, off);
+        MESSAGE(scheme_name(scheme) << (flips ? " with flips" : "") << " at " << offset << ": " << r.brief_report()
+                                    << "; epsilon " << r.metric.mollification.epsilon << "; unmollified: "
+                                    << r0.brief_report());
+        REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+        CHECK(r.metric.mollification.epsilon > 0);
+        CHECK(r.metric.mollification.epsilon <= 2 * r.metric.mollification.delta);
+        CHECK(r.flow.max_curvature_error < 1e-12);
+        CHECK(r.layout.max_edge_length_error < 1e-9);
+        CHECK(r.layout.flipped_faces == 0);
+        CHECK(std::isfinite(r.angles.mean_abs_log));
+        // The cap's angle is π in double: vertex scaling on the input's triangulation and
+        // inversive distance start outside the triangle inequality unless mollified. (Flips
+        // remove the cap; circle packing's radii ignore it.)
+        if (scheme == Scheme::InversiveDistance || !flips) CHECK(r0.status == Status::TriangleInequality);
+      }
+    }
+  }
+}
+
+TEST_CASE("cli uniformize and flow: the mollification is listed in the repairs with its epsilon") {
+  ricci_test::TempDir dir;
+  ricci_test::write_bytes(dir / "cap.obj", obj_text(grid_with_cap(1e-16)));
+  const ricci_test::CommandResult u =
+      ricci_test::run_cli({"uniformize", (dir / "cap.obj").string(), "-o", (dir / "out").string(), "--no-pictures", "--json"});
+  REQUIRE_MESSAGE(u.exit_code == 0, u.err);
+  const nlohmann::json j = nlohmann::json::parse(u.out);
+  CHECK(j["status"] == "ok");
+  REQUIRE(j["repairs"].size() == 1);
+  CHECK(j["repairs"][0]["kind"] == "lengths_mollified");
+  CHECK(j["repairs"][0]["count"] == 1);
+  CHECK(j["repairs"][0]["relative_epsilon"].get<double>() > 0);
+  CHECK(j["repairs"][0]["relative_epsilon"].get<double>() <= 2 * kMollifyMargin);
+  CHECK(u.err.find("mollified the edge lengths") != std::string::npos);
+  for (const std::string flips : {"", "--no-flips"}) {
+    std::vector<std::string> args = {"flow", (dir / "cap.obj").string(), "-o", (dir / ("m" + flips + ".csv")).string(), "--json"};
+    if (!flips.empty()) args.push_back(flips);
+    const ricci_test::CommandResult f = ricci_test::run_cli(args);
+    CAPTURE(flips);
+    REQUIRE_MESSAGE(f.exit_code == 0, f.err);
+    const nlohmann::json k = nlohmann::json::parse(f.out);
+    REQUIRE(k["repairs"].size() == 1);
+    CHECK(k["repairs"][0]["kind"] == "lengths_mollified");
+  }
+  // Exactly flat: refused, the vertices named.
+  Mesh flat = grid_with_cap(0);  // on integer coordinates, where the cap is exactly flat
+  for (Index v = 0; v < flat.num_vertices(); ++v) {
+    flat.positions[3 * v] = v % 11;
+    flat.positions[3 * v + 1] = v / 11;
+  }
+  flat.positions[3 * 60] = 5.5;
+  flat.positions[3 * 60 + 1] = 4.5;
+  ricci_test::write_bytes(dir / "flat.obj", obj_text(flat));
+  const ricci_test::CommandResult z =
+      ricci_test::run_cli({"uniformize", (dir / "flat.obj").string(), "-o", (dir / "out2").string(), "--no-pictures"});
+  CHECK(z.exit_code == 5);
+  CHECK(z.err.find("flat.obj") != std::string::npos);
+  CHECK(z.err.find("has zero area: its vertices are collinear") != std::string::npos);
+  CHECK(!std::filesystem::exists(dir / "out2"));
+}
