@@ -150,7 +150,7 @@ Mollification mollify_lengths(const Topology& t, std::span<double> l, double rel
 }
 
 double unit_power_of_two(double extent) {
-  if (!(extent > 0) || !std::isfinite(extent)) return 1;
+  if (!std::isfinite(extent) || !(extent > 0)) return 1;  // isfinite first: no comparison with NaN
   if (extent >= 0x1p-100 && extent <= 0x1p100) return 1;
   int e = 0;
   std::frexp(extent, &e);  // extent = m·2^e, m in [0.5, 1)
