@@ -694,6 +694,9 @@ int run(int argc, const char* const* argv) {
   // An OpenMP default above the processors available (a mistaken OMP_NUM_THREADS) is lowered to
   // them: every parallel region would otherwise try to start that many threads.
   ricci::cap_default_threads();
+  // A file-size limit (ulimit -f) reached while writing is a failed write, not a signal: with
+  // SIGXFSZ ignored the write returns EFBIG, and the writers clean up and exit 6 as on a full disk.
+  std::signal(SIGXFSZ, SIG_IGN);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

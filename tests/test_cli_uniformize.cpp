@@ -376,6 +376,28 @@ TEST_CASE("cli uniformize and flow: a failed write prints no ok summary, exits 6
   CHECK(fs::is_empty(tmp.path()));
 }
 
+TEST_CASE("cli uniformize, flow and convert: a write cut off midway (file-size limit) exits 6 and leaves nothing") {
+  // The write fails after part of a file landed, as on a disk that fills up: the process runs with
+  // a file-size limit of 16 blocks (ulimit -f), below every output of the embedded default. Before
+  // the CLI ignored SIGXFSZ it died by that signal and left its staging directory behind.
+  TempDir tmp;
+  const std::string cli = RICCI_CLI_PATH;
+  const std::vector<std::vector<std::string>> runs = {
+      {"uniformize", "-o", (tmp / "out").string(), "--no-pictures", "-q"},
+      {"flow", "-o", (tmp / "metric.csv").string(), "-q"},
+      {"convert", (ricci_test::fixtures_dir() / "genus2.obj").string(), "-o", (tmp / "mesh.ply").string()}};
+  for (const std::vector<std::string>& args : runs) {
+    std::string line = "ulimit -f 16; exec '" + cli + "'";
+    for (const std::string& a : args) line += " '" + a + "'";
+    CAPTURE(line);
+    const auto r = ricci_test::run_program("/bin/sh", {"-c", line});
+    INFO(r.err);
+    CHECK(r.exit_code == 6);
+    CHECK(r.out.find("ok") != 0);
+    CHECK(fs::is_empty(tmp.path()));
+  }
+}
+
 TEST_CASE("cli uniformize: an interrupted run leaves no partial output and keeps the previous OUTDIR") {
   TempDir tmp;
   for (int sig : {SIGINT, SIGTERM}) {
