@@ -377,6 +377,7 @@ class FlowSolver {
   const ConformalStructure& s_;
   const Target& target_;
   const FlowOptions& options_;
+  double tolerance_ = 0;  // options_.tolerance, raised to curvature_rounding() (run())
   FlowResult& r_;
   Clock::time_point start_ = Clock::now();
   ChunkedSum sum_;
@@ -1525,7 +1526,7 @@ bool FlowSolver::line_search() {
       const double f1 = energy_slope(trial_.K);
       const double quadratic = t * (2 * f0 + f1) / 3 + t * t * df0 / 6;
       double estimate = quadratic, spread = t * std::abs(f1 - f0 - t * df0) / 6;
-      if (trial_error >= options_.tolerance) {
+      if (trial_error >= tolerance_) {
         const Clock::time_point kernel_start = Clock::now();
         angle_derivative_blocks(trial_topology(), trial_structure(), u_trial_, trial_.l, trial_.theta, blocks_);
         blocks_at_u_ = false;
@@ -1568,7 +1569,7 @@ bool FlowSolver::line_search() {
     fail(Status::LineSearchFailed, "Newton step " + std::to_string(iteration_) +
                                        " stalled at max |K̄ − K| = " + format_double("%.3g", error_) +
                                        ", the rounding level of the curvatures of this mesh: the tolerance " +
-                                       format_double("%.3g", options_.tolerance) +
+                                       format_double("%.3g", tolerance_) +
                                        " is below what double precision resolves here");
     return false;
   }
@@ -1806,8 +1807,17 @@ void FlowSolver::run() {
     }
   }
 
+  // A tolerance below what the curvatures resolve (a few ulps of the angle sums) is raised to that
+  // level with a note: no step could be ranked below it.
+  tolerance_ = options_.tolerance;
+  if (const double floor = curvature_rounding(); tolerance_ < floor) {
+    tolerance_ = floor;
+    r_.notes.push_back("the tolerance " + format_double("%.3g", options_.tolerance) +
+                       " is below the rounding level of the curvatures (" + format_double("%.3g", floor) +
+                       ", 16 ulps of the largest angle sum); solved to that level");
+  }
   while (true) {
-    if (error_ < options_.tolerance) {
+    if (error_ < tolerance_) {
       if (newton && polish_step()) continue;
       r_.status = Status::Ok;
       r_.message = "converged";
@@ -1822,7 +1832,7 @@ void FlowSolver::run() {
            "the curvature error is not finite at iteration " + std::to_string(iteration_));
       return;
     }
-    if (newton && spherical_gauge_ && max_error(cur_.K, K_target_, unknown_) < 0.01 * options_.tolerance) {
+    if (newton && spherical_gauge_ && max_error(cur_.K, K_target_, unknown_) < 0.01 * tolerance_) {
       fail(Status::NotConverged,
            "Newton converged on the free vertices but not at the three vertices pinned for the Möbius gauge "
            "of the sphere (their starting u is not reachable by a Möbius transformation of the solution)");
@@ -1831,7 +1841,7 @@ void FlowSolver::run() {
     if (iteration_ >= options_.max_iterations) {
       fail(Status::NotConverged, "the iteration limit " + std::to_string(options_.max_iterations) +
                                      " was reached with max |K̄ − K| = " + format_double("%.3g", error_) +
-                                     " above the tolerance " + format_double("%.3g", options_.tolerance));
+                                     " above the tolerance " + format_double("%.3g", tolerance_));
       return;
     }
     ++iteration_;

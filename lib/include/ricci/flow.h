@@ -106,7 +106,9 @@ enum class Method : int { Newton = 0, GradientDescent };
 
 struct FlowOptions {
   Method method = Method::Newton;
-  /// Stop when max_i |K̄_i − K_i| < tolerance (over vertices with a curvature condition).
+  /// Stop when max_i |K̄_i − K_i| < tolerance (over vertices with a curvature condition). A
+  /// tolerance below the curvatures' rounding level (16 ulps of the largest angle sum, about 5e-14)
+  /// is raised to it, with a note.
   double tolerance = 1e-10;
   /// Iteration limit: Newton steps, or gradient-descent steps.
   int max_iterations = 200;
