@@ -14,6 +14,7 @@
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 using namespace ricci;
@@ -34,20 +35,10 @@ Mesh base_surface(std::mt19937_64& rng) {
   }
 }
 
-// Moves one vertex of a random face toward another of its corners (a short edge, fraction
-// 10^-U(3, 15) of it left) or toward the middle of the opposite edge (a cap).
+// One nearly flat face (stress_shapes.h): a short edge or a cap, 1e-3 to 1e-15 of the way left.
 std::string perturb(Mesh& m, std::mt19937_64& rng) {
-  const Index f = ricci_shapes::uniform_index(rng, m.num_faces());
-  const Index a = m.faces[3 * f], b = m.faces[3 * f + 1], c = m.faces[3 * f + 2];
-  const double left = std::pow(10.0, -uniform(rng, 3, 15));
-  const bool cap = ricci_shapes::uniform_index(rng, 2) == 0;
-  double goal[3];
-  for (int k = 0; k < 3; ++k)
-    goal[k] = cap ? 0.5 * (m.positions[3 * b + k] + m.positions[3 * c + k]) : m.positions[3 * b + k];
-  for (int k = 0; k < 3; ++k) m.positions[3 * a + k] = goal[k] + left * (m.positions[3 * a + k] - goal[k]);
-  char buf[96];
-  std::snprintf(buf, sizeof buf, "%s at face %lld, %.3g left", cap ? "cap" : "short edge", static_cast<long long>(f), left);
-  return buf;
+  m = ricci_shapes::nearly_flat_faces(m, rng, 1 + static_cast<int>(ricci_shapes::uniform_index(rng, 2)), 3, 15);
+  return "nearly flat faces";
 }
 
 // A random rotation (normalized quaternion), scale and translation.

@@ -202,6 +202,23 @@ Mesh tiny_huge_torus(int pairs, int n_minor, double tiny) {
   return torus_over(turns, n_minor);
 }
 
+Mesh nearly_flat_faces(const Mesh& mesh, std::mt19937_64& rng, int count, double exponent_min, double exponent_max) {
+  if (count < 0 || !(exponent_min >= 0 && exponent_min <= exponent_max))
+    throw std::invalid_argument("nearly_flat_faces: bad arguments");
+  Mesh m = mesh;
+  for (int i = 0; i < count; ++i) {
+    const Index f = uniform_index(rng, m.num_faces());
+    const Index a = m.faces[3 * f], b = m.faces[3 * f + 1], c = m.faces[3 * f + 2];
+    const double left = std::pow(10.0, -(exponent_min + (exponent_max - exponent_min) * unit_double(rng)));
+    const bool cap = i % 2 == 1;
+    for (int k = 0; k < 3; ++k) {
+      const double goal = cap ? 0.5 * (m.positions[3 * b + k] + m.positions[3 * c + k]) : m.positions[3 * b + k];
+      m.positions[3 * a + k] = goal + left * (m.positions[3 * a + k] - goal);
+    }
+  }
+  return m;
+}
+
 Mesh random_order(const Mesh& mesh, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   const Mesh v = permute_vertices(mesh, rng);
@@ -245,6 +262,13 @@ std::vector<StressMesh> stress_meshes(StressSize size, std::uint64_t seed) {
       small ? graded_disk(32, 60, 1e-6) : graded_disk(64, 150, 1e-6));
   add("tiny-huge-torus", "torus whose meridians alternate gaps of 1e-3 and 1 (relative): tiny edges beside long ones, E",
       small ? tiny_huge_torus(16, 16, 1e-3) : tiny_huge_torus(64, 64, 1e-3));
+  add("nearly-flat-torus", "torus with 8 faces made nearly flat (short edges and caps, 1e-8 to 1e-15 of the way left): "
+      "mollified, E", nearly_flat_faces(small ? torus(24, 12, 1, 0.4) : torus(96, 48, 1, 0.4), rng, 8, 8, 15));
+  add("nearly-flat-pretzel", "genus-2 pretzel with 8 faces made nearly flat (1e-8 to 1e-15 of the way left), H",
+      nearly_flat_faces(pretzel2, rng, 8, 8, 15));
+  add("scale-1e-300-sphere", "icosphere with coordinates x 1e-300 (positions scaled by a power of two first), S",
+      scaled(icosphere(small ? 3 : 5), 1e-300));
+  add("scale-1e300-pretzel", "genus-2 pretzel with coordinates x 1e300, H", scaled(pretzel2, 1e300));
   add("random-order-torus", "torus with vertices and faces in random order, E",
       random_order(small ? torus(40, 20, 1, 0.4) : torus(100, 100, 1, 0.4), seed + 1));
   return out;

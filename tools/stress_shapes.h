@@ -68,6 +68,13 @@ Mesh graded_disk(int segments, int rings, double r_min);
 /// Preconditions: pairs ≥ 2, n_minor ≥ 3, 0 < tiny < 1.
 Mesh tiny_huge_torus(int pairs, int n_minor, double tiny);
 
+/// Nearly flat faces, the class the metric mollifies: `count` times, a random face's first vertex
+/// is moved toward its second (a short edge) or toward the middle of the opposite edge (a cap),
+/// alternately, leaving 10^-U(exponent_min, exponent_max) of the way. The topology is unchanged;
+/// a vertex may land exactly on the other point or line in double (a zero-area face, which
+/// validation refuses by name). Preconditions: count ≥ 0, 0 ≤ exponent_min ≤ exponent_max.
+Mesh nearly_flat_faces(const Mesh& mesh, std::mt19937_64& rng, int count, double exponent_min, double exponent_max);
+
 /// Random vertex and face order of a mesh (permute_vertices then permute_faces from `seed`).
 Mesh random_order(const Mesh& mesh, std::uint64_t seed);
 
