@@ -26,3 +26,7 @@ bash tools/sanitize_meshes.sh build-asan --max-faces 12000 --large-args "--seed-
 # libFuzzer smoke: every reader and load→validate, 15 s each under clang + ASan/UBSan
 # (tools/fuzz/README.md); a crash fails the run and leaves its input in build-fuzz/fuzz-artifacts/.
 bash tools/fuzz_smoke.sh 15
+
+# The house rule of about 150 lines per function: the ten longest of lib/ and cli/ (a report, not
+# a gate).
+bash tools/longest_functions.sh 10

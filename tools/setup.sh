@@ -20,6 +20,7 @@ packages=(
   libclang-rt-14-dev      # clang runtimes: AddressSanitizer, UBSan for the fuzz build
   libfuzzer-14-dev        # libFuzzer: the fuzzing engine of tools/fuzz
   libomp-14-dev           # OpenMP for clang (libgomp serves g++ only): the fuzz build
+  universal-ctags         # function extents for tools/longest_functions.sh (printed by the check)
 )
 
 missing=()
