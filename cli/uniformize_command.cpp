@@ -646,24 +646,25 @@ void fail(Run& run, Status status, const std::string& message) {
   print_error(message);
 }
 
-}  // namespace
+// ---- run_uniformize, stage by stage: each helper returns an exit code when the run ends there ----
 
-int run_uniformize(const UniformizeCommandOptions& o) {
-  const Clock::time_point start = Clock::now();
-  Run run;
-  run.embedded = o.mesh.empty();
-  run.file = run.embedded ? std::string(embedded_default_name()) : o.mesh;
-  run.scheme = o.scheme == "auto" ? "yamabe" : o.scheme;
-  run.from_metric = !o.metric.empty();
-  const char* cmd = run.from_metric ? "layout" : "uniformize";
-  auto usage = [&](const std::string& m) {
-    fail(run, Status::InvalidArgument, m);
-    return finish(o, run, start, kExitUsage);
-  };
+int usage_error(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, const std::string& m) {
+  fail(run, Status::InvalidArgument, m);
+  return finish(o, run, start, kExitUsage);
+}
 
-  // ---- settings ----
-  std::string why;
+// What the command's options say: the library's options and the target and boundary specs.
+struct Settings {
   ricci::UniformizeOptions uo;
+  TargetSpec target;
+  BoundarySpec boundary;
+};
+
+// The options checked and turned into Settings (a usage error otherwise), and OUTDIR checked.
+std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, Settings& st) {
+  auto usage = [&](const std::string& m) { return usage_error(o, run, start, m); };
+  std::string why;
+  ricci::UniformizeOptions& uo = st.uo;
   if (o.geometry != "auto") {
     uo.geometry = parse_geometry(o.geometry);
     if (!uo.geometry) return usage("unknown geometry '" + o.geometry + "'");
@@ -675,6 +676,8 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   if (!target_spec) return usage(why);
   const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
   if (!boundary_spec) return usage(why);
+  st.target = *target_spec;
+  st.boundary = *boundary_spec;
   uo.metric.scheme = *scheme;
   uo.metric.relax_angles = !o.no_angle_relax;
   uo.flow.tolerance = o.tolerance;
@@ -695,7 +698,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
 
   std::vector<std::string> protected_paths;
   if (!run.embedded) protected_paths.push_back(o.mesh);
-  if (target_spec->kind == TargetSpec::Kind::Cones) protected_paths.push_back(target_spec->file);
+  if (st.target.kind == TargetSpec::Kind::Cones) protected_paths.push_back(st.target.file);
   if (run.from_metric) protected_paths.push_back(o.metric);
   {
     Status s = Status::Ok;
@@ -706,7 +709,12 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     }
   }
 
-  // ---- load ----
+  return std::nullopt;
+}
+
+// The input (or the embedded default) loaded and validated into v; its repairs noted.
+std::optional<int> load_for_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Clock::time_point start,
+                                ricci::ValidateResult& v) {
   if (run.embedded)
     print_note(o.quiet, std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
   ricci::ValidateOptions vo;
@@ -719,7 +727,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   }
   run.repairs = loaded.repairs;
   for (const ricci::Repair& rep : run.repairs) print_note(o.quiet, rep.message);
-  ricci::ValidateResult v = std::move(loaded.validated);
+  v = std::move(loaded.validated);
   run.topo = v.topology;
   run.have_mesh = true;
   const ricci::Topology& topo = v.topology;
@@ -728,80 +736,90 @@ int run_uniformize(const UniformizeCommandOptions& o) {
                           ", " + std::to_string(topo.num_boundary_loops()) + " boundary loops (" +
                           sci(run.load_seconds) + " s)");
 
-  if (!o.quiet) {
-    uo.on_stage = print_stage;
-    uo.flow.on_iteration = [](const ricci::IterationRecord& rec) {
-      std::cerr << "ricci: flow iteration " << rec.iteration << ": max error " << sci(rec.max_error, "%.3e") << ", "
-                << sci(rec.seconds) << " s\n";
-    };
-  }
+  return std::nullopt;
+}
 
-  if (run.from_metric) {
-    StoredMetric m = read_metric(o.metric, topo);
-    if (m.status != Status::Ok && !topo.is_closed() && !ricci::find_ears(topo).empty()) {
-      // A metric from `ricci flow` whose ears were split: try the splits flow makes with the
-      // default target (circle, then geodesic boundary), then every ear; keep the one that matches.
-      for (int attempt = 0; attempt < 3 && m.status != Status::Ok; ++attempt) {
-        ricci::ValidateResult w = v;
-        if (attempt < 2) {
-          const ricci::BoundaryMode mode = attempt == 0 ? ricci::BoundaryMode::Circle : ricci::BoundaryMode::Geodesic;
-          if (!split_infeasible_ears(w, mode, TargetSpec{}, BoundarySpec{}, "auto", "auto").repair) continue;
-        } else if (ricci::split_ears(w, ricci::find_ears(w.topology)) != Status::Ok) {
-          continue;
-        }
-        StoredMetric again = read_metric(o.metric, w.topology);
-        if (again.status != Status::Ok) continue;
-        m = std::move(again);
-        v = std::move(w);
-        run.repairs.push_back(v.repairs.back());
-        print_note(o.quiet, v.repairs.back().message);
-        run.topo = v.topology;
+// `ricci layout`: the stored metric read against the mesh (its ears split as `ricci flow` split
+// them, when that is what makes it match), then laid out.
+std::optional<int> lay_out_stored_metric(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
+                                         const ricci::UniformizeOptions& uo, ricci::ValidateResult& v) {
+  const ricci::Topology& topo = v.topology;
+  StoredMetric m = read_metric(o.metric, topo);
+  if (m.status != Status::Ok && !topo.is_closed() && !ricci::find_ears(topo).empty()) {
+    // A metric from `ricci flow` whose ears were split: try the splits flow makes with the
+    // default target (circle, then geodesic boundary), then every ear; keep the one that matches.
+    for (int attempt = 0; attempt < 3 && m.status != Status::Ok; ++attempt) {
+      ricci::ValidateResult w = v;
+      if (attempt < 2) {
+        const ricci::BoundaryMode mode = attempt == 0 ? ricci::BoundaryMode::Circle : ricci::BoundaryMode::Geodesic;
+        if (!split_infeasible_ears(w, mode, TargetSpec{}, BoundarySpec{}, "auto", "auto").repair) continue;
+      } else if (ricci::split_ears(w, ricci::find_ears(w.topology)) != Status::Ok) {
+        continue;
       }
+      StoredMetric again = read_metric(o.metric, w.topology);
+      if (again.status != Status::Ok) continue;
+      m = std::move(again);
+      v = std::move(w);
+      run.repairs.push_back(v.repairs.back());
+      print_note(o.quiet, v.repairs.back().message);
+      run.topo = v.topology;
     }
-    if (m.status != Status::Ok) {
-      fail(run, m.status, m.message);
-      return finish(o, run, start);
-    }
-    Geometry g = m.geometry ? *m.geometry : ricci::natural_geometry(topo);
-    if (uo.geometry && m.geometry && *uo.geometry != *m.geometry)
-      return usage("--geometry " + o.geometry + " contradicts the metric file's geometry " +
-                   std::string(ricci::geometry_name(*m.geometry)));
-    if (uo.geometry) g = *uo.geometry;
-    run.result = ricci::lay_out_metric(v.mesh, topo, g, m.lengths, uo);
-  } else {
-    // Boundary mode and target as for `ricci flow`.
-    const Geometry g = uo.geometry ? *uo.geometry : ricci::natural_geometry(topo);
-    ricci::BoundaryMode mode = ricci::BoundaryMode::Free;
-    if (!topo.is_closed()) {
-      mode = boundary_spec->automatic ? ricci::natural_boundary_mode(topo, g) : boundary_spec->mode;
-      uo.boundary = mode;
-    } else if (!boundary_spec->automatic) {
-      const std::string note = "the surface is closed; --boundary " + o.boundary + " is ignored";
-      run.notes.push_back(note);
-      print_note(o.quiet, note);
-    }
-    // Ears the boundary target cannot realise are split (new vertices come last; see `ricci flow`).
-    if (!topo.is_closed() && !o.no_split_ears) {
-      const EarSplit es = split_infeasible_ears(v, mode, *target_spec, *boundary_spec, o.target, o.boundary);
-      if (es.status != Status::Ok) {
-        fail(run, es.status, run.file + ": " + es.message);
-        return finish(o, run, start);
-      }
-      if (es.repair) {
-        run.repairs.push_back(*es.repair);
-        print_note(o.quiet, es.repair->message);
-        run.topo = v.topology;
-      }
-    }
-    TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, o.target, o.boundary);
-    if (tb.usage) return usage(tb.message);
-    if (tb.status != Status::Ok) {
-      fail(run, tb.status, tb.message);
-      return finish(o, run, start);
-    }
-    run.result = ricci::uniformize(v.mesh, topo, uo, &tb.target);
   }
-  run.have_result = true;
+  if (m.status != Status::Ok) {
+    fail(run, m.status, m.message);
+    return finish(o, run, start);
+  }
+  Geometry g = m.geometry ? *m.geometry : ricci::natural_geometry(topo);
+  if (uo.geometry && m.geometry && *uo.geometry != *m.geometry)
+    return usage_error(o, run, start, "--geometry " + o.geometry + " contradicts the metric file's geometry " +
+                 std::string(ricci::geometry_name(*m.geometry)));
+  if (uo.geometry) g = *uo.geometry;
+  run.result = ricci::lay_out_metric(v.mesh, topo, g, m.lengths, uo);
+  return std::nullopt;
+}
+
+// `ricci uniformize`: boundary mode and target as for `ricci flow` (ears the target cannot realise
+// split), then the whole pipeline.
+std::optional<int> uniformize_with_target(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
+                                          Settings& st, ricci::ValidateResult& v) {
+  ricci::UniformizeOptions& uo = st.uo;
+  const ricci::Topology& topo = v.topology;
+  const Geometry g = uo.geometry ? *uo.geometry : ricci::natural_geometry(topo);
+  ricci::BoundaryMode mode = ricci::BoundaryMode::Free;
+  if (!topo.is_closed()) {
+    mode = st.boundary.automatic ? ricci::natural_boundary_mode(topo, g) : st.boundary.mode;
+    uo.boundary = mode;
+  } else if (!st.boundary.automatic) {
+    const std::string note = "the surface is closed; --boundary " + o.boundary + " is ignored";
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  }
+  // Ears the boundary target cannot realise are split (new vertices come last; see `ricci flow`).
+  if (!topo.is_closed() && !o.no_split_ears) {
+    const EarSplit es = split_infeasible_ears(v, mode, st.target, st.boundary, o.target, o.boundary);
+    if (es.status != Status::Ok) {
+      fail(run, es.status, run.file + ": " + es.message);
+      return finish(o, run, start);
+    }
+    if (es.repair) {
+      run.repairs.push_back(*es.repair);
+      print_note(o.quiet, es.repair->message);
+      run.topo = v.topology;
+    }
+  }
+  TargetBuild tb = build_target(topo, mode, st.target, st.boundary, o.target, o.boundary);
+  if (tb.usage) return usage_error(o, run, start, tb.message);
+  if (tb.status != Status::Ok) {
+    fail(run, tb.status, tb.message);
+    return finish(o, run, start);
+  }
+  run.result = ricci::uniformize(v.mesh, topo, uo, &tb.target);
+  return std::nullopt;
+}
+
+// Notes on the result (fallback, mollification, the flow's notes, flipped faces, far-out
+// coordinates); the run fails here when the result did.
+std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Clock::time_point start) {
   ricci::UniformizeResult& r = run.result;
   if (!r.intrinsic.fallback.empty()) run.scheme = "circle-packing";
   if (const auto rep = mollification_repair(r.metric.mollification)) {
@@ -830,11 +848,17 @@ int run_uniformize(const UniformizeCommandOptions& o) {
     print_note(o.quiet, note);
   }
 
-  // ---- outputs ----
-  const Clock::time_point tw = Clock::now();
-  std::vector<OutFile> files;
+  return std::nullopt;
+}
+
+// Every output file but the pictures and the reports, into `files`; `surface` is what mesh.obj
+// holds (and the checkerboard renders), `cover` the universal cover when there is one.
+std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, const Settings& st,
+                                const ricci::ValidateResult& v, std::vector<OutFile>& files, ricci::Mesh& surface,
+                                ricci::CoverResult& cover) {
+  const ricci::UniformizeResult& r = run.result;
+  const ricci::Topology& topo = v.topology;
   const bool sphere = !r.has_cut;
-  ricci::Mesh surface;  // what mesh.obj holds (and the checkerboard renders)
   // A refined result: the input's faces through the common subdivision's layout, and the
   // subdivision itself (refinement.obj), which maps bijectively where straight input faces fold.
   ricci::InputSurfaceLayout through;
@@ -895,13 +919,12 @@ int run_uniformize(const UniformizeCommandOptions& o) {
                               std::string(ricci::geometry_name(r.geometry)),
                               run.scheme,
                               topo.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(r.boundary)),
-                              target_spec->kind == TargetSpec::Kind::Uniform ? std::string("uniform") : o.target,
+                              st.target.kind == TargetSpec::Kind::Uniform ? std::string("uniform") : o.target,
                               "newton",
                               r.intrinsic.used,
                               !r.intrinsic.used || r.intrinsic.straight_tiles};
     files.push_back({"metric.csv", metric_file_text(header, r.flow, topo, v.vertex_to_input, false)});
   }
-  ricci::CoverResult cover;
   if (!r.polygon_note.empty()) {
     run.notes.push_back(r.polygon_note);
     print_note(o.quiet, r.polygon_note);
@@ -919,7 +942,13 @@ int run_uniformize(const UniformizeCommandOptions& o) {
       print_note(o.quiet, note);
     }
   }
-  run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
+  return std::nullopt;
+}
+
+// The pictures, report.json and report.html added to `files`, and OUTDIR written at once.
+int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Clock::time_point start,
+              std::vector<OutFile>& files, const ricci::Mesh& surface, const ricci::CoverResult& cover) {
+  const ricci::UniformizeResult& r = run.result;
   std::vector<ReportImage> images;
   if (!o.no_pictures) {
     const Clock::time_point tp = Clock::now();
@@ -960,6 +989,41 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   print_note(o.quiet, std::string(cmd) + ": wrote " + std::to_string(files.size()) + " files to " + o.output);
   print_note(o.quiet, std::string(cmd) + " done: " + r.brief_report());
   return finish(o, run, start);
+}
+
+}  // namespace
+
+int run_uniformize(const UniformizeCommandOptions& o) {
+  const Clock::time_point start = Clock::now();
+  Run run;
+  run.embedded = o.mesh.empty();
+  run.file = run.embedded ? std::string(embedded_default_name()) : o.mesh;
+  run.scheme = o.scheme == "auto" ? "yamabe" : o.scheme;
+  run.from_metric = !o.metric.empty();
+  const char* cmd = run.from_metric ? "layout" : "uniformize";
+  Settings st;
+  if (const auto rc = read_settings(o, run, start, st)) return *rc;
+  ricci::ValidateResult v;
+  if (const auto rc = load_for_run(o, cmd, run, start, v)) return *rc;
+  if (!o.quiet) {
+    st.uo.on_stage = print_stage;
+    st.uo.flow.on_iteration = [](const ricci::IterationRecord& rec) {
+      std::cerr << "ricci: flow iteration " << rec.iteration << ": max error " << sci(rec.max_error, "%.3e") << ", "
+                << sci(rec.seconds) << " s\n";
+    };
+  }
+  if (const auto rc = run.from_metric ? lay_out_stored_metric(o, run, start, st.uo, v)
+                                      : uniformize_with_target(o, run, start, st, v))
+    return *rc;
+  run.have_result = true;
+  if (const auto rc = note_result(o, run, start)) return *rc;
+  const Clock::time_point tw = Clock::now();
+  std::vector<OutFile> files;
+  ricci::Mesh surface;
+  ricci::CoverResult cover;
+  if (const auto rc = output_files(o, run, start, st, v, files, surface, cover)) return *rc;
+  run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
+  return write_run(o, cmd, run, start, files, surface, cover);
 }
 
 int run_cover(const CoverCommandOptions& o) {
