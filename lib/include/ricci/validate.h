@@ -61,7 +61,7 @@ struct MeshDiagnostics {
   std::int64_t out_of_range_faces = 0;    ///< faces with an index outside [0, #V)
   std::int64_t non_finite_vertices = 0;   ///< referenced vertices with a NaN/inf coordinate
   std::int64_t repeated_vertex_faces = 0; ///< faces that repeat a vertex
-  std::int64_t zero_area_faces = 0;       ///< faces of (numerically) zero area
+  std::int64_t zero_area_faces = 0;       ///< faces of zero area (2·area ≤ degenerate_tolerance · longest²)
   std::int64_t duplicate_faces = 0;       ///< faces whose vertex set appeared before
   std::int64_t non_manifold_edges = 0;    ///< edges with more than two faces
   std::int64_t non_manifold_vertices = 0; ///< vertices whose faces form more than one fan
@@ -77,7 +77,7 @@ struct MeshDiagnostics {
 
 /// Describes a triangle soup. Never fails; linear time up to sorting.
 /// `degenerate_tolerance` as in ValidateOptions.
-MeshDiagnostics diagnose(const Mesh& mesh, double degenerate_tolerance = 1e-12);
+MeshDiagnostics diagnose(const Mesh& mesh, double degenerate_tolerance = 0);
 
 /// Options of validate_mesh() (and of validate_read(), load_mesh() through LoadOptions).
 struct ValidateOptions {
