@@ -575,17 +575,41 @@ UniformizeResult lay_out_metric(const Mesh& mesh, const Topology& topology, Geom
 
 namespace {
 
-void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start) {
-  StageClock stage_done{r, options};
-  auto fail = [&](Status s, const std::string& stage, const std::string& message) {
+// The stages from `cut` on (layout_stages()), sharing the inputs and the result. Each step returns
+// false once a stage failed (r.status, failed_stage and message set).
+struct LayoutRun {
+  const Mesh& mesh;
+  const Topology& topology;
+  const UniformizeOptions& options;
+  std::span<const double> metric_l;
+  UniformizeResult& r;
+  Clock::time_point start;
+  StageClock& stage_done;
+  bool sphere = false;     // closed genus 0: laid out on the sphere, uncut
+  bool closed_h = false;   // closed genus >= 2 in H: the compact domain and a canonical polygon
+  std::vector<Index> cones;  // interior vertices with target K̄ ≠ 0
+
+  bool fail(Status s, const std::string& stage, const std::string& message) {
     r.status = s;
     r.failed_stage = stage;
     r.message = stage + ": " + message;
     r.seconds = since(start);
-  };
-  const bool sphere = topology.is_closed() && topology.euler_characteristic() == 2;
-  const bool closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
+    return false;
+  }
+};
+
+// Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
+// gate: a layout that does not reproduce the metric is no result.
+bool cut_and_lay_out(LayoutRun& run) {
+  const Mesh& mesh = run.mesh;
+  const Topology& topology = run.topology;
+  const UniformizeOptions& options = run.options;
+  const std::span<const double> metric_l = run.metric_l;
+  UniformizeResult& r = run.r;
+  StageClock& stage_done = run.stage_done;
+  const bool sphere = run.sphere, closed_h = run.closed_h;
+  const std::vector<Index>& cones = run.cones;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
   // Bordered hyperbolic surfaces (all but a disk) are laid out through a compact domain too: their
   // canonical cuts reach as far out in the Poincaré disk as closed ones do. Should the compact
   // cut fail there, the canonical cut below is used instead.
@@ -593,12 +617,9 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
                           !(topology.genus() == 0 && topology.num_boundary_loops() == 1);
   // Cone vertices (interior, target K̄ ≠ 0) stay on the compact domain's cut, so that its layout
   // is consistent around them.
-  std::vector<Index> cones;
-  for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
-    if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) cones.push_back(v);
   const bool disk_like = sphere || (topology.genus() == 0 && topology.num_boundary_loops() == 1);
   if (!cones.empty() && disk_like)
-    return (void)fail(Status::InvalidArgument, "cut",
+    return fail(Status::InvalidArgument, "cut",
                       "the target has " + std::to_string(cones.size()) + " cone vertices (the first: vertex " +
                           std::to_string(cones[0]) + ") on a " + (sphere ? "sphere" : "disk") +
                           ", which is laid out uncut: a metric with cones is laid out only on surfaces whose "
@@ -613,17 +634,17 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   // ---- cut and layout ----
   if (sphere) {
     r.layout = layout_sphere(topology, metric_l, options.layout);
-    if (r.layout.status != Status::Ok) return (void)fail(r.layout.status, "layout", r.layout.message);
+    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
   } else if (compact) {
     r.has_cut = true;
     DiskBuild d;
     d.cut = std::move(compact_cut);
-    if (d.cut.status != Status::Ok) return (void)fail(d.cut.status, "cut", d.cut.message);
+    if (d.cut.status != Status::Ok) return fail(d.cut.status, "cut", d.cut.message);
     d.metric = refined_edge_lengths(d.cut, topology, r.geometry, metric_l);
-    if (d.metric.status != Status::Ok) return (void)fail(d.metric.status, "cut", d.metric.message);
+    if (d.metric.status != Status::Ok) return fail(d.metric.status, "cut", d.metric.message);
     TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
-    if (tr.status != Status::Ok) return (void)fail(Status::NumericalFailure, "cut", "the domain is not a valid mesh");
+    if (tr.status != Status::Ok) return fail(Status::NumericalFailure, "cut", "the domain is not a valid mesh");
     r.cut = std::move(d.cut);
     r.cut_metric = std::move(d.metric);
     r.disk = std::move(tr.topology);
@@ -631,7 +652,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     stage_done("cut", "compact domain: " + std::to_string(r.cut.num_sides()) + " sides, " +
                           std::to_string(r.cut.num_generators()) + " side pairings");
     r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, options.layout);
-    if (r.layout.status != Status::Ok) return (void)fail(r.layout.status, "layout", r.layout.message);
+    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
   } else {
     r.has_cut = true;
@@ -641,7 +662,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     r.disk = std::move(d.disk);
     r.disk_lengths = std::move(d.lengths);
     r.layout = std::move(d.layout);
-    if (d.status != Status::Ok) return (void)fail(d.status, d.stage, d.message);
+    if (d.status != Status::Ok) return fail(d.status, d.stage, d.message);
     const double total = since(stage_done.t0);
     const double lay_s = std::min(total, r.layout.seconds);
     r.timings.emplace_back("cut", total - lay_s);
@@ -654,7 +675,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   // ---- the accuracy gate: a layout that does not reproduce the metric is no result ----
   if (r.layout.max_edge_length_error > options.max_layout_error || !std::isfinite(r.layout.max_edge_length_error)) {
     r.layout.status = Status::NumericalFailure;
-    return (void)fail(Status::NumericalFailure, "layout",
+    return fail(Status::NumericalFailure, "layout",
                       "the layout reproduces the metric only to a relative edge-length error of " +
                           sci(r.layout.max_edge_length_error) + " (edge " + std::to_string(r.layout.worst_edge) +
                           ", limit " + sci(options.max_layout_error) + "); double-precision coordinates resolve " +
@@ -664,183 +685,221 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
                                : ""));
   }
 
-  // ---- seed independence ----
-  if (options.seed_checks > 0) {
-    const Index nf = sphere ? topology.num_faces : r.disk.num_faces;
-    LayoutOptions lo = options.layout;
-    lo.normalize = false;
-    lo.seed_face = -1;
-    auto lay = [&](const LayoutOptions& o) {
-      return sphere ? layout_sphere(topology, metric_l, o) : layout_disk(r.disk, r.geometry, r.disk_lengths, o);
-    };
-    const Layout base = lay(lo);
-    if (base.status != Status::Ok) return (void)fail(base.status, "seed_check", base.message);
-    for (int k = 0; k < options.seed_checks; ++k) {
-      const Index seed = options.seed_checks == 1 ? nf / 2 : static_cast<Index>((static_cast<std::int64_t>(nf - 1) * k) / (options.seed_checks - 1));
-      lo.seed_face = seed;
-      const Layout other = lay(lo);
-      if (other.status != Status::Ok) return (void)fail(other.status, "seed_check", other.message);
-      r.seed_faces_checked.push_back(seed);
-      r.seed_independence_error =
-          std::max(r.seed_independence_error, layout_alignment_error(r.geometry, base.positions, other.positions));
-    }
-    stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
-                                 std::to_string(r.seed_faces_checked.size()) + " seeds");
-  }
+  return true;
+}
 
-  // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
-  // A metric with cones is no uniformization: its side pairings generate no surface group (the
-  // cycle at a cone turns by the cone angle), so there is no deck group, polygon or cover.
-  if (!cones.empty())
-    r.flow.notes.push_back("the target has " + std::to_string(cones.size()) +
-                           " cone vertices: the compact domain's cut passes through each, and no deck group, canonical "
-                           "polygon or cover is made (the metric is not a uniformization)");
-  if (closed_h && cones.empty()) {
-    std::vector<Index> bases;
-    if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
-    else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
-    if (bases.empty()) bases.push_back(-1);
-    double best_score = kInf;
-    // Consecutive bases whose score matched the best one's to 1 %: the polygon's error is then the
-    // metric's, not the base's (on fine meshes every base gives the same edge error), and further
-    // bases, a cut and a layout each, will not lower it.
-    int matching = 0;
-    std::string last_error = "no base vertex tried";
-    std::optional<DomainDeck> deck_only;
-    CutResult deck_only_cut;
-    auto take_domain = [&](const DomainDeck& dd) {
-      r.domain_maps = dd.side_maps;
-      r.domain_cycle_error = dd.cycle_error;
-      r.domain_adjusted_cycle_error = dd.adjusted_cycle_error;
-      r.domain_pairing_adjustment = dd.pairing_adjustment;
-      r.fitted_relation_error = dd.fitted_relation_error;
-      r.tile_consistency = dd.tile_consistency;
+// Seed independence: the layout from options.seed_checks other seed faces, compared with the first.
+bool check_seeds(LayoutRun& run) {
+  const Topology& topology = run.topology;
+  const UniformizeOptions& options = run.options;
+  const std::span<const double> metric_l = run.metric_l;
+  UniformizeResult& r = run.r;
+  const bool sphere = run.sphere;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
+  const Index nf = sphere ? topology.num_faces : r.disk.num_faces;
+  LayoutOptions lo = options.layout;
+  lo.normalize = false;
+  lo.seed_face = -1;
+  auto lay = [&](const LayoutOptions& o) {
+    return sphere ? layout_sphere(topology, metric_l, o) : layout_disk(r.disk, r.geometry, r.disk_lengths, o);
+  };
+  const Layout base = lay(lo);
+  if (base.status != Status::Ok) return fail(base.status, "seed_check", base.message);
+  for (int k = 0; k < options.seed_checks; ++k) {
+    const Index seed = options.seed_checks == 1 ? nf / 2 : static_cast<Index>((static_cast<std::int64_t>(nf - 1) * k) / (options.seed_checks - 1));
+    lo.seed_face = seed;
+    const Layout other = lay(lo);
+    if (other.status != Status::Ok) return fail(other.status, "seed_check", other.message);
+    r.seed_faces_checked.push_back(seed);
+    r.seed_independence_error =
+        std::max(r.seed_independence_error, layout_alignment_error(r.geometry, base.positions, other.positions));
+  }
+  run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
+                               std::to_string(r.seed_faces_checked.size()) + " seeds");
+  return true;
+}
+
+// The side pairings of a compact domain's layout, into r.
+void take_domain(UniformizeResult& r, const DomainDeck& dd) {
+  r.domain_maps = dd.side_maps;
+  r.domain_cycle_error = dd.cycle_error;
+  r.domain_adjusted_cycle_error = dd.adjusted_cycle_error;
+  r.domain_pairing_adjustment = dd.pairing_adjustment;
+  r.fitted_relation_error = dd.fitted_relation_error;
+  r.tile_consistency = dd.tile_consistency;
+}
+
+// Closed genus >= 2 in H: canonical cuts from a few base vertices, each laid out through the
+// compact domain's tiles; the one double precision resolves best is kept (then the polygon, its
+// generators and deck), else generators without a view, else the domain's side pairings alone.
+bool canonical_polygon(LayoutRun& run) {
+  const Mesh& mesh = run.mesh;
+  const Topology& topology = run.topology;
+  const UniformizeOptions& options = run.options;
+  const std::span<const double> metric_l = run.metric_l;
+  UniformizeResult& r = run.r;
+  StageClock& stage_done = run.stage_done;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
+  std::vector<Index> bases;
+  if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
+  else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
+  if (bases.empty()) bases.push_back(-1);
+  double best_score = kInf;
+  // Consecutive bases whose score matched the best one's to 1 %: the polygon's error is then the
+  // metric's, not the base's (on fine meshes every base gives the same edge error), and further
+  // bases, a cut and a layout each, will not lower it.
+  int matching = 0;
+  std::string last_error = "no base vertex tried";
+  std::optional<DomainDeck> deck_only;
+  CutResult deck_only_cut;
+  for (Index base : bases) {
+    // Three bases none of which could be laid out: the surface's canonical polygons reach beyond
+    // double range (long loops); more bases cost a cut each and have not helped in practice.
+    if (!std::isfinite(best_score) && r.candidates.size() >= 3) break;
+    const Clock::time_point tc = Clock::now();
+    BaseCandidate bc;
+    bc.base_vertex = base;
+    CutOptions co = options.cut;
+    co.base_vertex = base;
+    CutResult pc = cut_surface(mesh, topology, co);
+    auto reject = [&](const std::string& why) {
+      last_error = why;
+      bc.seconds = since(tc);
+      r.candidates.push_back(bc);
     };
-    for (Index base : bases) {
-      // Three bases none of which could be laid out: the surface's canonical polygons reach beyond
-      // double range (long loops); more bases cost a cut each and have not helped in practice.
-      if (!std::isfinite(best_score) && r.candidates.size() >= 3) break;
-      const Clock::time_point tc = Clock::now();
-      BaseCandidate bc;
-      bc.base_vertex = base;
-      CutOptions co = options.cut;
-      co.base_vertex = base;
-      CutResult pc = cut_surface(mesh, topology, co);
-      auto reject = [&](const std::string& why) {
-        last_error = why;
-        bc.seconds = since(tc);
-        r.candidates.push_back(bc);
-      };
-      if (pc.status != Status::Ok || !pc.canonical) {
-        reject(pc.status != Status::Ok ? pc.message : "the cut is not canonical: " + pc.reason);
-        continue;
-      }
-      bc.base_vertex = pc.base_vertex;
-      bc.refined_vertices = pc.num_refined_vertices();
-      RefinedMetric pm = refined_edge_lengths(pc, topology, r.geometry, metric_l);
-      if (pm.status != Status::Ok) {
-        reject(pm.message);
-        continue;
-      }
-      TopologyResult pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
-      if (pt.status != Status::Ok) {
-        reject("the canonical disk is not a valid mesh");
-        continue;
-      }
-      std::vector<double> pl = disk_edge_lengths(pc, pm.surface, pm.l, pt.topology);
-      DomainDeck dd = deck_through_domain(pc, r.cut, r.layout.positions, options.deck);
-      if (dd.status != Status::Ok) {
-        reject(dd.message);
-        continue;
-      }
-      if (!dd.positions_note.empty()) {
-        // Generators without a view of the polygon: kept in case no base gives one.
-        bc.relation_error = dd.deck.relation_error;
-        reject(dd.positions_note);
-        if (!deck_only || dd.deck.residual_max < deck_only->deck.residual_max) {
-          deck_only = std::move(dd);
-          deck_only_cut = std::move(pc);
-        }
-        continue;
-      }
-      Layout poly = measure_layout(pt.topology, r.geometry, pl, dd.canonical_positions);
-      if (poly.status != Status::Ok) {
-        reject(poly.message);
-        continue;
-      }
+    if (pc.status != Status::Ok || !pc.canonical) {
+      reject(pc.status != Status::Ok ? pc.message : "the cut is not canonical: " + pc.reason);
+      continue;
+    }
+    bc.base_vertex = pc.base_vertex;
+    bc.refined_vertices = pc.num_refined_vertices();
+    RefinedMetric pm = refined_edge_lengths(pc, topology, r.geometry, metric_l);
+    if (pm.status != Status::Ok) {
+      reject(pm.message);
+      continue;
+    }
+    TopologyResult pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
+    if (pt.status != Status::Ok) {
+      reject("the canonical disk is not a valid mesh");
+      continue;
+    }
+    std::vector<double> pl = disk_edge_lengths(pc, pm.surface, pm.l, pt.topology);
+    DomainDeck dd = deck_through_domain(pc, r.cut, r.layout.positions, options.deck);
+    if (dd.status != Status::Ok) {
+      reject(dd.message);
+      continue;
+    }
+    if (!dd.positions_note.empty()) {
+      // Generators without a view of the polygon: kept in case no base gives one.
       bc.relation_error = dd.deck.relation_error;
-      bc.rounding_floor = poly.rounding_floor;
-      bc.max_edge_length_error = poly.max_edge_length_error;
-      reject("");
-      const double score = std::max({dd.deck.relation_error, poly.max_edge_length_error, poly.rounding_floor});
-      matching = std::isfinite(best_score) && std::abs(score - best_score) <= 0.01 * best_score ? matching + 1 : 0;
-      if (score < best_score) {
-        best_score = score;
-        r.polygon_cut = std::move(pc);
-        r.polygon_disk = std::move(pt.topology);
-        r.polygon_lengths = std::move(pl);
-        r.polygon = std::move(poly);
-        take_domain(dd);
-        r.deck = std::move(dd.deck);
+      reject(dd.positions_note);
+      if (!deck_only || dd.deck.residual_max < deck_only->deck.residual_max) {
+        deck_only = std::move(dd);
+        deck_only_cut = std::move(pc);
       }
-      if (best_score < options.polygon_tolerance || (options.polygon_tolerance > 0 && matching >= 2)) break;
+      continue;
     }
-    if (!std::isfinite(best_score) && deck_only) {
-      // Canonical generators whose polygon double precision cannot draw.
-      r.polygon_note = "no canonical polygon view: " + deck_only->positions_note +
-                       "; the canonical generators stand (products of the domain's side pairings, relation in quad)";
-      take_domain(*deck_only);
-      r.deck = std::move(deck_only->deck);
-      r.polygon_cut = std::move(deck_only_cut);
-      r.has_deck = true;
-      stage_done("polygon", r.polygon_note);
-      stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
-                             std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                             sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
-                             "), residual max " + sci(r.deck.residual_max) + ", relation error " +
-                             sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
-    } else if (!std::isfinite(best_score)) {
-      // The layout and the domain's side pairings stand; only the canonical view is missing.
-      r.polygon_note = "no canonical polygon: none of " + std::to_string(r.candidates.size()) +
-                       " base vertices gave one that double precision can lay out (last: " + last_error +
-                       "); the deck group is given by the compact domain's side pairings";
-      r.deck = DeckResult{};
-      {
-        DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, options.deck);
-        if (dd.status != Status::Ok) return (void)fail(dd.status, "deck", dd.message);
-        take_domain(dd);
-      }
-      stage_done("polygon", r.polygon_note);
-      stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                             sci(r.domain_cycle_error) + ")");
-    } else {
-    r.has_polygon = true;
+    Layout poly = measure_layout(pt.topology, r.geometry, pl, dd.canonical_positions);
+    if (poly.status != Status::Ok) {
+      reject(poly.message);
+      continue;
+    }
+    bc.relation_error = dd.deck.relation_error;
+    bc.rounding_floor = poly.rounding_floor;
+    bc.max_edge_length_error = poly.max_edge_length_error;
+    reject("");
+    const double score = std::max({dd.deck.relation_error, poly.max_edge_length_error, poly.rounding_floor});
+    matching = std::isfinite(best_score) && std::abs(score - best_score) <= 0.01 * best_score ? matching + 1 : 0;
+    if (score < best_score) {
+      best_score = score;
+      r.polygon_cut = std::move(pc);
+      r.polygon_disk = std::move(pt.topology);
+      r.polygon_lengths = std::move(pl);
+      r.polygon = std::move(poly);
+      take_domain(r, dd);
+      r.deck = std::move(dd.deck);
+    }
+    if (best_score < options.polygon_tolerance || (options.polygon_tolerance > 0 && matching >= 2)) break;
+  }
+  if (!std::isfinite(best_score) && deck_only) {
+    // Canonical generators whose polygon double precision cannot draw.
+    r.polygon_note = "no canonical polygon view: " + deck_only->positions_note +
+                     "; the canonical generators stand (products of the domain's side pairings, relation in quad)";
+    take_domain(r, *deck_only);
+    r.deck = std::move(deck_only->deck);
+    r.polygon_cut = std::move(deck_only_cut);
     r.has_deck = true;
-    if (r.polygon.max_edge_length_error > 1e-9) {
-      // The view is drawn but coarse: say where its digits went.
-      double reach = 0;
-      for (std::size_t i = 0; i + 1 < r.polygon.positions.size(); i += 2)
-        reach = std::max(reach, std::hypot(r.polygon.positions[i], r.polygon.positions[i + 1]));
-      char buf[400];
-      std::snprintf(buf, sizeof buf,
-                    "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
-                    "resolve lengths only to about %.1g: its edge error is %.2g, %d faces flipped (the layout, the "
-                    "generators and the relation do not depend on these coordinates)",
-                    2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
-                    r.polygon.max_edge_length_error, static_cast<int>(r.polygon.flipped_faces));
-      r.polygon_note = buf;
-    }
-    stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
-                              std::to_string(r.polygon_cut.base_vertex) + ", best of " +
-                              std::to_string(r.candidates.size()) + "): edge error " +
-                              sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
+    stage_done("polygon", r.polygon_note);
     stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
                            std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
                            sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
                            "), residual max " + sci(r.deck.residual_max) + ", relation error " +
                            sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
+  } else if (!std::isfinite(best_score)) {
+    // The layout and the domain's side pairings stand; only the canonical view is missing.
+    r.polygon_note = "no canonical polygon: none of " + std::to_string(r.candidates.size()) +
+                     " base vertices gave one that double precision can lay out (last: " + last_error +
+                     "); the deck group is given by the compact domain's side pairings";
+    r.deck = DeckResult{};
+    {
+      DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, options.deck);
+      if (dd.status != Status::Ok) return fail(dd.status, "deck", dd.message);
+      take_domain(r, dd);
     }
-  } else if (cones.empty() && !sphere && topology.is_closed() && topology.genus() == 1 &&
+    stage_done("polygon", r.polygon_note);
+    stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                           sci(r.domain_cycle_error) + ")");
+  } else {
+  r.has_polygon = true;
+  r.has_deck = true;
+  if (r.polygon.max_edge_length_error > 1e-9) {
+    // The view is drawn but coarse: say where its digits went.
+    double reach = 0;
+    for (std::size_t i = 0; i + 1 < r.polygon.positions.size(); i += 2)
+      reach = std::max(reach, std::hypot(r.polygon.positions[i], r.polygon.positions[i + 1]));
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
+                  "resolve lengths only to about %.1g: its edge error is %.2g, %d faces flipped (the layout, the "
+                  "generators and the relation do not depend on these coordinates)",
+                  2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
+                  r.polygon.max_edge_length_error, static_cast<int>(r.polygon.flipped_faces));
+    r.polygon_note = buf;
+  }
+  stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
+                            std::to_string(r.polygon_cut.base_vertex) + ", best of " +
+                            std::to_string(r.candidates.size()) + "): edge error " +
+                            sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
+  stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
+                         std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                         sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
+                         "), residual max " + sci(r.deck.residual_max) + ", relation error " +
+                         sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
+  }
+  return true;
+}
+
+void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start) {
+  StageClock stage_done{r, options};
+  LayoutRun run{mesh, topology, options, metric_l, r, start, stage_done, false, false, {}};
+  run.sphere = topology.is_closed() && topology.euler_characteristic() == 2;
+  run.closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
+  for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
+    if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) run.cones.push_back(v);
+  if (!cut_and_lay_out(run)) return;
+  if (options.seed_checks > 0 && !check_seeds(run)) return;
+
+  // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
+  // A metric with cones is no uniformization: its side pairings generate no surface group (the
+  // cycle at a cone turns by the cone angle), so there is no deck group, polygon or cover.
+  if (!run.cones.empty())
+    r.flow.notes.push_back("the target has " + std::to_string(run.cones.size()) +
+                           " cone vertices: the compact domain's cut passes through each, and no deck group, canonical "
+                           "polygon or cover is made (the metric is not a uniformization)");
+  if (run.closed_h && run.cones.empty()) {
+    if (!canonical_polygon(run)) return;
+  } else if (run.cones.empty() && !run.sphere && topology.is_closed() && topology.genus() == 1 &&
              r.geometry == Geometry::Euclidean && r.cut.canonical) {
     r.has_polygon = true;
     r.polygon_cut = r.cut;
@@ -849,7 +908,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
     r.polygon = r.layout;
     r.has_deck = true;
     r.deck = fit_deck_transformations(r.cut, r.geometry, r.layout.positions, options.deck);
-    if (r.deck.status != Status::Ok) return (void)fail(r.deck.status, "deck", r.deck.message);
+    if (r.deck.status != Status::Ok) return (void)run.fail(r.deck.status, "deck", r.deck.message);
     stage_done("deck", r.deck.brief_report());
   }
 
