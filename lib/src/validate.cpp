@@ -1,6 +1,7 @@
 #include "ricci/validate.h"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <new>
 #include <string>
@@ -110,20 +111,13 @@ VolumeArea capped_volume(const Mesh& m, std::span<const Index> faces, const deta
   return va;
 }
 
-}  // namespace
+// ---- validate_mesh(), check by check: each returns the failure, if any ----
 
-ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) try {
-  if (std::string why; !options.is_valid(&why)) return fail(Status::InvalidArgument, Element::None, -1, why);
+// 2–4: face indices in range, finite coordinates of used vertices, no face repeating a vertex.
+std::optional<ValidateResult> check_indices(const Mesh& input) {
   const Index nv = input.num_vertices();
   const Index nf = input.num_faces();
-  if (input.faces.size() % 3 != 0 || input.positions.size() % 3 != 0)
-    return fail(Status::InvalidArgument, Element::None, -1, "position or face buffer size is not a multiple of 3");
-  if (input.has_texcoords() && input.corner_texcoords.size() != input.faces.size())
-    return fail(Status::InvalidArgument, Element::None, -1, "corner_texcoords must be empty or as long as faces");
-  if (nf == 0) return fail(Status::NoFaces, Element::None, -1, "the mesh has no faces");
   const std::span<const Index> in_faces(input.faces);
-
-  // 2–4: indices, coordinates, repeated vertices.
   for (Index f = 0; f < nf; ++f) {
     for (Index k = 0; k < 3; ++k) {
       const Index v = in_faces[3 * f + k];
@@ -149,11 +143,18 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
                   "face " + str(f) + " repeats a vertex (" + str(in_faces[3 * f]) + ", " + str(in_faces[3 * f + 1]) +
                       ", " + str(in_faces[3 * f + 2]) + ")");
 
-  ValidateResult r;
-  // 5: components (through shared vertices).
+  return std::nullopt;
+}
+
+// 5: components (through shared vertices): one, or the largest kept on request (a repair).
+// kept_faces: the input faces kept, ascending.
+std::optional<ValidateResult> keep_component(const Mesh& input, const ValidateOptions& options, ValidateResult& r,
+                                             std::vector<Index>& kept_faces) {
+  const Index nv = input.num_vertices();
+  const Index nf = input.num_faces();
+  const std::span<const Index> in_faces(input.faces);
   std::vector<Index> component;
   const Index num_components = detail::face_components_by_vertex(in_faces, nv, &component);
-  std::vector<Index> kept_faces;  // input face indices, ascending
   kept_faces.reserve(static_cast<std::size_t>(nf));
   if (num_components > 1) {
     std::vector<Index> size(static_cast<std::size_t>(num_components), 0);
@@ -174,12 +175,15 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
     for (Index f = 0; f < nf; ++f) kept_faces.push_back(f);
   }
 
-  // Work on the kept faces (still in input vertex numbering).
-  const Index kf = static_cast<Index>(kept_faces.size());
-  std::vector<Index> faces(3 * static_cast<std::size_t>(kf));
-  for (Index i = 0; i < kf; ++i)
-    for (Index k = 0; k < 3; ++k) faces[3 * i + k] = in_faces[3 * kept_faces[i] + k];
+  return std::nullopt;
+}
 
+// 6–7: no face of zero area (naming why), no two faces on the same vertices. faces: the kept
+// faces in input vertex numbering.
+std::optional<ValidateResult> check_faces(const Mesh& input, const ValidateOptions& options,
+                                          std::span<const Index> faces, std::span<const Index> kept_faces) {
+  const Index nv = input.num_vertices();
+  const Index kf = static_cast<Index>(kept_faces.size());
   // 6: zero area.
   for (Index i = 0; i < kf; ++i) {
     if (detail::is_degenerate(shape_of(input, faces, i), options.degenerate_tolerance)) {
@@ -210,8 +214,12 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
                     "faces " + str(kept_faces[dup[i]]) + " and " + str(kept_faces[i]) + " use the same vertices (" +
                         str(faces[3 * i]) + ", " + str(faces[3 * i + 1]) + ", " + str(faces[3 * i + 2]) + ")");
   }
-  // 8: non-manifold edges.
-  const detail::EdgeTable table = detail::build_edge_table(faces, nv);
+  return std::nullopt;
+}
+
+// 8: no edge with more than two faces.
+std::optional<ValidateResult> check_edges(std::span<const Index> faces, std::span<const Index> kept_faces,
+                                          const detail::EdgeTable& table) {
   for (Index g = 0; g < table.num_groups(); ++g) {
     if (table.group_size(g) <= 2) continue;
     const Index c = table.group_corners[table.group_offsets[g]];
@@ -222,8 +230,16 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
                 "edge (" + str(edge_from(faces, c)) + ", " + str(edge_to(faces, c)) + ") is shared by " +
                     str(table.group_size(g)) + " faces (" + list + (table.group_size(g) > 6 ? ", …" : "") + ")");
   }
-  // 9: orientation.
-  detail::Orientation orient = detail::orient_faces(faces, table);
+  return std::nullopt;
+}
+
+// 9: an orientable surface, its faces flipped to one orientation when they disagree (a repair);
+// orient.flip then says which kept faces were flipped.
+std::optional<ValidateResult> orient_surface(const Mesh& input, const ValidateOptions& options,
+                                             const detail::EdgeTable& table, std::span<const Index> kept_faces,
+                                             std::vector<Index>& faces, detail::Orientation& orient, ValidateResult& r) {
+  const std::span<const Index> in_faces(input.faces);
+  const Index kf = static_cast<Index>(kept_faces.size());
   if (!orient.orientable)
     return fail(Status::NonOrientable, Element::Face, kept_faces[orient.conflict_face],
                 "the surface is not orientable: no choice of face orientations is consistent (conflict at face " +
@@ -266,7 +282,16 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
     std::fill(orient.flip.begin(), orient.flip.end(), 0);
   }
 
-  // Compact: drop vertices no kept face uses.
+  return std::nullopt;
+}
+
+// The validated mesh: vertices no kept face uses dropped (a repair), the rest renumbered in
+// input order, texture coordinates carried along (their corners flipped with their faces).
+void compact_mesh(const Mesh& input, std::span<const Index> faces, std::span<const Index> kept_faces,
+                  const std::vector<std::uint8_t>& flip, ValidateResult& r) {
+  const Index nv = input.num_vertices();
+  const Index kf = static_cast<Index>(kept_faces.size());
+  const std::span<const Index> in_faces(input.faces);
   std::vector<Index> new_index(static_cast<std::size_t>(nv), kInvalid);
   {
     std::vector<std::uint8_t> used_in_input(static_cast<std::size_t>(nv), 0);
@@ -290,7 +315,7 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
     new_index[v] = static_cast<Index>(r.vertex_to_input.size());
     r.vertex_to_input.push_back(v);
   }
-  r.face_to_input = kept_faces;
+  r.face_to_input.assign(kept_faces.begin(), kept_faces.end());
   Mesh& out = r.mesh;
   out.positions.reserve(3 * r.vertex_to_input.size());
   for (Index v : r.vertex_to_input) out.positions.insert(out.positions.end(), position(input, v), position(input, v) + 3);
@@ -302,10 +327,42 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
     for (Index i = 0; i < kf; ++i) {
       const Index f = kept_faces[i];
       out.corner_texcoords[3 * i] = input.corner_texcoords[3 * f];
-      out.corner_texcoords[3 * i + 1] = input.corner_texcoords[3 * f + (orient.flip[i] ? 2 : 1)];
-      out.corner_texcoords[3 * i + 2] = input.corner_texcoords[3 * f + (orient.flip[i] ? 1 : 2)];
+      out.corner_texcoords[3 * i + 1] = input.corner_texcoords[3 * f + (flip[i] ? 2 : 1)];
+      out.corner_texcoords[3 * i + 2] = input.corner_texcoords[3 * f + (flip[i] ? 1 : 2)];
     }
   }
+
+}
+
+}  // namespace
+
+ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) try {
+  if (std::string why; !options.is_valid(&why)) return fail(Status::InvalidArgument, Element::None, -1, why);
+  const Index nv = input.num_vertices();
+  const Index nf = input.num_faces();
+  if (input.faces.size() % 3 != 0 || input.positions.size() % 3 != 0)
+    return fail(Status::InvalidArgument, Element::None, -1, "position or face buffer size is not a multiple of 3");
+  if (input.has_texcoords() && input.corner_texcoords.size() != input.faces.size())
+    return fail(Status::InvalidArgument, Element::None, -1, "corner_texcoords must be empty or as long as faces");
+  if (nf == 0) return fail(Status::NoFaces, Element::None, -1, "the mesh has no faces");
+  const std::span<const Index> in_faces(input.faces);
+  if (auto e = check_indices(input)) return *e;
+
+  ValidateResult r;
+  std::vector<Index> kept_faces;
+  if (auto e = keep_component(input, options, r, kept_faces)) return *e;
+  // Work on the kept faces (still in input vertex numbering).
+  const Index kf = static_cast<Index>(kept_faces.size());
+  std::vector<Index> faces(3 * static_cast<std::size_t>(kf));
+  for (Index i = 0; i < kf; ++i)
+    for (Index k = 0; k < 3; ++k) faces[3 * i + k] = in_faces[3 * kept_faces[i] + k];
+  if (auto e = check_faces(input, options, faces, kept_faces)) return *e;
+  const detail::EdgeTable table = detail::build_edge_table(faces, nv);
+  if (auto e = check_edges(faces, kept_faces, table)) return *e;
+  detail::Orientation orient = detail::orient_faces(faces, table);
+  if (auto e = orient_surface(input, options, table, kept_faces, faces, orient, r)) return *e;
+  compact_mesh(input, faces, kept_faces, orient.flip, r);
+  const Mesh& out = r.mesh;
 
   // 10: pinched vertices (and every other connectivity invariant) via the topology.
   TopologyResult topo = build_topology(out.faces, out.num_vertices());
