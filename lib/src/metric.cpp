@@ -118,9 +118,10 @@ std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology
     const double* a = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e])];
     const double* b = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e + 1])];
     const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    const double d2 = dx * dx + dy * dy + dz * dz;
-    // hypot where the squares leave the normal range (any scale a double holds).
-    l[e] = d2 < 0x1p-1000 || !(d2 < 0x1p1000) ? std::hypot(dx, dy, dz) : std::sqrt(d2);
+    // hypot where the squares would leave the normal range (any scale a double holds); decided
+    // before squaring, so that nothing overflows.
+    const double m = std::max({std::abs(dx), std::abs(dy), std::abs(dz)});
+    l[e] = m < 0x1p-500 || !(m < 0x1p500) ? std::hypot(dx, dy, dz) : std::sqrt(dx * dx + dy * dy + dz * dz);
   }
   return l;
 }
