@@ -67,6 +67,7 @@
 #include <iterator>
 #include <new>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <system_error>
 
@@ -418,13 +419,27 @@ double link_term(double eta) {
   return kPi - std::acos(eta);
 }
 
-}  // namespace
+// ---- check_target(), rule by rule: each returns the first violation, if any ----
 
-TargetCheck check_target(const Topology& t, const ConformalStructure& structure, const Target& target) {
+// The target as the rules read it: which vertices hold u, which carry a curvature condition.
+struct TargetView {
+  const Topology& t;
+  const ConformalStructure& structure;
+  const Target& target;
+  bool with_totals = false;  // boundary K̄ derived from loop totals
+  bool is_fixed(Index v) const { return !target.fixed_u.empty() && target.fixed_u[v] != 0; }
+  // A vertex whose K̄ is a condition read from target.K (not held, not derived from a loop total).
+  bool explicit_condition(Index v) const { return !is_fixed(v) && !(with_totals && t.is_boundary_vertex(v)); }
+};
+
+// Sizes of K, fixed_u, loop totals and η.
+std::optional<TargetCheck> check_sizes(const TargetView& tv) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const ConformalStructure& structure = tv.structure;
   const Index nv = t.num_vertices, loops = t.num_boundary_loops();
   const auto nv_size = static_cast<std::size_t>(nv);
-
-  // --- Sizes and values.
+  const bool with_totals = tv.with_totals;
   if (target.K.size() != nv_size)
     return make_check(Status::InvalidArgument, "the target has " + std::to_string(target.K.size()) +
                                                    " curvatures, but the mesh has " + std::to_string(nv) +
@@ -433,7 +448,6 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
     return make_check(Status::InvalidArgument, "the target has " + std::to_string(target.fixed_u.size()) +
                                                    " fixed_u flags, but the mesh has " + std::to_string(nv) +
                                                    " vertices (give one per vertex, or none)");
-  const bool with_totals = uses_loop_totals(target.boundary);
   if (with_totals && target.loop_total.size() != static_cast<std::size_t>(loops))
     return make_check(Status::InvalidArgument, "the " + std::string(boundary_mode_name(target.boundary)) +
                                                    " boundary mode needs one loop "
@@ -445,12 +459,18 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
                       "the conformal structure has " + std::to_string(structure.eta.size()) +
                           " edge weights, but the mesh has " + std::to_string(t.num_edges) + " edges");
 
-  auto is_fixed = [&](Index v) { return !target.fixed_u.empty() && target.fixed_u[v] != 0; };
-  // A vertex whose K̄ is a condition read from target.K (not held, not derived from a loop total).
-  auto explicit_condition = [&](Index v) {
-    return !is_fixed(v) && !(with_totals && t.is_boundary_vertex(v));
-  };
-  bool any_fixed = false;
+  return std::nullopt;
+}
+
+// Finite values where they are conditions; any_fixed: some vertex holds its u.
+std::optional<TargetCheck> check_values(const TargetView& tv, bool& any_fixed) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const Index nv = t.num_vertices, loops = t.num_boundary_loops();
+  const bool with_totals = tv.with_totals;
+  auto explicit_condition = [&](Index v) { return tv.explicit_condition(v); };
+  auto is_fixed = [&](Index v) { return tv.is_fixed(v); };
+  any_fixed = false;
   for (Index v = 0; v < nv; ++v) {
     any_fixed = any_fixed || is_fixed(v);
     if (explicit_condition(v) && !is_finite_bits(target.K[v]))
@@ -464,37 +484,52 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
         return make_check(Status::InvalidArgument, "the total curvature of boundary loop " +
                                                        std::to_string(i) + " is not a finite number");
 
-  // --- Gauss–Bonnet: Σ K̄ + λ·area = 2πχ with area > 0. Loops with a total count by it. When
-  // some vertex holds its u (fixed_u), its curvature is whatever the metric gives, so the sum is
-  // not constrained and this check is skipped.
-  const Geometry g = structure.geometry;
-  if (!any_fixed) {
-    double sum = 0;
-    for (Index v = 0; v < nv; ++v)
-      if (explicit_condition(v)) sum += target.K[v];
-    if (with_totals)
-      for (const double total : target.loop_total) sum += total;
-    const double expected = two_pi_chi(t);
-    const double tolerance = 1e-9 * (1 + std::abs(expected));
-    const std::string given = "the target curvatures sum to " + fmt(sum) +
-                              (with_totals ? " (boundary loops counted by their totals)" : "");
-    const std::string chi =
-        "2πχ = " + fmt(expected) + " (χ = " + std::to_string(t.euler_characteristic()) + ")";
-    if (g == Geometry::Euclidean && !(std::abs(sum - expected) <= tolerance))
-      return make_check(Status::InfeasibleTarget,
-                        "Gauss–Bonnet: in euclidean background the target curvatures must sum to " + chi +
-                            ", but " + given + " (difference " + fmt(sum - expected) + ")");
-    if (g == Geometry::Hyperbolic && !(sum - expected > tolerance))
-      return make_check(
-          Status::InfeasibleTarget,
-          "Gauss–Bonnet: in hyperbolic background the target curvatures must sum to more than " + chi +
-              " (the hyperbolic area is their sum minus 2πχ), but " + given);
-    if (g == Geometry::Spherical && !(expected - sum > tolerance))
-      return make_check(Status::InfeasibleTarget,
-                        "Gauss–Bonnet: in spherical background the target curvatures must sum to less than " +
-                            chi + " (the spherical area is 2πχ minus their sum), but " + given);
-  }
+  return std::nullopt;
+}
 
+// Gauss–Bonnet: Σ K̄ + λ·area = 2πχ with area > 0. Loops with a total count by it. (Skipped when
+// some vertex holds its u: its curvature is whatever the metric gives.)
+std::optional<TargetCheck> check_gauss_bonnet(const TargetView& tv) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const Index nv = t.num_vertices;
+  const bool with_totals = tv.with_totals;
+  const Geometry g = tv.structure.geometry;
+  auto explicit_condition = [&](Index v) { return tv.explicit_condition(v); };
+  double sum = 0;
+  for (Index v = 0; v < nv; ++v)
+    if (explicit_condition(v)) sum += target.K[v];
+  if (with_totals)
+    for (const double total : target.loop_total) sum += total;
+  const double expected = two_pi_chi(t);
+  const double tolerance = 1e-9 * (1 + std::abs(expected));
+  const std::string given = "the target curvatures sum to " + fmt(sum) +
+                            (with_totals ? " (boundary loops counted by their totals)" : "");
+  const std::string chi =
+      "2πχ = " + fmt(expected) + " (χ = " + std::to_string(t.euler_characteristic()) + ")";
+  if (g == Geometry::Euclidean && !(std::abs(sum - expected) <= tolerance))
+    return make_check(Status::InfeasibleTarget,
+                      "Gauss–Bonnet: in euclidean background the target curvatures must sum to " + chi +
+                          ", but " + given + " (difference " + fmt(sum - expected) + ")");
+  if (g == Geometry::Hyperbolic && !(sum - expected > tolerance))
+    return make_check(
+        Status::InfeasibleTarget,
+        "Gauss–Bonnet: in hyperbolic background the target curvatures must sum to more than " + chi +
+            " (the hyperbolic area is their sum minus 2πχ), but " + given);
+  if (g == Geometry::Spherical && !(expected - sum > tolerance))
+    return make_check(Status::InfeasibleTarget,
+                      "Gauss–Bonnet: in spherical background the target curvatures must sum to less than " +
+                          chi + " (the spherical area is 2πχ minus their sum), but " + given);
+  return std::nullopt;
+}
+
+// Positive cone angles (every geometry and scheme), per vertex and per loop with a total.
+std::optional<TargetCheck> check_cone_angles(const TargetView& tv) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const Index nv = t.num_vertices, loops = t.num_boundary_loops();
+  const bool with_totals = tv.with_totals;
+  auto explicit_condition = [&](Index v) { return tv.explicit_condition(v); };
   // --- Positive cone angles: 2π − K̄ > 0 inside, π − K̄ > 0 on the boundary (every geometry).
   // Vertices used by no face have no angles and are skipped.
   for (Index v = 0; v < nv; ++v) {
@@ -519,6 +554,16 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
                               std::to_string(loop_size(t, i)) + " vertices it must be below " +
                               fmt(kPi * loop_size(t, i)));
 
+  return std::nullopt;
+}
+
+// Ears whose target curvature is ≤ 0.
+std::optional<TargetCheck> check_ears(const TargetView& tv) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const Index loops = t.num_boundary_loops();
+  const bool with_totals = tv.with_totals;
+  auto is_fixed = [&](Index v) { return tv.is_fixed(v); };
   // --- Ears: a boundary vertex in a single triangle has an angle below π, so its curvature
   // π − θ is positive whatever the metric (every scheme and geometry).
   for (Index i = 0; i < loops; ++i) {
@@ -541,96 +586,130 @@ TargetCheck check_target(const Topology& t, const ConformalStructure& structure,
     }
   }
 
-  // --- Theorem 4 (see the top of this file): circle packing in E and H only.
+  return std::nullopt;
+}
+
+// Theorem 4 at single vertices: K̄_v above (2π or π) − Σ(π − Φ) over the opposite edges.
+std::optional<TargetCheck> check_theorem4_vertices(const TargetView& tv, const std::string& where) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const ConformalStructure& structure = tv.structure;
+  const Index nv = t.num_vertices;
+  auto explicit_condition = [&](Index v) { return tv.explicit_condition(v); };
+  for (Index v = 0; v < nv; ++v) {
+    if (!explicit_condition(v) || t.valence(v) == 0) continue;
+    double link = 0;
+    bool known = true;
+    for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+      const double term = link_term(structure.eta[t.corner_edge[t.vertex_corners[k]]]);
+      known = known && term >= 0;
+      link += term;
+    }
+    if (!known) continue;
+    const bool boundary = t.is_boundary_vertex(v);
+    const double full = boundary ? kPi : kTwoPi;
+    const double bound = full - link;
+    if (!(target.K[v] > bound))
+      return make_check(Status::InfeasibleTarget,
+                        where + ": the target curvature " + fmt(target.K[v]) + " of " +
+                            (boundary ? "boundary " : "interior ") + "vertex " + std::to_string(v) +
+                            " is not admissible: it must exceed " + (boundary ? "π" : "2π") +
+                            " − Σ(π − Φ) over its " + std::to_string(t.valence(v)) +
+                            " opposite edges = " + fmt(bound) + " (the cone angle " +
+                            fmt(full - target.K[v]) + " must be below Σ(π − Φ) = " + fmt(link) + ")",
+                        Element::Vertex, v);
+  }
+  return std::nullopt;
+}
+
+// Theorem 4 on boundary loops: I = the vertices of one loop, all with a curvature condition, I ≠ V.
+std::optional<TargetCheck> check_theorem4_loops(const TargetView& tv, const std::string& where) {
+  const Topology& t = tv.t;
+  const Target& target = tv.target;
+  const ConformalStructure& structure = tv.structure;
+  const Index nv = t.num_vertices, loops = t.num_boundary_loops();
+  const auto nv_size = static_cast<std::size_t>(nv);
+  const bool with_totals = tv.with_totals;
+  auto is_fixed = [&](Index v) { return tv.is_fixed(v); };
+  std::vector<Index> loop_of(nv_size, kInvalid);
+  for (Index i = 0; i < loops; ++i)
+    for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j)
+      loop_of[t.boundary_vertices[j]] = i;
+  std::vector<double> link(static_cast<std::size_t>(loops), 0.0);
+  std::vector<Index> faces_with_two(static_cast<std::size_t>(loops), 0);
+  std::vector<std::uint8_t> known(static_cast<std::size_t>(loops), 1);
+  for (Index f = 0; f < t.num_faces; ++f) {
+    for (Index k = 0; k < 3; ++k) {
+      const Index loop = loop_of[t.corner_vertex[3 * f + k]];
+      if (loop == kInvalid) continue;
+      // Count each (face, loop) once: at the first corner of the face on that loop.
+      bool first = true;
+      for (Index m = 0; m < k; ++m) first = first && loop_of[t.corner_vertex[3 * f + m]] != loop;
+      if (!first) continue;
+      Index on_loop = 0;
+      for (Index m = 0; m < 3; ++m) on_loop += loop_of[t.corner_vertex[3 * f + m]] == loop ? 1 : 0;
+      if (on_loop >= 2) {
+        ++faces_with_two[loop];
+      } else {
+        const double term = link_term(structure.eta[t.corner_edge[3 * f + k]]);
+        if (term < 0)
+          known[loop] = 0;
+        else
+          link[loop] += term;
+      }
+    }
+  }
+  for (Index i = 0; i < loops; ++i) {
+    const Index n = loop_size(t, i);
+    if (n >= nv || !known[i]) continue;
+    double sum = 0;
+    bool all_conditions = true;
+    if (with_totals) {
+      sum = target.loop_total[i];
+    } else {
+      for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1] && all_conditions; ++j) {
+        const Index v = t.boundary_vertices[j];
+        all_conditions = !is_fixed(v);
+        if (all_conditions) sum += target.K[v];
+      }
+    }
+    if (!all_conditions) continue;
+    const double bound = kPi * n - kPi * faces_with_two[i] - link[i];
+    if (!(sum > bound))
+      return make_check(
+          Status::InfeasibleTarget,
+          where + ": the total target curvature " + fmt(sum) + " of boundary loop " + std::to_string(i) +
+              " (" + std::to_string(n) + " vertices, first " +
+              std::to_string(t.boundary_vertices[t.boundary_offsets[i]]) +
+              ") is not admissible: it must exceed −Σ_Lk(π − Φ) + 2πχ(F_I) − πχ(F_I ∩ ∂) = " + fmt(bound) +
+              " (Σ_Lk(π − Φ) = " + fmt(link[i]) + " over the faces touching the loop at one vertex)");
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+TargetCheck check_target(const Topology& t, const ConformalStructure& structure, const Target& target) {
+  const TargetView tv{t, structure, target, uses_loop_totals(target.boundary)};
+  if (auto c = check_sizes(tv)) return *c;
+  bool any_fixed = false;
+  if (auto c = check_values(tv, any_fixed)) return *c;
+  if (!any_fixed)
+    if (auto c = check_gauss_bonnet(tv)) return *c;
+  if (auto c = check_cone_angles(tv)) return *c;
+  if (auto c = check_ears(tv)) return *c;
+  // Theorem 4 (see the top of this file): circle packing in E and H only.
+  const Geometry g = structure.geometry;
   if (structure.scheme != Scheme::CirclePacking || g == Geometry::Spherical) {
     return make_check(Status::Ok, "the target passes the Gauss–Bonnet and cone-angle checks (" +
                                       std::string(scheme_name(structure.scheme)) + ", " +
                                       std::string(geometry_name(g)) + ": no admissibility bound applies)");
   }
   const std::string where = "Theorem 4 (circle packing, " + std::string(geometry_name(g)) + ")";
-  if (nv >= 2) {
-    for (Index v = 0; v < nv; ++v) {
-      if (!explicit_condition(v) || t.valence(v) == 0) continue;
-      double link = 0;
-      bool known = true;
-      for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
-        const double term = link_term(structure.eta[t.corner_edge[t.vertex_corners[k]]]);
-        known = known && term >= 0;
-        link += term;
-      }
-      if (!known) continue;
-      const bool boundary = t.is_boundary_vertex(v);
-      const double full = boundary ? kPi : kTwoPi;
-      const double bound = full - link;
-      if (!(target.K[v] > bound))
-        return make_check(Status::InfeasibleTarget,
-                          where + ": the target curvature " + fmt(target.K[v]) + " of " +
-                              (boundary ? "boundary " : "interior ") + "vertex " + std::to_string(v) +
-                              " is not admissible: it must exceed " + (boundary ? "π" : "2π") +
-                              " − Σ(π − Φ) over its " + std::to_string(t.valence(v)) +
-                              " opposite edges = " + fmt(bound) + " (the cone angle " +
-                              fmt(full - target.K[v]) + " must be below Σ(π − Φ) = " + fmt(link) + ")",
-                          Element::Vertex, v);
-    }
-  }
-
-  // Boundary loops: I = the vertices of one loop, all with a curvature condition, I ≠ V.
-  if (loops > 0) {
-    std::vector<Index> loop_of(nv_size, kInvalid);
-    for (Index i = 0; i < loops; ++i)
-      for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j)
-        loop_of[t.boundary_vertices[j]] = i;
-    std::vector<double> link(static_cast<std::size_t>(loops), 0.0);
-    std::vector<Index> faces_with_two(static_cast<std::size_t>(loops), 0);
-    std::vector<std::uint8_t> known(static_cast<std::size_t>(loops), 1);
-    for (Index f = 0; f < t.num_faces; ++f) {
-      for (Index k = 0; k < 3; ++k) {
-        const Index loop = loop_of[t.corner_vertex[3 * f + k]];
-        if (loop == kInvalid) continue;
-        // Count each (face, loop) once: at the first corner of the face on that loop.
-        bool first = true;
-        for (Index m = 0; m < k; ++m) first = first && loop_of[t.corner_vertex[3 * f + m]] != loop;
-        if (!first) continue;
-        Index on_loop = 0;
-        for (Index m = 0; m < 3; ++m) on_loop += loop_of[t.corner_vertex[3 * f + m]] == loop ? 1 : 0;
-        if (on_loop >= 2) {
-          ++faces_with_two[loop];
-        } else {
-          const double term = link_term(structure.eta[t.corner_edge[3 * f + k]]);
-          if (term < 0)
-            known[loop] = 0;
-          else
-            link[loop] += term;
-        }
-      }
-    }
-    for (Index i = 0; i < loops; ++i) {
-      const Index n = loop_size(t, i);
-      if (n >= nv || !known[i]) continue;
-      double sum = 0;
-      bool all_conditions = true;
-      if (with_totals) {
-        sum = target.loop_total[i];
-      } else {
-        for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1] && all_conditions; ++j) {
-          const Index v = t.boundary_vertices[j];
-          all_conditions = !is_fixed(v);
-          if (all_conditions) sum += target.K[v];
-        }
-      }
-      if (!all_conditions) continue;
-      const double bound = kPi * n - kPi * faces_with_two[i] - link[i];
-      if (!(sum > bound))
-        return make_check(
-            Status::InfeasibleTarget,
-            where + ": the total target curvature " + fmt(sum) + " of boundary loop " + std::to_string(i) +
-                " (" + std::to_string(n) + " vertices, first " +
-                std::to_string(t.boundary_vertices[t.boundary_offsets[i]]) +
-                ") is not admissible: it must exceed −Σ_Lk(π − Φ) + 2πχ(F_I) − πχ(F_I ∩ ∂) = " + fmt(bound) +
-                " (Σ_Lk(π − Φ) = " + fmt(link[i]) + " over the faces touching the loop at one vertex)");
-    }
-  }
-
+  if (t.num_vertices >= 2)
+    if (auto c = check_theorem4_vertices(tv, where)) return *c;
+  if (t.num_boundary_loops() > 0)
+    if (auto c = check_theorem4_loops(tv, where)) return *c;
   return make_check(Status::Ok, "the target passes the Gauss–Bonnet, cone-angle and " + where + " checks");
 }
 

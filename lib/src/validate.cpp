@@ -1,9 +1,9 @@
 #include "ricci/validate.h"
 
 #include <algorithm>
-#include <optional>
 #include <cmath>
 #include <new>
+#include <optional>
 #include <string>
 
 #include "edge_table.h"
