@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "ricci/io.h"
 #include "ricci/metric.h"
 #include "ricci/topology.h"
 #include "ricci/uniformize.h"
@@ -45,18 +46,6 @@ Mesh grid_with_cap(double offset) {
   return m;
 }
 
-std::string obj_text(const Mesh& m) {
-  std::string s;
-  char buf[128];
-  for (Index v = 0; v < m.num_vertices(); ++v) {
-    std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g\n", m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
-    s += buf;
-  }
-  for (Index f = 0; f < m.num_faces(); ++f)
-    s += "f " + std::to_string(m.faces[3 * f] + 1) + " " + std::to_string(m.faces[3 * f + 1] + 1) + " " +
-         std::to_string(m.faces[3 * f + 2] + 1) + "\n";
-  return s;
-}
 
 }  // namespace
 
@@ -177,7 +166,7 @@ TEST_CASE("uniformize: a cap flat to rounding is mollified and every scheme maps
 
 TEST_CASE("cli uniformize and flow: the mollification is listed in the repairs with its epsilon") {
   ricci_test::TempDir dir;
-  ricci_test::write_bytes(dir / "cap.obj", obj_text(grid_with_cap(1e-16)));
+  ricci_test::write_bytes(dir / "cap.obj", ricci::serialize_mesh(grid_with_cap(1e-16), FileFormat::Obj));
   const ricci_test::CommandResult u =
       ricci_test::run_cli({"uniformize", (dir / "cap.obj").string(), "-o", (dir / "out").string(), "--no-pictures", "--json"});
   REQUIRE_MESSAGE(u.exit_code == 0, u.err);
@@ -207,7 +196,7 @@ TEST_CASE("cli uniformize and flow: the mollification is listed in the repairs w
   }
   flat.positions[3 * 60] = 5.5;
   flat.positions[3 * 60 + 1] = 4.5;
-  ricci_test::write_bytes(dir / "flat.obj", obj_text(flat));
+  ricci_test::write_bytes(dir / "flat.obj", ricci::serialize_mesh(flat, FileFormat::Obj));
   const ricci_test::CommandResult z =
       ricci_test::run_cli({"uniformize", (dir / "flat.obj").string(), "-o", (dir / "out2").string(), "--no-pictures"});
   CHECK(z.exit_code == 5);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "ricci/io.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
@@ -70,18 +71,6 @@ std::string similarity(Mesh& m, std::mt19937_64& rng) {
   return buf;
 }
 
-std::string obj_text(const Mesh& m) {
-  std::string s;
-  char buf[128];
-  for (Index v = 0; v < m.num_vertices(); ++v) {
-    std::snprintf(buf, sizeof buf, "v %.17g %.17g %.17g\n", m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
-    s += buf;
-  }
-  for (Index f = 0; f < m.num_faces(); ++f)
-    s += "f " + std::to_string(m.faces[3 * f] + 1) + " " + std::to_string(m.faces[3 * f + 1] + 1) + " " +
-         std::to_string(m.faces[3 * f + 2] + 1) + "\n";
-  return s;
-}
 
 template <class T>
 const T& pick(std::mt19937_64& rng, const std::vector<T>& v) {
@@ -168,7 +157,7 @@ TEST_CASE("property (CLI): a random run leaves a complete output directory or no
     what += similarity(m, rng);
     const fs::path in = dir / ("in" + std::to_string(i) + ".obj");
     const fs::path out = dir / ("out" + std::to_string(i));
-    ricci_test::write_bytes(in, obj_text(m));
+    ricci_test::write_bytes(in, ricci::serialize_mesh(m, FileFormat::Obj));
     std::vector<std::string> args = {"uniformize", in.string(), "-o", out.string(), "--no-pictures"};
     args.insert(args.end(), {"--geometry", pick(rng, std::vector<std::string>{"auto", "auto", "euclidean", "hyperbolic", "spherical"})});
     args.insert(args.end(), {"--scheme", pick(rng, std::vector<std::string>{"auto", "circle-packing", "inversive-distance", "yamabe"})});
