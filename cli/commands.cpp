@@ -145,7 +145,7 @@ constexpr const char* kExitCodeFooter =
 
 // ---- small formatting helpers ---------------------------------------------------------------
 
-std::optional<std::string> format_name(FileFormat f) {
+std::optional<std::string> format_option_name(FileFormat f) {
   switch (f) {
     case FileFormat::Obj:
       return "obj";
@@ -155,6 +155,14 @@ std::optional<std::string> format_name(FileFormat f) {
       return "ply-ascii";
     case FileFormat::PlyBinary:
       return "ply-binary";
+    case FileFormat::StlAscii:
+      return "stl-ascii";
+    case FileFormat::StlBinary:
+      return "stl-binary";
+    case FileFormat::Gifti:
+      return "gifti";
+    case FileFormat::FreeSurfer:
+      return "freesurfer";
     case FileFormat::Auto:
       break;
   }
@@ -168,6 +176,10 @@ std::optional<FileFormat> format_from_option(const std::string& name) {
   if (name == "off") return FileFormat::Off;
   if (name == "ply") return FileFormat::PlyBinary;
   if (name == "ply-ascii") return FileFormat::PlyAscii;
+  if (name == "stl") return FileFormat::StlBinary;
+  if (name == "stl-ascii") return FileFormat::StlAscii;
+  if (name == "gifti") return FileFormat::Gifti;
+  if (name == "freesurfer") return FileFormat::FreeSurfer;
   return std::nullopt;
 }
 
@@ -193,6 +205,15 @@ std::uint64_t g_max_input_bytes = kDefaultMaxFileBytes;  // set once by run() fr
 
 std::uint64_t max_input_bytes() { return g_max_input_bytes; }
 void set_max_input_bytes(std::uint64_t bytes) { g_max_input_bytes = bytes; }
+
+double g_weld_tolerance = 0;  // set once by run() from --weld-tolerance
+
+ricci::ReadOptions input_read_options() {
+  ricci::ReadOptions ro;
+  ro.max_file_bytes = max_input_bytes();
+  ro.weld_tolerance = g_weld_tolerance;
+  return ro;
+}
 
 std::optional<std::uint64_t> parse_byte_size(std::string_view text) {
   std::uint64_t value = 0;
@@ -258,7 +279,7 @@ ricci::LoadResult load_input(const std::string& mesh, const ricci::ValidateOptio
   if (!mesh.empty()) {
     ricci::LoadOptions lo;
     lo.validate = options;
-    lo.read.max_file_bytes = max_input_bytes();
+    lo.read = input_read_options();
     ricci::LoadResult r = ricci::load_mesh(mesh, lo);
     if (r.status == Status::FileTooLarge) r.message += "; raise the limit with --max-file-size";
     return r;
@@ -342,6 +363,8 @@ struct InfoReport {
   std::string file;
   bool embedded = false;
   std::optional<std::string> format;
+  std::string format_details;         ///< what the file says about itself (ReadResult::format_details)
+  std::int64_t welded_vertices = -1;  ///< STL: corners welded into earlier vertices; -1 otherwise
   Status status = Status::NotRun;
   std::string message;
   std::int64_t line = -1;
@@ -392,14 +415,16 @@ InfoReport make_info_report(const InfoOptions& options) {
   vo.repair_orientation = !options.no_repair_orientation;
   const ricci::LoadResult loaded = load_input(options.mesh, vo);
   const ricci::ReadResult& read = loaded.read;
-  r.format = format_name(read.format);
+  r.format = format_option_name(read.format);
   r.status = loaded.status;
   r.message = loaded.status == Status::Ok ? std::string("ok") : loaded.message;
   r.line = loaded.line;
   r.element = loaded.element;
   r.element_index = loaded.element_index;
   if (read.status != Status::Ok) return r;
-
+  r.format_details = read.format_details;
+  if (read.format == FileFormat::StlAscii || read.format == FileFormat::StlBinary)
+    r.welded_vertices = read.welded_vertices;
   r.repairs = loaded.repairs;
   const ricci::MeshDiagnostics raw = ricci::diagnose(read.mesh);
   const ricci::ValidateResult& validated = loaded.validated;
@@ -458,6 +483,8 @@ Json info_json(const InfoReport& r) {
   j["file"] = r.file;
   j["embedded_default"] = r.embedded;
   j["format"] = r.format ? Json(*r.format) : Json(nullptr);
+  j["format_details"] = r.format_details.empty() ? Json(nullptr) : Json(r.format_details);
+  j["welded_vertices"] = r.welded_vertices >= 0 ? Json(r.welded_vertices) : Json(nullptr);
   j["line"] = r.line >= 0 ? Json(r.line) : Json(nullptr);
   j["element"] =
       r.element != ricci::Element::None ? Json(std::string(ricci::element_name(r.element))) : Json(nullptr);
@@ -502,6 +529,8 @@ void print_info_text(const InfoReport& r, std::ostream& os) {
 
   row("file", r.embedded ? r.file + " (embedded default mesh)" : r.file);
   if (r.format) row("format", *r.format);
+  if (!r.format_details.empty()) row("format details", r.format_details);
+  if (r.welded_vertices >= 0) row("welded corners", std::to_string(r.welded_vertices));
   if (r.have_mesh) {
     std::string v = num(r.vertices);
     if (r.vertices_listed != r.vertices)
@@ -553,7 +582,8 @@ CLI::App* add_info_command(CLI::App& app, InfoOptions& o) {
       "Describe a mesh: counts, topology (χ, genus, boundary loops), defects, angle quality "
       "and the repairs validation would make.");
   cmd->add_option("MESH", o.mesh,
-                  "Mesh file (.obj, .off, .ply). Default: the embedded genus-2 mesh (" +
+                  "Mesh file (.obj, .off, .ply, .stl, .gii, or a FreeSurfer surface such as lh.white). "
+                  "Default: the embedded genus-2 mesh (" +
                       std::string(embedded_default_name()) + ").");
   cmd->add_flag("--json", o.json, "Print one JSON object on stdout instead of text. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component,
@@ -568,9 +598,12 @@ CLI::App* add_info_command(CLI::App& app, InfoOptions& o) {
 CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
   CLI::App* cmd =
       app.add_subcommand("convert",
-                         "Rewrite a mesh in another format (OBJ, OFF, PLY). The output is written "
-                         "atomically and never replaces the input.");
-  cmd->add_option("IN", o.input, "Input mesh file (.obj, .off, .ply). Required.")->required();
+                         "Rewrite a mesh in another format (OBJ, OFF, PLY, STL, GIFTI, FreeSurfer). The "
+                         "output is written atomically and never replaces the input.");
+  cmd->add_option("IN", o.input,
+                  "Input mesh file (.obj, .off, .ply, .stl, .gii, or a FreeSurfer surface such as lh.white). "
+                  "Required.")
+      ->required();
   cmd->add_option("-o,--output", o.output, "Output mesh file. Required.")->required();
   CLI::Option* validate =
       cmd->add_flag("--validate", o.validate,
@@ -580,9 +613,10 @@ CLI::App* add_convert_command(CLI::App& app, ConvertOptions& o) {
                 "With --validate: keep the largest connected component. Default: off.")
       ->needs(validate);
   cmd->add_option("--format", o.format,
-                  "Output format: obj, off, ply (binary little-endian) or ply-ascii. "
-                  "Default: from the extension of OUT.")
-      ->check(CLI::IsMember({"obj", "off", "ply", "ply-ascii"}));
+                  "Output format: obj, off, ply (binary little-endian), ply-ascii, stl (binary), stl-ascii, "
+                  "gifti or freesurfer (STL, GIFTI and FreeSurfer store single precision). "
+                  "Default: from the extension of OUT (.obj, .off, .ply, .stl, .gii).")
+      ->check(CLI::IsMember({"obj", "off", "ply", "ply-ascii", "stl", "stl-ascii", "gifti", "freesurfer"}));
   cmd->add_flag("-q,--quiet", o.quiet, "Silence notes on stderr; errors are still printed. Default: off.");
   return cmd;
 }
@@ -606,12 +640,13 @@ int run_info(const InfoOptions& options) {
 int run_convert(const ConvertOptions& options) {
   const std::optional<FileFormat> format = format_from_option(options.format);
   if (!format) {
-    print_error("unknown output format '" + options.format + "' (use obj, off, ply or ply-ascii)");
+    print_error("unknown output format '" + options.format +
+                "' (use obj, off, ply, ply-ascii, stl, stl-ascii, gifti or freesurfer)");
     return kExitUsage;
   }
   if (*format == FileFormat::Auto && ricci::format_from_path(options.output) == FileFormat::Auto) {
     print_error("cannot tell the output format from '" + options.output +
-                "'; use an .obj, .off or .ply extension or --format");
+                "'; use an .obj, .off, .ply, .stl or .gii extension or --format (freesurfer surfaces have none)");
     return kExitUsage;
   }
 
@@ -622,9 +657,7 @@ int run_convert(const ConvertOptions& options) {
   if (options.validate) {
     loaded = load_input(options.input, vo);
   } else {
-    ricci::ReadOptions ro;
-    ro.max_file_bytes = max_input_bytes();
-    loaded.read = ricci::read_mesh(options.input, ro);
+    loaded.read = ricci::read_mesh(options.input, input_read_options());
     loaded.status = loaded.read.status;
     loaded.message = loaded.read.message;
     if (loaded.status == Status::FileTooLarge) loaded.message += "; raise the limit with --max-file-size";
@@ -633,6 +666,9 @@ int run_convert(const ConvertOptions& options) {
     print_error(loaded.message);
     return exit_code(loaded.status);
   }
+  if (loaded.read.welded_vertices > 0)
+    print_note(options.quiet, "welded " + std::to_string(loaded.read.welded_vertices) +
+                                  " STL corners into earlier vertices");
   if (!options.validate && loaded.read.polygons_triangulated > 0)
     print_note(options.quiet, "fan-triangulated " + std::to_string(loaded.read.polygons_triangulated) +
                                   " polygons with more than 3 sides");
@@ -655,7 +691,7 @@ int run_convert(const ConvertOptions& options) {
   }
   const FileFormat out_format =
       *format == FileFormat::Auto ? ricci::format_from_path(options.output) : *format;
-  print_note(options.quiet, "wrote " + options.output + " (" + format_name(out_format).value_or("?") + ", " +
+  print_note(options.quiet, "wrote " + options.output + " (" + format_option_name(out_format).value_or("?") + ", " +
                                 std::to_string(mesh->num_vertices()) + " vertices, " +
                                 std::to_string(mesh->num_faces()) + " faces, " +
                                 std::to_string(written.bytes_written) + " bytes)");
@@ -676,6 +712,10 @@ int run(int argc, const char* const* argv) {
       ->check(CLI::Validator(
           [](std::string& v) { return parse_byte_size(v) ? std::string() : "not a size like 2G or 500M: " + v; },
           "SIZE"));
+  app.add_option("--weld-tolerance", g_weld_tolerance,
+                 "STL input: weld corners closer than this distance (in the file's units) into one vertex. "
+                 "Default: 0 (corners with identical coordinates only).")
+      ->check(CLI::NonNegativeNumber);
 
   InfoOptions info;
   ConvertOptions convert;

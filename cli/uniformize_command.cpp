@@ -43,6 +43,8 @@
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "report_html.h"
+#include "gltf.h"
+#include "uniformize_outputs.h"
 #include "uniformize_pictures.h"
 
 namespace ricci_cli {
@@ -485,6 +487,9 @@ struct Run {
   bool from_metric = false;
   Index input_flipped_faces = 0;  ///< refined: input faces that come out flipped through the subdivision
   Index refinement_faces = 0;     ///< refined: faces written to refinement.obj
+  ricci::FileFormat input_format = ricci::FileFormat::Obj;  ///< format the input was read in
+  Index file_vertices = 0, file_faces = 0;  ///< counts of the file as read (before validation)
+  std::vector<double> sphere_positions;     ///< sphere results: the unit-sphere position per vertex
 };
 
 Json report_json(const Run& run) {
@@ -727,6 +732,11 @@ std::optional<int> load_for_run(const UniformizeCommandOptions& o, const char* c
   }
   run.repairs = loaded.repairs;
   for (const ricci::Repair& rep : run.repairs) print_note(o.quiet, rep.message);
+  run.input_format = loaded.read.format;
+  run.file_vertices = loaded.read.mesh.num_vertices();
+  run.file_faces = loaded.read.mesh.num_faces();
+  if (loaded.read.welded_vertices > 0)
+    print_note(o.quiet, "welded " + std::to_string(loaded.read.welded_vertices) + " STL corners into earlier vertices");
   v = std::move(loaded.validated);
   run.topo = v.topology;
   run.have_mesh = true;
@@ -902,6 +912,7 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
     ricci::Mesh s;
     s.positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
     s.faces = v.mesh.faces;
+    run.sphere_positions = s.positions;
     files.push_back({"sphere.obj", ricci::serialize_mesh(s, ricci::FileFormat::Obj)});
   } else {
     // The input's faces with their layout (through the subdivision when refined).
@@ -943,6 +954,54 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
     }
   }
   return std::nullopt;
+}
+
+// The sphere (radius 100) in the file's vertex order, or the layout at z = 0 split at the cut.
+ricci::Mesh family_layout(const Run& run, const ricci::ValidateResult& v, const ricci::Mesh& surface) {
+  ricci::Mesh out;
+  if (run.sphere_positions.empty()) {
+    for (std::size_t t = 0; t < surface.texcoords.size() / 2; ++t)
+      out.positions.insert(out.positions.end(), {surface.texcoords[2 * t], surface.texcoords[2 * t + 1], 0.0});
+    out.faces = surface.corner_texcoords;
+    return out;
+  }
+  const Index nv = v.mesh.num_vertices();
+  bool file_order = v.vertex_to_input.size() == static_cast<std::size_t>(nv);
+  for (const Index w : v.vertex_to_input) file_order = file_order && w >= 0 && w < run.file_vertices;
+  out.positions.assign(3 * static_cast<std::size_t>(file_order ? run.file_vertices : nv), 0.0);
+  for (Index i = 0; i < nv; ++i) {
+    const std::size_t w = static_cast<std::size_t>(file_order ? v.vertex_to_input[i] : i);
+    for (int k = 0; k < 3; ++k) out.positions[3 * w + k] = 100.0 * run.sphere_positions[3 * static_cast<std::size_t>(i) + k];
+  }
+  out.faces = v.mesh.faces;
+  if (file_order)
+    for (Index& f : out.faces) f = v.vertex_to_input[f];
+  return out;
+}
+
+// mesh.glb, and the files for GIFTI and FreeSurfer users (see uniformize_outputs.h).
+void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::ValidateResult& v, const ricci::Mesh& surface,
+                  std::vector<OutFile>& files) {
+  const ricci::UniformizeResult& r = run.result;
+  const std::vector<double> uv = corner_uv(r, surface);
+  const double repeats = r.geometry == Geometry::Spherical ? 12 : 10;  // half the checks of the pictures
+  const GlbResult glb = textured_glb(surface.positions, surface.faces, uv, checker_texture_png(), repeats);
+  if (glb.bytes.empty()) {
+    const std::string note = "no mesh.glb written: " + glb.message;
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  } else {
+    files.push_back({"mesh.glb", glb.bytes});
+  }
+  if (run.input_format != ricci::FileFormat::Gifti && run.input_format != ricci::FileFormat::FreeSurfer) return;
+  const bool sphere = !run.sphere_positions.empty();
+  const VertexOverlays overlays =
+      vertex_overlays(v.mesh, v.topology, v.vertex_to_input, run.file_vertices, r, surface,
+                      sphere ? std::span<const double>() : std::span<const double>(uv),
+                      sphere ? std::span<const double>(run.sphere_positions) : std::span<const double>());
+  for (auto& [name, bytes] : family_files(run.input_format, run.file, overlays, run.file_faces,
+                                          family_layout(run, v, surface), sphere))
+    files.push_back({name, std::move(bytes)});
 }
 
 // The pictures, report.json and report.html added to `files`, and OUTDIR written at once.
@@ -1022,6 +1081,7 @@ int run_uniformize(const UniformizeCommandOptions& o) {
   ricci::Mesh surface;
   ricci::CoverResult cover;
   if (const auto rc = output_files(o, run, start, st, v, files, surface, cover)) return *rc;
+  tool_outputs(o, run, v, surface, files);
   run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
   return write_run(o, cmd, run, start, files, surface, cover);
 }

@@ -49,8 +49,8 @@ Drawing disk_drawing(const ricci::CutResult& cut, std::span<const double> positi
   return d;
 }
 
-/// Per-corner texture coordinates for the checkerboard: the layout (E, H) through the cut, or
-/// the Mercator projection of the sphere layout (conformal), longitudes unwrapped per face.
+}  // namespace
+
 std::vector<double> corner_uv(const ricci::UniformizeResult& r, const ricci::Mesh& surface) {
   std::vector<double> uv;
   const std::size_t nc = surface.faces.size();
@@ -83,8 +83,6 @@ std::vector<double> corner_uv(const ricci::UniformizeResult& r, const ricci::Mes
   }
   return uv;
 }
-
-}  // namespace
 
 ConformalDistortion conformal_distortion(std::span<const double> positions, std::span<const Index> faces,
                                          std::span<const double> uv) {

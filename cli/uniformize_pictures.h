@@ -34,6 +34,10 @@ struct ConformalDistortion {
 ConformalDistortion conformal_distortion(std::span<const double> positions, std::span<const ricci::Index> faces,
                                          std::span<const double> corner_uv);
 
+/// Per-corner texture coordinates (2 per corner of `surface`): the layout through the cut (E, H),
+/// or the Mercator projection of the sphere layout (conformal), longitudes unwrapped per face.
+std::vector<double> corner_uv(const ricci::UniformizeResult& r, const ricci::Mesh& surface);
+
 /// The pictures of a successful run. `surface` is the mesh written as mesh.obj (with texture
 /// coordinates when the result has a cut); `cover` the tiling (nullptr: no cover picture).
 /// `distortion`, when given, receives conformal_distortion() of the checkerboard's texture map

@@ -211,4 +211,11 @@ std::string check_topology(const ricci::Topology& t, const std::vector<Index>& f
   return {};
 }
 
+std::string nibabel_python() {
+  for (const char* python : {"/usr/bin/python3", "/usr/local/bin/python3"}) {
+    if (run_program(python, {"-c", "import nibabel"}).exit_code == 0) return python;
+  }
+  return {};
+}
+
 }  // namespace ricci_test

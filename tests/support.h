@@ -51,6 +51,10 @@ CommandResult run_cli(const std::vector<std::string>& args);
 /// Runs any program with arguments (no shell), capturing stdout and stderr.
 CommandResult run_program(const std::string& program, const std::vector<std::string>& args);
 
+/// A Python interpreter that can import nibabel (/usr/bin/python3, where Debian's python3-nibabel
+/// lives, or /usr/local/bin/python3); empty when there is none.
+std::string nibabel_python();
+
 /// Checks every invariant of a topology against its faces (see conventions.h and topology.h):
 /// opposite corners are involutive and point back across the same edge in the opposite
 /// direction; corner→edge and edge→corner/vertex agree; the vertex→corner lists cover every

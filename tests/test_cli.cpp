@@ -235,7 +235,7 @@ TEST_CASE("cli: bad arguments are usage errors (exit 2)") {
       {"frobnicate"},
       {"info", "a.obj", "b.obj"},
       {"convert", "a.obj"},
-      {"convert", "a.obj", "-o", "b.obj", "--format", "stl"},
+      {"convert", "a.obj", "-o", "b.obj", "--format", "3ds"},
       {"convert", "a.obj", "-o", "b.obj", "--largest-component"},
   };
   for (const auto& args : cases) {

@@ -100,7 +100,7 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
                      "checker-3.png",   "convergence-time.png", "convergence-time.svg", "convergence.png",
                      "convergence.svg", "cover.obj",       "cover.png",       "cover.svg",
                      "domain.obj",      "domain.png",      "domain.svg",      "generators.json",
-                     "mesh.obj",        "metric.csv",      "polygon.obj",     "polygon.png",
+                     "mesh.glb",        "mesh.obj",        "metric.csv",      "polygon.obj",     "polygon.png",
                      "polygon.svg",     "report.html",     "report.json"});
   // The checkerboard's texture map is close to conformal (square checks): sigma_max/sigma_min.
   CHECK(j["conformal_distortion"]["faces"].get<int>() > 1000);
@@ -245,7 +245,7 @@ TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
   CHECK(d["geometry"] == "euclidean");
   CHECK(d["boundary"] == "circle");
   CHECK(d["layout"]["flipped_faces"] == 0);
-  CHECK(listing(tmp / "d") == std::vector<std::string>{"domain.obj", "mesh.obj", "metric.csv", "report.json"});
+  CHECK(listing(tmp / "d") == std::vector<std::string>{"domain.obj", "mesh.glb", "mesh.obj", "metric.csv", "report.json"});
 }
 
 TEST_CASE("cli layout: a stored metric laid out again, a metric of another mesh is refused") {

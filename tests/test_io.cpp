@@ -45,6 +45,11 @@ const char* format_label(FileFormat f) {
       return "ply-ascii";
     case FileFormat::PlyBinary:
       return "ply-binary";
+    case FileFormat::StlAscii:
+    case FileFormat::StlBinary:
+    case FileFormat::Gifti:
+    case FileFormat::FreeSurfer:
+      return ricci::format_name(f);
     case FileFormat::Auto:
       break;
   }
@@ -292,7 +297,10 @@ TEST_CASE("io: format_from_path picks the format from the extension") {
   CHECK(ricci::format_from_path("dir/A.OBJ") == FileFormat::Obj);
   CHECK(ricci::format_from_path("x.Off") == FileFormat::Off);
   CHECK(ricci::format_from_path("/p/q.r/mesh.ply") == FileFormat::PlyBinary);
-  CHECK(ricci::format_from_path("mesh.stl") == FileFormat::Auto);
+  CHECK(ricci::format_from_path("mesh.stl") == FileFormat::StlBinary);
+  CHECK(ricci::format_from_path("lh.surf.GII") == FileFormat::Gifti);
+  CHECK(ricci::format_from_path("lh.white") == FileFormat::Auto);
+  CHECK(ricci::format_from_path("mesh.3ds") == FileFormat::Auto);
   CHECK(ricci::format_from_path("mesh") == FileFormat::Auto);
   CHECK(ricci::format_from_path("dir.obj/mesh") == FileFormat::Auto);
   CHECK(ricci::format_from_path("") == FileFormat::Auto);
@@ -853,12 +861,12 @@ TEST_CASE("io: file errors: missing, directory, too large, unknown extension") {
   CHECK(r.status == Status::Ok);
   CHECK(r.mesh.num_faces() == 1);
 
-  ricci_test::write_bytes(dir / "tri.stl", kTriangleObj);
-  r = ricci::read_mesh((dir / "tri.stl").string());
+  ricci_test::write_bytes(dir / "tri.3ds", kTriangleObj);
+  r = ricci::read_mesh((dir / "tri.3ds").string());
   CHECK(r.status == Status::UnknownFormat);
   ricci::ReadOptions as_obj;
   as_obj.format = FileFormat::Obj;
-  CHECK(ricci::read_mesh((dir / "tri.stl").string(), as_obj).status == Status::Ok);
+  CHECK(ricci::read_mesh((dir / "tri.3ds").string(), as_obj).status == Status::Ok);
   CHECK(ricci::read_mesh_from_memory(kTriangleObj, "blob").status == Status::UnknownFormat);
   CHECK(ricci::read_mesh_from_memory(kTriangleObj, "blob", small).status == Status::FileTooLarge);
 
@@ -1050,7 +1058,7 @@ TEST_CASE("io: write_mesh refuses unknown extensions and inconsistent meshes") {
   Mesh m;
   m.positions = {0, 0, 0, 1, 0, 0, 0, 1, 0};
   m.faces = {0, 1, 2};
-  CHECK(ricci::write_mesh((dir / "m.stl").string(), m).status == Status::UnknownFormat);
+  CHECK(ricci::write_mesh((dir / "m.3ds").string(), m).status == Status::UnknownFormat);
   Mesh bad_index = m;
   bad_index.faces[2] = 3;
   CHECK(ricci::write_mesh((dir / "m.obj").string(), bad_index).status == Status::InvalidArgument);

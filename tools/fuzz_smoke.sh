@@ -4,8 +4,8 @@
 #
 #   tools/fuzz_smoke.sh [SECONDS] [BUILD_DIR]     defaults: 30 seconds per target, build-fuzz
 #
-# Environment: RICCI_FUZZ_CXX (default clang++-14), RICCI_FUZZ_TARGETS (default: all of
-# obj off ply ply_body target load). Exits non-zero when a target fails to build or finds a
+# Environment: RICCI_FUZZ_CXX (default clang++-14), RICCI_FUZZ_TARGETS (default: all of obj off
+# ply ply_body target load stl freesurfer gifti). Exits non-zero when a target fails to build or finds a
 # crash, a sanitizer report, an invariant violation, a timeout (> 10 s) or an input using more
 # than 2 GB; the input is kept in BUILD_DIR/fuzz-artifacts/ and the log in BUILD_DIR/fuzz-logs/.
 # Reproduce with: BUILD_DIR/tools/fuzz/fuzz_TARGET BUILD_DIR/fuzz-artifacts/TARGET-crash-…
@@ -14,7 +14,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 build="${2:-build-fuzz}"
 cxx="${RICCI_FUZZ_CXX:-clang++-14}"
-targets=(${RICCI_FUZZ_TARGETS:-obj off ply ply_body target load})
+targets=(${RICCI_FUZZ_TARGETS:-obj off ply ply_body target load stl freesurfer gifti})
 
 if ! command -v "$cxx" >/dev/null 2>&1; then
   echo "fuzz_smoke: $cxx not found. On Debian: apt-get install clang-14 libclang-rt-14-dev libfuzzer-14-dev (or run tools/setup.sh)" >&2
@@ -42,7 +42,7 @@ for t in "${targets[@]}"; do
   cp -r "tools/fuzz/corpus/$t" "$work/$t"
   dict=()
   case "$t" in
-    obj | off | ply | target | load) dict=(-dict="tools/fuzz/$t.dict") ;;
+    obj | off | ply | target | load | gifti) dict=(-dict="tools/fuzz/$t.dict") ;;
   esac
   log="$logs/$t.log"
   set +e

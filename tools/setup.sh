@@ -21,6 +21,10 @@ packages=(
   libfuzzer-14-dev        # libFuzzer: the fuzzing engine of tools/fuzz
   libomp-14-dev           # OpenMP for clang (libgomp serves g++ only): the fuzz build
   universal-ctags         # function extents for tools/longest_functions.sh (printed by the check)
+  libexpat1-dev           # expat: the XML of GIFTI surfaces and overlays
+  zlib1g-dev              # zlib: GIFTI's GZipBase64Binary data
+  libtinygltf-dev         # tinygltf: the textured mesh.glb of ricci uniformize
+  python3-nibabel         # nibabel: tests read and write GIFTI and FreeSurfer files independently
 )
 
 missing=()

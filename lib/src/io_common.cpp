@@ -10,9 +10,11 @@
 #include <cerrno>
 #include <charconv>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <new>
 #include <string>
 #include <system_error>
@@ -255,17 +257,62 @@ bool append_polygon(ReadContext& ctx, std::span<const Index> polygon, std::int64
 namespace fs = std::filesystem;
 using io_detail::ReadContext;
 
-FileFormat format_from_path(std::string_view path) {
+const char* format_name(FileFormat format) {
+  switch (format) {
+    case FileFormat::Auto: return "automatic";
+    case FileFormat::Obj: return "OBJ";
+    case FileFormat::Off: return "OFF";
+    case FileFormat::PlyAscii: return "ascii PLY";
+    case FileFormat::PlyBinary: return "binary PLY";
+    case FileFormat::StlAscii: return "ascii STL";
+    case FileFormat::StlBinary: return "binary STL";
+    case FileFormat::Gifti: return "GIFTI";
+    case FileFormat::FreeSurfer: return "FreeSurfer surface";
+  }
+  return "unknown";
+}
+
+namespace {
+
+/// The lower-case extension after the last dot of the file name ("" when none).
+std::string lower_extension(std::string_view path) {
   const std::size_t dot = path.find_last_of('.');
   const std::size_t slash = path.find_last_of('/');
-  if (dot == std::string_view::npos || (slash != std::string_view::npos && dot < slash))
-    return FileFormat::Auto;
+  if (dot == std::string_view::npos || (slash != std::string_view::npos && dot < slash)) return {};
   std::string ext(path.substr(dot + 1));
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; });
+  return ext;
+}
+
+}  // namespace
+
+FileFormat format_from_path(std::string_view path) {
+  const std::string ext = lower_extension(path);
   if (ext == "obj") return FileFormat::Obj;
   if (ext == "off") return FileFormat::Off;
   if (ext == "ply") return FileFormat::PlyBinary;
+  if (ext == "stl") return FileFormat::StlBinary;
+  if (ext == "gii") return FileFormat::Gifti;
+  return FileFormat::Auto;
+}
+
+FileFormat format_from_content(std::string_view head) {
+  auto byte = [&](std::size_t i) { return static_cast<unsigned char>(head[i]); };
+  if (head.size() >= 3 && byte(0) == 0xFF && byte(1) == 0xFF && byte(2) == 0xFE) return FileFormat::FreeSurfer;
+  if (head.substr(0, 3) == "ply" && head.size() > 3 && (head[3] == '\n' || head[3] == '\r'))
+    return FileFormat::PlyBinary;
+  std::string_view text = head.substr(0, 4096);
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string_view::npos) return FileFormat::Auto;
+  text.remove_prefix(first);
+  if (text.substr(0, 5) == "<?xml" && text.find("<GIFTI") != std::string_view::npos) return FileFormat::Gifti;
+  const std::size_t end = text.find_first_of(" \t\r\n");
+  const std::string_view word = text.substr(0, end);
+  for (const std::string_view keyword : {"OFF", "COFF", "NOFF", "CNOFF", "STOFF", "STCOFF"}) {
+    if (word == keyword) return FileFormat::Off;
+  }
   return FileFormat::Auto;
 }
 
@@ -350,7 +397,9 @@ bool load_file(const std::string& path, std::uint64_t max_bytes, std::string& da
 
 /// Records that no format was given and the name has no known extension.
 void fail_unknown_format(ReadContext& ctx) {
-  ctx.fail(Status::UnknownFormat, "the name has no .obj, .off or .ply extension; give the format explicitly");
+  ctx.fail(Status::UnknownFormat,
+           "the name has no .obj, .off, .ply, .stl or .gii extension and the content is not recognised "
+           "(FreeSurfer, PLY, GIFTI or OFF); give the format explicitly");
 }
 
 std::string summary(const ReadResult& r) {
@@ -358,6 +407,9 @@ std::string summary(const ReadResult& r) {
                   io_detail::count_of(r.mesh.num_faces(), "triangle", "triangles");
   if (r.polygons_triangulated > 0) {
     s += " (" + io_detail::count_of(r.polygons_triangulated, "polygon", "polygons") + " triangulated)";
+  }
+  if (r.format == FileFormat::StlAscii || r.format == FileFormat::StlBinary) {
+    s += " (" + io_detail::count_of(r.welded_vertices, "corner", "corners") + " welded into earlier vertices)";
   }
   return s;
 }
@@ -419,6 +471,16 @@ void parse_bytes(std::string_view data, FileFormat format, const ReadOptions& op
     case FileFormat::PlyBinary:
       ok = io_detail::read_ply(data, ctx);
       break;
+    case FileFormat::StlAscii:
+    case FileFormat::StlBinary:
+      ok = io_detail::read_stl(data, ctx, options);
+      break;
+    case FileFormat::Gifti:
+      ok = io_detail::read_gifti(data, ctx);
+      break;
+    case FileFormat::FreeSurfer:
+      ok = io_detail::read_freesurfer(data, ctx);
+      break;
     case FileFormat::Auto:
       break;
   }
@@ -453,10 +515,10 @@ ReadResult read_mesh(const std::string& path, const ReadOptions& options) {
   ReadContext ctx(path, r);
   guarded_read(ctx, [&] {
     if (!check_file(path, options.max_file_bytes, ctx)) return;
-    const FileFormat format = options.format == FileFormat::Auto ? format_from_path(path) : options.format;
-    if (format == FileFormat::Auto) return fail_unknown_format(ctx);
+    FileFormat format = options.format == FileFormat::Auto ? format_from_path(path) : options.format;
     std::string data;
     if (!load_file(path, options.max_file_bytes, data, ctx)) return;
+    if (format == FileFormat::Auto) format = format_from_content(data);
     parse_bytes(data, format, options, ctx);
   });
   return r;
@@ -472,7 +534,8 @@ ReadResult read_mesh_from_memory(std::string_view data, const std::string& name,
                    std::to_string(options.max_file_bytes) + " (ReadOptions::max_file_bytes)");
       return;
     }
-    const FileFormat format = options.format == FileFormat::Auto ? format_from_path(name) : options.format;
+    FileFormat format = options.format == FileFormat::Auto ? format_from_path(name) : options.format;
+    if (format == FileFormat::Auto) format = format_from_content(data);
     parse_bytes(data, format, options, ctx);
   });
   return r;
@@ -498,6 +561,18 @@ void append_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords, std:
     case FileFormat::PlyBinary:
       io_detail::append_ply(mesh, true, out);
       break;
+    case FileFormat::StlAscii:
+      io_detail::append_stl(mesh, false, out);
+      break;
+    case FileFormat::StlBinary:
+      io_detail::append_stl(mesh, true, out);
+      break;
+    case FileFormat::Gifti:
+      io_detail::append_gifti(mesh, out);
+      break;
+    case FileFormat::FreeSurfer:
+      io_detail::append_freesurfer(mesh, out);
+      break;
     case FileFormat::Auto:
       break;
   }
@@ -511,6 +586,85 @@ std::string serialize_mesh(const Mesh& mesh, FileFormat format, bool write_texco
     append_mesh(mesh, format, write_texcoords, out);
   } catch (const std::exception&) {
     out.clear();  // out of memory: an empty string is never a valid serialisation
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Overlays.
+
+namespace {
+
+OverlayFormat overlay_format(std::string_view name, std::string_view data) {
+  if (lower_extension(name) == "gii") return OverlayFormat::GiftiFunc;
+  if (data.size() >= 3 && static_cast<unsigned char>(data[0]) == 0xFF && static_cast<unsigned char>(data[1]) == 0xFF &&
+      static_cast<unsigned char>(data[2]) == 0xFF)
+    return OverlayFormat::FreeSurferCurv;
+  if (format_from_content(data) == FileFormat::Gifti) return OverlayFormat::GiftiFunc;
+  return OverlayFormat::Auto;
+}
+
+/// Parses overlay bytes; failures go through ctx (a scratch ReadResult) and are copied to out.
+void parse_overlay(std::string_view data, OverlayFormat format, ReadContext& ctx, OverlayReadResult& out) {
+  if (format == OverlayFormat::Auto) format = overlay_format(ctx.name(), data);
+  out.format = format;
+  bool ok = false;
+  if (format == OverlayFormat::GiftiFunc) {
+    ok = io_detail::read_gifti_overlay(data, ctx, out);
+  } else if (format == OverlayFormat::FreeSurferCurv) {
+    ok = io_detail::read_curv(data, ctx, out);
+  } else {
+    ctx.fail(Status::UnknownFormat,
+             "not a GIFTI functional file (.gii) nor a FreeSurfer curv file (magic FF FF FF); give the format");
+  }
+  if (!ok) return;
+  ctx.result().status = Status::Ok;
+  std::size_t values = out.arrays.empty() ? 0 : out.arrays.front().size();
+  ctx.result().message = std::string(ctx.name()) + ": read " + io_detail::count_of(static_cast<std::int64_t>(out.arrays.size()), "array", "arrays") +
+                         " of " + io_detail::count_of(static_cast<std::int64_t>(values), "value", "values");
+}
+
+OverlayReadResult overlay_read(std::string_view name, const std::function<void(ReadContext&, OverlayReadResult&)>& body) {
+  OverlayReadResult out;
+  ReadResult scratch;
+  ReadContext ctx(name, scratch);
+  guarded_read(ctx, [&] { body(ctx, out); });
+  out.status = scratch.status;
+  out.message = scratch.message;
+  out.line = scratch.line;
+  if (out.status != Status::Ok) {
+    out.arrays.clear();
+    out.names.clear();
+  }
+  return out;
+}
+
+}  // namespace
+
+OverlayReadResult read_overlay(const std::string& path, const ReadOptions& options, OverlayFormat format) {
+  return overlay_read(path, [&](ReadContext& ctx, OverlayReadResult& out) {
+    if (!check_file(path, options.max_file_bytes, ctx)) return;
+    std::string data;
+    if (!load_file(path, options.max_file_bytes, data, ctx)) return;
+    parse_overlay(data, format, ctx, out);
+  });
+}
+
+OverlayReadResult read_overlay_from_memory(std::string_view data, const std::string& name, OverlayFormat format) {
+  return overlay_read(name, [&](ReadContext& ctx, OverlayReadResult& out) { parse_overlay(data, format, ctx, out); });
+}
+
+std::string serialize_overlay(std::span<const double> values, OverlayFormat format, std::string_view name,
+                              std::int64_t num_faces) {
+  std::string out;
+  for (const double v : values) {
+    if (!io_detail::is_finite_bits(v)) return out;
+  }
+  try {
+    if (format == OverlayFormat::GiftiFunc) io_detail::append_gifti_overlay(values, name, out);
+    if (format == OverlayFormat::FreeSurferCurv) io_detail::append_curv(values, num_faces, out);
+  } catch (const std::exception&) {
+    out.clear();
   }
   return out;
 }
@@ -695,11 +849,22 @@ WriteResult write_mesh(const std::string& path, const Mesh& mesh, const WriteOpt
     const FileFormat format = options.format == FileFormat::Auto ? format_from_path(path) : options.format;
     if (format == FileFormat::Auto) {
       return write_failure(Status::UnknownFormat, path,
-                           "the name has no .obj, .off or .ply extension; give the format explicitly");
+                           "the name has no .obj, .off, .ply, .stl or .gii extension; give the format explicitly");
     }
     const bool texcoords = format == FileFormat::Obj && options.write_texcoords;
     if (!check_target(path, options.protected_paths, r)) return r;
     if (!check_mesh(path, mesh, texcoords, r)) return r;
+    if (io_detail::single_precision(format)) {
+      constexpr double kMax = std::numeric_limits<float>::max();
+      for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+        if (std::abs(mesh.positions[i]) > kMax) {
+          return write_failure(Status::InvalidArgument, path,
+                               "cannot write the mesh: vertex " + std::to_string(i / 3) +
+                                   " has a coordinate beyond the range of single precision, which " +
+                                   format_name(format) + " stores");
+        }
+      }
+    }
     std::string bytes;
     append_mesh(mesh, format, texcoords, bytes);
     return write_atomically(path, bytes);

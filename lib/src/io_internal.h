@@ -14,6 +14,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "ricci/io.h"
@@ -261,5 +262,75 @@ void append_obj(const Mesh& mesh, bool texcoords, std::string& out);
 void append_off(const Mesh& mesh, std::string& out);
 /// Appends the mesh as PLY, ascii or binary little-endian.
 void append_ply(const Mesh& mesh, bool binary, std::string& out);
+
+/// Reads ascii and binary STL (sets ctx.result().format) and welds the corners into vertices
+/// (options.weld_tolerance; ctx.result().welded_vertices).
+bool read_stl(std::string_view data, ReadContext& ctx, const ReadOptions& options);
+/// Appends the mesh as STL, ascii or binary (float32 coordinates, facet normals computed).
+void append_stl(const Mesh& mesh, bool binary, std::string& out);
+
+/// Reads a GIFTI surface: the NIFTI_INTENT_POINTSET and NIFTI_INTENT_TRIANGLE data arrays.
+bool read_gifti(std::string_view data, ReadContext& ctx);
+/// Appends the mesh as a GIFTI surface (float32 pointset, int32 triangles, GZipBase64Binary).
+void append_gifti(const Mesh& mesh, std::string& out);
+/// Reads every data array of a GIFTI functional file as per-vertex values (#V or #V×1 arrays;
+/// any numeric data type). Failures are recorded in ctx.
+bool read_gifti_overlay(std::string_view data, ReadContext& ctx, OverlayReadResult& out);
+/// Appends a GIFTI functional file with one FLOAT32 array (intent NIFTI_INTENT_SHAPE).
+void append_gifti_overlay(std::span<const double> values, std::string_view name, std::string& out);
+
+/// Reads a FreeSurfer binary triangle surface.
+bool read_freesurfer(std::string_view data, ReadContext& ctx);
+/// Appends the mesh as a FreeSurfer triangle surface (created-by line "created by ricci").
+void append_freesurfer(const Mesh& mesh, std::string& out);
+/// Reads a FreeSurfer "new" curv file.
+bool read_curv(std::string_view data, ReadContext& ctx, OverlayReadResult& out);
+/// Appends values as a FreeSurfer "new" curv file.
+void append_curv(std::span<const double> values, std::int64_t num_faces, std::string& out);
+
+// ---------------------------------------------------------------------------------------------
+// Binary helpers.
+
+/// `x` as a float for the single-precision formats (STL, GIFTI, FreeSurfer), rounded to nearest
+/// and saturated at ±FLT_MAX (a double beyond the float range would make the conversion
+/// undefined; write_mesh() refuses such meshes before they get here).
+inline float to_float(double x) {
+  constexpr double kMax = std::numeric_limits<float>::max();
+  if (!is_finite_bits(x)) return 0.0f;
+  if (x > kMax) return std::numeric_limits<float>::max();
+  if (x < -kMax) return -std::numeric_limits<float>::max();
+  return static_cast<float>(x);
+}
+
+/// True when the format stores coordinates in single precision.
+inline bool single_precision(FileFormat f) {
+  return f == FileFormat::StlAscii || f == FileFormat::StlBinary || f == FileFormat::Gifti ||
+         f == FileFormat::FreeSurfer;
+}
+
+/// Reads a big- or little-endian value of type T (an integer or float type of 1, 2, 4 or 8 bytes)
+/// from `p` (no alignment needed).
+template <class T>
+T load_endian(const char* p, bool big_endian) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, p, sizeof(T));
+  if (big_endian != (std::endian::native == std::endian::big)) {
+    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+  }
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+/// Appends a value of type T in the given byte order.
+template <class T>
+void append_endian(std::string& out, T v, bool big_endian) {
+  unsigned char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  if (big_endian != (std::endian::native == std::endian::big)) {
+    for (std::size_t i = 0; i < sizeof(T) / 2; ++i) std::swap(b[i], b[sizeof(T) - 1 - i]);
+  }
+  out.append(reinterpret_cast<const char*>(b), sizeof(T));
+}
 
 }  // namespace ricci::io_detail

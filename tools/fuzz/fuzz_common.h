@@ -112,8 +112,11 @@ inline void check_read(const ricci::ReadResult& r, std::string_view name, ricci:
   RICCI_FUZZ_CHECK(r.line == -1);
   check_mesh(r.mesh);
   const bool ply = requested == ricci::FileFormat::PlyAscii || requested == ricci::FileFormat::PlyBinary;
+  const bool stl = requested == ricci::FileFormat::StlAscii || requested == ricci::FileFormat::StlBinary;
   if (ply) {
     RICCI_FUZZ_CHECK(r.format == ricci::FileFormat::PlyAscii || r.format == ricci::FileFormat::PlyBinary);
+  } else if (stl) {
+    RICCI_FUZZ_CHECK(r.format == ricci::FileFormat::StlAscii || r.format == ricci::FileFormat::StlBinary);
   } else {
     RICCI_FUZZ_CHECK(r.format == requested);
   }

@@ -10,10 +10,12 @@ Every file stays far below 20 KB. The corpus is committed; run this only to rege
 
 Fuzzing never writes into these directories (tools/fuzz_smoke.sh fuzzes a copy).
 """
+import base64
 import math
 import os
 import shutil
 import struct
+import zlib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 CORPUS = os.path.join(ROOT, "tools", "fuzz", "corpus")
@@ -174,6 +176,151 @@ def ply_body(mesh, header):
 
 
 # ---------------------------------------------------------------------------------------------
+# fuzz_gifti: GIFTI surfaces and functional files in each encoding, byte order, index order and
+# data type, and a few broken ones (needs `import base64` and `import zlib` at the top).
+
+GIFTI_TYPES = {"FLOAT32": "f", "FLOAT64": "d", "INT8": "b", "UINT8": "B", "INT16": "h", "UINT16": "H",
+               "INT32": "i", "UINT32": "I", "INT64": "q"}
+
+
+def gifti_array(intent, dtype, rows, encoding="Base64Binary", big=False, column=False, name=None, gzip_header=False):
+    """One DataArray; `rows` is a list of tuples (#N×k) or of numbers (1-D)."""
+    two_d = bool(rows) and isinstance(rows[0], tuple)
+    cols = len(rows[0]) if two_d else 1
+    flat = [x for r in rows for x in r] if two_d else list(rows)
+    if column and two_d:
+        flat = [rows[i][j] for j in range(cols) for i in range(len(rows))]
+    is_float = dtype.startswith("FLOAT")
+    if encoding == "ASCII":
+        data = "\n" + "\n".join(num(x) if is_float else str(int(x)) for x in flat) + "\n"
+    else:
+        values = flat if is_float else [int(x) for x in flat]
+        raw = struct.pack((">" if big else "<") + GIFTI_TYPES[dtype] * len(values), *values)
+        if encoding == "GZipBase64Binary":
+            c = zlib.compressobj(6, zlib.DEFLATED, 31 if gzip_header else 15)
+            raw = c.compress(raw) + c.flush()
+        data = base64.b64encode(raw).decode()
+    dims = 'Dimensionality="2" Dim0="%d" Dim1="%d"' % (len(rows), cols) if two_d else \
+        'Dimensionality="1" Dim0="%d"' % len(rows)
+    meta = "<MetaData/>" if name is None else \
+        "<MetaData><MD><Name><![CDATA[Name]]></Name><Value><![CDATA[%s]]></Value></MD></MetaData>" % name
+    if intent == "POINTSET":
+        meta += ("\n<CoordinateSystemTransformMatrix><DataSpace>NIFTI_XFORM_UNKNOWN</DataSpace>"
+                 "<TransformedSpace>NIFTI_XFORM_UNKNOWN</TransformedSpace>"
+                 "<MatrixData>1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1</MatrixData></CoordinateSystemTransformMatrix>")
+    return ('<DataArray Intent="NIFTI_INTENT_%s" DataType="NIFTI_TYPE_%s" ArrayIndexingOrder="%s" %s\n'
+            ' Encoding="%s" Endian="%s" ExternalFileName="" ExternalFileOffset="">\n%s\n<Data>%s</Data>\n'
+            '</DataArray>\n') % (intent, dtype, "ColumnMajorOrder" if column else "RowMajorOrder", dims, encoding,
+                                 "BigEndian" if big else "LittleEndian", meta, data)
+
+
+def gifti(arrays):
+    return ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            '<!DOCTYPE GIFTI SYSTEM "http://www.nitrc.org/frs/download.php/115/gifti.dtd">\n'
+            '<GIFTI Version="1.0" NumberOfDataArrays="%d">\n<MetaData/>\n<LabelTable/>\n%s</GIFTI>\n'
+            % (len(arrays), "".join(arrays))).encode()
+
+
+def gifti_surface(mesh, encoding, big=False, column=False, ctype="FLOAT32", itype="INT32", gzip_header=False):
+    p, f = mesh
+    return gifti([gifti_array("POINTSET", ctype, [tuple(map(float, v)) for v in p], encoding, big, column,
+                              gzip_header=gzip_header),
+                  gifti_array("TRIANGLE", itype, [tuple(t) for t in f], encoding, big, column,
+                              gzip_header=gzip_header)])
+
+
+def write_gifti_seeds():
+    variants = {  # name: (encoding, big, column, coordinate type, index type, gzip header)
+        "ascii": ("ASCII", False, False, "FLOAT32", "INT32", False),
+        "b64-big-column": ("Base64Binary", True, True, "FLOAT64", "UINT16", False),
+        "gz": ("GZipBase64Binary", False, False, "FLOAT32", "INT32", False),
+        "gz-gzip-big-column": ("GZipBase64Binary", True, True, "FLOAT32", "UINT8", True),
+    }
+    for mname in ("tetrahedron", "octahedron", "disk", "torus"):
+        for vname, (enc, big, column, ctype, itype, gz) in variants.items():
+            if mname in ("disk", "torus") and vname not in ("gz", "ascii"):
+                continue
+            write("gifti", "%s-%s.surf.gii" % (mname, vname),
+                  gifti_surface(MESHES[mname], enc, big, column, ctype, itype, gz))
+    p, f = MESHES["octahedron"]
+    values = [0.5 * i - 1 for i in range(len(p))]
+    write("gifti", "octahedron.func.gii",
+          gifti([gifti_array("SHAPE", "FLOAT32", values, "GZipBase64Binary", name="u"),
+                 gifti_array("LABEL", "INT32", list(range(len(p))), "ASCII", name="index"),
+                 gifti_array("NONE", "INT16", [(i,) for i in range(len(p))], "Base64Binary", True, True)]))
+    # Broken: external data, an index out of range, a NaN, a missing triangle array, a huge Dim0.
+    tp, tf = MESHES["tetrahedron"]
+    good = gifti_surface(MESHES["tetrahedron"], "Base64Binary")
+    write("gifti", "bad-external.surf.gii", good.replace(b'Encoding="Base64Binary"', b'Encoding="ExternalFileBinary"', 1))
+    write("gifti", "bad-index.surf.gii", gifti_surface((tp, tf[:-1] + [(1, 2, 4)]), "ASCII"))
+    write("gifti", "bad-nan.surf.gii", gifti_surface(([(0, 0, float("nan"))] + tp[1:], tf), "GZipBase64Binary"))
+    write("gifti", "bad-no-triangles.surf.gii",
+          gifti([gifti_array("POINTSET", "FLOAT32", [tuple(map(float, v)) for v in tp], "ASCII")]))
+    write("gifti", "bad-huge-dim0.surf.gii", good.replace(b'Dim0="4"', b'Dim0="2000000000"', 1))
+
+
+# ---------------------------------------------------------------------------------------------
+# fuzz_stl and fuzz_freesurfer: triangle meshes as binary and ascii STL, FreeSurfer surfaces and
+# curv files, and a few broken ones.
+
+def triangles(mesh):
+    p, f = mesh
+    for poly in f:
+        for k in range(1, len(poly) - 1):
+            yield p[poly[0]], p[poly[k]], p[poly[k + 1]]
+
+
+def stl_binary(mesh, header=b"binary STL seed"):
+    tris = list(triangles(mesh))
+    out = header.ljust(80, b" ")[:80] + struct.pack("<I", len(tris))
+    for a, b, c in tris:
+        out += struct.pack("<12fH", 0, 0, 0, *a, *b, *c, 0)
+    return out
+
+
+def stl_ascii(mesh, name="seed"):
+    lines = ["solid " + name]
+    for a, b, c in triangles(mesh):
+        lines += ["facet normal 0 0 0", "  outer loop"]
+        lines += ["    vertex %s %s %s" % (num(v[0]), num(v[1]), num(v[2])) for v in (a, b, c)]
+        lines += ["  endloop", "endfacet"]
+    lines.append("endsolid " + name)
+    return ("\n".join(lines) + "\n").encode()
+
+
+def freesurfer(mesh):
+    p, f = mesh
+    tris = [(poly[0], poly[k], poly[k + 1]) for poly in f for k in range(1, len(poly) - 1)]
+    out = b"\xff\xff\xfe" + b"created by make_corpus\n\n" + struct.pack(">ii", len(p), len(tris))
+    out += b"".join(struct.pack(">fff", *v) for v in p)
+    return out + b"".join(struct.pack(">iii", *t) for t in tris)
+
+
+def curv(values, faces):
+    return b"\xff\xff\xff" + struct.pack(">iii", len(values), faces, 1) + b"".join(struct.pack(">f", v) for v in values)
+
+
+def write_stl_freesurfer_seeds():
+    for mname in ("tetrahedron", "octahedron", "disk", "torus", "cube-quads"):
+        mesh = MESHES[mname]
+        write("stl", "%s.stl" % mname, stl_binary(mesh))
+        write("stl", "%s-ascii.stl" % mname, stl_ascii(mesh))
+        write("freesurfer", "%s.surf" % mname, freesurfer(mesh))
+        write("freesurfer", "%s.curv" % mname, curv([0.25 * i for i in range(len(mesh[0]))], len(mesh[1])))
+    octa = MESHES["octahedron"]
+    write("stl", "solid-header-binary.stl", stl_binary(octa, header=b"solid but binary"))
+    write("stl", "two-solids.stl", stl_ascii(octa, "a") + stl_ascii(MESHES["tetrahedron"], "b"))
+    write("stl", "bad-truncated.stl", stl_binary(octa)[:-20])
+    write("stl", "bad-nan.stl", stl_binary(octa)[:96] + struct.pack("<f", float("nan")) + stl_binary(octa)[100:])
+    write("stl", "bad-two-corners.stl", b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n"
+                                        b"endloop\nendfacet\nendsolid x\n")
+    write("freesurfer", "bad-truncated.surf", freesurfer(octa)[:-7])
+    write("freesurfer", "bad-index.surf", freesurfer(octa)[:-4] + struct.pack(">i", 99))
+    write("freesurfer", "bad-quad-magic.surf", b"\xff\xff\xfd" + freesurfer(octa)[3:])
+    write("freesurfer", "bad-values-per-vertex.curv", b"\xff\xff\xff" + struct.pack(">iii", 2, 0, 3) + bytes(24))
+
+
+# ---------------------------------------------------------------------------------------------
 
 def write(target, name, data):
     assert len(data) < 20000, (target, name, len(data))
@@ -240,6 +387,9 @@ def main():
             if tname not in ("one", "comments") and selector not in (1, 2 + 3 * 2):
                 continue
             write("target", "%s-%d" % (tname, selector), bytes([selector]) + text)
+
+    write_gifti_seeds()
+    write_stl_freesurfer_seeds()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-// ricci — reading and writing OBJ, OFF and PLY.
+// ricci — reading and writing OBJ, OFF, PLY, STL, GIFTI and FreeSurfer surfaces, and per-vertex
+// overlays (GIFTI functional files, FreeSurfer curv files).
 //
 // Readers turn a file into a Mesh (a triangle soup: nothing is validated beyond what the format
 // itself requires). Polygons with more than three sides are fan-triangulated
@@ -14,7 +15,22 @@
 //   PLY  ascii, binary_little_endian and binary_big_endian; element `vertex` with properties x, y,
 //        z of any scalar type; element `face` with a list property `vertex_indices` (or
 //        `vertex_index`); all other elements and properties are skipped.
+//   STL  binary (80-byte header, triangle count, 50 bytes per triangle; chosen when the size is
+//        84 + 50·count, whatever the header says) and ascii (`solid` … `facet` / `outer loop` /
+//        three `vertex x y z` / `endloop` / `endfacet` … `endsolid`, several solids appended).
+//        STL stores every triangle's corners separately: corners are welded into vertices by
+//        exact coordinates, or within ReadOptions::weld_tolerance; ReadResult::welded_vertices
+//        says how many corners were merged away. Normals and attribute bytes are ignored.
+//   GIFTI (.gii, e.g. .surf.gii) the data arrays of intent NIFTI_INTENT_POINTSET (#V×3) and
+//        NIFTI_INTENT_TRIANGLE (#F×3); ASCII, Base64Binary and GZipBase64Binary encodings, both
+//        endiannesses, row- and column-major order, FLOAT32/FLOAT64 coordinates and INT32/UINT8/
+//        other integer indices; the XML is parsed by expat, the compressed data inflated by zlib.
+//   FreeSurfer binary triangle surfaces (lh.white, lh.pial, lh.sphere, …: no extension, known by
+//        their magic number FF FF FE): the created-by line, big-endian vertex and face counts,
+//        float32 coordinates and int32 indices; trailing tags are ignored.
 //
+// STL, GIFTI and FreeSurfer surfaces are single precision on write (float32 coordinates: what the
+// formats and their tools hold); a mesh whose coordinates are floats round-trips exactly.
 // Numbers are parsed locale-independently. Memory reserved for declared counts is capped by what
 // the remaining bytes can hold, so a hostile header cannot exhaust memory: a file shorter than
 // its header says is a ParseError naming what was expected and where the file ended. Only regular
@@ -23,6 +39,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -39,11 +56,24 @@ enum class FileFormat : int {
   Off,        ///< OFF (text)
   PlyAscii,   ///< PLY, ascii encoding
   PlyBinary,  ///< binary little-endian on write; either endianness on read
+  StlAscii,   ///< STL, ascii
+  StlBinary,  ///< STL, binary (the writers' default for .stl); either encoding on read
+  Gifti,      ///< GIFTI surface (.gii): GZipBase64Binary little-endian on write
+  FreeSurfer, ///< FreeSurfer binary triangle surface (no extension; recognised by its magic number)
 };
 
+/// Name of a format for messages and reports ("OBJ", "binary STL", "GIFTI", …).
+const char* format_name(FileFormat format);
+
 /// Format named by a path's extension, or FileFormat::Auto when it names none.
-/// For ".ply" returns FileFormat::PlyBinary (writers' default for PLY).
+/// For ".ply" returns FileFormat::PlyBinary (writers' default for PLY), for ".stl" StlBinary, for
+/// ".gii" Gifti. FreeSurfer surfaces have no extension: see format_from_content().
 FileFormat format_from_path(std::string_view path);
+
+/// Format recognised from the first bytes of a file: FreeSurfer (magic FF FF FE), PLY ("ply"),
+/// GIFTI (an XML declaration followed by <GIFTI), OFF (an OFF keyword); Auto otherwise (OBJ and
+/// STL have no reliable signature). read_mesh() uses it when the name has no known extension.
+FileFormat format_from_content(std::string_view head);
 
 /// Options of read_mesh() and read_mesh_from_memory().
 struct ReadOptions {
@@ -57,6 +87,11 @@ struct ReadOptions {
   std::uint64_t max_file_bytes = std::uint64_t{2} << 30;
   /// Read texture coordinates (OBJ `vt`) into Mesh::texcoords / corner_texcoords.
   bool read_texcoords = true;
+  /// STL only: corners closer than this (Euclidean distance, in the file's units) become one
+  /// vertex; 0 welds only corners with identical coordinates. Clusters are formed greedily in
+  /// file order: a corner joins the first earlier vertex within the tolerance. Negative or
+  /// non-finite values are refused (InvalidArgument).
+  double weld_tolerance = 0;
 };
 
 /// What read_mesh() and read_mesh_from_memory() return.
@@ -86,6 +121,11 @@ struct ReadResult {
   std::vector<Index> triangle_polygon;
   /// Format that was actually read.
   FileFormat format = FileFormat::Auto;
+  /// STL: corners merged into an earlier vertex by welding (3·#F − #V). 0 for other formats.
+  std::int64_t welded_vertices = 0;
+  /// What the file said about itself, for `ricci info`: the STL header or solid name, the GIFTI
+  /// data arrays' encodings, data types, endianness and order, the FreeSurfer created-by line.
+  std::string format_details;
 };
 
 /// Reads a mesh file. Never throws; every failure is a status with a message naming `path`.
@@ -131,5 +171,44 @@ WriteResult write_file_atomic(const std::string& path, std::string_view data,
 /// Serialises a mesh to bytes in the given format. Returns an empty string (never a valid
 /// output) for FileFormat::Auto or when memory runs out. Used by write_mesh().
 std::string serialize_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords = true);
+
+// ---------------------------------------------------------------------------------------------
+// Per-vertex overlays: one value per vertex of a surface, as neuroimaging viewers (Connectome
+// Workbench, freeview) display them on it.
+
+enum class OverlayFormat : int {
+  Auto = 0,        ///< from the name (.gii) or the content (FreeSurfer's magic FF FF FF)
+  GiftiFunc,       ///< GIFTI functional file (.func.gii / .shape.gii): FLOAT32 arrays
+  FreeSurferCurv,  ///< FreeSurfer "new" curv file: magic FF FF FF, #V, #F, 1, big-endian float32
+};
+
+/// What read_overlay() and read_overlay_from_memory() return.
+struct OverlayReadResult {
+  /// Ok, or a failure as for read_mesh() (FileNotFound, FileUnreadable, UnknownFormat,
+  /// FileTooLarge, ParseError, NonFiniteCoordinate for a value that is NaN or infinite).
+  Status status = Status::NotRun;
+  std::string message = "not run";  ///< "<name>: …" as for read_mesh()
+  std::int64_t line = -1;           ///< byte offset (binary) or XML line of an error; -1 when unknown
+  OverlayFormat format = OverlayFormat::Auto;  ///< format actually read
+  /// One array per GIFTI data array (one for a curv file), each with one value per vertex.
+  std::vector<std::vector<double>> arrays;
+  /// The arrays' names: GIFTI's `Name` metadata ("" when absent); "" for a curv file.
+  std::vector<std::string> names;
+  /// Curv files: the face count stored in the header (-1 for GIFTI).
+  std::int64_t num_faces = -1;
+};
+
+/// Reads a per-vertex overlay file. Never throws.
+OverlayReadResult read_overlay(const std::string& path, const ReadOptions& options = {},
+                               OverlayFormat format = OverlayFormat::Auto);
+OverlayReadResult read_overlay_from_memory(std::string_view data, const std::string& name,
+                                           OverlayFormat format = OverlayFormat::Auto);
+
+/// Serialises per-vertex values (finite; stored as float32) as an overlay. GIFTI: one FLOAT32
+/// data array of intent NIFTI_INTENT_SHAPE, GZipBase64Binary, with `name` as its Name metadata.
+/// Curv: the header records `num_faces` (the surface's face count, as FreeSurfer expects).
+/// Empty string for Auto, a non-finite value or when memory runs out.
+std::string serialize_overlay(std::span<const double> values, OverlayFormat format, std::string_view name,
+                              std::int64_t num_faces);
 
 }  // namespace ricci
