@@ -507,191 +507,212 @@ struct SeamResidual {
   }
 };
 
-/// Divide and conquer (LayoutOptions::patches): the faces are split into `count` patches grown
-/// breadth-first over the dual graph from farthest-point seeds (the first is `seed`); each patch
-/// is laid out on its own by the same propagation from its seed, in a frame of its own; each
-/// patch's isometry into the common frame starts from the closed-form fit to the current positions
-/// `x` (E: Procrustes; H: centroids on the hyperboloid and a rotation) and all of them are then
-/// fitted jointly by Ceres over every vertex two patches share (the seed's patch fixed), the seam
-/// residual being the relative distance of the two copies. Each vertex ends at the mean of its
-/// copies (H: on the hyperboloid). Returns false with `out` set on a failed patch propagation.
-bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count,
-                     std::vector<double>& x, Layout& out) {
-  const Index nv = t.num_vertices, nf = t.num_faces;
-  const Index k = std::min<Index>(count, nf);
-  // Seeds by farthest-point sampling, then a simultaneous breadth-first growth.
-  std::vector<Index> seeds{seed}, near, d;
+/// The faces split into patches: seeds by farthest-point sampling over the dual graph (the first
+/// is `seed`), then a simultaneous breadth-first growth; owner[f] is the patch of face f.
+struct Patches {
+  std::vector<Index> seeds, owner;
+};
+
+Patches partition_faces(const Topology& t, Index seed, Index count) {
+  const Index nf = t.num_faces;
+  Patches out;
+  out.seeds = {seed};
+  std::vector<Index> near, d;
   dual_bfs(t, seed, near);
-  while (static_cast<Index>(seeds.size()) < k) {
+  while (static_cast<Index>(out.seeds.size()) < count) {
     Index best = kInvalid;
     for (Index f = 0; f < nf; ++f)
       if (near[f] > 0 && (best == kInvalid || near[f] > near[best])) best = f;
     if (best == kInvalid) break;
-    seeds.push_back(best);
+    out.seeds.push_back(best);
     dual_bfs(t, best, d);
     for (Index f = 0; f < nf; ++f)
       if (d[f] >= 0 && (near[f] < 0 || d[f] < near[f])) near[f] = d[f];
   }
-  const Index np = static_cast<Index>(seeds.size());
-  std::vector<Index> owner(static_cast<std::size_t>(nf), kInvalid), queue;
+  out.owner.assign(static_cast<std::size_t>(nf), kInvalid);
+  std::vector<Index> queue;
   queue.reserve(static_cast<std::size_t>(nf));
-  for (Index p = 0; p < np; ++p) {
-    owner[seeds[p]] = p;
-    queue.push_back(seeds[p]);
+  for (Index p = 0; p < static_cast<Index>(out.seeds.size()); ++p) {
+    out.owner[out.seeds[p]] = p;
+    queue.push_back(out.seeds[p]);
   }
   for (std::size_t h = 0; h < queue.size(); ++h) {
     const Index f = queue[h];
     for (int c = 0; c < 3; ++c) {
       const Index o = t.opposite[3 * f + c];
-      if (o == kInvalid || owner[corner_face(o)] != kInvalid) continue;
-      owner[corner_face(o)] = owner[f];
+      if (o == kInvalid || out.owner[corner_face(o)] != kInvalid) continue;
+      out.owner[corner_face(o)] = out.owner[f];
       queue.push_back(corner_face(o));
     }
   }
+  return out;
+}
 
-  // Each patch on its own: local positions per (patch, vertex) copy.
-  struct Copy {
-    Index patch, vertex;
-    Cx z;
-  };
-  std::vector<Copy> copies;
-  std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
-  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
-  std::vector<Index> touched, pq;
-  Positions L{g, 2, lx};
-  std::vector<PatchMap> maps(static_cast<std::size_t>(np));
-  for (Index p = 0; p < np; ++p) {
-    const Index s = seeds[p];
-    const Index s0 = t.corner_vertex[3 * s], s1 = t.corner_vertex[3 * s + 1], s2 = t.corner_vertex[3 * s + 2];
-    L.place_seed(s0, s1, s2, l[t.corner_edge[3 * s]], l[t.corner_edge[3 * s + 1]], l[t.corner_edge[3 * s + 2]]);
-    touched.assign({s0, s1, s2});
-    placed[s0] = placed[s1] = placed[s2] = 1;
-    pq.assign({s});
-    owner[s] = -2 - p;
-    for (std::size_t h = 0; h < pq.size(); ++h) {
-      const Index f = pq[h];
-      for (int c = 0; c < 3; ++c) {
-        const Index o = t.opposite[3 * f + c];
-        if (o == kInvalid || owner[corner_face(o)] != p) continue;
-        const Index nb = corner_face(o);
-        owner[nb] = -2 - p;
-        pq.push_back(nb);
-        if (placed[t.corner_vertex[o]]) continue;
-        const Index v = L.place_corner(t, l, o);
-        placed[v] = 1;
-        touched.push_back(v);
-        if (!L.finite(v)) {
-          out.status = Status::NumericalFailure;
-          out.element = Element::Vertex;
-          out.element_index = v;
-          out.message = "vertex " + std::to_string(v) + " left the range of double precision in the layout of patch " +
-                        std::to_string(p);
-          return false;
-        }
-      }
-    }
-    // Closed-form start: the isometry taking the local copies onto the current positions.
-    Positions X{g, 2, x};
-    PatchMap& m = maps[p];
-    m.g = g;
-    double extent = 0;
-    if (g == Geometry::Euclidean) {
-      Cx ca(0, 0), cb(0, 0);
-      for (Index v : touched) {
-        ca += X.z(v);
-        cb += L.z(v);
-      }
-      ca /= static_cast<double>(touched.size());
-      cb /= static_cast<double>(touched.size());
-      Cx acc(0, 0);
-      for (Index v : touched) {
-        acc += (X.z(v) - ca) * std::conj(L.z(v) - cb);
-        extent = std::max(extent, std::abs(L.z(v) - cb));
-      }
-      m.rot0 = std::abs(acc) > 0 ? acc / std::abs(acc) : Cx(1, 0);
-      m.t0 = ca - m.rot0 * cb;
-      m.scale = extent > 0 ? extent : 1;
-    } else {
-      V3 CA{0, 0, 0}, CB{0, 0, 0};
-      for (Index v : touched) {
-        const V3 A = hyperboloid(X.z(v)), B = hyperboloid(L.z(v));
-        for (int dd = 0; dd < 3; ++dd) {
-          CA[dd] += A[dd];
-          CB[dd] += B[dd];
-        }
-      }
-      const Cx ca = poincare(CA), cb = poincare(CB);
-      Cx acc(0, 0);
-      for (Index v : touched) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
-      const double psi = std::abs(acc) > 0 ? std::arg(acc) : 0.0;
-      m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
-    }
+/// One vertex of one patch, in the patch's own frame.
+struct PatchCopy {
+  Index patch, vertex;
+  Cx z;
+};
+
+/// The closed-form start of a patch map: the isometry taking the patch's local positions `L` of
+/// `touched` onto the current positions `x` (E: Procrustes; H: centroids on the hyperboloid and a
+/// rotation).
+void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std::span<const Index> touched,
+                     PatchMap& m) {
+  const Positions X{g, 2, x};
+  m.g = g;
+  double extent = 0;
+  if (g == Geometry::Euclidean) {
+    Cx ca(0, 0), cb(0, 0);
     for (Index v : touched) {
-      copies.push_back({p, v, L.z(v)});
-      placed[v] = 0;
+      ca += X.z(v);
+      cb += L.z(v);
+    }
+    ca /= static_cast<double>(touched.size());
+    cb /= static_cast<double>(touched.size());
+    Cx acc(0, 0);
+    for (Index v : touched) {
+      acc += (X.z(v) - ca) * std::conj(L.z(v) - cb);
+      extent = std::max(extent, std::abs(L.z(v) - cb));
+    }
+    m.rot0 = std::abs(acc) > 0 ? acc / std::abs(acc) : Cx(1, 0);
+    m.t0 = ca - m.rot0 * cb;
+    m.scale = extent > 0 ? extent : 1;
+    return;
+  }
+  V3 CA{0, 0, 0}, CB{0, 0, 0};
+  for (Index v : touched) {
+    const V3 A = hyperboloid(X.z(v)), B = hyperboloid(L.z(v));
+    for (int dd = 0; dd < 3; ++dd) {
+      CA[dd] += A[dd];
+      CB[dd] += B[dd];
     }
   }
-  for (Index f = 0; f < nf; ++f) owner[f] = -2 - owner[f];
+  const Cx ca = poincare(CA), cb = poincare(CB);
+  Cx acc(0, 0);
+  for (Index v : touched) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
+  const double psi = std::abs(acc) > 0 ? std::arg(acc) : 0.0;
+  m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
+}
 
-  // Copies grouped by vertex.
-  std::vector<Index> first(static_cast<std::size_t>(nv) + 1, 0);
-  for (const Copy& c : copies) ++first[c.vertex + 1];
-  for (Index v = 0; v < nv; ++v) first[v + 1] += first[v];
-  std::vector<Index> order(copies.size()), fill(first.begin(), first.end() - 1);
-  for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) order[fill[copies[c].vertex]++] = c;
+/// Lays out patch p (seed face s) on its own by propagation into `L`, marking its faces in `owner`
+/// (as −2 − p) and listing its vertices in `touched` (each marked in `placed`). False with `out`
+/// set when a vertex leaves the range of double precision.
+bool lay_out_patch(const Topology& t, std::span<const double> l, Index p, Index s, std::vector<Index>& owner,
+                   Positions& L, std::vector<std::uint8_t>& placed, std::vector<Index>& touched,
+                   std::vector<Index>& pq, Layout& out) {
+  const Index s0 = t.corner_vertex[3 * s], s1 = t.corner_vertex[3 * s + 1], s2 = t.corner_vertex[3 * s + 2];
+  L.place_seed(s0, s1, s2, l[t.corner_edge[3 * s]], l[t.corner_edge[3 * s + 1]], l[t.corner_edge[3 * s + 2]]);
+  touched.assign({s0, s1, s2});
+  placed[s0] = placed[s1] = placed[s2] = 1;
+  pq.assign({s});
+  owner[s] = -2 - p;
+  for (std::size_t h = 0; h < pq.size(); ++h) {
+    const Index f = pq[h];
+    for (int c = 0; c < 3; ++c) {
+      const Index o = t.opposite[3 * f + c];
+      if (o == kInvalid || owner[corner_face(o)] != p) continue;
+      const Index nb = corner_face(o);
+      owner[nb] = -2 - p;
+      pq.push_back(nb);
+      if (placed[t.corner_vertex[o]]) continue;
+      const Index v = L.place_corner(t, l, o);
+      placed[v] = 1;
+      touched.push_back(v);
+      if (!L.finite(v)) {
+        out.status = Status::NumericalFailure;
+        out.element = Element::Vertex;
+        out.element_index = v;
+        out.message = "vertex " + std::to_string(v) + " left the range of double precision in the layout of patch " +
+                      std::to_string(p);
+        return false;
+      }
+    }
+  }
+  return true;
+}
 
-  // Joint fit of the patch maps over the seams.
-  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
-  std::vector<double> h(static_cast<std::size_t>(nv), 0.0);
-  std::vector<int> hn(static_cast<std::size_t>(nv), 0);
+/// Copies grouped by vertex: copies[order[first[v] … first[v+1])] are vertex v's.
+struct CopiesByVertex {
+  std::vector<Index> first, order;
+};
+
+CopiesByVertex group_copies(const std::vector<PatchCopy>& copies, Index nv) {
+  CopiesByVertex out;
+  out.first.assign(static_cast<std::size_t>(nv) + 1, 0);
+  for (const PatchCopy& c : copies) ++out.first[c.vertex + 1];
+  for (Index v = 0; v < nv; ++v) out.first[v + 1] += out.first[v];
+  out.order.resize(copies.size());
+  std::vector<Index> fill(out.first.begin(), out.first.end() - 1);
+  for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) out.order[fill[copies[c].vertex]++] = c;
+  return out;
+}
+
+/// Mean length of the edges at each vertex.
+std::vector<double> mean_edge_at_vertex(const Topology& t, std::span<const double> l) {
+  std::vector<double> h(static_cast<std::size_t>(t.num_vertices), 0.0);
+  std::vector<int> hn(static_cast<std::size_t>(t.num_vertices), 0);
   for (Index e = 0; e < t.num_edges; ++e)
     for (Index v : {t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]}) {
       h[v] += l[e];
       ++hn[v];
     }
+  for (Index v = 0; v < t.num_vertices; ++v) h[v] /= std::max(1, hn[v]);
+  return h;
+}
+
+/// The joint Ceres fit of the patch maps' corrections `delta` over every vertex two patches
+/// share (patch `fixed` held), the seam residual being the relative distance of the two copies.
+/// Returns Ceres' iteration count, or −1 when there is nothing to fit (one patch, or no seam).
+int fit_patch_maps(Geometry g, const std::vector<PatchCopy>& copies, const CopiesByVertex& by,
+                   const std::vector<PatchMap>& maps, std::span<const double> h, std::span<const double> x, Index fixed,
+                   std::vector<std::array<double, 3>>& delta) {
   ceres::Problem::Options popts;
   ceres::Problem problem(popts);
   Index seams = 0;
+  const auto nv = static_cast<Index>(by.first.size()) - 1;
   for (Index v = 0; v < nv; ++v) {
-    if (first[v + 1] - first[v] < 2) continue;
-    const Copy& a = copies[order[first[v]]];
-    const double hv = h[v] / std::max(1, hn[v]);
+    if (by.first[v + 1] - by.first[v] < 2) continue;
+    const PatchCopy& a = copies[by.order[by.first[v]]];
     double frame = 1;
     if (g == Geometry::Hyperbolic) frame = 2 / (1 - std::norm(Cx(x[2 * v], x[2 * v + 1])));
-    for (Index j = first[v] + 1; j < first[v + 1]; ++j) {
-      const Copy& b = copies[order[j]];
+    for (Index j = by.first[v] + 1; j < by.first[v + 1]; ++j) {
+      const PatchCopy& b = copies[by.order[j]];
       auto* cost = new ceres::AutoDiffCostFunction<SeamResidual, 2, 3, 3>(
-          new SeamResidual{&maps[a.patch], &maps[b.patch], a.z, b.z, frame / hv});
+          new SeamResidual{&maps[a.patch], &maps[b.patch], a.z, b.z, frame / h[v]});
       problem.AddResidualBlock(cost, nullptr, delta[a.patch].data(), delta[b.patch].data());
       ++seams;
     }
   }
-  if (np > 1 && seams > 0) {
-    const Index fixed = owner[seed];
-    if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-    so.max_num_iterations = 50;
-    so.function_tolerance = 1e-20;
-    so.gradient_tolerance = 1e-30;
-    so.parameter_tolerance = 1e-20;
-    so.logging_type = ceres::SILENT;
-    so.num_threads = 1;
-    ceres::Solver::Summary summary;
-    detail::quiet_solve(so, &problem, &summary);
-    out.patch_fit_iterations = static_cast<int>(summary.iterations.size());
-  }
+  if (maps.size() < 2 || seams == 0) return -1;
+  if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = 50;
+  so.function_tolerance = 1e-20;
+  so.gradient_tolerance = 1e-30;
+  so.parameter_tolerance = 1e-20;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  detail::quiet_solve(so, &problem, &summary);
+  return static_cast<int>(summary.iterations.size());
+}
 
-  // Each vertex at the mean of its mapped copies; the seam error is their largest spread.
-  out.patches = static_cast<int>(np);
-  out.patch_seam_error = 0;
+/// Each vertex at the mean of its mapped copies (H: on the hyperboloid); returns the seam error,
+/// the largest distance of a copy from that mean relative to the vertex's mean edge length.
+double average_copies(Geometry g, const std::vector<PatchCopy>& copies, const CopiesByVertex& by,
+                      const std::vector<PatchMap>& maps, const std::vector<std::array<double, 3>>& delta,
+                      std::span<const double> h, std::vector<double>& x) {
+  double seam_error = 0;
   std::vector<Cx> w;
+  const auto nv = static_cast<Index>(by.first.size()) - 1;
   for (Index v = 0; v < nv; ++v) {
-    const Index n = first[v + 1] - first[v];
+    const Index n = by.first[v + 1] - by.first[v];
     if (n == 0) continue;
     w.clear();
-    for (Index j = first[v]; j < first[v + 1]; ++j) {
-      const Copy& c = copies[order[j]];
+    for (Index j = by.first[v]; j < by.first[v + 1]; ++j) {
+      const PatchCopy& c = copies[by.order[j]];
       w.push_back(maps[c.patch].map(delta[c.patch].data(), c.z));
     }
     Cx mean(0, 0);
@@ -706,14 +727,51 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
       }
       mean = poincare(S);
     }
-    const double hv = h[v] / std::max(1, hn[v]);
     for (const Cx& z : w) {
       const double dist = g == Geometry::Euclidean ? std::abs(z - mean) : disk_distance(z, mean);
-      out.patch_seam_error = std::max(out.patch_seam_error, hv > 0 ? dist / hv : dist);
+      seam_error = std::max(seam_error, h[v] > 0 ? dist / h[v] : dist);
     }
     x[2 * v] = mean.real();
     x[2 * v + 1] = mean.imag();
   }
+  return seam_error;
+}
+
+/// Divide and conquer (LayoutOptions::patches): the faces are split into `count` patches
+/// (partition_faces()); each patch is laid out on its own by the same propagation from its seed,
+/// in a frame of its own (lay_out_patch()); each patch's isometry into the common frame starts
+/// from the closed-form fit to the current positions `x` (start_patch_map()) and all of them are
+/// then fitted jointly by Ceres over every vertex two patches share, the seed's patch fixed
+/// (fit_patch_maps()). Each vertex ends at the mean of its copies (average_copies()). Returns
+/// false with `out` set on a failed patch propagation.
+bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count,
+                     std::vector<double>& x, Layout& out) {
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  Patches parts = partition_faces(t, seed, std::min<Index>(count, nf));
+  std::vector<Index>& owner = parts.owner;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  std::vector<PatchCopy> copies;
+  std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
+  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+  std::vector<Index> touched, pq;
+  Positions L{g, 2, lx};
+  std::vector<PatchMap> maps(static_cast<std::size_t>(np));
+  for (Index p = 0; p < np; ++p) {
+    if (!lay_out_patch(t, l, p, parts.seeds[p], owner, L, placed, touched, pq, out)) return false;
+    start_patch_map(g, L, x, touched, maps[p]);
+    for (Index v : touched) {
+      copies.push_back({p, v, L.z(v)});
+      placed[v] = 0;
+    }
+  }
+  for (Index f = 0; f < nf; ++f) owner[f] = -2 - owner[f];
+  const CopiesByVertex by = group_copies(copies, nv);
+  const std::vector<double> h = mean_edge_at_vertex(t, l);
+  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
+  const int iterations = fit_patch_maps(g, copies, by, maps, h, x, owner[seed], delta);
+  if (iterations >= 0) out.patch_fit_iterations = iterations;
+  out.patches = static_cast<int>(np);
+  out.patch_seam_error = average_copies(g, copies, by, maps, delta, h, x);
   return true;
 }
 
