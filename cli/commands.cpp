@@ -730,6 +730,8 @@ int run(int argc, const char* const* argv) {
   CLI::App* layout_cmd = add_layout_command(app, layout);
   CoverCommandOptions cover;
   CLI::App* cover_cmd = add_cover_command(app, cover);
+  SignatureCommandOptions signature;
+  CLI::App* signature_cmd = add_signature_command(app, signature);
 
   // An OpenMP default above the processors available (a mistaken OMP_NUM_THREADS) is lowered to
   // them: every parallel region would otherwise try to start that many threads.
@@ -756,6 +758,7 @@ int run(int argc, const char* const* argv) {
   if (uniformize_cmd->parsed()) return run_uniformize(uniformize);
   if (layout_cmd->parsed()) return run_uniformize(layout);
   if (cover_cmd->parsed()) return run_cover(cover);
+  if (signature_cmd->parsed()) return run_signature(signature);
   print_error("no subcommand given");
   return kExitUsage;
 }

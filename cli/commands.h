@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "ricci/metric.h"
+#include "ricci/signature.h"
 #include "ricci/status.h"
 #include "ricci/validate.h"
 
@@ -153,6 +154,20 @@ struct CoverCommandOptions {
 };
 int run_cover(const CoverCommandOptions& options);
 CLI::App* add_cover_command(CLI::App& app, CoverCommandOptions& o);
+
+/// `ricci signature [MESH] [--json] [-o FILE]`: the conformal signature (signature.h).
+struct SignatureCommandOptions {
+  std::string mesh;
+  std::string output;  ///< signature.json to write (atomically); empty: none
+  bool json = false;
+  bool quiet = false;
+  bool largest_component = false;
+};
+int run_signature(const SignatureCommandOptions& options);
+CLI::App* add_signature_command(CLI::App& app, SignatureCommandOptions& o);
+/// The signature as JSON (keys in README): status, genus, torus {tau, tau_computed, b_reversed,
+/// reduction, uncertainty} or words [{word, length, uncertainty}] and systole.
+nlohmann::ordered_json signature_json(const ricci::ConformalSignature& s);
 
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.

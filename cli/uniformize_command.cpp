@@ -595,6 +595,7 @@ Json report_json(const Run& run) {
     j["polygon"] = nullptr;
   }
   j["generators"] = have && r.has_deck && r.deck.status == Status::Ok ? generators_array(r.deck.generators) : Json::array();
+  j["signature"] = have && r.status == Status::Ok && r.has_deck ? signature_json(ricci::conformal_signature(r)) : Json(nullptr);
   const bool domain = have && !r.domain_maps.empty();
   j["domain_cycle_error"] = domain ? real(r.domain_cycle_error) : Json(nullptr);
   j["domain_adjusted_cycle_error"] = domain ? real(r.domain_adjusted_cycle_error) : Json(nullptr);
@@ -992,6 +993,14 @@ void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::Vali
     print_note(o.quiet, note);
   } else {
     files.push_back({"mesh.glb", glb.bytes});
+  }
+  if (r.has_deck) {
+    const ricci::ConformalSignature sig = ricci::conformal_signature(r);
+    if (sig.status == Status::Ok) {
+      Json j = signature_json(sig);
+      j["input"] = run.file;
+      files.push_back({"signature.json", j.dump(2) + '\n'});
+    }
   }
   if (run.input_format != ricci::FileFormat::Gifti && run.input_format != ricci::FileFormat::FreeSurfer) return;
   const bool sphere = !run.sphere_positions.empty();

@@ -259,3 +259,30 @@ TEST_CASE("cli formats: the shared brain maps to the same sphere from GIFTI, Fre
     CHECK(o.names.at(0) == overlay);
   }
 }
+
+TEST_CASE("cli signature: torus and genus 2 give their numbers, other topologies a named refusal") {
+  TempDir dir;
+  const auto t = run_cli({"signature", (ricci_test::fixtures_dir() / "torus.obj").string(), "--json", "-q", "-o",
+                          (dir / "sig.json").string()});
+  REQUIRE_MESSAGE(t.exit_code == 0, t.err);
+  const Json j = Json::parse(t.out);
+  CHECK(j["status"] == "ok");
+  CHECK(j["genus"] == 1);
+  CHECK(j["torus"]["tau"][1].get<double>() >= std::sqrt(3.0) / 2);
+  CHECK(std::abs(j["torus"]["tau"][0].get<double>()) <= 0.5);
+  CHECK(read_json(dir / "sig.json")["torus"] == j["torus"]);
+  const auto g = run_cli({"signature", "-q"});  // the embedded genus-2 mesh
+  REQUIRE_MESSAGE(g.exit_code == 0, g.err);
+  CHECK(g.out.find("systole:") != std::string::npos);
+  CHECK(g.out.find("length a1 ") != std::string::npos);
+  const auto d = run_cli({"signature", (ricci_test::fixtures_dir() / "disk.obj").string(), "-q"});
+  CHECK(d.exit_code != 0);
+  CHECK(d.err.find("disk.obj") != std::string::npos);
+  CHECK(d.err.find("no deck group") != std::string::npos);
+  // ricci uniformize writes the same signature into report.json and signature.json.
+  REQUIRE(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", (dir / "u").string(), "-q",
+                   "--no-pictures"})
+              .exit_code == 0);
+  CHECK(read_json(dir / "u" / "report.json")["signature"]["torus"]["tau"].is_array());
+  CHECK(fs::exists(dir / "u" / "signature.json"));
+}

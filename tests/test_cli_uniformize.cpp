@@ -101,7 +101,7 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
                      "convergence.svg", "cover.obj",       "cover.png",       "cover.svg",
                      "domain.obj",      "domain.png",      "domain.svg",      "generators.json",
                      "mesh.glb",        "mesh.obj",        "metric.csv",      "polygon.obj",     "polygon.png",
-                     "polygon.svg",     "report.html",     "report.json"});
+                     "polygon.svg",     "report.html",     "report.json",     "signature.json"});
   // The checkerboard's texture map is close to conformal (square checks): sigma_max/sigma_min.
   CHECK(j["conformal_distortion"]["faces"].get<int>() > 1000);
   CHECK(j["conformal_distortion"]["median"].get<double>() < 1.5);

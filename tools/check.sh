@@ -23,9 +23,9 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 # above 12k faces without the seed-check repeats and with 2 canonical-polygon bases, to fit the time.
 bash tools/sanitize_meshes.sh build-asan --max-faces 12000 --large-args "--seed-checks 0 --base-candidates 1" --timeout 600
 
-# libFuzzer smoke: every reader and load→validate, 15 s each under clang + ASan/UBSan
+# libFuzzer smoke: every reader and load→validate, 10 s each under clang + ASan/UBSan
 # (tools/fuzz/README.md); a crash fails the run and leaves its input in build-fuzz/fuzz-artifacts/.
-bash tools/fuzz_smoke.sh 15
+bash tools/fuzz_smoke.sh 10
 
 # The house rule of about 150 lines per function: the ten longest of lib/ and cli/ (a report, not
 # a gate).
