@@ -490,6 +490,7 @@ struct Run {
   ricci::FileFormat input_format = ricci::FileFormat::Obj;  ///< format the input was read in
   Index file_vertices = 0, file_faces = 0;  ///< counts of the file as read (before validation)
   std::vector<double> sphere_positions;     ///< sphere results: the unit-sphere position per vertex
+  Json signature;                           ///< signature_json() of the result (null when there is none)
 };
 
 Json report_json(const Run& run) {
@@ -595,7 +596,7 @@ Json report_json(const Run& run) {
     j["polygon"] = nullptr;
   }
   j["generators"] = have && r.has_deck && r.deck.status == Status::Ok ? generators_array(r.deck.generators) : Json::array();
-  j["signature"] = have && r.status == Status::Ok && r.has_deck ? signature_json(ricci::conformal_signature(r)) : Json(nullptr);
+  j["signature"] = run.signature;
   const bool domain = have && !r.domain_maps.empty();
   j["domain_cycle_error"] = domain ? real(r.domain_cycle_error) : Json(nullptr);
   j["domain_adjusted_cycle_error"] = domain ? real(r.domain_adjusted_cycle_error) : Json(nullptr);
@@ -996,8 +997,9 @@ void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::Vali
   }
   if (r.has_deck) {
     const ricci::ConformalSignature sig = ricci::conformal_signature(r);
+    run.signature = signature_json(sig);
     if (sig.status == Status::Ok) {
-      Json j = signature_json(sig);
+      Json j = run.signature;
       j["input"] = run.file;
       files.push_back({"signature.json", j.dump(2) + '\n'});
     }

@@ -1,9 +1,10 @@
 // ricci command-line driver — outputs for other tools (see uniformize_outputs.h).
 #include "uniformize_outputs.h"
 
+#include "ricci/metric.h"
+
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace ricci_cli {
 
@@ -11,16 +12,7 @@ namespace {
 
 using ricci::Index;
 
-/// Angle at corner a of triangle (a, b, c), from 3D points.
-double corner_angle(const double* a, const double* b, const double* c) {
-  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-  const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-  const double w[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
-  const double cross = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-  const double dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-  return std::atan2(cross, dot);
-}
-
+/// Area of a flat triangle from its 3D corners (the layout's triangles as drawn).
 double triangle_area(const double* a, const double* b, const double* c) {
   const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
@@ -59,18 +51,18 @@ VertexOverlays vertex_overlays(const ricci::Mesh& mesh, const ricci::Topology& t
                                std::span<const double> sphere) {
   const std::size_t nv = static_cast<std::size_t>(mesh.num_vertices());
   const std::size_t nc = mesh.faces.size();
-  std::vector<double> angle_sum(nv, 0.0), area_in(nv, 0.0), area_out(nv, 0.0);
-  std::vector<double> log_sum(nv, 0.0), log_count(nv, 0.0);
-  const double* x = mesh.positions.data();
+  // The input's own metric: K from its corner angles, its face areas.
+  const std::vector<double> l = ricci::mesh_edge_lengths(mesh, topology);
+  std::vector<double> theta(nc), K(nv), area_of_face(nc / 3);
+  ricci::corner_angles(topology, ricci::Geometry::Euclidean, l, theta);
+  ricci::vertex_curvature(topology, theta, K);
+  ricci::face_areas(topology, ricci::Geometry::Euclidean, l, theta, area_of_face);
+  std::vector<double> area_in(nv, 0.0), area_out(nv, 0.0), log_sum(nv, 0.0), log_count(nv, 0.0);
   const bool sphere_layout = !sphere.empty();
   const bool same_faces = surface.faces == mesh.faces;
   double total_in = 0, total_out = 0;
   for (std::size_t f = 0; f < nc / 3; ++f) {
     const Index a = mesh.faces[3 * f], b = mesh.faces[3 * f + 1], c = mesh.faces[3 * f + 2];
-    const double* p[3] = {x + 3 * a, x + 3 * b, x + 3 * c};
-    const Index vs[3] = {a, b, c};
-    for (int k = 0; k < 3; ++k) angle_sum[static_cast<std::size_t>(vs[k])] += corner_angle(p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-    const double ain = triangle_area(p[0], p[1], p[2]);
     double aout = 0;
     if (sphere_layout) {
       aout = triangle_area(&sphere[3 * static_cast<std::size_t>(a)], &sphere[3 * static_cast<std::size_t>(b)],
@@ -79,19 +71,15 @@ VertexOverlays vertex_overlays(const ricci::Mesh& mesh, const ricci::Topology& t
       const double q[3][3] = {{uv[6 * f], uv[6 * f + 1], 0}, {uv[6 * f + 2], uv[6 * f + 3], 0}, {uv[6 * f + 4], uv[6 * f + 5], 0}};
       aout = triangle_area(q[0], q[1], q[2]);
     }
-    total_in += ain;
+    total_in += area_of_face[f];
     total_out += aout;
-    for (const Index v : vs) {
-      area_in[static_cast<std::size_t>(v)] += ain / 3;
+    for (const Index v : {a, b, c}) {
+      area_in[static_cast<std::size_t>(v)] += area_of_face[f] / 3;
       area_out[static_cast<std::size_t>(v)] += aout / 3;
     }
   }
   VertexOverlays o;
-  // K: 2π minus the angle sum inside, π minus it on the boundary (Topology knows which is which).
-  std::vector<double> K(nv), u(nv, 0.0), area(nv, 0.0), angle(nv, 0.0);
-  std::vector<bool> on_boundary(nv, false);
-  for (const Index v : topology.boundary_vertices) on_boundary[static_cast<std::size_t>(v)] = true;
-  for (std::size_t v = 0; v < nv; ++v) K[v] = (on_boundary[v] ? std::numbers::pi : 2 * std::numbers::pi) - angle_sum[v];
+  std::vector<double> u(nv, 0.0), area(nv, 0.0), angle(nv, 0.0);
   if (r.flow.u.size() == nv) u = r.flow.u;
   if (total_in > 0 && total_out > 0) {
     for (std::size_t v = 0; v < nv; ++v) {
