@@ -732,6 +732,8 @@ int run(int argc, const char* const* argv) {
   CLI::App* cover_cmd = add_cover_command(app, cover);
   SignatureCommandOptions signature;
   CLI::App* signature_cmd = add_signature_command(app, signature);
+  CompareCommandOptions compare;
+  CLI::App* compare_cmd = add_compare_command(app, compare);
 
   // An OpenMP default above the processors available (a mistaken OMP_NUM_THREADS) is lowered to
   // them: every parallel region would otherwise try to start that many threads.
@@ -759,6 +761,7 @@ int run(int argc, const char* const* argv) {
   if (layout_cmd->parsed()) return run_uniformize(layout);
   if (cover_cmd->parsed()) return run_cover(cover);
   if (signature_cmd->parsed()) return run_signature(signature);
+  if (compare_cmd->parsed()) return run_compare(compare);
   print_error("no subcommand given");
   return kExitUsage;
 }

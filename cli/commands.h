@@ -165,9 +165,27 @@ struct SignatureCommandOptions {
 };
 int run_signature(const SignatureCommandOptions& options);
 CLI::App* add_signature_command(CLI::App& app, SignatureCommandOptions& o);
-/// The signature as JSON (keys in README): status, genus, torus {tau, tau_computed, b_reversed,
-/// reduction, uncertainty} or words [{word, length, uncertainty}] and systole.
+/// The signature as JSON (keys in README): status, genus, boundary_loops, torus {tau,
+/// tau_computed, b_reversed, reduction, uncertainty}, words [{word, length, uncertainty}],
+/// systole, fenchel_nielsen [{curve, word, length, twist, …}], circle_domain {circles,
+/// separation, …}, boundary_geodesics [{vertex, length_3d, length, uncertainty}].
 nlohmann::ordered_json signature_json(const ricci::ConformalSignature& s);
+/// Renames the loops' vertices (validated numbering) to the file's (ValidateResult::vertex_to_input).
+void signature_vertices_to_file(ricci::ConformalSignature& s, const std::vector<ricci::Index>& vertex_to_input);
+/// The parts of signature_json()'s output signature_distance() needs, read back; throws
+/// std::runtime_error (or nlohmann's exceptions) naming what is missing or malformed.
+ricci::ConformalSignature signature_from_json(const nlohmann::ordered_json& j);
+
+/// `ricci compare A B [--json]`: signature_distance() of two meshes or signature.json files.
+struct CompareCommandOptions {
+  std::string first;
+  std::string second;
+  bool json = false;
+  bool largest_component = false;
+  bool quiet = false;
+};
+int run_compare(const CompareCommandOptions& options);
+CLI::App* add_compare_command(CLI::App& app, CompareCommandOptions& o);
 
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.

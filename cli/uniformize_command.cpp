@@ -995,9 +995,10 @@ void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::Vali
   } else {
     files.push_back({"mesh.glb", glb.bytes});
   }
-  if (r.has_deck) {
-    const ricci::ConformalSignature sig = ricci::conformal_signature(r);
-    run.signature = signature_json(sig);
+  {
+    ricci::ConformalSignature sig = ricci::conformal_signature(r);
+    signature_vertices_to_file(sig, v.vertex_to_input);
+    if (sig.status == Status::Ok || r.has_deck) run.signature = signature_json(sig);
     if (sig.status == Status::Ok) {
       Json j = run.signature;
       j["input"] = run.file;

@@ -278,11 +278,58 @@ TEST_CASE("cli signature: torus and genus 2 give their numbers, other topologies
   const auto d = run_cli({"signature", (ricci_test::fixtures_dir() / "disk.obj").string(), "-q"});
   CHECK(d.exit_code != 0);
   CHECK(d.err.find("disk.obj") != std::string::npos);
-  CHECK(d.err.find("no deck group") != std::string::npos);
+  CHECK(d.err.find("no signature for this surface") != std::string::npos);
   // ricci uniformize writes the same signature into report.json and signature.json.
   REQUIRE(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", (dir / "u").string(), "-q",
                    "--no-pictures"})
               .exit_code == 0);
   CHECK(read_json(dir / "u" / "report.json")["signature"]["torus"]["tau"].is_array());
   CHECK(fs::exists(dir / "u" / "signature.json"));
+  // A genus-0 surface with three loops: its circle domain.
+  const auto c = run_cli({"signature", (ricci_test::fixtures_dir() / "sphere-3holes.obj").string(), "--json", "-q"});
+  REQUIRE_MESSAGE(c.exit_code == 0, c.err);
+  const Json cj = Json::parse(c.out);
+  REQUIRE(cj["circle_domain"]["circles"].size() == 3);
+  CHECK(cj["circle_domain"]["circles"][0]["radius"] == 1.0);
+  CHECK(cj["circle_domain"]["separation"].size() == 3);
+  CHECK(cj["boundary_loops"] == 3);
+}
+
+TEST_CASE("cli compare: meshes and signature files, same kinds only, malformed files named") {
+  TempDir dir;
+  const std::string torus = (ricci_test::fixtures_dir() / "torus.obj").string();
+  REQUIRE(run_cli({"signature", torus, "-q", "-o", (dir / "t.json").string()}).exit_code == 0);
+  // A mesh against its own signature file: distance 0.
+  const auto same = run_cli({"compare", torus, (dir / "t.json").string(), "--json", "-q"});
+  REQUIRE_MESSAGE(same.exit_code == 0, same.err);
+  const Json j = Json::parse(same.out);
+  CHECK(j["kind"] == "modular");
+  CHECK(j["distance"].get<double>() <= 1e-12);
+  // Genus 2 against itself: the length spectrum and the marked distance.
+  REQUIRE(run_cli({"signature", "-q", "-o", (dir / "g.json").string()}).exit_code == 0);
+  const auto g = run_cli({"compare", (dir / "g.json").string(), (dir / "g.json").string(), "--json"});
+  REQUIRE_MESSAGE(g.exit_code == 0, g.err);
+  const Json gj = Json::parse(g.out);
+  CHECK(gj["kind"] == "length_spectrum");
+  CHECK(gj["distance"] == 0.0);
+  CHECK(gj["marked_distance"].get<double>() <= 1e-12);
+  const auto text = run_cli({"compare", (dir / "g.json").string(), (dir / "g.json").string()});
+  CHECK(text.out.find("marked:") != std::string::npos);
+  // Different kinds: refused naming both, exit 2 (invalid argument).
+  const auto mixed = run_cli({"compare", (dir / "t.json").string(), (dir / "g.json").string()});
+  CHECK(mixed.exit_code != 0);
+  CHECK(mixed.err.find("not of the same kind") != std::string::npos);
+  CHECK(mixed.err.find("t.json") != std::string::npos);
+  // A malformed or foreign JSON file: named, non-zero, no crash.
+  for (const char* bad : {"{", "[1, 2]", "{\"status\": \"ok\", \"genus\": 1, \"torus\": {\"tau\": [0, -1], \"uncertainty\": 0}}",
+                          "{\"status\": \"ok\"}", "{\"status\": \"ok\", \"genus\": 1e300}",
+                          "{\"status\": \"ok\", \"genus\": 0, \"boundary_loops\": 2, \"circle_domain\": {\"circles\": [1, 2]}}"}) {
+    std::ofstream(dir / "bad.json") << bad;
+    const auto r = run_cli({"compare", (dir / "bad.json").string(), (dir / "t.json").string()});
+    CHECK(r.exit_code != 0);
+    CHECK_MESSAGE(r.err.find("bad.json") != std::string::npos, r.err);
+  }
+  const auto missing = run_cli({"compare", (dir / "none.json").string(), (dir / "t.json").string()});
+  CHECK(missing.exit_code != 0);
+  CHECK(missing.err.find("none.json") != std::string::npos);
 }

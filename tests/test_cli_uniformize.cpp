@@ -245,7 +245,9 @@ TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
   CHECK(d["geometry"] == "euclidean");
   CHECK(d["boundary"] == "circle");
   CHECK(d["layout"]["flipped_faces"] == 0);
-  CHECK(listing(tmp / "d") == std::vector<std::string>{"domain.obj", "mesh.glb", "mesh.obj", "metric.csv", "report.json"});
+  CHECK(listing(tmp / "d") ==
+        std::vector<std::string>{"domain.obj", "mesh.glb", "mesh.obj", "metric.csv", "report.json", "signature.json"});
+  CHECK(d["signature"]["circle_domain"]["circles"].size() == 3);
 }
 
 TEST_CASE("cli layout: a stored metric laid out again, a metric of another mesh is refused") {

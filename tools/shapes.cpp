@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <map>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -350,6 +352,39 @@ Mesh annulus(int rings, int segments) {
     }
   }
   lift_saddle(m);
+  return m;
+}
+
+Mesh conformal_annulus(double r1, double r2, int rings, int segments, bool flat) {
+  if (rings < 1 || segments < 3 || !(r1 > 0) || !(r1 < r2) || !(r2 <= 1))
+    throw std::invalid_argument("conformal_annulus: 0 < r1 < r2 <= 1, rings >= 1 and segments >= 3 required");
+  Mesh m;
+  for (int i = 0; i <= rings; ++i) {
+    const double rad = r1 * std::pow(r2 / r1, static_cast<double>(i) / rings);
+    for (int j = 0; j < segments; ++j) {
+      const double a = 2 * std::numbers::pi * (j + 0.5 * (i % 2)) / segments;
+      const std::complex<double> z = std::polar(rad, a);
+      if (flat) {
+        push_position(m, {z.real(), z.imag(), 0});
+        continue;
+      }
+      const std::complex<double> w = 0.8 * (z + 0.2 * z * z);
+      const double q = std::norm(w);
+      push_position(m, {2 * w.real() / (1 + q), 2 * w.imag() / (1 + q), (q - 1) / (1 + q)});
+    }
+  }
+  // Consistently oriented strips between rings i and i+1 (the offset ring alternates the diagonal).
+  auto id = [&](int i, int j) { return static_cast<Index>(i * segments + (j + segments) % segments); };
+  for (int i = 0; i < rings; ++i)
+    for (int j = 0; j < segments; ++j) {
+      if (i % 2 == 0) {
+        push_face(m, id(i, j), id(i, j + 1), id(i + 1, j));
+        push_face(m, id(i, j + 1), id(i + 1, j + 1), id(i + 1, j));
+      } else {
+        push_face(m, id(i, j), id(i + 1, j + 1), id(i + 1, j));
+        push_face(m, id(i, j), id(i, j + 1), id(i + 1, j + 1));
+      }
+    }
   return m;
 }
 

@@ -64,6 +64,15 @@ Mesh disk(int rings);
 /// #V = (rings+1)·segments, #F = 2·rings·segments. Preconditions: rings ≥ 1, segments ≥ 3.
 Mesh annulus(int rings, int segments);
 
+/// The annulus r1 ≤ |z| ≤ r2 (0 < r1 < r2 ≤ 1) carried into 3D by conformal maps: w = z + 0.2 z²,
+/// then the inverse stereographic projection of 0.8 w onto the unit sphere. Its conformal modulus
+/// is log(r2/r1)/2π exactly, while the mesh is neither flat nor rotationally symmetric. `rings`
+/// rings spaced geometrically in z, `segments` vertices each, alternate rings offset by half a
+/// segment (near-equilateral triangles when rings ≈ segments·log(r2/r1)/(π√3)).
+/// `flat`: the planar annulus itself (z at height 0), no maps.
+/// #V = (rings+1)·segments, #F = 2·rings·segments. Preconditions: rings ≥ 1, segments ≥ 3.
+Mesh conformal_annulus(double r1, double r2, int rings, int segments, bool flat = false);
+
 /// Cuts a hole around each vertex in `centres`: removes every face incident to it and drops the
 /// vertices no longer used (the remaining vertices keep their relative order). Each hole adds one
 /// boundary loop (the link of its centre) and lowers χ by one.

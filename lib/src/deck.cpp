@@ -1016,6 +1016,7 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       const MoebiusQ Xg = (frame * h[Fp]) * letter_map(X, N).inverse() * (frame * h[Fs]).inverse();
       XQ.push_back(Xg);
       G.map = Xg.to_double();
+      G.map_low = MoebiusQ(Xg.a - CQ(G.map.a), Xg.b - CQ(G.map.b)).to_double();
       G.theta = G.map.theta();
       G.z0 = G.map.z0();
       G.translation_length = G.map.translation_length();

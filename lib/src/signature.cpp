@@ -1,16 +1,27 @@
-// ricci — conformal shape signatures (see signature.h): the flat torus's reduced modulus and the
-// hyperbolic lengths of a fixed list of words, from the deck group of a UniformizeResult.
+// ricci — conformal shape signatures (see signature.h): takes a UniformizeResult, gives the flat
+// torus's reduced modulus, or the hyperbolic lengths of a fixed list of words, the systole among
+// the short words and the Fenchel–Nielsen coordinates (signature_fn.cpp), or the boundary parts
+// (signature_boundary.cpp), as the topology calls for.
 #include "ricci/signature.h"
+
+#include "signature_internal.h"
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <string>
+#include <vector>
 
 namespace ricci {
 
 namespace {
 
 constexpr double kTie = 1e-12;
+/// The word search visits at most about this many reduced words (signature.h).
+constexpr double kWordBudget = 1e6;
+/// The spectrum keeps this many distinct lengths; lengths within this relative gap are one.
+constexpr std::size_t kSpectrumSize = 32;
+constexpr double kSameLength = 1e-9;
 
 /// Letter k of genus g: generator k / 2 (a1 b1 a2 b2 … as 0 1 2 3 …), inverse when k is odd.
 /// Letters are ordered a1 a1^-1 b1 b1^-1 a2 … .
@@ -113,25 +124,170 @@ bool torus_signature(const DeckResult& deck, ConformalSignature& out) {
   return true;
 }
 
-void hyperbolic_signature(const DeckResult& deck, ConformalSignature& out) {
-  std::vector<std::string> names;
-  const auto words = signature_words(deck.genus, &names);
-  out.words.clear();
-  for (std::size_t w = 0; w < words.size(); ++w) {
-    Moebius m;
-    double residual = 0;
-    for (const auto& [gen, sign] : words[w]) {
-      const DeckGenerator& g = deck.generators[static_cast<std::size_t>(gen)];
-      m = m * (sign > 0 ? g.map : g.map.inverse());
-      residual += g.residual_max;
-    }
-    out.words.push_back({names[w], m.normalized().translation_length(), 2 * residual});
+/// Lengths whose rounding bound exceeds this are left out of the spectrum and the systole.
+constexpr double kReliable = 1e-9;
+
+/// |a| + |b| of a map: the size its entries bring into a product.
+double matrix_norm(const detail::MoebiusQ& m) {
+  return std::sqrt(static_cast<double>(m.a.norm())) + std::sqrt(static_cast<double>(m.b.norm()));
+}
+
+/// Bound on the error of a word's translation length from the arithmetic: its letters are known to
+/// about 2^-106 of their size (map + map_low) and every quad product rounds at 2^-113, so the
+/// trace is off by at most about k·2^-105·Π‖letter‖, and dℓ = 2·d|Re a|/√(|Re a|² − 1).
+double length_rounding(double length, double norm_product, int letters) {
+  const double x = std::cosh(length / 2);
+  const double dx = letters * 2.5e-32 * norm_product;
+  return x > 1 ? 2 * dx / std::sqrt((x - 1) * (x + 1)) : INFINITY;
+}
+
+/// The longest word length L ≤ 8 whose reduced words, Σ_{l ≤ L} 4g·(4g − 1)^(l−1), stay within
+/// the budget (at least 2).
+int spectrum_word_length(Index genus) {
+  const double letters = 4.0 * static_cast<double>(genus);
+  int L = 1;
+  double total = letters, layer = letters;
+  while (L < 8) {
+    layer *= letters - 1;
+    if (total + layer > kWordBudget) break;
+    total += layer;
+    ++L;
   }
-  out.systole = *std::min_element(out.words.begin(), out.words.end(),
-                                  [](const WordLength& x, const WordLength& y) { return x.length < y.length; });
+  return std::max(L, 2);
+}
+
+/// The shortest cyclically reduced word of length ≤ max_length in the generators (letters as in
+/// signature_words(): k/2 the generator, odd k its inverse).
+WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::span<const double> residuals,
+                          int max_length, std::vector<double>& spectrum) {
+  const int letters = static_cast<int>(2 * generators.size());
+  std::vector<detail::MoebiusQ> letter(static_cast<std::size_t>(letters));
+  for (int k = 0; k < letters; ++k) {
+    const detail::MoebiusQ& m = generators[static_cast<std::size_t>(k / 2)];
+    letter[static_cast<std::size_t>(k)] = k % 2 == 0 ? m : m.inverse();
+  }
+  WordLength best;
+  best.length = INFINITY;
+  std::vector<double> lengths;
+  std::size_t best_letters = 0;
+  std::vector<int> word;
+  std::vector<detail::MoebiusQ> prefix{detail::MoebiusQ{}};
+  std::vector<double> letter_norm(static_cast<std::size_t>(letters));
+  for (int k = 0; k < letters; ++k) letter_norm[static_cast<std::size_t>(k)] = matrix_norm(letter[static_cast<std::size_t>(k)]);
+  std::vector<double> norm_product{1.0};  // Π of the prefix's letter norms
+  auto visit = [&](auto&& self) -> void {
+    const auto len = static_cast<int>(word.size());
+    const bool power = len % 2 == 0 && len > 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
+    if (len > 0 && word.back() != inverse_letter(word.front()) && !power) {
+      const double l = translation_length_q(prefix.back());
+      // Words whose product the arithmetic cannot resolve to kReliable are left out.
+      const double rounding = length_rounding(l, norm_product.back(), len);
+      const bool reliable = l > 0 && rounding <= kReliable;
+      if (reliable) lengths.push_back(l);
+      // A shorter length wins; within 1e-9 relative (the same class), the word with fewer letters.
+      const bool tie = std::abs(l - best.length) <= kSameLength * l;
+      if (reliable && ((!tie && l < best.length) || (tie && word.size() < best_letters))) {
+        best_letters = word.size();
+        best.length = l;
+        best.word.clear();
+        double residual = 0;
+        for (const int k : word) {
+          if (!best.word.empty()) best.word.push_back(' ');
+          best.word.append(letter_name(k));
+          residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(k / 2)];
+        }
+        best.uncertainty = 2 * residual + rounding;
+      }
+    }
+    if (len == max_length) return;
+    for (int k = 0; k < letters; ++k) {
+      if (len > 0 && k == inverse_letter(word.back())) continue;
+      word.push_back(k);
+      prefix.push_back((prefix.back() * letter[static_cast<std::size_t>(k)]).normalized());
+      norm_product.push_back(norm_product.back() * letter_norm[static_cast<std::size_t>(k)]);
+      self(self);
+      norm_product.pop_back();
+      prefix.pop_back();
+      word.pop_back();
+    }
+  };
+  visit(visit);
+  // Distinct lengths (a class met as several words, or equal lengths by symmetry, counts once).
+  std::sort(lengths.begin(), lengths.end());
+  spectrum.clear();
+  for (const double l : lengths) {
+    if (!spectrum.empty() && l - spectrum.back() <= kSameLength * l) continue;
+    spectrum.push_back(l);
+    if (spectrum.size() == kSpectrumSize) break;
+  }
+  return best;
+}
+
+void hyperbolic_signature(const DeckResult& deck, ConformalSignature& out) {
+  std::vector<Moebius> gens, low;
+  std::vector<double> residuals;
+  for (const DeckGenerator& g : deck.generators) {
+    gens.push_back(g.map);
+    low.push_back(g.map_low);
+    residuals.push_back(g.residual_max);
+  }
+  out = hyperbolic_signature(gens, residuals, low);
 }
 
 }  // namespace
+
+ConformalSignature hyperbolic_signature(std::span<const Moebius> generators, std::span<const double> residuals,
+                                        std::span<const Moebius> low) {
+  ConformalSignature out;
+  out.status = Status::InvalidArgument;
+  const std::size_t n = generators.size();
+  if (n < 4 || n % 2 != 0 || (!residuals.empty() && residuals.size() != n) || (!low.empty() && low.size() != n)) {
+    out.message = "a closed surface of genus ≥ 2 has 2g ≥ 4 canonical generators (and one residual and low part "
+                  "each, if any); got " + std::to_string(n) + " generators, " + std::to_string(residuals.size()) +
+                  " residuals and " + std::to_string(low.size()) + " low parts";
+    return out;
+  }
+  try {
+    out.genus = static_cast<Index>(n / 2);
+    std::vector<std::string> names;
+    const auto words = signature_words(out.genus, &names);
+    std::vector<detail::MoebiusQ> q;
+    for (std::size_t k = 0; k < n; ++k) q.push_back(quad_generator(generators, low, k));
+    for (std::size_t w = 0; w < words.size(); ++w) {
+      detail::MoebiusQ m;
+      double residual = 0, norms = 1;
+      for (const auto& [gen, sign] : words[w]) {
+        const detail::MoebiusQ& g = q[static_cast<std::size_t>(gen)];
+        m = m * (sign > 0 ? g : g.inverse());
+        residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(gen)];
+        norms *= matrix_norm(g);
+      }
+      const double l = translation_length_q(m);
+      out.words.push_back({names[w], l, 2 * residual + length_rounding(l, norms, static_cast<int>(words[w].size()))});
+    }
+    out.spectrum_word_length = spectrum_word_length(out.genus);
+    out.systole = systole_search(q, residuals, out.spectrum_word_length, out.spectrum);
+    out.generators.assign(generators.begin(), generators.end());
+    out.generator_low.assign(low.begin(), low.end());
+    if (out.generator_low.empty()) out.generator_low.assign(n, Moebius{{0, 0}, {0, 0}});
+    out.generator_residuals.assign(residuals.begin(), residuals.end());
+    if (out.generator_residuals.empty()) out.generator_residuals.assign(n, 0.0);
+    out.fenchel_nielsen = fenchel_nielsen(generators, residuals, low);
+    if (out.fenchel_nielsen.status != Status::Ok) {
+      out.status = out.fenchel_nielsen.status;
+      out.message = out.fenchel_nielsen.message;
+      return out;
+    }
+    out.has_fenchel_nielsen = true;
+  } catch (const std::exception& e) {
+    out.status = Status::OutOfMemory;
+    out.message = std::string("signature: ") + e.what();
+    return out;
+  }
+  out.status = Status::Ok;
+  out.message = "ok";
+  return out;
+}
 
 ConformalSignature conformal_signature(const UniformizeResult& r) {
   ConformalSignature out;
@@ -141,8 +297,29 @@ ConformalSignature conformal_signature(const UniformizeResult& r) {
     return out;
   }
   if (!r.has_deck || r.deck.status != Status::Ok) {
-    out.message = "no deck group: signatures are computed for closed surfaces of genus ≥ 1 so far (genus 0 "
-                  "with boundary loops and hyperbolic surfaces with geodesic boundaries are not yet covered)";
+    out.genus = r.cut.genus;
+    out.boundary_loops = r.cut.boundary_loops;
+    try {
+      if (r.has_cut && r.cut.genus == 0 && r.cut.boundary_loops >= 2 && r.geometry == Geometry::Euclidean &&
+          r.boundary == BoundaryMode::Circle) {
+        if (!circle_domain_signature(r, out)) return out;
+      } else if (r.has_cut && r.cut.boundary_loops >= 1 && r.geometry == Geometry::Hyperbolic &&
+                 r.boundary == BoundaryMode::Geodesic) {
+        if (!boundary_geodesic_signature(r, out)) return out;
+      } else {
+        out.message = "no signature for this surface: signatures are computed for closed surfaces of genus ≥ 1, "
+                      "genus-0 surfaces with ≥ 2 boundary loops laid out as circle domains (E, circle "
+                      "boundaries), and hyperbolic surfaces with geodesic boundaries; a disk or a sphere has no "
+                      "conformal invariant";
+        return out;
+      }
+    } catch (const std::exception& e) {
+      out.status = Status::OutOfMemory;
+      out.message = std::string("signature: ") + e.what();
+      return out;
+    }
+    out.status = Status::Ok;
+    out.message = "ok";
     return out;
   }
   out.genus = r.deck.genus;
@@ -157,6 +334,7 @@ ConformalSignature conformal_signature(const UniformizeResult& r) {
       if (!torus_signature(r.deck, out)) return out;
     } else {
       hyperbolic_signature(r.deck, out);
+      return out;
     }
   } catch (const std::exception& e) {
     out.status = Status::OutOfMemory;
