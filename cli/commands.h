@@ -176,10 +176,11 @@ void signature_vertices_to_file(ricci::ConformalSignature& s, const std::vector<
 /// std::runtime_error (or nlohmann's exceptions) naming what is missing or malformed.
 ricci::ConformalSignature signature_from_json(const nlohmann::ordered_json& j);
 
-/// `ricci compare A B [--json]`: signature_distance() of two meshes or signature.json files.
+/// `ricci compare A B [B2 …] [--json]`: signature_distance() of A to each B (meshes or
+/// signature.json files); several B are ranked, nearest first.
 struct CompareCommandOptions {
   std::string first;
-  std::string second;
+  std::vector<std::string> others;
   bool json = false;
   bool largest_component = false;
   bool quiet = false;

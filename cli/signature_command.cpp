@@ -405,31 +405,67 @@ int run_signature(const SignatureCommandOptions& o) {
   return finish_stdout(kExitOk);
 }
 
+namespace {
+
+Json distance_json(const std::string& second, const ricci::SignatureDistance& d) {
+  return Json{{"second", second},
+              {"kind", d.kind},
+              {"distance", number(d.distance)},
+              {"uncertainty", number(d.uncertainty)},
+              {"marked_distance", number(d.marked_distance)},
+              {"marked_uncertainty", number(d.marked_uncertainty)}};
+}
+
+}  // namespace
+
 int run_compare(const CompareCommandOptions& o) {
-  ricci::ConformalSignature a, b;
+  ricci::ConformalSignature a;
   if (const int code = signature_of_input(o.first, o.largest_component, o.quiet, a); code != 0) return finish_stdout(code);
-  if (const int code = signature_of_input(o.second, o.largest_component, o.quiet, b); code != 0) return finish_stdout(code);
-  const ricci::SignatureDistance d = ricci::signature_distance(a, b);
-  if (d.status != Status::Ok) {
-    print_error(o.first + " and " + o.second + ": " + d.message);
-    return finish_stdout(exit_code(d.status));
+  // Every other input against the first; all must be of its kind.
+  std::vector<std::pair<std::string, ricci::SignatureDistance>> rows;
+  for (const std::string& other : o.others) {
+    ricci::ConformalSignature b;
+    if (const int code = signature_of_input(other, o.largest_component, o.quiet, b); code != 0) return finish_stdout(code);
+    const ricci::SignatureDistance d = ricci::signature_distance(a, b);
+    if (d.status != Status::Ok) {
+      print_error(o.first + " and " + other + ": " + d.message);
+      return finish_stdout(exit_code(d.status));
+    }
+    rows.emplace_back(other, d);
   }
-  if (o.json) {
-    Json j{{"first", o.first}, {"second", o.second}, {"kind", d.kind}, {"distance", number(d.distance)},
-           {"uncertainty", number(d.uncertainty)}, {"marked_distance", number(d.marked_distance)},
-           {"marked_uncertainty", number(d.marked_uncertainty)}};
-    std::cout << j.dump(2) << '\n';
-  } else {
+  if (rows.size() == 1) {
+    const ricci::SignatureDistance& d = rows[0].second;
+    if (o.json) {
+      Json j{{"first", o.first}};
+      j.update(distance_json(rows[0].first, d));
+      std::cout << j.dump(2) << '\n';
+      return finish_stdout(kExitOk);
+    }
     char buf[160];
     std::snprintf(buf, sizeof buf, "%.12g  (± %.2g)", d.distance, d.uncertainty);
     std::cout << "first:          " << o.first << '\n'
-              << "second:         " << o.second << '\n'
+              << "second:         " << rows[0].first << '\n'
               << "kind:           " << d.kind << '\n'
               << "distance:       " << buf << '\n';
     if (std::isfinite(d.marked_distance)) {
       std::snprintf(buf, sizeof buf, "%.12g  (± %.2g)", d.marked_distance, d.marked_uncertainty);
       std::cout << "marked:         " << buf << " (Fenchel-Nielsen, modulo handle rotations and pants twists)\n";
     }
+    return finish_stdout(kExitOk);
+  }
+  // A ranking: nearest first (ties keep the command line's order).
+  std::stable_sort(rows.begin(), rows.end(), [](const auto& x, const auto& y) { return x.second.distance < y.second.distance; });
+  if (o.json) {
+    Json ranking = Json::array();
+    for (const auto& [name, d] : rows) ranking.push_back(distance_json(name, d));
+    std::cout << Json{{"first", o.first}, {"ranking", ranking}}.dump(2) << '\n';
+    return finish_stdout(kExitOk);
+  }
+  std::cout << "first:          " << o.first << "\nkind:           " << rows[0].second.kind << '\n';
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "%3zu  %.12g  (± %.2g)  ", k + 1, rows[k].second.distance, rows[k].second.uncertainty);
+    std::cout << buf << rows[k].first << '\n';
   }
   return finish_stdout(kExitOk);
 }
@@ -437,14 +473,18 @@ int run_compare(const CompareCommandOptions& o) {
 CLI::App* add_compare_command(CLI::App& app, CompareCommandOptions& o) {
   CLI::App* cmd = app.add_subcommand(
       "compare",
-      "The distance between the conformal signatures of two surfaces of the same kind: the modular distance of "
+      "The distance between the conformal signatures of surfaces of the same kind (A against each B; several B are "
+      "ranked, nearest first): the modular distance of "
       "the two tau (genus 1), the largest difference of the circle domains' separations over relabellings of the "
       "loops (genus 0 with >= 2 loops), of the sorted boundary geodesics' lengths (hyperbolic with boundary), or "
       "the largest difference of the length spectra's first 16 values (genus >= 2), with the Fenchel-Nielsen "
       "distance modulo handle rotations and pants twists as the marked distance.");
   cmd->add_option("A", o.first, "A mesh file, or a signature.json written by `ricci signature -o` or `ricci uniformize`.")
       ->required();
-  cmd->add_option("B", o.second, "The second mesh or signature.json.")->required();
+  cmd->add_option("B", o.others,
+                  "One or more meshes or signature.json files of A's kind. With one: its distance to A; with several: "
+                  "all of them ranked by their distance to A, nearest first.")
+      ->required();
   cmd->add_flag("--json", o.json, "Print one JSON object on stdout instead of text. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component,
                 "Keep the largest connected component of a mesh instead of failing on several. Default: off.");

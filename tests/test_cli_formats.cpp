@@ -315,6 +315,23 @@ TEST_CASE("cli compare: meshes and signature files, same kinds only, malformed f
   CHECK(gj["marked_distance"].get<double>() <= 1e-12);
   const auto text = run_cli({"compare", (dir / "g.json").string(), (dir / "g.json").string()});
   CHECK(text.out.find("marked:") != std::string::npos);
+  // Several: ranked by distance to the first, nearest first (the torus itself, then a bumpier one).
+  const std::string bumpy = (dir / "bumpy.obj").string();
+  {
+    ricci::ReadResult m = ricci::read_mesh(torus);
+    REQUIRE(m.status == ricci::Status::Ok);
+    for (std::size_t k = 0; k + 2 < m.mesh.positions.size(); k += 3) m.mesh.positions[k + 2] *= 1.7;
+    REQUIRE(ricci::write_mesh(bumpy, m.mesh).status == ricci::Status::Ok);
+  }
+  const auto ranked = run_cli({"compare", torus, bumpy, (dir / "t.json").string(), "--json", "-q"});
+  REQUIRE_MESSAGE(ranked.exit_code == 0, ranked.err);
+  const Json rj = Json::parse(ranked.out);
+  REQUIRE(rj["ranking"].size() == 2);
+  CHECK(rj["ranking"][0]["second"] == (dir / "t.json").string());
+  CHECK(rj["ranking"][1]["second"] == bumpy);
+  CHECK(rj["ranking"][1]["distance"].get<double>() > 1e-3);
+  const auto ranked_text = run_cli({"compare", torus, bumpy, (dir / "t.json").string(), "-q"});
+  CHECK(ranked_text.out.find("  1  ") != std::string::npos);
   // Different kinds: refused naming both, exit 2 (invalid argument).
   const auto mixed = run_cli({"compare", (dir / "t.json").string(), (dir / "g.json").string()});
   CHECK(mixed.exit_code != 0);
