@@ -863,8 +863,8 @@ CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {
                 "4-cycles where they make zero curvature infeasible. Default: off (such cycles get "
                 "smaller angles; the summary reports how many edges).");
   cmd->add_flag("--no-circle-normalization", o.no_circle_normalization,
-                "Circle boundaries of genus-0 surfaces in E: solve the target proportional to length "
-                "exactly instead of fixing the Moebius normalization of the circle domain (which "
+                "Circle boundaries of genus-0 surfaces in E: leave the Moebius gauge of the circle domain "
+                "free (Newton picks a member of the family) instead of fixing its normalization (which "
                 "adds two small zero-sum modes to the outer loop's target). Default: off.");
   cmd->add_flag("--json", o.json,
                 "Print one JSON summary object on stdout (status, settings, iterations, errors, "

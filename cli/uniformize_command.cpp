@@ -1248,7 +1248,7 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_flag("--no-angle-relax", o.no_angle_relax,
                 "Circle packing: keep Step 2's intersection angles exactly (see `ricci flow`). Default: off.");
   cmd->add_flag("--no-circle-normalization", o.no_circle_normalization,
-                "Circle domains: the target proportional to length exactly (see `ricci flow`). Default: off.");
+                "Circle domains: leave the Moebius gauge free (see `ricci flow`). Default: off.");
   cmd->add_flag("--json", o.json, "Print report.json's content on stdout instead of the summary line. Default: off.");
   cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr; errors are still printed. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component,

@@ -417,11 +417,13 @@ TEST_CASE("signature: a disk with two holes gives a normalized circle domain, in
   const double stated = *std::max_element(D.separation_uncertainty.begin(), D.separation_uncertainty.end()) +
                         *std::max_element(c.circle_domain.separation_uncertainty.begin(), c.circle_domain.separation_uncertainty.end());
   MESSAGE("three circles: separations change by " << motion << " (motion+scale), " << renumber
-          << " (renumbering: another cut, so another gap in the discrete circles; stated uncertainty " << stated << ")");
+          << " (renumbering, another cut; stated uncertainty " << stated << ")");
   CHECK(motion <= 1e-10);
-  // Renumbering moves the cut; a discrete circle's polygon closes only to O(h²), so the fitted
-  // circles move within the stated uncertainty, not to rounding.
+  // Renumbering moves the cut; the boundary polygons are inscribed exactly, so the layout closes
+  // around every hole and the circles do not depend on the cut.
+  CHECK(renumber <= 1e-12);
   CHECK(renumber <= stated);
+  for (const ricci::BoundaryCircle& circle : D.circles) CHECK(circle.fit_residual <= 1e-12);
   for (std::size_t i = 0; i < 3; ++i) {
     CHECK(std::abs(D.circles[i].centre - b.circle_domain.circles[i].centre) <= 1e-10);
     CHECK(std::abs(D.circles[i].radius - b.circle_domain.circles[i].radius) <= 1e-10);

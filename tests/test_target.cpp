@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstdint>
 #include <limits>
 #include <numbers>
@@ -266,7 +267,7 @@ TEST_CASE("target: Circle loop totals are +2π for the loop with most vertices a
   CHECK(loop_size(ht, 0) + loop_size(ht, 1) == 30);
 }
 
-TEST_CASE("target: effective_target spreads each loop total in proportion to length") {
+TEST_CASE("target: effective_target spreads each loop total in proportion to length (H, loop totals)") {
   for (const auto& s : fixtures()) {
     const Topology& t = s.topology;
     if (t.is_closed()) continue;
@@ -283,7 +284,7 @@ TEST_CASE("target: effective_target spreads each loop total in proportion to len
         std::vector<double> l(t.num_edges);
         for (double& x : l) x = 0.1 + 2 * ricci_shapes::unit_double(rng);
         std::vector<double> K(t.num_vertices, -99.0);
-        effective_target(t, target, l, K);
+        effective_target(t, target, l, K, Geometry::Hyperbolic);
 
         for (Index v = 0; v < t.num_vertices; ++v)
           if (!t.is_boundary_vertex(v)) CHECK(K[v] == target.K[v]);
@@ -304,11 +305,58 @@ TEST_CASE("target: effective_target spreads each loop total in proportion to len
         }
         // Deterministic: the same bits again.
         std::vector<double> again(t.num_vertices, 0.0);
-        effective_target(t, target, l, again);
+        effective_target(t, target, l, again, Geometry::Hyperbolic);
         CHECK(again == K);
       }
     }
   }
+}
+
+TEST_CASE("target: in E a Circle loop is an inscribed polygon whose layout closes") {
+  for (const auto& s : fixtures()) {
+    const Topology& t = s.topology;
+    if (t.is_closed()) continue;
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      INFO(s.name);
+      CAPTURE(seed);
+      std::mt19937_64 rng(seed);
+      const Target target = uniform_target(t, BoundaryMode::Circle);
+      std::vector<double> l(t.num_edges);
+      for (double& x : l) x = 0.5 + ricci_shapes::unit_double(rng);
+      std::vector<double> K(t.num_vertices, -99.0);
+      effective_target(t, target, l, K, Geometry::Euclidean);
+      for (Index i = 0; i < t.num_boundary_loops(); ++i) {
+        const Index b = t.boundary_offsets[i], e = t.boundary_offsets[i + 1];
+        const double R = inscribed_radius(t, i, l);
+        if (!(R > 0)) continue;  // no circle with its centre inside: the proportional rule
+        REQUIRE(inscribed_circle_loop(target, Geometry::Euclidean, i));
+        CHECK_FALSE(inscribed_circle_loop(target, Geometry::Hyperbolic, i));
+        double sum = 0, arcs = 0;
+        for (Index j = b; j < e; ++j) {
+          sum += K[t.boundary_vertices[j]];
+          arcs += 2 * std::asin(l[t.corner_edge[t.boundary_corners[j]]] / (2 * R));
+        }
+        CHECK(std::abs(sum - target.loop_total[i]) <= 1e-12);
+        CHECK(std::abs(arcs - 2 * kPi) <= 1e-12);
+        // Walk the polygon: side j, then turn by |K̄| at the next vertex; it closes.
+        std::complex<double> z = 0, dir = 1;
+        for (Index j = b; j < e; ++j) {
+          z += l[t.corner_edge[t.boundary_corners[j]]] * dir;
+          const Index next = j + 1 < e ? j + 1 : b;
+          dir *= std::polar(1.0, std::abs(K[t.boundary_vertices[next]]));
+        }
+        CHECK(std::abs(z) <= 1e-12 * (e - b));
+      }
+    }
+  }
+  // The radius: a regular n-gon of side s has R = s/(2 sin(π/n)); an impossible polygon gives 0.
+  for (const int n : {3, 4, 7, 100}) {
+    const std::vector<double> sides(static_cast<std::size_t>(n), 0.3);
+    CHECK(inscribed_radius(sides) == doctest::Approx(0.3 / (2 * std::sin(kPi / n))).epsilon(1e-14));
+  }
+  CHECK(inscribed_radius(std::vector<double>{1.0, 1.0, 5.0}) == 0);
+  CHECK(inscribed_radius(std::vector<double>{1.0, 0.0, 1.0}) == 0);
+  CHECK(inscribed_radius(std::vector<double>{1.0, 1.0}) == 0);
 }
 
 TEST_CASE("target: effective_target keeps the outer loop whatever the lengths do") {
@@ -320,7 +368,7 @@ TEST_CASE("target: effective_target keeps the outer loop whatever the lengths do
   for (Index j = t.boundary_offsets[1]; j < t.boundary_offsets[2]; ++j)
     l[t.corner_edge[t.boundary_corners[j]]] = 10;
   std::vector<double> K(t.num_vertices);
-  effective_target(t, target, l, K);
+  effective_target(t, target, l, K, Geometry::Euclidean);
   double loop0 = 0, loop1 = 0;
   for (Index j = t.boundary_offsets[0]; j < t.boundary_offsets[1]; ++j) loop0 += K[t.boundary_vertices[j]];
   for (Index j = t.boundary_offsets[1]; j < t.boundary_offsets[2]; ++j) loop1 += K[t.boundary_vertices[j]];
@@ -328,11 +376,11 @@ TEST_CASE("target: effective_target keeps the outer loop whatever the lengths do
   CHECK(loop1 == doctest::Approx(-2 * kPi));
   // Equal lengths give the equal shares stored in target.K.
   std::fill(l.begin(), l.end(), 0.7);
-  effective_target(t, target, l, K);
+  effective_target(t, target, l, K, Geometry::Euclidean);
   for (Index v = 0; v < t.num_vertices; ++v) CHECK(K[v] == doctest::Approx(target.K[v]).epsilon(1e-14));
   // Degenerate lengths (all zero) fall back to equal shares without a floating-point exception.
   std::fill(l.begin(), l.end(), 0.0);
-  effective_target(t, target, l, K);
+  effective_target(t, target, l, K, Geometry::Euclidean);
   for (Index v = 0; v < t.num_vertices; ++v) CHECK(K[v] == doctest::Approx(target.K[v]).epsilon(1e-14));
 }
 
@@ -345,7 +393,7 @@ TEST_CASE("target: effective_target copies K̄ for the modes without loop totals
     Target target = uniform_target(t, mode);
     for (Index v = 0; v < t.num_vertices; ++v) target.K[v] = 0.01 * v;
     std::vector<double> K(t.num_vertices, -1.0);
-    effective_target(t, target, l, K);
+    effective_target(t, target, l, K, Geometry::Euclidean);
     CHECK(K == target.K);
   }
 }

@@ -398,6 +398,7 @@ class FlowSolver {
   bool residual_merit_ = false;  // S or coupled: the line search uses ½‖K̄ − K‖²
   std::vector<Index> position_unknown_;
   std::vector<double> position_dl_du_, position_dl_, position_dK_;
+  std::vector<double> position_dK_arc_;  ///< per boundary position: scratch of target_derivative()
   std::vector<double> full_;            // #V scratch
   std::vector<double> K_target_trial_;  // #V: effective target of the trial lengths
   // Restarted GMRES on the boundary system (dimension: the number of boundary positions).
@@ -430,7 +431,7 @@ class FlowSolver {
   std::vector<double> mode_a_, mode_b_, norm_c_, norm_s_;
   double norm_c0_ = 0, norm_s0_ = 0;
   double alpha_ = 0, beta_ = 0, d_alpha_ = 0, d_beta_ = 0, alpha_trial_ = 0, beta_trial_ = 0;
-  double largest_mode_ = 0;  // max over the run of max |α a + β b| / (T·m/L)
+  double largest_mode_ = 0;  // max over the run of max |α a + β b| / |the effective target without modes|
   int mode_failures_ = 0;
   std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
   bool spherical_gauge_ = false;
@@ -840,6 +841,7 @@ void FlowSolver::setup_coupling() {
   position_dl_du_.assign(2 * positions, 0.0);
   position_dl_.assign(positions, 0.0);
   position_dK_.assign(positions, 0.0);
+  position_dK_arc_.assign(positions, 0.0);
   full_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
   K_target_trial_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
   const std::size_t m = kGmresRestart;
@@ -894,6 +896,31 @@ void FlowSolver::target_derivative(std::span<const double> x, std::span<double> 
       dL += dl;
     }
     const double T = target_.loop_total[loop];
+    const double R = inscribed_circle_loop(target_, s_.geometry, loop) ? inscribed_radius(t_, loop, cur_.l) : 0.0;
+    if (R > 0) {
+      // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
+      // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
+      double num = 0, den = 0;
+      for (Index p = begin; p < end; ++p) {
+        const double l = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+        const double half_chord = std::min(l / (2 * R), 1.0);
+        const double c = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
+        position_dK_arc_[p] = c;
+        num += position_dl_[p] / c;
+        den += l / c;
+      }
+      const double dR_over_R = den > 0 ? num / den : 0.0;
+      for (Index p = begin; p < end; ++p) {
+        const double l = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+        position_dK_arc_[p] = (position_dl_[p] - l * dR_over_R) / (R * position_dK_arc_[p]);  // dα_p
+      }
+      const double sign = T > 0 ? 1.0 : -1.0;
+      for (Index p = begin; p < end; ++p) {
+        const Index before = p > begin ? p - 1 : end - 1;
+        dK[p] = sign * 0.5 * (position_dK_arc_[before] + position_dK_arc_[p]);
+      }
+      continue;
+    }
     for (Index p = begin; p < end; ++p) {
       const Index before = p > begin ? p - 1 : end - 1;
       const double m = 0.5 * (cur_.l[t_.corner_edge[t_.boundary_corners[before]]] +
@@ -1174,11 +1201,13 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
 // ---------------------------------------------------------------------------------------------
 // Circle domains. The conformal maps of a genus-0 surface onto a circle domain form a family: the
 // Möbius transformations of the outer disk (three parameters, one of them a rotation that leaves
-// u alone). The discrete target "curvature proportional to length on each loop" is invariant
-// under them only up to the discretization, so ∂K/∂u − ∂K̄/∂u is nearly singular along two
-// directions and its exact solution is decided by discretization effects: on fine meshes it is a
-// strongly distorted member of the family, reached only after hundreds of damped Newton steps.
-// Instead the family is normalized explicitly: along the outer loop, with θ_p the angular
+// u alone). In E the discrete target, each loop an inscribed polygon, is invariant under them
+// exactly (a Möbius map takes circles to circles and multiplies every length l_ij by
+// √(|f'(z_i)| |f'(z_j)|), a vertex scaling), so ∂K/∂u − ∂K̄/∂u is singular along two directions;
+// the target proportional to length (H, S) is invariant only up to the discretization, and its
+// exact solution, decided by discretization effects, is on fine meshes a strongly distorted member
+// of the family reached only after hundreds of damped Newton steps. Either way the family is
+// normalized explicitly: along the outer loop, with θ_p the angular
 // position of vertex p (2π × arc length from the loop start / loop length, at the start), two
 // normalization rows n_c = w_p (cos θ_p − C), n_s = w_p (sin θ_p − S) (w the half lengths of the
 // boundary edges at p at the start, C, S their weighted means) hold n·u at its start, and two
@@ -1485,7 +1514,7 @@ bool FlowSolver::line_search() {
     if (last != Validity::Ok) continue;
     // The residual merit of a coupled target uses the target of the trial lengths.
     if (coupled_) {
-      effective_target(trial_topology(), target_, trial_.l, K_target_trial_);
+      effective_target(trial_topology(), target_, trial_.l, K_target_trial_, s_.geometry);
       if (moebius_modes_) {
         alpha_trial_ = alpha_ + t * d_alpha_;
         beta_trial_ = beta_ + t * d_beta_;
@@ -1590,7 +1619,7 @@ void FlowSolver::accept(double step_length, double dE) {
     trial_flipped_ = false;
     pattern_stale_ = true;
   }
-  effective_target(t_, target_, cur_.l, K_target_);
+  effective_target(t_, target_, cur_.l, K_target_, s_.geometry);
   if (moebius_modes_) {
     alpha_ = alpha_trial_;
     beta_ = beta_trial_;
@@ -1735,7 +1764,7 @@ void FlowSolver::run() {
     r_.u.clear();
     return;
   }
-  effective_target(t_, target_, cur_.l, K_target_);
+  effective_target(t_, target_, cur_.l, K_target_, s_.geometry);
   error_ = max_error(cur_.K, K_target_, condition_);
   if (start != Validity::Ok) {
     fail(start == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
@@ -1920,7 +1949,7 @@ void FlowSolver::finish() {
     r_.notes.push_back(
         "circle domain: the Möbius normalization (the first Fourier modes of u along the outer loop held at their "
         "start) moved the outer loop's target curvature by at most " + format_double("%.3g", largest_mode_) +
-        " of its value proportional to length" +
+        " of its value without the modes" +
         (mode_failures_ > 0 ? "; " + std::to_string(mode_failures_) + " step(s) without it (singular 2×2 system)" : ""));
   if (noise_accepts_ > 0)
     r_.notes.push_back(

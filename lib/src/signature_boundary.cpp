@@ -256,7 +256,8 @@ bool circle_domain_signature(const UniformizeResult& r, ConformalSignature& out)
   std::sort(order.begin() + 2, order.end(), [&](std::size_t i, std::size_t j) { return before(i, j, k[i].r, k[j].r); });
   if (n >= 3 && std::abs(k[order[2]].c) > 0) {
     const cplx rot = std::conj(k[order[2]].c) / std::abs(k[order[2]].c);
-    for (std::size_t i = 0; i < n; ++i) k[i] = affine(k[i], rot, 0.0);
+    for (std::size_t i = 0; i < n; ++i)
+      if (i != outer) k[i] = affine(k[i], rot, 0.0);
   }
   CircleDomain& D = out.circle_domain;
   D.circles.clear();

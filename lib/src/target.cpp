@@ -360,13 +360,77 @@ TargetFileResult parse_target_text(std::string_view text, const Topology& t, Bou
 // ---------------------------------------------------------------------------------------------
 // The effective target.
 
+bool inscribed_circle_loop(const Target& target, Geometry geometry, Index loop) {
+  return target.boundary == BoundaryMode::Circle && geometry == Geometry::Euclidean && loop >= 0 &&
+         static_cast<std::size_t>(loop) < target.loop_total.size() &&
+         std::abs(std::abs(target.loop_total[static_cast<std::size_t>(loop)]) - 2 * kPi) <= 1e-12;
+}
+
 // Loops are visited in index order and each loop's length is summed in loop order, so the result
 // is deterministic. With inconsistent sizes (which check_target() reports) it writes what it can
 // and never reads or writes out of range: K̄ is copied for min(#V, |target.K|, |K_target|)
 // vertices, and the loops are spread only when loop_total has one entry per loop and l has #E
 // entries. A loop whose length is not a positive finite number gets equal shares.
+namespace {
+
+/// Σ 2·arcsin(l_j/2R) − 2π and its derivative in R (R ≥ max l/2).
+template <class Side>
+std::pair<double, double> arc_excess(Index count, Side side, double R) {
+  double f = -2 * kPi, df = 0;
+  for (Index j = 0; j < count; ++j) {
+    const double x = std::min(side(j) / (2 * R), 1.0);
+    const double c = std::sqrt((1 - x) * (1 + x));
+    f += 2 * std::asin(x);
+    df -= c > 0 ? side(j) / (R * R * c) : INFINITY;
+  }
+  return {f, df};
+}
+
+template <class Side>
+double inscribed_radius_of(Index count, Side side) {
+  if (count < 3) return 0;
+  double L = 0, longest = 0;
+  for (Index j = 0; j < count; ++j) {
+    const double x = side(j);
+    if (!(is_finite_bits(x) && x > 0)) return 0;
+    L += x;
+    longest = std::max(longest, x);
+  }
+  // f decreases in R; f(L/2π) ≥ 0 (arcsin x ≥ x) and f(L/4) ≤ 0 (arcsin x ≤ πx/2), so the root
+  // lies in [max(L/2π, longest/2), L/4] when f(longest/2) ≥ 0 at all. Newton (f is convex, so
+  // its steps from the left stay left of the root), bisection when a step would leave the bracket.
+  double lo = std::max(L / (2 * kPi), 0.5 * longest), hi = std::max(L / 4, lo);
+  if (arc_excess(count, side, lo).first < 0) return 0;
+  double R = lo;
+  for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
+    const auto [f, df] = arc_excess(count, side, R);
+    if (f == 0) return R;
+    if (f > 0)
+      lo = R;
+    else
+      hi = R;
+    double next = std::isfinite(df) && df < 0 ? R - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == R) break;
+    R = next;
+  }
+  return R;
+}
+
+}  // namespace
+
+double inscribed_radius(std::span<const double> sides) {
+  return inscribed_radius_of(static_cast<Index>(sides.size()), [&](Index j) { return sides[static_cast<std::size_t>(j)]; });
+}
+
+double inscribed_radius(const Topology& t, Index loop, std::span<const double> l) {
+  if (loop < 0 || loop >= t.num_boundary_loops() || l.size() < static_cast<std::size_t>(t.num_edges)) return 0;
+  const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
+  return inscribed_radius_of(end - begin, [&](Index j) { return l[t.corner_edge[t.boundary_corners[begin + j]]]; });
+}
+
 void effective_target(const Topology& t, const Target& target, std::span<const double> l,
-                      std::span<double> K_target) {
+                      std::span<double> K_target, Geometry geometry) {
   const std::size_t n =
       std::min({static_cast<std::size_t>(t.num_vertices), target.K.size(), K_target.size()});
   std::copy_n(target.K.begin(), n, K_target.begin());
@@ -389,6 +453,18 @@ void effective_target(const Topology& t, const Target& target, std::span<const d
       continue;
     }
     double before = l[t.corner_edge[t.boundary_corners[end - 1]]];  // the edge arriving at `begin`
+    const double R = inscribed_circle_loop(target, geometry, i) ? inscribed_radius(t, i, l) : 0.0;
+    if (R > 0) {
+      // The inscribed polygon: turning ±(α_in + α_out)/2, α = 2·arcsin(l/2R).
+      const double sign = total > 0 ? 1.0 : -1.0;
+      auto arc = [R](double side) { return 2 * std::asin(std::min(side / (2 * R), 1.0)); };
+      for (Index j = begin; j < end; ++j) {
+        const double after = l[t.corner_edge[t.boundary_corners[j]]];
+        K_target[t.boundary_vertices[j]] = sign * 0.5 * (arc(before) + arc(after));
+        before = after;
+      }
+      continue;
+    }
     for (Index j = begin; j < end; ++j) {
       const double after = l[t.corner_edge[t.boundary_corners[j]]];
       K_target[t.boundary_vertices[j]] = total * (0.5 * (before + after) / length);

@@ -90,7 +90,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     RICCI_FUZZ_CHECK(target.loop_total.size() == static_cast<std::size_t>(t.num_boundary_loops()));
 
   std::vector<double> K_target(nv, 0.0);
-  ricci::effective_target(t, target, fx.metric.l0, K_target);
+  ricci::effective_target(t, target, fx.metric.l0, K_target, ricci::Geometry::Euclidean);
   RICCI_FUZZ_CHECK(ricci_fuzz::all_finite(K_target));
   const ricci::TargetCheck check = ricci::check_target(t, fx.metric.structure, target);
   RICCI_FUZZ_CHECK(check.status == ricci::Status::Ok || check.status == ricci::Status::InfeasibleTarget);

@@ -29,9 +29,12 @@ namespace ricci {
 enum class BoundaryMode : int {
   Free = 0,      ///< boundary vertices carry an explicit K̄ like interior ones (per-vertex targets)
   FixedLengths,  ///< u is held at its starting value on the boundary (Dirichlet); boundary K free
-  Circle,        ///< each loop becomes a circle: K̄ on a loop ∝ the length at each vertex (half the
-                 ///< two incident boundary edges), recomputed as lengths change; loop totals +2π
-                 ///< for the longest loop and −2π for the others unless given
+  Circle,        ///< each loop becomes a circle, K̄ recomputed as lengths change; loop totals +2π
+                 ///< for the longest loop and −2π for the others unless given. E (totals ±2π):
+                 ///< the loop's polygon inscribed in a circle, K̄ = ±(α_in + α_out)/2 with
+                 ///< α = 2·arcsin(l/2R), R from Σα = 2π (inscribed_radius()); H, S, or when no
+                 ///< such circle exists: K̄ ∝ the length at each vertex (half the two incident
+                 ///< boundary edges)
   Geodesic,      ///< K̄ = 0 on the boundary (hyperbolic background): geodesic boundary loops
   LoopTotals,    ///< a given total curvature per loop, spread by length as for Circle
 };
@@ -81,11 +84,24 @@ TargetFileResult read_target_file(const std::string& path, const Topology& topol
 TargetFileResult parse_target_text(std::string_view text, const Topology& topology,
                                    BoundaryMode mode = BoundaryMode::Free, const std::string& name = "target");
 
-/// The effective K̄ for the current edge lengths l (#E): target.K, except that boundary
-/// vertices of Circle / LoopTotals targets get loop_total[loop] · (½ of their two boundary edge
-/// lengths) / (loop length). Writes #V values; allocates nothing.
+/// The effective K̄ for the current edge lengths l (#E) in `geometry`: target.K, except that
+/// boundary vertices of Circle / LoopTotals targets get loop_total[loop] · (½ of their two
+/// boundary edge lengths) / (loop length) — or, for Circle loops in E with total ±2π, the
+/// inscribed polygon's turning ±(α_in + α_out)/2, α = 2·arcsin(l/2R) (the polygon's vertices lie
+/// exactly on one circle, so a layout closes around every hole and the circles do not depend on
+/// the cut). Writes #V values; allocates nothing.
 void effective_target(const Topology& topology, const Target& target, std::span<const double> l,
-                      std::span<double> K_target);
+                      std::span<double> K_target, Geometry geometry);
+
+/// Whether effective_target() makes boundary loop `loop` an inscribed polygon (Circle, E, total ±2π).
+bool inscribed_circle_loop(const Target& target, Geometry geometry, Index loop);
+
+/// The radius R of the circle through a closed polygon with sides l (in order; E) with its centre
+/// inside: Σ 2·arcsin(l_j/2R) = 2π. 0 when there is none (one side too long for the others) or
+/// the sides are not positive finite numbers. Monotone Newton from the lower bound, to rounding.
+double inscribed_radius(std::span<const double> sides);
+/// The same for the sides of boundary loop `loop` (its edges in loop order, lengths l #E).
+double inscribed_radius(const Topology& topology, Index loop, std::span<const double> l);
 
 struct TargetCheck {
   Status status = Status::NotRun;  ///< Ok or InfeasibleTarget (or InvalidArgument for sizes)
@@ -129,8 +145,10 @@ struct FlowOptions {
   /// Circle targets on genus-0 surfaces in E (Newton): fix the Möbius normalization of the circle
   /// domain explicitly — the first Fourier modes of u along the outer loop keep their starting
   /// values, and the outer loop's target gets two zero-sum modes (cos θ, sin θ) whose size the
-  /// notes report. Off: the target proportional to length exactly (nearly Möbius invariant, so
-  /// fine meshes converge slowly to a strongly distorted map).
+  /// notes report. Off: the gauge is left free (the inscribed-polygon target of E is exactly
+  /// Möbius invariant for vertex scaling, so Newton picks a member of the family; the target
+  /// proportional to length is invariant only nearly, and fine meshes then converge slowly to a
+  /// strongly distorted map).
   bool normalize_circle_domains = true;
   /// Newton: once the tolerance is met, up to this many further Newton steps, each kept only when
   /// it lowers max |K̄ − K| (a layout closes up to the metric's residual curvature, so the last

@@ -41,7 +41,8 @@
 // 1e-9 are left out of the spectrum and the systole: canonical loops far from the polygon's
 // centre have entries of 10⁷ and more). Circle
 // domains: the largest distance of a loop's laid-out vertices from its fitted circle, relative to
-// the radius (a discrete circle's vertices are cocircular only to O(h²)), plus the layout's
+// the radius (at rounding: BoundaryMode::Circle makes every loop an inscribed polygon in E, unless
+// a loop had to fall back to the length-proportional target), plus the layout's
 // relative edge error, carried through the normalization. Boundary geodesics: the sum of
 // |K̄ − K| over the loop's vertices (by Gauss–Bonnet the area between the boundary polygon and the
 // geodesic, which bounds the difference of their lengths), plus the lengths' rounding.
