@@ -462,6 +462,10 @@ TEST_CASE("signature: a hyperbolic surface with geodesic boundary reports its bo
   REQUIRE(d.status == ricci::Status::Ok);
   CHECK(d.kind == "boundary_geodesics");
   CHECK(d.distance <= 1e-10);
+  const ricci::ConformalSignature c = signature_of(transformed(punctured, 1.0, 0.0, 4242));
+  REQUIRE(c.boundary_geodesics.size() == 1);
+  MESSAGE("punctured torus renumbered: boundary geodesic changes by " << std::abs(c.boundary_geodesics[0].length - g.length));
+  CHECK(std::abs(c.boundary_geodesics[0].length - g.length) <= 1e-12);
 }
 
 // ---- the regular octagon (Bolza surface) --------------------------------------------------------

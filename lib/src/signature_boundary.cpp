@@ -253,7 +253,10 @@ bool circle_domain_signature(const UniformizeResult& r, ConformalSignature& out)
   std::vector<std::size_t> order{outer, first};
   for (std::size_t i = 0; i < n; ++i)
     if (i != outer && i != first) order.push_back(i);
-  std::sort(order.begin() + 2, order.end(), [&](std::size_t i, std::size_t j) { return before(i, j, k[i].r, k[j].r); });
+  // Exact comparison (a strict weak order): equal radii go to the smaller vertex.
+  std::sort(order.begin() + 2, order.end(), [&](std::size_t i, std::size_t j) {
+    return k[i].r > k[j].r || (k[i].r == k[j].r && info[i].vertex < info[j].vertex);
+  });
   if (n >= 3 && std::abs(k[order[2]].c) > 0) {
     const cplx rot = std::conj(k[order[2]].c) / std::abs(k[order[2]].c);
     for (std::size_t i = 0; i < n; ++i)

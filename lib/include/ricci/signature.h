@@ -138,12 +138,13 @@ struct BoundaryCircle {
 };
 
 /// The circle domain of a genus-0 surface with n ≥ 2 boundary loops (E, circle boundaries).
-/// Normalization (a documented rule; ties within 1e-9 relative go to the smaller `vertex`):
+/// Normalization (a documented rule):
 ///   - the outer circle is the loop with the longest 3D length, mapped to the unit circle;
 ///   - the first inner circle is the loop with the least separation from it (the conformally
 ///     largest hole seen from the outer loop), made concentric: centred at 0;
 ///   - the other inner circles follow by decreasing normalized radius, and the first of them is
 ///     rotated onto the positive real axis (n ≥ 3).
+/// Ties go to the smaller `vertex`: lengths and separations within 1e-9 relative, equal radii.
 /// circles[0] is the outer circle, circles[1] the first inner one.
 struct CircleDomain {
   std::vector<BoundaryCircle> circles;
