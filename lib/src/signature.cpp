@@ -127,20 +127,6 @@ bool torus_signature(const DeckResult& deck, ConformalSignature& out) {
 /// Lengths whose rounding bound exceeds this are left out of the spectrum and the systole.
 constexpr double kReliable = 1e-9;
 
-/// |a| + |b| of a map: the size its entries bring into a product.
-double matrix_norm(const detail::MoebiusQ& m) {
-  return std::sqrt(static_cast<double>(m.a.norm())) + std::sqrt(static_cast<double>(m.b.norm()));
-}
-
-/// Bound on the error of a word's translation length from the arithmetic: its letters are known to
-/// about 2^-106 of their size (map + map_low) and every quad product rounds at 2^-113, so the
-/// trace is off by at most about k·2^-105·Π‖letter‖, and dℓ = 2·d|Re a|/√(|Re a|² − 1).
-double length_rounding(double length, double norm_product, int letters) {
-  const double x = std::cosh(length / 2);
-  const double dx = letters * 2.5e-32 * norm_product;
-  return x > 1 ? 2 * dx / std::sqrt((x - 1) * (x + 1)) : INFINITY;
-}
-
 /// The longest word length L ≤ 8 whose reduced words, Σ_{l ≤ L} 4g·(4g − 1)^(l−1), stay within
 /// the budget (at least 2).
 int spectrum_word_length(Index genus) {
@@ -296,44 +282,33 @@ ConformalSignature conformal_signature(const UniformizeResult& r) {
     out.message = "the uniformization did not succeed: " + r.message;
     return out;
   }
-  if (!r.has_deck || r.deck.status != Status::Ok) {
-    out.genus = r.cut.genus;
-    out.boundary_loops = r.cut.boundary_loops;
-    try {
-      if (r.has_cut && r.cut.genus == 0 && r.cut.boundary_loops >= 2 && r.geometry == Geometry::Euclidean &&
-          r.boundary == BoundaryMode::Circle) {
-        if (!circle_domain_signature(r, out)) return out;
-      } else if (r.has_cut && r.cut.boundary_loops >= 1 && r.geometry == Geometry::Hyperbolic &&
-                 r.boundary == BoundaryMode::Geodesic) {
-        if (!boundary_geodesic_signature(r, out)) return out;
-      } else {
-        out.message = "no signature for this surface: signatures are computed for closed surfaces of genus ≥ 1, "
-                      "genus-0 surfaces with ≥ 2 boundary loops laid out as circle domains (E, circle "
-                      "boundaries), and hyperbolic surfaces with geodesic boundaries; a disk or a sphere has no "
-                      "conformal invariant";
+  const bool closed = r.has_deck && r.deck.status == Status::Ok;
+  out.genus = closed ? r.deck.genus : r.cut.genus;
+  out.boundary_loops = closed ? 0 : r.cut.boundary_loops;
+  try {
+    if (closed) {
+      const std::size_t expected = 2 * static_cast<std::size_t>(std::max<Index>(out.genus, 0));
+      if (out.genus < 1 || r.deck.generators.size() != expected) {
+        out.message = "the deck group has " + std::to_string(r.deck.generators.size()) + " generators for genus " +
+                      std::to_string(out.genus);
         return out;
       }
-    } catch (const std::exception& e) {
-      out.status = Status::OutOfMemory;
-      out.message = std::string("signature: ") + e.what();
-      return out;
-    }
-    out.status = Status::Ok;
-    out.message = "ok";
-    return out;
-  }
-  out.genus = r.deck.genus;
-  const std::size_t expected = 2 * static_cast<std::size_t>(std::max<Index>(out.genus, 0));
-  if (out.genus < 1 || r.deck.generators.size() != expected) {
-    out.message = "the deck group has " + std::to_string(r.deck.generators.size()) + " generators for genus " +
-                  std::to_string(out.genus);
-    return out;
-  }
-  try {
-    if (out.genus == 1) {
+      if (out.genus >= 2) {
+        hyperbolic_signature(r.deck, out);  // sets the status itself
+        return out;
+      }
       if (!torus_signature(r.deck, out)) return out;
+    } else if (r.has_cut && r.cut.genus == 0 && r.cut.boundary_loops >= 2 && r.geometry == Geometry::Euclidean &&
+               r.boundary == BoundaryMode::Circle) {
+      if (!circle_domain_signature(r, out)) return out;
+    } else if (r.has_cut && r.cut.boundary_loops >= 1 && r.geometry == Geometry::Hyperbolic &&
+               r.boundary == BoundaryMode::Geodesic) {
+      if (!boundary_geodesic_signature(r, out)) return out;
     } else {
-      hyperbolic_signature(r.deck, out);
+      out.message = "no signature for this surface: signatures are computed for closed surfaces of genus ≥ 1, "
+                    "genus-0 surfaces with ≥ 2 boundary loops laid out as circle domains (E, circle "
+                    "boundaries), and hyperbolic surfaces with geodesic boundaries; a disk or a sphere has no "
+                    "conformal invariant";
       return out;
     }
   } catch (const std::exception& e) {

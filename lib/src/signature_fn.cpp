@@ -166,12 +166,10 @@ FenchelNielsen fenchel_nielsen(std::span<const Moebius> generators, std::span<co
     }
     std::vector<double> norm(n);
     for (std::size_t i = 0; i < g; ++i) {
-      norm[2 * i] = std::sqrt(static_cast<double>(A[i].map.a.norm())) + std::sqrt(static_cast<double>(A[i].map.b.norm()));
-      norm[2 * i + 1] = std::sqrt(static_cast<double>(B[i].map.a.norm())) + std::sqrt(static_cast<double>(B[i].map.b.norm()));
+      norm[2 * i] = matrix_norm(A[i].map);
+      norm[2 * i + 1] = matrix_norm(B[i].map);
     }
-    // Fits: 2 × the residuals of the letters used. Arithmetic: the letters are known to about
-    // 2^-106 of their size and quad products round at 2^-113, so traces and fixed points are off by
-    // about (letters)·2^-105·Π‖letter‖, a length by 2/sinh(ℓ/2) times that (signature.cpp).
+    // Fits: 2 × the residuals of the letters used; arithmetic: length_rounding() over them.
     auto uncertainty = [&](const std::vector<int>& uses, double length) {
       double u = 0, product = 1;
       int letters = 0;
@@ -180,8 +178,7 @@ FenchelNielsen fenchel_nielsen(std::span<const Moebius> generators, std::span<co
         product *= std::pow(norm[k], uses[k]);
         letters += uses[k];
       }
-      const double x = std::cosh(length / 2);
-      return 2 * u + 2 * letters * 2.5e-32 * product / std::sqrt(std::max((x - 1) * (x + 1), 1e-300));
+      return 2 * u + length_rounding(length, product, letters);
     };
     for (const Curve& c : pants_curves(A, B)) {
       CQ p, q, u1, v1, u2, v2;
@@ -231,6 +228,16 @@ double translation_length_q(const MoebiusQ& m0) {
   const quad x1 = detail::qabs(m.a.re) - 1;
   const double d = static_cast<double>(x1);
   return 2 * std::log1p(d + std::sqrt(d * (d + 2)));
+}
+
+double matrix_norm(const MoebiusQ& m) {
+  return std::sqrt(static_cast<double>(m.a.norm())) + std::sqrt(static_cast<double>(m.b.norm()));
+}
+
+double length_rounding(double length, double norm_product, int letters) {
+  const double x = std::cosh(length / 2);
+  const double dx = letters * 2.5e-32 * norm_product;
+  return x > 1 ? 2 * dx / std::sqrt((x - 1) * (x + 1)) : INFINITY;
 }
 
 }  // namespace ricci
