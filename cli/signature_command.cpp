@@ -497,7 +497,8 @@ CLI::App* add_signature_command(CLI::App& app, SignatureCommandOptions& o) {
       "signature",
       "The conformal signature of a surface, each number with an uncertainty: the flat torus's modulus tau "
       "reduced by SL(2,Z) (genus 1); the hyperbolic lengths of a fixed list of words in the canonical generators, "
-      "the systole among the words of length <= 4 and Fenchel-Nielsen coordinates (closed genus >= 2); the "
+      "the length spectrum and systole among all words up to a genus-dependent length (6 at genus 2) and "
+      "Fenchel-Nielsen coordinates (closed genus >= 2); the "
       "normalized circle domain and its separations (genus 0 with >= 2 boundary loops); the boundary geodesics' "
       "lengths (hyperbolic surfaces with boundary).");
   cmd->add_option("MESH", o.mesh,
