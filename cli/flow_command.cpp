@@ -49,6 +49,7 @@
 
 #include "commands.h"
 #include "flow_setup.h"
+#include "flow_run.h"
 #include "ricci/flow.h"
 #include "ricci/io.h"
 #include "ricci/metric.h"
@@ -288,43 +289,7 @@ std::string sci(double x, const char* fmt = "%.3e") {
 /// A number for JSON, null when it is not finite (JSON has no NaN or infinity).
 Json real(double x) { return std::isfinite(x) ? Json(x) : Json(nullptr); }
 
-// ---- the run --------------------------------------------------------------------------------
-
-/// Everything the summary reports, filled in as the pipeline advances.
-struct FlowReport {
-  Status status = Status::NotRun;
-  std::string message = "not run";
-  std::string file;
-  bool embedded = false;
-  // Mesh (when loaded).
-  bool have_mesh = false;
-  std::int64_t vertices = 0, edges = 0, faces = 0, boundary_loops = 0, euler_characteristic = 0, genus = 0;
-  // Settings as resolved.
-  std::optional<Geometry> geometry;
-  Scheme scheme = Scheme::CirclePacking;
-  std::string boundary;  ///< boundary_mode_name, or "none" for a closed surface; "" before known
-  std::string target;
-  Method method = Method::Newton;
-  double tolerance = 0;
-  int max_iterations = 0;
-  double step = 0;
-  int threads = 0;
-  std::vector<double> loop_totals;
-  // Initial metric.
-  bool have_metric = false;
-  double length_scale = 1;
-  Index clamped_high = 0, clamped_low = 0;
-  Index cycles_relaxed = 0, edges_relaxed = 0;
-  // Flow.
-  bool have_flow = false;
-  ricci::FlowResult flow;
-  bool flips = false;               ///< solved with intrinsic flips
-  ricci::IntrinsicSummary intrinsic;  ///< what the flips did (when `flips`)
-  double total_seconds = 0;
-  std::string output;  ///< the file written, "" if none
-  std::vector<std::string> notes;
-  std::vector<ricci::Repair> repairs;
-};
+}  // namespace
 
 Json flow_json(const FlowReport& r) {
   Json j;
@@ -384,12 +349,14 @@ Json flow_json(const FlowReport& r) {
   return j;
 }
 
+namespace {
 
 /// Prints the summary (text or JSON) and returns the exit code for the report's status, or
 /// `code` when given (for outcomes that have no status of their own).
 int finish(const FlowCommandOptions& options, FlowReport& r, Clock::time_point start,
            std::optional<int> code = std::nullopt) {
   r.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (!r.console) return code ? *code : exit_code(r.status);
   if (options.json) {
     std::cout << flow_json(r).dump(2) << '\n';
   } else if (r.have_flow && r.status == r.flow.status) {
@@ -405,7 +372,7 @@ int finish(const FlowCommandOptions& options, FlowReport& r, Clock::time_point s
 void fail(FlowReport& r, Status status, const std::string& message) {
   r.status = status;
   r.message = message;
-  print_error(message);
+  if (r.console) print_error(message);
 }
 
 }  // namespace
@@ -568,7 +535,7 @@ int flow_with_flips(const FlowCommandOptions& options, FlowReport& r, Clock::tim
   }
   if (u.status != Status::Ok) {
     fail(r, u.status, r.file + ": " + u.message);
-    if (!options.output.empty() && u.failed_stage == "flow")
+    if (r.console && !options.output.empty() && u.failed_stage == "flow")
       print_error("no output written to " + options.output + " (the flow did not converge)");
     return finish(options, r, start);
   }
@@ -636,8 +603,8 @@ int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_
     print_note(options.quiet, n);
   }
   if (r.flow.status != Status::Ok) {
-    print_error(r.file + ": " + r.flow.message);
-    if (!options.output.empty()) print_error("no output written to " + options.output + " (the flow did not converge)");
+    if (r.console) print_error(r.file + ": " + r.flow.message);
+    if (r.console && !options.output.empty()) print_error("no output written to " + options.output + " (the flow did not converge)");
     return finish(options, r, start);
   }
 
@@ -645,10 +612,14 @@ int flow_as_given(const FlowCommandOptions& options, FlowReport& r, Clock::time_
 }
 
 int run_flow(const FlowCommandOptions& options) {
-  const Clock::time_point start = Clock::now();
   FlowReport r;
-  r.embedded = options.mesh.empty();
-  r.file = r.embedded ? std::string(embedded_default_name()) : options.mesh;
+  return flow_run(options, r);
+}
+
+int flow_run(const FlowCommandOptions& options, FlowReport& r) {
+  const Clock::time_point start = Clock::now();
+  r.embedded = options.mesh.empty() && !r.preread;
+  if (!r.preread) r.file = r.embedded ? std::string(embedded_default_name()) : options.mesh;
   r.target = options.target;
   r.tolerance = options.tolerance;
   r.step = options.step;
@@ -698,7 +669,7 @@ int run_flow(const FlowCommandOptions& options) {
   if (!fo.is_valid(&why)) return usage(why);
 
   std::vector<std::string> protected_paths;
-  if (!r.embedded) protected_paths.push_back(options.mesh);
+  if (!r.embedded && !r.preread) protected_paths.push_back(options.mesh);
   if (target_spec->kind == TargetSpec::Kind::Cones) protected_paths.push_back(target_spec->file);
   if (!options.output.empty()) {
     for (const std::string& p : protected_paths) {
@@ -724,13 +695,15 @@ int run_flow(const FlowCommandOptions& options) {
     print_note(options.quiet, std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
   ricci::ValidateOptions vo;
   vo.keep_largest_component = options.largest_component;
-  ricci::LoadResult loaded = load_input(r.embedded ? std::string() : options.mesh, vo);
+  ricci::LoadResult loaded = r.preread ? ricci::validate_read(*r.preread, r.file, vo)
+                                       : load_input(r.embedded ? std::string() : options.mesh, vo);
   if (loaded.status != Status::Ok) {
     fail(r, loaded.status, loaded.message);  // names the file
     return finish(options, r, start);
   }
   r.repairs = loaded.repairs;
-  ricci::ValidateResult validated = std::move(loaded.validated);
+  r.input = std::move(loaded.validated);
+  ricci::ValidateResult& validated = r.input;
   for (const ricci::Repair& rep : r.repairs) print_note(options.quiet, rep.message);
 
   const ricci::Topology& topo = validated.topology;  // split_ears below replaces its content
@@ -780,7 +753,9 @@ int run_flow(const FlowCommandOptions& options) {
     }
   }
 
-  if (!options.quiet) {
+  if (r.on_iteration) {
+    fo.on_iteration = r.on_iteration;
+  } else if (!options.quiet && r.console) {
     fo.on_iteration = [](const ricci::IterationRecord& rec) {
       std::cerr << "ricci: iteration " << rec.iteration << ": max error " << sci(rec.max_error) << ", energy "
                 << sci(rec.energy, "%.6e") << ", step " << sci(rec.step, "%.3g") << ", " << sci(rec.seconds, "%.3f")

@@ -18,7 +18,9 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
+#include <mutex>
 #include <cstdlib>
 #include <cstring>
 #include <thread>
@@ -46,6 +48,7 @@
 #include "gltf.h"
 #include "uniformize_outputs.h"
 #include "uniformize_pictures.h"
+#include "uniformize_run.h"
 
 namespace ricci_cli {
 
@@ -99,11 +102,6 @@ ricci::CoverOptions cover_options(const ricci::UniformizeResult& r, std::int64_t
 std::string status_text(Status s) { return s == Status::Ok ? std::string("ok") : std::string(ricci::status_name(s)); }
 
 // ---- output files -------------------------------------------------------------------------------
-
-struct OutFile {
-  std::string name;
-  std::string data;
-};
 
 /// Refuses OUTDIR when it cannot be (re)placed; empty string when fine.
 std::string check_output_dir(const fs::path& out, const std::vector<std::string>& protected_paths, Status* status) {
@@ -164,6 +162,10 @@ bool copy_path(char (&dst)[4096], const std::string& src) {
 /// Writes the files into a staging directory beside OUTDIR, then renames it into place (see
 /// above for interruptions). RICCI_WRITE_PAUSE_MS (a test aid) pauses after every file.
 std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& files) {
+  // The staging paths live in globals for the signal handler: one directory at a time per process
+  // (a driver may call this from several threads).
+  static std::mutex writing;
+  const std::lock_guard<std::mutex> lock(writing);
   std::error_code ec;
   const fs::path abs = fs::absolute(out, ec);
   const fs::path parent = abs.parent_path();
@@ -468,30 +470,8 @@ StoredMetric read_metric(const std::string& path, const ricci::Topology& t) {
 
 // ---- the report -----------------------------------------------------------------------------
 
-struct Run {
-  Status status = Status::NotRun;
-  std::string message = "not run";
-  std::string file;
-  bool embedded = false;
-  bool have_mesh = false;
-  ricci::Topology topo;
-  std::string scheme = "circle-packing";
-  bool have_result = false;
-  ricci::UniformizeResult result;
-  std::vector<ricci::Repair> repairs;
-  std::vector<std::string> notes;
-  std::vector<std::string> outputs;
-  std::string output_dir;
-  double load_seconds = 0, write_seconds = 0, pictures_seconds = 0, total_seconds = 0;
-  std::optional<ConformalDistortion> distortion;
-  bool from_metric = false;
-  Index input_flipped_faces = 0;  ///< refined: input faces that come out flipped through the subdivision
-  Index refinement_faces = 0;     ///< refined: faces written to refinement.obj
-  ricci::FileFormat input_format = ricci::FileFormat::Obj;  ///< format the input was read in
-  Index file_vertices = 0, file_faces = 0;  ///< counts of the file as read (before validation)
-  std::vector<double> sphere_positions;     ///< sphere results: the unit-sphere position per vertex
-  Json signature;                           ///< signature_json() of the result (null when there is none)
-};
+using Run = UniformizeRun;
+using Settings = UniformizeSettings;
 
 Json report_json(const Run& run) {
   const ricci::UniformizeResult& r = run.result;
@@ -636,6 +616,7 @@ Json report_json(const Run& run) {
 
 int finish(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, std::optional<int> code = std::nullopt) {
   run.total_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (!run.console) return code ? *code : exit_code(run.status);
   if (o.json) {
     std::cout << report_json(run).dump(2) << '\n';
   } else if (run.have_result && run.status == run.result.status) {
@@ -650,7 +631,15 @@ int finish(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
 void fail(Run& run, Status status, const std::string& message) {
   run.status = status;
   run.message = message;
-  print_error(message);
+  if (run.console) print_error(message);
+}
+
+// A note recorded once in the report (steps may run again, e.g. the surface for the Python module
+// and then for OUTDIR) and printed unless quiet.
+void add_note(const UniformizeCommandOptions& o, Run& run, const std::string& note) {
+  if (std::find(run.notes.begin(), run.notes.end(), note) != run.notes.end()) return;
+  run.notes.push_back(note);
+  print_note(o.quiet || !run.console, note);
 }
 
 // ---- run_uniformize, stage by stage: each helper returns an exit code when the run ends there ----
@@ -660,14 +649,7 @@ int usage_error(const UniformizeCommandOptions& o, Run& run, Clock::time_point s
   return finish(o, run, start, kExitUsage);
 }
 
-// What the command's options say: the library's options and the target and boundary specs.
-struct Settings {
-  ricci::UniformizeOptions uo;
-  TargetSpec target;
-  BoundarySpec boundary;
-};
-
-// The options checked and turned into Settings (a usage error otherwise), and OUTDIR checked.
+// The options checked and turned into Settings (a usage error otherwise).
 std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, Settings& st) {
   auto usage = [&](const std::string& m) { return usage_error(o, run, start, m); };
   std::string why;
@@ -701,21 +683,22 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   uo.layout.unit_box = o.unit_box;
   uo.layout.patches = o.patches;
   if (!uo.is_valid(&why)) return usage(why);
-  if (o.output.empty()) return usage("-o OUTDIR is required");
+  return std::nullopt;
+}
 
+// -o OUTDIR given, and fit to be (re)placed without touching the input files.
+std::optional<int> check_outdir(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, const Settings& st) {
+  if (o.output.empty()) return usage_error(o, run, start, "-o OUTDIR is required");
   std::vector<std::string> protected_paths;
-  if (!run.embedded) protected_paths.push_back(o.mesh);
+  if (!run.embedded && !run.preread) protected_paths.push_back(o.mesh);
   if (st.target.kind == TargetSpec::Kind::Cones) protected_paths.push_back(st.target.file);
   if (run.from_metric) protected_paths.push_back(o.metric);
-  {
-    Status s = Status::Ok;
-    const std::string m = check_output_dir(o.output, protected_paths, &s);
-    if (s != Status::Ok) {
-      fail(run, s, m);
-      return finish(o, run, start);
-    }
+  Status s = Status::Ok;
+  const std::string m = check_output_dir(o.output, protected_paths, &s);
+  if (s != Status::Ok) {
+    fail(run, s, m);
+    return finish(o, run, start);
   }
-
   return std::nullopt;
 }
 
@@ -726,7 +709,8 @@ std::optional<int> load_for_run(const UniformizeCommandOptions& o, const char* c
     print_note(o.quiet, std::string("no MESH given; using the embedded default mesh ") + embedded_default_name());
   ricci::ValidateOptions vo;
   vo.keep_largest_component = o.largest_component;
-  ricci::LoadResult loaded = load_input(run.embedded ? std::string() : o.mesh, vo);
+  ricci::LoadResult loaded = run.preread ? ricci::validate_read(*run.preread, run.file, vo)
+                                         : load_input(run.embedded ? std::string() : o.mesh, vo);
   run.load_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   if (loaded.status != Status::Ok) {
     fail(run, loaded.status, loaded.message);
@@ -844,7 +828,7 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
   }
   if (r.status != Status::Ok) {
     fail(run, r.status, run.file + ": " + r.message);
-    print_error("no output written to " + o.output);
+    if (run.console && !o.output.empty()) print_error("no output written to " + o.output);
     return finish(o, run, start);
   }
   if (r.layout.flipped_faces > 0) {
@@ -863,6 +847,38 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
   return std::nullopt;
 }
 
+// The surface mesh.obj holds and, for a refined result, the input laid out through the subdivision
+// (uniformize_surface() in uniformize_run.h).
+std::optional<int> output_surface(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
+                                  const ricci::ValidateResult& v, ricci::Mesh& surface, ricci::InputSurfaceLayout& through) {
+  const ricci::UniformizeResult& r = run.result;
+  const ricci::Topology& topo = v.topology;
+  const bool sphere = !r.has_cut;
+  if (r.intrinsic.refined) {
+    through = ricci::input_surface_layout(v.mesh, topo, r);
+    if (through.status != Status::Ok) {
+      fail(run, through.status, run.file + ": " + through.message);
+      return finish(o, run, start);
+    }
+    run.input_flipped_faces = through.flipped_faces;
+    add_note(o, run, std::to_string(through.flipped_faces) + " of the input's faces, made straight, come out " +
+                         "flipped or degenerate" + (through.flipped_faces > 0 ? " (first: face " +
+                         std::to_string(through.first_flipped_face) + ")" : std::string()) +
+                         "; refinement.obj holds the common subdivision, which maps bijectively");
+    run.refinement_faces = sphere ? r.refinement.topology.num_faces : static_cast<Index>(r.cut.surface_faces.size() / 3);
+  }
+  if (sphere) {
+    surface = v.mesh;
+    surface.texcoords.clear();
+    surface.corner_texcoords.clear();
+    run.sphere_positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
+  } else {
+    // The input's faces with their layout (through the subdivision when refined).
+    surface = r.intrinsic.refined ? through.mesh : ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
+  }
+  return std::nullopt;
+}
+
 // Every output file but the pictures and the reports, into `files`; `surface` is what mesh.obj
 // holds (and the checkerboard renders), `cover` the universal cover when there is one.
 std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clock::time_point start, const Settings& st,
@@ -871,24 +887,12 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
   const ricci::UniformizeResult& r = run.result;
   const ricci::Topology& topo = v.topology;
   const bool sphere = !r.has_cut;
-  // A refined result: the input's faces through the common subdivision's layout, and the
-  // subdivision itself (refinement.obj), which maps bijectively where straight input faces fold.
   ricci::InputSurfaceLayout through;
+  if (const auto rc = output_surface(o, run, start, v, surface, through)) return rc;
+  // A refined result: the common subdivision itself (refinement.obj), which maps bijectively
+  // where straight input faces fold.
   if (r.intrinsic.refined) {
-    through = ricci::input_surface_layout(v.mesh, topo, r);
-    if (through.status != Status::Ok) {
-      fail(run, through.status, run.file + ": " + through.message);
-      return finish(o, run, start);
-    }
-    run.input_flipped_faces = through.flipped_faces;
-    const std::string note = std::to_string(through.flipped_faces) + " of the input's faces, made straight, come out " +
-                             "flipped or degenerate" + (through.flipped_faces > 0 ? " (first: face " +
-                             std::to_string(through.first_flipped_face) + ")" : std::string()) +
-                             "; refinement.obj holds the common subdivision, which maps bijectively";
-    run.notes.push_back(note);
-    print_note(o.quiet, note);
     const ricci::CommonSubdivision& cs = r.refinement;
-    run.refinement_faces = sphere ? cs.topology.num_faces : static_cast<Index>(r.cut.surface_faces.size() / 3);
     if (sphere) {
       files.push_back({"refinement.obj", refinement_obj("the common subdivision of the input and the final intrinsic "
                                                         "triangulation, on the input surface", run.file,
@@ -906,20 +910,13 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
                                                         r.cut.cut_faces)});
     }
   }
+  files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
   if (sphere) {
-    surface = v.mesh;
-    surface.texcoords.clear();
-    surface.corner_texcoords.clear();
-    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
     ricci::Mesh s;
-    s.positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
+    s.positions = run.sphere_positions;
     s.faces = v.mesh.faces;
-    run.sphere_positions = s.positions;
     files.push_back({"sphere.obj", ricci::serialize_mesh(s, ricci::FileFormat::Obj)});
   } else {
-    // The input's faces with their layout (through the subdivision when refined).
-    surface = r.intrinsic.refined ? through.mesh : ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
-    files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
     files.push_back({"domain.obj", disk_obj(r.cut, r.layout.positions, r.geometry,
                                             r.cut.compact ? "the compact fundamental domain" : "the cut disk",
                                             run.file)});
@@ -938,10 +935,7 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
                               !r.intrinsic.used || r.intrinsic.straight_tiles};
     files.push_back({"metric.csv", metric_file_text(header, r.flow, topo, v.vertex_to_input, false)});
   }
-  if (!r.polygon_note.empty()) {
-    run.notes.push_back(r.polygon_note);
-    print_note(o.quiet, r.polygon_note);
-  }
+  if (!r.polygon_note.empty()) add_note(o, run, r.polygon_note);
   if (r.has_deck || !r.domain_maps.empty()) {
     files.push_back({"generators.json", generators_json(r, run.file)});
     cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), cover_options(r, o.cover_depth));
@@ -950,9 +944,7 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
       files.push_back({"cover.obj", ricci::serialize_mesh(ricci::cover_mesh(r.cut, r.layout.positions, cover),
                                                           ricci::FileFormat::Obj)});
     } else {
-      const std::string note = "no cover written: " + cover.message;
-      run.notes.push_back(note);
-      print_note(o.quiet, note);
+      add_note(o, run, "no cover written: " + cover.message);
     }
   }
   return std::nullopt;
@@ -989,9 +981,7 @@ void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::Vali
   const double repeats = r.geometry == Geometry::Spherical ? 12 : 10;  // half the checks of the pictures
   const GlbResult glb = textured_glb(surface.positions, surface.faces, uv, checker_texture_png(), repeats);
   if (glb.bytes.empty()) {
-    const std::string note = "no mesh.glb written: " + glb.message;
-    run.notes.push_back(note);
-    print_note(o.quiet, note);
+    add_note(o, run, "no mesh.glb written: " + glb.message);
   } else {
     files.push_back({"mesh.glb", glb.bytes});
   }
@@ -1043,6 +1033,7 @@ int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Cloc
   run.status = Status::Ok;
   run.message = "ok";
   run.output_dir = o.output;
+  run.outputs.clear();
   for (const OutFile& f : files) run.outputs.push_back(f.name);
   run.outputs.push_back("report.json");
   if (!o.no_pictures) run.outputs.push_back("report.html");
@@ -1064,38 +1055,71 @@ int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Cloc
 
 }  // namespace
 
-int run_uniformize(const UniformizeCommandOptions& o) {
-  const Clock::time_point start = Clock::now();
-  Run run;
-  run.embedded = o.mesh.empty();
-  run.file = run.embedded ? std::string(embedded_default_name()) : o.mesh;
+void uniformize_begin(const UniformizeCommandOptions& o, UniformizeRun& run) {
+  run.embedded = o.mesh.empty() && !run.preread;
+  run.file = run.embedded ? std::string(embedded_default_name()) : (run.preread ? run.file : o.mesh);
   run.scheme = o.scheme == "auto" ? "yamabe" : o.scheme;
   run.from_metric = !o.metric.empty();
-  const char* cmd = run.from_metric ? "layout" : "uniformize";
-  Settings st;
-  if (const auto rc = read_settings(o, run, start, st)) return *rc;
-  ricci::ValidateResult v;
-  if (const auto rc = load_for_run(o, cmd, run, start, v)) return *rc;
-  if (!o.quiet) {
+}
+
+std::optional<int> uniformize_settings(const UniformizeCommandOptions& o, UniformizeRun& run) {
+  return read_settings(o, run, run.start, run.settings);
+}
+
+std::optional<int> uniformize_check_outdir(const UniformizeCommandOptions& o, UniformizeRun& run) {
+  return check_outdir(o, run, run.start, run.settings);
+}
+
+std::optional<int> uniformize_load(const UniformizeCommandOptions& o, const char* cmd, UniformizeRun& run) {
+  return load_for_run(o, cmd, run, run.start, run.input);
+}
+
+std::optional<int> uniformize_compute(const UniformizeCommandOptions& o, UniformizeRun& run) {
+  Settings& st = run.settings;
+  if (!o.quiet && run.console) {
     st.uo.on_stage = print_stage;
     st.uo.flow.on_iteration = [](const ricci::IterationRecord& rec) {
       std::cerr << "ricci: flow iteration " << rec.iteration << ": max error " << sci(rec.max_error, "%.3e") << ", "
                 << sci(rec.seconds) << " s\n";
     };
   }
-  if (const auto rc = run.from_metric ? lay_out_stored_metric(o, run, start, st.uo, v)
-                                      : uniformize_with_target(o, run, start, st, v))
-    return *rc;
+  if (const auto rc = run.from_metric ? lay_out_stored_metric(o, run, run.start, st.uo, run.input)
+                                      : uniformize_with_target(o, run, run.start, st, run.input))
+    return rc;
   run.have_result = true;
-  if (const auto rc = note_result(o, run, start)) return *rc;
+  if (const auto rc = note_result(o, run, run.start)) return rc;
+  run.status = Status::Ok;  // the pipeline succeeded (writing OUTDIR may still fail)
+  run.message = "ok";
+  return std::nullopt;
+}
+
+std::optional<int> uniformize_surface(const UniformizeCommandOptions& o, UniformizeRun& run, ricci::Mesh& surface,
+                                      ricci::InputSurfaceLayout& through) {
+  return output_surface(o, run, run.start, run.input, surface, through);
+}
+
+int uniformize_write(const UniformizeCommandOptions& o, const char* cmd, UniformizeRun& run) {
   const Clock::time_point tw = Clock::now();
   std::vector<OutFile> files;
   ricci::Mesh surface;
   ricci::CoverResult cover;
-  if (const auto rc = output_files(o, run, start, st, v, files, surface, cover)) return *rc;
-  tool_outputs(o, run, v, surface, files);
+  if (const auto rc = output_files(o, run, run.start, run.settings, run.input, files, surface, cover)) return *rc;
+  tool_outputs(o, run, run.input, surface, files);
   run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
-  return write_run(o, cmd, run, start, files, surface, cover);
+  return write_run(o, cmd, run, run.start, files, surface, cover);
+}
+
+nlohmann::ordered_json uniformize_report(const UniformizeRun& run) { return report_json(run); }
+
+int run_uniformize(const UniformizeCommandOptions& o) {
+  UniformizeRun run;
+  uniformize_begin(o, run);
+  const char* cmd = run.from_metric ? "layout" : "uniformize";
+  if (const auto rc = uniformize_settings(o, run)) return *rc;
+  if (const auto rc = uniformize_check_outdir(o, run)) return *rc;
+  if (const auto rc = uniformize_load(o, cmd, run)) return *rc;
+  if (const auto rc = uniformize_compute(o, run)) return *rc;
+  return uniformize_write(o, cmd, run);
 }
 
 int run_cover(const CoverCommandOptions& o) {
