@@ -734,6 +734,13 @@ int run(int argc, const char* const* argv) {
   CLI::App* signature_cmd = add_signature_command(app, signature);
   CompareCommandOptions compare;
   CLI::App* compare_cmd = add_compare_command(app, compare);
+  // `batch` and `summarize` are the Python package's (lib/python/ricci/batch.py): everything after
+  // the subcommand's name goes to it unparsed, --help included.
+  CLI::App* batch_cmd = app.add_subcommand("batch", "Uniformize every mesh of a dataset on Dask (Python; see "
+                                                    "`ricci batch --help`).");
+  CLI::App* summarize_cmd = app.add_subcommand("summarize", "OUTDIR/summary.csv from the report.json files of a "
+                                                            "batch (Python).");
+  for (CLI::App* c : {batch_cmd, summarize_cmd}) c->prefix_command()->allow_extras()->fallthrough(false)->set_help_flag();
 
   // An OpenMP default above the processors available (a mistaken OMP_NUM_THREADS) is lowered to
   // them: every parallel region would otherwise try to start that many threads.
@@ -762,6 +769,8 @@ int run(int argc, const char* const* argv) {
   if (cover_cmd->parsed()) return run_cover(cover);
   if (signature_cmd->parsed()) return run_signature(signature);
   if (compare_cmd->parsed()) return run_compare(compare);
+  if (batch_cmd->parsed()) return run_python_command("batch", batch_cmd->remaining());
+  if (summarize_cmd->parsed()) return run_python_command("summarize", summarize_cmd->remaining());
   print_error("no subcommand given");
   return kExitUsage;
 }

@@ -188,6 +188,12 @@ struct CompareCommandOptions {
 int run_compare(const CompareCommandOptions& options);
 CLI::App* add_compare_command(CLI::App& app, CompareCommandOptions& o);
 
+/// `ricci batch …` and `ricci summarize …`: runs `PYTHON -m ricci COMMAND ARGS…` in place of this
+/// process (python_command.cpp). PYTHON is $RICCI_PYTHON, else the interpreter the module was built
+/// for, else python3; the package beside this executable (<dir>/python/ricci, the build tree) is put
+/// first on PYTHONPATH. Returns only on failure (exit 1, with a message on how to install it).
+int run_python_command(const std::string& command, const std::vector<std::string>& args);
+
 // Shared by the subcommands.
 /// "ricci: MESSAGE" on stderr unless quiet.
 void print_note(bool quiet, const std::string& message);

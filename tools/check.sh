@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Sets up, builds and runs the whole test suite twice: a Release build, then a build with
-# AddressSanitizer + UndefinedBehaviorSanitizer (Debug assertions and floating-point traps on).
+# Sets up, builds and runs the whole test suite twice: a Release build (with the Python module and
+# its pytest suite), then a build with AddressSanitizer + UndefinedBehaviorSanitizer (Debug
+# assertions and floating-point traps on).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
@@ -11,6 +12,8 @@ cmake --build build -j"$jobs"
 ctest --test-dir build --output-on-failure -j"$jobs"
 # The installed package: cmake --install, then a separate project finds it and links ricci::ricci.
 bash tools/check_install.sh build
+# The Python module installed both ways (pip into a venv, cmake --install) and imported from there.
+bash tools/check_python_install.sh build
 
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
   -DRICCI_SANITIZE=address,undefined -DRICCI_WERROR=ON

@@ -25,6 +25,16 @@ packages=(
   zlib1g-dev              # zlib: GIFTI's GZipBase64Binary data
   libtinygltf-dev         # tinygltf: the textured mesh.glb of ricci uniformize
   python3-nibabel         # nibabel: tests read and write GIFTI and FreeSurfer files independently
+  python3-dev             # Python headers: the module ricci (lib/python)
+  pybind11-dev            # pybind11: the module's bindings
+  python3-numpy           # numpy: the module's arrays
+  python3-distributed     # Dask distributed: ricci batch
+  python3-psutil          # psutil: the batch test finds and kills a Dask worker
+  python3-pytest          # pytest: the Python tests (tests/python)
+  python3-matplotlib      # matplotlib: the README's Python example plots the layout
+  python3-venv            # venv (and pip): the pip install check (tools/check_python_install.sh)
+  python3-setuptools      # setuptools and wheel: pip builds the module offline (--no-build-isolation)
+  python3-wheel
 )
 
 missing=()

@@ -187,6 +187,7 @@ def _die_with_parent():
 def run_one(path, folder, options, timeout=None, threads=None):
     """Uniformizes one mesh in a child process into `folder`; returns {status, message, seconds}."""
     start = time.monotonic()
+    os.makedirs(os.path.dirname(folder) or ".", exist_ok=True)  # KEY may have folders (genus1/kitten)
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ)
     env["PYTHONPATH"] = package_parent + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
