@@ -20,7 +20,6 @@
 
 #include <algorithm>
 #include <csignal>
-#include <mutex>
 #include <cstdlib>
 #include <cstring>
 #include <thread>
@@ -31,6 +30,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>

@@ -1,7 +1,7 @@
 """Builds the compiled part ricci._ricci with the project's CMake (the ricci library and the
 command-line drivers it shares), for the interpreter running pip.
 
-RICCI_BUILD_DIR=<dir> reuses a build directory configured for the same interpreter (the module
+RICCI_BUILD_DIR=<absolute dir> reuses a build directory configured for the same interpreter (the module
 target is built there; nothing is rebuilt when it is up to date); otherwise a Release build is
 configured in setuptools' build_temp. RICCI_BUILD_JOBS sets the parallel jobs (default: cores)."""
 
@@ -24,7 +24,11 @@ class CMakeExtension(Extension):
 
 class CMakeBuild(build_ext):
     def build_extension(self, ext):
-        build = pathlib.Path(os.environ.get("RICCI_BUILD_DIR") or pathlib.Path(self.build_temp).resolve() / "cmake")
+        given = os.environ.get("RICCI_BUILD_DIR")
+        if given and not os.path.isabs(given):
+            raise RuntimeError(f"ricci: RICCI_BUILD_DIR must be an absolute path (pip builds from {ROOT / 'lib' / 'python'}), "
+                               f"not {given}")
+        build = pathlib.Path(given or pathlib.Path(self.build_temp).resolve() / "cmake")
         if not (build / "CMakeCache.txt").exists():
             subprocess.check_call(["cmake", "-S", str(ROOT), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
                                    "-DRICCI_BUILD_TESTS=OFF", "-DRICCI_BUILD_TOOLS=OFF", "-DRICCI_BUILD_PYTHON=ON",

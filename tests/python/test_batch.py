@@ -159,3 +159,36 @@ def test_manifests_globs_and_the_cli_entry(tmp_path):
     bad.write_text("missing.obj\n")
     r = subprocess.run(batch_cmd(bad, "-o", tmp_path / "o2"), capture_output=True, text=True)
     assert r.returncode != 0 and "line 1: no such file missing.obj" in r.stderr
+
+
+def test_batch_on_a_running_scheduler(tmp_path):
+    """The cluster path: a scheduler and a worker started apart (as on other machines, here on
+    loopback), the batch pointed at the scheduler's address."""
+    scheduler_file = tmp_path / "scheduler.json"
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                               "--port", "0", "--no-dashboard", "--scheduler-file", str(scheduler_file)], **quiet)]
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        import json
+        address = json.loads(scheduler_file.read_text())["address"]
+        procs.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers", "2",
+                                       "--nthreads", "1", "--no-dashboard"], **quiet))
+        outdir = tmp_path / "out"
+        r = subprocess.run(batch_cmd(FIXTURES / "torus.obj", FIXTURES / "genus2.obj", FIXTURES / "icosphere.obj",
+                                     "-o", outdir, "--scheduler", address, "--no-pictures"),
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        rows = summary(outdir)
+        assert sorted(rows) == ["genus2", "icosphere", "torus"]
+        assert all(row["status"] == "ok" for row in rows.values())
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()

@@ -117,8 +117,18 @@ def test_bad_arrays_are_refused(fn):
         (V, np.where(np.arange(12).reshape(4, 3) == 7, 4, F), "index_out_of_range", "face 2"),
         (V, np.where(np.arange(12).reshape(4, 3) == 0, -1, F), "index_out_of_range", "face 0"),
         (V, np.array([[0, 1, 2**40]]), "index_out_of_range", "face 0"),
+        ([[0, 0, 0], [1, 0]], F, "invalid_argument", "V is not an array"),
+        (V.astype(complex), F, "invalid_argument", "real numbers"),
+        (V, F > 1, "invalid_argument", "integers"),
+        (V, F.astype(object), "invalid_argument", "integers"),
+        (np.zeros((0, 3)), np.zeros((0, 3), dtype=int), None, None),
     ]
     for v, f, status, words in cases:
+        if status is None:  # well-formed but empty: the library's own refusal
+            with pytest.raises(ricci.RicciError) as e:
+                fn(v, f)
+            assert e.value.status == "no_faces", e.value.message
+            continue
         with pytest.raises(ricci.InvalidArrayError) as e:
             fn(v, f)
         assert e.value.status == status and words in e.value.message, (status, e.value.message)
@@ -146,6 +156,9 @@ def test_library_failures_carry_their_status(tmp_path):
     with pytest.raises(ricci.RicciError) as e:
         ricci.uniformize(FIXTURES / "genus2.obj", geometry="euclidean")
     assert e.value.status == "infeasible_target" and e.value.stage == "target"
+    partial = e.value.result  # the stages before the target: a validated mesh, no flow
+    assert partial is not None and len(partial.V) == 798 and len(partial.u) == 0 and partial.uv is None
+    assert partial.report["status"] == "infeasible_target"
     with pytest.raises(ricci.RicciError) as e:
         ricci.uniformize(FIXTURES / "genus2.obj", geometry="plane")
     assert e.value.status == "invalid_argument" and "unknown geometry" in e.value.message

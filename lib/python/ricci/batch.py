@@ -199,8 +199,13 @@ def run_one(path, folder, options, timeout=None, threads=None):
     try:
         out, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
+        # SIGTERM first: caught while OUTDIR is being written, it removes what was staged.
+        proc.terminate()
+        try:
+            proc.communicate(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.communicate()
         seconds = time.monotonic() - start
         message = f"{path}: no result within {timeout:g} s; the process was killed"
         write_failure(folder, {"status": "timeout", "message": message, "input": path, "batch_seconds": seconds})

@@ -46,8 +46,15 @@ ricci::ReadResult read_arrays(const py::handle& V_in, const py::handle& F_in, co
     refuse("invalid_argument", name + ": F must be an array of shape (m, 3), not " +
                                    py::str(py::type::of(F_in)).cast<std::string>());
   py::module_ np = py::module_::import("numpy");
-  const py::array V = np.attr("asarray")(V_in);
-  const py::array F = np.attr("asarray")(F_in);
+  auto as_array = [&](const py::handle& x, const char* what) -> py::array {
+    try {
+      return np.attr("asarray")(x);
+    } catch (py::error_already_set& e) {  // ragged nested lists and the like
+      refuse("invalid_argument", name + ": " + what + " is not an array: " + std::string(py::str(e.value())));
+    }
+  };
+  const py::array V = as_array(V_in, "V");
+  const py::array F = as_array(F_in, "F");
   const char vk = V.dtype().kind();
   if (vk != 'f' && vk != 'i' && vk != 'u')
     refuse("invalid_argument", name + ": V must hold real numbers (float64), not " + dtype_text(V));
