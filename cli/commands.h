@@ -126,7 +126,7 @@ struct UniformizeCommandOptions {
   int max_iterations = 0;                 ///< flow: 0 for the library default
   int threads = 0;                        ///< OpenMP threads; 0: the OpenMP default
   int base_candidates = 8;                ///< H: base vertices tried for the canonical polygon
-  int seed_checks = 3;                    ///< extra seed faces for seed_independence_error
+  int seed_checks = 1;                    ///< extra seed faces for seed_independence_error
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
   bool unit_box = false;                  ///< E: layout scaled into [0,1]²
   int patches = -1;                       ///< layout: divide-and-conquer patches (-1 automatic)

@@ -1252,8 +1252,8 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "kept. Default: 8.")
       ->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks,
-                  "Layouts from this many other seed faces are aligned to the first (seed_independence_error). "
-                  "Default: 3.")
+                  "Layouts from this many other seed faces (the first: the face farthest from the layout's own "
+                  "seed) are aligned to one from that seed (seed_independence_error). Default: 1.")
       ->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth,
                   "Closed genus >= 1: word length of the cover tiling written (cover.svg, cover.obj): in the "
@@ -1298,7 +1298,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--geometry", o.geometry, "Geometry of the lengths: auto (the file's). Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
   cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
-  cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 3.")->check(number_validator(false, true));
+  cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 1.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
   cmd->add_option("--patches", o.patches, "As for uniformize. Default: -1.")->check(CLI::Range(-1, 256));

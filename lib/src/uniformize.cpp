@@ -7,10 +7,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <numbers>
 #include <optional>
 #include <queue>
+#include <thread>
 #include <utility>
 
 namespace ricci {
@@ -688,7 +690,41 @@ bool cut_and_lay_out(LayoutRun& run) {
   return true;
 }
 
-// Seed independence: the layout from options.seed_checks other seed faces, compared with the first.
+// The face farthest from `seed` in steps across edges (breadth-first; the smallest index among the
+// farthest), and the seeds of the checks after it: evenly spread over the faces (F/2 for one).
+std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
+  std::vector<Index> seeds;
+  if (count <= 0 || seed < 0 || seed >= t.num_faces) return seeds;
+  std::vector<Index> dist(static_cast<std::size_t>(t.num_faces), -1);
+  std::vector<Index> queue{seed};
+  dist[static_cast<std::size_t>(seed)] = 0;
+  Index farthest = seed;
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    const Index f = queue[q];
+    const Index d = dist[static_cast<std::size_t>(f)];
+    if (d > dist[static_cast<std::size_t>(farthest)] || (d == dist[static_cast<std::size_t>(farthest)] && f < farthest))
+      farthest = f;
+    for (int k = 0; k < 3; ++k) {
+      const Index o = t.opposite[3 * static_cast<std::size_t>(f) + k];
+      if (o == kInvalid || dist[static_cast<std::size_t>(o / 3)] >= 0) continue;
+      dist[static_cast<std::size_t>(o / 3)] = d + 1;
+      queue.push_back(o / 3);
+    }
+  }
+  seeds.push_back(farthest);
+  const int spread = count - 1;
+  for (int k = 0; k < spread; ++k)
+    seeds.push_back(spread == 1 ? t.num_faces / 2
+                                : static_cast<Index>((static_cast<std::int64_t>(t.num_faces - 1) * k) / (spread - 1)));
+  return seeds;
+}
+
+// Seed independence: the layout again from options.seed_checks other seed faces, compared with a
+// layout from the layout's own seed (both without normalisation, so that an isometry aligns them).
+// The first check starts at the face farthest from that seed, where the two propagations share the
+// least (the longest paths, laid out in opposite directions); further checks start at faces spread
+// over the surface. With two threads available, each check is laid out beside the base (and beside
+// the check before it), so one check costs about one layout of wall time.
 bool check_seeds(LayoutRun& run) {
   const Topology& topology = run.topology;
   const UniformizeOptions& options = run.options;
@@ -696,26 +732,56 @@ bool check_seeds(LayoutRun& run) {
   UniformizeResult& r = run.r;
   const bool sphere = run.sphere;
   auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
-  const Index nf = sphere ? topology.num_faces : r.disk.num_faces;
+  const Topology& faces = sphere ? topology : r.disk;
+  const std::vector<Index> seeds = check_seed_faces(faces, r.layout.seed_face, options.seed_checks);
   LayoutOptions lo = options.layout;
   lo.normalize = false;
-  lo.seed_face = -1;
-  auto lay = [&](const LayoutOptions& o) {
+  auto lay = [&](Index seed) {
+    LayoutOptions o = lo;
+    o.seed_face = seed;
     return sphere ? layout_sphere(topology, metric_l, o) : layout_disk(r.disk, r.geometry, r.disk_lengths, o);
   };
-  const Layout base = lay(lo);
+  const int threads = options.flow.threads > 0 ? std::min(options.flow.threads, available_threads()) : available_threads();
+  // Layouts in order: the base, then the checks; two at a time when two threads are available.
+  std::vector<Layout> layouts(seeds.size() + 1);
+  std::vector<Index> order{r.layout.seed_face};
+  order.insert(order.end(), seeds.begin(), seeds.end());
+  for (std::size_t i = 0; i < order.size();) {
+    if (threads >= 2 && i + 1 < order.size()) {
+      std::exception_ptr error;
+      std::thread second([&, i] {
+        try {
+          layouts[i + 1] = lay(order[i + 1]);
+        } catch (...) {
+          error = std::current_exception();
+        }
+      });
+      try {
+        layouts[i] = lay(order[i]);
+      } catch (...) {
+        second.join();
+        throw;
+      }
+      second.join();
+      if (error) std::rethrow_exception(error);
+      i += 2;
+    } else {
+      layouts[i] = lay(order[i]);
+      i += 1;
+    }
+  }
+  const Layout& base = layouts[0];
   if (base.status != Status::Ok) return fail(base.status, "seed_check", base.message);
-  for (int k = 0; k < options.seed_checks; ++k) {
-    const Index seed = options.seed_checks == 1 ? nf / 2 : static_cast<Index>((static_cast<std::int64_t>(nf - 1) * k) / (options.seed_checks - 1));
-    lo.seed_face = seed;
-    const Layout other = lay(lo);
+  for (std::size_t k = 0; k < seeds.size(); ++k) {
+    const Layout& other = layouts[k + 1];
     if (other.status != Status::Ok) return fail(other.status, "seed_check", other.message);
-    r.seed_faces_checked.push_back(seed);
+    r.seed_faces_checked.push_back(seeds[k]);
     r.seed_independence_error =
         std::max(r.seed_independence_error, layout_alignment_error(r.geometry, base.positions, other.positions));
   }
   run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
-                               std::to_string(r.seed_faces_checked.size()) + " seeds");
+                               std::to_string(r.seed_faces_checked.size()) + " seeds" +
+                               (threads >= 2 ? " (two layouts at a time)" : ""));
   return true;
 }
 

@@ -11,6 +11,11 @@ import subprocess
 
 import pytest
 
+# Subprocesses (the README example, the batch's workers) run in other folders: a relative
+# PYTHONPATH entry would no longer find the package.
+if os.environ.get("PYTHONPATH"):
+    os.environ["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in os.environ["PYTHONPATH"].split(os.pathsep) if p)
+
 SOURCE = pathlib.Path(os.environ.get("RICCI_SOURCE_DIR", pathlib.Path(__file__).resolve().parents[2]))
 FIXTURES = SOURCE / "fixtures"
 SHARED = SOURCE.parent / "shared" / "meshes"

@@ -19,8 +19,9 @@
 //                   skipped for a closed genus-0 surface, which is laid out on the sphere directly
 //   layout          refined_edge_lengths() + layout_disk() (plane / Poincaré disk) or
 //                   layout_sphere()
-//   seed_check      the layout again from `seed_checks` other seed faces, aligned to the first by
-//                   the fitted isometry (align_layouts()): seed_independence_error
+//   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
+//                   farthest from the layout's seed), aligned by the fitted isometry to a layout
+//                   from that seed (align_layouts()): seed_independence_error
 //   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
 //                   domain's tiles (deck_through_domain()), best of several base vertices (below)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
@@ -124,8 +125,11 @@ struct UniformizeOptions {
   double polygon_tolerance = 1e-9;
   /// Options of every layout; the seed check runs them with normalize off and its own seed faces.
   LayoutOptions layout;
-  /// Extra seed faces (0, F/2, F−1, …) whose layouts are compared with the first.
-  int seed_checks = 3;
+  /// Extra seed faces whose layouts are compared with one from the layout's own seed: the face
+  /// farthest from it (in steps across edges), then faces spread over the surface (F/2; or 0 …
+  /// F−1 evenly). Two layouts run at a time when two threads are available (FlowOptions::threads
+  /// 0 or ≥ 2).
+  int seed_checks = 1;
   /// The layout must reproduce the metric to this relative edge-length error, else the run fails
   /// at the layout stage (NumericalFailure, naming the worst edge and the rounding floor) instead
   /// of returning positions that are not the metric's (e.g. a long strip with a free boundary in E,

@@ -188,6 +188,11 @@ def run_one(path, folder, options, timeout=None, threads=None):
     """Uniformizes one mesh in a child process into `folder`; returns {status, message, seconds}."""
     start = time.monotonic()
     os.makedirs(os.path.dirname(folder) or ".", exist_ok=True)  # KEY may have folders (genus1/kitten)
+    # What a process killed while writing this folder left beside it (its staging directory, or the
+    # earlier folder it had moved aside): the run below writes the folder afresh.
+    base = os.path.basename(folder)
+    for left in glob.glob(os.path.join(glob.escape(os.path.dirname(folder) or "."), f".{glob.escape(base)}.ricci-*-*")):
+        shutil.rmtree(left, ignore_errors=True)
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ)
     env["PYTHONPATH"] = package_parent + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
@@ -373,13 +378,16 @@ def batch(args):
                                      args.timeout, threads, pure=False, key=f"ricci-{i}"): (path, key)
                        for i, (path, key) in enumerate(todo)}
             for future in as_completed(futures):
-                path, key = futures[future]
+                path, key = futures.pop(future)
                 try:
                     result = future.result()
                 except Exception as e:  # the task itself failed: e.g. KilledWorker after repeated losses
                     message = f"{path}: the task failed: {type(e).__name__}: {e}"
                     write_failure(os.path.join(outdir, key), {"status": "crashed", "message": message, "input": path})
                     result = {"status": "crashed", "message": message, "seconds": 0.0}
+                # Forget the task at once: a finished task whose (small) result lived on a worker
+                # that dies later would otherwise run again and rewrite its folder.
+                future.release()
                 results[key] = result
                 progress.update(key, result)
         finally:
