@@ -155,11 +155,11 @@ Setter flag(bool O::*field, O& o, bool negate) {
   return [&o, field, negate](const py::handle& v, const std::string& k) { o.*field = get<bool>(v, k, "True or False") != negate; };
 }
 
-}  // namespace
 
-void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeCommandOptions& o) {
-  using O = ricci_cli::UniformizeCommandOptions;
-  const std::map<std::string, Setter> setters{
+// The options `flow` and `uniformize` share: the same names on both commands' option structs.
+template <class O>
+std::map<std::string, Setter> common_setters(O& o) {
+  return {
       {"geometry", text(&O::geometry, o)},
       {"scheme", text(&O::scheme, o)},
       {"target", text(&O::target, o)},
@@ -167,38 +167,31 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
       {"tol", real(&O::tolerance, o)},
       {"max_iterations", integer(&O::max_iterations, o)},
       {"threads", integer(&O::threads, o)},
-      {"base_candidates", integer(&O::base_candidates, o)},
-      {"seed_checks", integer(&O::seed_checks, o)},
-      {"cover_depth", integer(&O::cover_depth, o)},
-      {"patches", integer(&O::patches, o)},
-      {"unit_box", flag(&O::unit_box, o, false)},
       {"flips", flag(&O::no_flips, o, true)},
       {"angle_relax", flag(&O::no_angle_relax, o, true)},
       {"circle_normalization", flag(&O::no_circle_normalization, o, true)},
       {"split_ears", flag(&O::no_split_ears, o, true)},
       {"largest_component", flag(&O::largest_component, o, false)},
   };
+}
+
+}  // namespace
+
+void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeCommandOptions& o) {
+  using O = ricci_cli::UniformizeCommandOptions;
+  std::map<std::string, Setter> setters = common_setters(o);
+  setters.insert({{"base_candidates", integer(&O::base_candidates, o)},
+                  {"seed_checks", integer(&O::seed_checks, o)},
+                  {"cover_depth", integer(&O::cover_depth, o)},
+                  {"patches", integer(&O::patches, o)},
+                  {"unit_box", flag(&O::unit_box, o, false)}});
   apply(options, setters, "uniformize");
 }
 
 void apply_flow_options(const py::dict& options, ricci_cli::FlowCommandOptions& o) {
   using O = ricci_cli::FlowCommandOptions;
-  const std::map<std::string, Setter> setters{
-      {"geometry", text(&O::geometry, o)},
-      {"scheme", text(&O::scheme, o)},
-      {"target", text(&O::target, o)},
-      {"boundary", text(&O::boundary, o)},
-      {"method", text(&O::method, o)},
-      {"tol", real(&O::tolerance, o)},
-      {"max_iterations", integer(&O::max_iterations, o)},
-      {"step", real(&O::step, o)},
-      {"threads", integer(&O::threads, o)},
-      {"flips", flag(&O::no_flips, o, true)},
-      {"angle_relax", flag(&O::no_angle_relax, o, true)},
-      {"circle_normalization", flag(&O::no_circle_normalization, o, true)},
-      {"split_ears", flag(&O::no_split_ears, o, true)},
-      {"largest_component", flag(&O::largest_component, o, false)},
-  };
+  std::map<std::string, Setter> setters = common_setters(o);
+  setters.insert({{"method", text(&O::method, o)}, {"step", real(&O::step, o)}});
   apply(options, setters, "flow");
 }
 

@@ -82,9 +82,6 @@ py::list repairs_list(const std::vector<ricci::Repair>& repairs) {
   return out;
 }
 
-/// #E×2: the vertices of every edge (Topology::edge_vertices).
-std::vector<ricci::Index> edge_vertices(const ricci::Topology& t) { return t.edge_vertices; }
-
 // ---- read_mesh, info ---------------------------------------------------------------------------
 
 py::tuple read_mesh_py(const std::string& path, bool largest_component) {
@@ -126,7 +123,6 @@ struct FlowJob {
   ricci_cli::FlowCommandOptions options;
   ricci::ReadResult pre;
   ricci_cli::FlowReport report;
-  std::vector<ricci::Index> edges;
 };
 
 std::shared_ptr<FlowJob> flow_py(const py::handle& V, const py::handle& F, const std::optional<std::string>& path,
@@ -148,7 +144,6 @@ std::shared_ptr<FlowJob> flow_py(const py::handle& V, const py::handle& F, const
     py::gil_scoped_release nogil;
     ricci_cli::flow_run(job->options, job->report);
     job->report.on_iteration = nullptr;
-    if (job->report.have_mesh) job->edges = edge_vertices(job->report.input.topology);
   }
   p.rethrow();
   return job;
@@ -160,7 +155,6 @@ struct UniformizeJob {
   ricci_cli::UniformizeCommandOptions options;
   ricci::ReadResult pre;
   ricci_cli::UniformizeRun run;
-  std::vector<ricci::Index> edges;
   // The surface mesh.obj holds and its per-corner layout, made on first use.
   bool have_surface = false;
   ricci::Mesh surface;
@@ -195,7 +189,6 @@ std::shared_ptr<UniformizeJob> uniformize_py(const py::handle& V, const py::hand
       run.settings.uo.on_stage = nullptr;
       run.settings.uo.flow.on_iteration = nullptr;
     }
-    if (run.have_mesh) job->edges = edge_vertices(run.input.topology);
   }
   p.rethrow();
   return job;
@@ -320,7 +313,7 @@ PYBIND11_MODULE(_ricci, m) {
                              [](py::object self) { return view(self.cast<const FlowJob&>().report.flow.K_target, 0, self); })
       .def_property_readonly("edge_lengths",
                              [](py::object self) { return view(self.cast<const FlowJob&>().report.flow.l, 0, self); })
-      .def_property_readonly("edges", [](py::object self) { return view(self.cast<const FlowJob&>().edges, 2, self); })
+      .def_property_readonly("edges", [](py::object self) { return view(self.cast<const FlowJob&>().report.input.topology.edge_vertices, 2, self); })
       .def_property_readonly("V", [](py::object self) {
         return view(self.cast<const FlowJob&>().report.input.mesh.positions, 3, self);
       })
@@ -360,7 +353,7 @@ PYBIND11_MODULE(_ricci, m) {
       .def_property_readonly("vertex_to_input", [](py::object self) {
         return view(self.cast<const UniformizeJob&>().run.input.vertex_to_input, 0, self);
       })
-      .def_property_readonly("edges", [](py::object self) { return view(self.cast<const UniformizeJob&>().edges, 2, self); })
+      .def_property_readonly("edges", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.input.topology.edge_vertices, 2, self); })
       .def_property_readonly("u", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.result.flow.u, 0, self); })
       .def_property_readonly("K", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.result.flow.K, 0, self); })
       .def_property_readonly("K_target", [](py::object self) {
