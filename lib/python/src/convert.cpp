@@ -155,7 +155,6 @@ Setter flag(bool O::*field, O& o, bool negate) {
   return [&o, field, negate](const py::handle& v, const std::string& k) { o.*field = get<bool>(v, k, "True or False") != negate; };
 }
 
-
 // The options `flow` and `uniformize` share: the same names on both commands' option structs.
 template <class O>
 std::map<std::string, Setter> common_setters(O& o) {
