@@ -331,6 +331,8 @@ Json flow_json(const FlowReport& r) {
   const ricci::FlowResult& f = r.flow;
   j["iterations"] = r.have_flow ? Json(f.iterations) : Json(nullptr);
   j["max_curvature_error"] = r.have_flow ? real(f.max_curvature_error) : Json(nullptr);
+  j["curvature_resolution"] = r.have_flow ? real(f.curvature_resolution) : Json(nullptr);
+  j["resolution_vertices"] = r.have_flow ? Json(f.resolution_vertices) : Json(nullptr);
   j["gauss_bonnet_error"] = r.have_flow ? real(f.gauss_bonnet_error) : Json(nullptr);
   j["seconds"] = r.have_flow ? real(f.seconds) : Json(nullptr);
   j["total_seconds"] = r.total_seconds;
@@ -395,6 +397,7 @@ std::string metric_file_text(const MetricHeader& h, const ricci::FlowResult& f, 
     j["method"] = h.method;
     j["iterations"] = f.iterations;
     j["max_curvature_error"] = real(f.max_curvature_error);
+    j["curvature_resolution"] = real(f.curvature_resolution);
     j["gauss_bonnet_error"] = real(f.gauss_bonnet_error);
     j["num_vertices"] = t.num_vertices;
     j["num_edges"] = t.num_edges;

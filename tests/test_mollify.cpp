@@ -3,11 +3,14 @@
 // 2020) and map.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "ricci/flow.h"
+#include "ricci/intrinsic.h"
 #include "ricci/io.h"
 #include "ricci/metric.h"
 #include "ricci/topology.h"
@@ -119,11 +122,78 @@ TEST_CASE("uniformize: a grid disk with one edge at 1e-13 of its neighbours is m
       } else {
         CHECK(mo.epsilon == 0);  // a short edge, but no triangle below the margin
       }
-      CHECK(r.flow.max_curvature_error < 1e-12);
+      // At 1e-6 vertex scaling is kept: the short edge's ends within their curvature resolution.
+      CHECK(r.flow.max_curvature_error < std::max(1e-12, r.flow.curvature_resolution));
       CHECK(r.layout.max_edge_length_error < 1e-9);
       CHECK(r.layout.flipped_faces == 0);
       for (const double x : r.layout.positions) REQUIRE(std::isfinite(x));
       CHECK(std::isfinite(r.angles.mean_abs_log));
+    }
+  }
+}
+
+TEST_CASE("flow with flips: the ends of an edge far shorter than its neighbours converge to their curvature resolution") {
+  // The grid's pair (5, 5)–(6, 5) is vertices 60 and 61. Their angles follow from the double lengths
+  // only to about ε·l/s, so K there cannot be hit to 1e-12; the rest of the mesh still can.
+  const Index a = 60, b = 61;
+  for (const double fraction : {1.0, 1e-6, 1e-9, 1e-13}) {
+    CAPTURE(fraction);
+    const ValidateResult v = validate_mesh(grid_with_short_edge(fraction));
+    REQUIRE(v.status == Status::Ok);
+    const Target target = uniform_target(v.topology, natural_boundary_mode(v.topology, Geometry::Euclidean));
+    const std::vector<double> u0(static_cast<std::size_t>(v.topology.num_vertices), 0.0);
+    std::vector<double> u_first;
+    for (const int threads : {1, 2}) {
+      IntrinsicResult ir = mesh_intrinsic_triangulation(v.mesh, v.topology, Geometry::Euclidean);
+      REQUIRE(ir.status == Status::Ok);
+      FlowOptions o;
+      o.tolerance = 1e-12;
+      o.threads = threads;
+      const FlowResult f = solve_flow_with_flips(ir.triangulation, u0, target, o);
+      MESSAGE(f.brief_report() << "; resolution " << f.curvature_resolution << " at " << f.resolution_vertices
+                               << " vertices");
+      REQUIRE_MESSAGE(f.status == Status::Ok, f.message);
+      CHECK(f.iterations <= 12);
+      double rest = 0;
+      for (Index w = 0; w < v.topology.num_vertices; ++w)
+        if (w != a && w != b) rest = std::max(rest, std::abs(f.K_target[w] - f.K[w]));
+      CHECK(rest < 1e-12);  // every other vertex to the tolerance
+      const double pair = std::max(std::abs(f.K_target[a] - f.K[a]), std::abs(f.K_target[b] - f.K[b]));
+      if (fraction == 1.0) {
+        CHECK(f.resolution_vertices == 0);  // an ordinary mesh: nothing changes
+        CHECK(f.curvature_resolution == 0);
+        CHECK(pair < 1e-12);
+      } else {
+        CHECK(f.resolution_vertices == 2);
+        CHECK(f.curvature_resolution > 1e-12);
+        CHECK(f.curvature_resolution < 1e4 * 0x1p-52 / fraction);  // about ε·l/s
+        CHECK(pair <= f.curvature_resolution);
+        // The pair's total curvature is well conditioned, and it is met.
+        CHECK(std::abs(f.K_target[a] + f.K_target[b] - f.K[a] - f.K[b]) < 1e-11);
+      }
+      if (threads == 1) u_first = f.u;
+      else CHECK(f.u == u_first);  // bit for bit
+    }
+  }
+}
+
+TEST_CASE("uniformize: vertex scaling keeps a solution resolved within the layout limit, else circle packing") {
+  for (const double fraction : {1e-6, 1e-13}) {
+    CAPTURE(fraction);
+    const ValidateResult v = validate_mesh(grid_with_short_edge(fraction));
+    REQUIRE(v.status == Status::Ok);
+    const UniformizeResult r = uniformize(v.mesh, v.topology, UniformizeOptions{});
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    MESSAGE(r.brief_report() << "; " << (r.intrinsic.fallback.empty() ? "vertex scaling" : r.intrinsic.fallback));
+    if (fraction == 1e-6) {
+      // Resolution about 5e-10, below a hundredth of the layout limit 1e-6: the conformal map.
+      CHECK(r.intrinsic.used);
+      CHECK(r.intrinsic.fallback.empty());
+      CHECK(r.layout.max_edge_length_error < 1e-9);
+    } else {
+      CHECK(!r.intrinsic.used);
+      CHECK(r.intrinsic.fallback.find("curvature resolution of 2 near-coincident vertices") != std::string::npos);
+      CHECK(r.flow.max_curvature_error < 1e-12);
     }
   }
 }

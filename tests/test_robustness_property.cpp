@@ -4,6 +4,7 @@
 // a crash or (through the CLI) a partial output directory, and no `ok` summary on failure.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -133,7 +134,9 @@ TEST_CASE("property: random surfaces, similarities, near-degenerate faces and op
       ++ok;
       CHECK(all_finite(r.flow.u));
       CHECK(all_finite(r.layout.positions));
-      CHECK(r.flow.max_curvature_error < std::max(o.flow.tolerance, 1e-13));
+      // Within the tolerance, or at vertices that resolve their curvature less (near-coincident
+      // ones; FlowResult::curvature_resolution) within that.
+      CHECK(r.flow.max_curvature_error < std::max({o.flow.tolerance, 1e-13, r.flow.curvature_resolution}));
       CHECK(std::isfinite(r.angles.mean_abs_log));
     } else {
       ++named;

@@ -61,6 +61,20 @@
 // linearly at best — 20–110 steps on disks, annuli and spheres with holes — and oscillates without
 // converging on surfaces with several holes; the coupled step takes 3–5.)
 //
+// Curvature resolution. A computed K_v is only as good as the lengths it is computed from: each
+// length carries a rounding error of a few ulps (of it, and of its log), so K_v is known only to
+// about ε·Σ |∂θ/∂u_b|·(1 + |u_b|) over the corners at v (update_resolution()). That is ~1e-15 on
+// ordinary meshes, but at the ends of an edge far shorter than its neighbours (near-coincident
+// vertices, which mollification keeps) ∂θ/∂u grows like l/s and K_v is noise below ε·l/s: 1e-5
+// for s/l = 1e-11. Their pair sum is well conditioned, their split is not, and no double u hits
+// it closer (a one-ulp change of u_v moves K_v by that much). Newton therefore judges a point by
+// max_v |K̄_v − K_v|·min(1, tolerance / resolution_v) (judged_error()): the plain maximal error
+// wherever the resolution is below the tolerance, which is every vertex of an ordinary mesh, so
+// there nothing changes; the solve converges when every vertex is within the tolerance or its
+// resolution, the line search's noise level includes the resolution, and steps below that noise
+// are ranked by the judged error, so the rest of the mesh still converges quadratically while the
+// pair sits at its noise floor. FlowResult reports the raw maximal error and the resolution.
+//
 // Determinism. Every parallel loop writes its own slots; sums use fixed chunks added in a fixed
 // order; maxima are exact. Results do not depend on the number of threads.
 #include "ricci/flow.h"
@@ -315,6 +329,10 @@ class FlowSolver {
   bool polish_step();
   /// max |K̄ − K| at the rounding level of the angle sums (kPolishUlps ulps of the largest).
   double curvature_rounding() const;
+  // Curvature resolution (see the design notes).
+  void update_resolution();
+  void resolution_at_u();
+  double judged_error(std::span<const double> K, std::span<const double> target) const;
   bool energy_difference(double t, double& dE);
   double directional_derivative(const Topology& t);
   void remove_gauge_mean(std::span<double> step);
@@ -467,6 +485,13 @@ class FlowSolver {
   std::vector<double> grad_;      // #V: K̄ − K on condition vertices (mean-free on E gauge components)
   double error_ = 0;
   double energy_ = 0;
+  // Curvature resolution: resolution_ (#V) at the last u whose derivative blocks were read
+  // (resolution_current_ when that is u_), active when some condition vertex resolves less than
+  // the tolerance; judged_ = judged_error() of the current point (error_ when not active).
+  std::vector<double> resolution_, corner_resolution_;
+  bool resolution_active_ = false, resolution_current_ = false;
+  double judged_ = 0, largest_resolution_ = 0;
+  Index resolution_vertices_ = 0;
   int iteration_ = 0;
 
   // Newton.
@@ -1353,6 +1378,7 @@ bool FlowSolver::compute_direction() {
   Clock::time_point mark = Clock::now();
   if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
   blocks_at_u_ = true;
+  if (!resolution_current_) update_resolution();
   iter_.derivatives += lap(mark);
   const std::span<double> values = solver_.values();
   assemble_hessian(t_, pattern_, blocks_, values);
@@ -1488,11 +1514,14 @@ bool FlowSolver::line_search() {
   // Σ (K − K̄)·δ (energy slope) is resolved only to about ε·Σ|δ_i|·(4π + |K̄_i|), and ½‖K̄ − K‖²
   // (the residual merit) to about ε·Σ|K̄_i − K_i|·(4π + |K̄_i|).
   const double merit0 = spherical ? 0.5 * sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; }) : 0;
-  const double noise = 64 * kEps * sum_(nv, [&](std::int64_t v) {
-                         if (!condition_[v]) return 0.0;
-                         const double scale = 4 * kPi + std::abs(K_target_[v]);
-                         return (spherical ? std::abs(K_target_[v] - cur_.K[v]) : std::abs(step_[v])) * scale;
-                       });
+  // Where a vertex resolves its curvature less well (update_resolution()), its resolution.
+  const bool resolution = resolution_active_;
+  const double noise = sum_(nv, [&](std::int64_t v) {
+    if (!condition_[v]) return 0.0;
+    double scale = 64 * kEps * (4 * kPi + std::abs(K_target_[v]));
+    if (resolution) scale = std::max(scale, resolution_[v]);
+    return (spherical ? std::abs(K_target_[v] - cur_.K[v]) : std::abs(step_[v])) * scale;
+  });
   // Below the rounding level the merit function cannot rank trial points; a step is then taken
   // if it lowers the maximal curvature error, and only a few halvings are tried.
   const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
@@ -1523,7 +1552,9 @@ bool FlowSolver::line_search() {
     }
     const std::vector<double>& trial_target = coupled_ ? K_target_trial_ : K_target_;
     const double trial_error = max_error(trial_.K, trial_target, condition_);
-    if (!std::isfinite(trial_error) || (polishing_ && !(trial_error < error_))) continue;
+    // Ranked by the judged error (the plain one unless some vertex resolves less than the tolerance).
+    const double trial_judged = resolution ? judged_error(trial_.K, trial_target) : trial_error;
+    if (!std::isfinite(trial_error) || (polishing_ && !(trial_judged < judged_))) continue;
     double dE = 0;
     bool accepted = false;
     if (spherical) {
@@ -1533,7 +1564,7 @@ bool FlowSolver::line_search() {
                              return d * d;
                            });
       accepted = !rounding_level && merit <= merit0 + kArmijo * t * slope_;
-      if (!accepted && std::abs(merit - merit0) <= noise && trial_error < error_) {
+      if (!accepted && std::abs(merit - merit0) <= noise && trial_judged < judged_) {
         accepted = true;
         ++noise_accepts_;
       }
@@ -1568,7 +1599,7 @@ bool FlowSolver::line_search() {
       if (std::isfinite(estimate) && spread <= kEstimateSpread * std::abs(estimate)) {
         if (!rounding_level && estimate + spread <= kArmijo * t * slope_) {
           accepted = true;
-        } else if (std::abs(estimate) + spread <= t * noise && trial_error < error_) {
+        } else if (std::abs(estimate) + spread <= t * noise && trial_judged < judged_) {
           accepted = true;
           ++noise_accepts_;
         }
@@ -1584,7 +1615,7 @@ bool FlowSolver::line_search() {
         continue;
       }
       accepted = !rounding_level && dE <= kArmijo * t * slope_;
-      if (!accepted && std::abs(dE) <= t * noise && trial_error < error_) {
+      if (!accepted && std::abs(dE) <= t * noise && trial_judged < judged_) {
         accepted = true;
         ++noise_accepts_;
       }
@@ -1633,6 +1664,8 @@ void FlowSolver::accept(double step_length, double dE) {
     largest_mode_ = relative;
   }
   error_ = max_error(cur_.K, K_target_, condition_);
+  resolution_current_ = false;
+  judged_ = resolution_active_ ? judged_error(cur_.K, K_target_) : error_;
   energy_ += dE;
   IterationRecord record;
   record.iteration = iteration_;
@@ -1685,11 +1718,77 @@ double FlowSolver::curvature_rounding() const {
   return kPolishUlps * kEps * (4 * kPi + largest_target);
 }
 
+// resolution_v = ε·Σ over the corners at v of Σ_b |∂θ/∂u_b|·(1 + |u_b|), from the derivative
+// blocks in blocks_ (of u_): the rounding of each length (its log carries ε·(1 + |u|)) seen
+// through the angles' sensitivity to it.
+void FlowSolver::update_resolution() {
+  const Index nv = t_.num_vertices, nf = t_.num_faces;
+  resolution_.resize(static_cast<std::size_t>(nv));
+  corner_resolution_.resize(3 * static_cast<std::size_t>(nf));
+#pragma omp parallel for schedule(static) if (nf >= kParallelMin)
+  for (Index f = 0; f < nf; ++f) {
+    const double* B = &blocks_[9 * static_cast<std::size_t>(f)];
+    double weight[3];
+    for (int b = 0; b < 3; ++b) weight[b] = 1 + std::abs(u_[t_.corner_vertex[3 * f + b]]);
+    for (int a = 0; a < 3; ++a)
+      corner_resolution_[3 * f + a] =
+          std::abs(B[3 * a]) * weight[0] + std::abs(B[3 * a + 1]) * weight[1] + std::abs(B[3 * a + 2]) * weight[2];
+  }
+  double largest = 0;
+  Index count = 0;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin) reduction(max : largest) reduction(+ : count)
+  for (Index v = 0; v < nv; ++v) {
+    double sum = 0;
+    for (Index i = t_.vertex_corner_offsets[v]; i < t_.vertex_corner_offsets[v + 1]; ++i)
+      sum += corner_resolution_[t_.vertex_corners[i]];
+    resolution_[v] = kEps * sum;
+    if (condition_[v] && resolution_[v] > tolerance_) {
+      largest = std::max(largest, resolution_[v]);
+      ++count;
+    }
+  }
+  resolution_active_ = count > 0;
+  resolution_current_ = true;
+  if (resolution_active_) {
+    largest_resolution_ = largest;
+    resolution_vertices_ = count;
+  }
+  judged_ = judged_error(cur_.K, K_target_);
+}
+
+// The resolution at u_ itself (the derivative blocks of u_ are computed when they are not at hand;
+// the next Newton step uses them).
+void FlowSolver::resolution_at_u() {
+  if (resolution_current_) return;
+  if (!blocks_at_u_) {
+    const Clock::time_point mark = Clock::now();
+    angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+    blocks_at_u_ = true;
+    r_.timings.derivatives += std::chrono::duration<double>(Clock::now() - mark).count();
+  }
+  update_resolution();
+}
+
+double FlowSolver::judged_error(std::span<const double> K, std::span<const double> target) const {
+  if (!resolution_active_) return max_error(K, target, condition_);
+  const auto n = static_cast<Index>(K.size());
+  const double tolerance = tolerance_;
+  double e = 0;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin) reduction(max : e)
+  for (Index v = 0; v < n; ++v) {
+    if (!condition_[v]) continue;
+    double d = std::abs(target[v] - K[v]);
+    if (resolution_[v] > tolerance) d *= tolerance / resolution_[v];
+    e = std::isfinite(d) ? std::max(e, d) : std::numeric_limits<double>::infinity();
+  }
+  return e;
+}
+
 bool FlowSolver::polish_step() {
   if (polish_tried_ >= options_.polish_steps || polish_tried_ > polished_) return false;
   // At the rounding level of the curvatures (a few ulps of the angle sums, kPolishUlps) no step
   // can be ranked: stop there instead of paying for a factorization the line search rejects.
-  if (!(error_ > curvature_rounding())) return false;
+  if (!(judged_ > curvature_rounding())) return false;
   if (polish_tried_ == 0) error_before_polish_ = error_;
   ++polish_tried_;
   ++iteration_;
@@ -1845,11 +1944,22 @@ void FlowSolver::run() {
                        " is below the rounding level of the curvatures (" + format_double("%.3g", floor) +
                        ", 16 ulps of the largest angle sum); solved to that level");
   }
+  judged_ = error_;
   while (true) {
-    if (error_ < tolerance_) {
+    // Within the resolution with the resolution of an earlier point: confirmed at this one.
+    if (resolution_active_ && judged_ < tolerance_ && !(error_ < tolerance_)) resolution_at_u();
+    if (judged_ < tolerance_) {
       if (newton && polish_step()) continue;
       r_.status = Status::Ok;
       r_.message = "converged";
+      if (resolution_active_ && !(error_ < tolerance_))
+        r_.notes.push_back(
+            std::to_string(resolution_vertices_) + " vertices resolve their curvature only to " +
+            format_double("%.3g", largest_resolution_) +
+            " (the ends of edges far shorter than their neighbours: their angles follow from the double lengths "
+            "only to about ε·l/s); converged with each of them within its resolution and every other vertex "
+            "within the tolerance " + format_double("%.3g", tolerance_) + ": max |K̄ − K| = " +
+            format_double("%.3g", error_));
       if (polished_ > 0)
         r_.notes.push_back("polished by " + std::to_string(polished_) + " Newton step" + (polished_ == 1 ? "" : "s") +
                            " after the tolerance was met: max |K̄ − K| " + format_double("%.3g", error_before_polish_) +
@@ -1889,6 +1999,10 @@ void FlowSolver::finish() {
     r_.K = cur_.K;
     r_.K_target = K_target_;
     r_.max_curvature_error = error_;
+    if (resolution_active_) {
+      r_.curvature_resolution = largest_resolution_;
+      r_.resolution_vertices = resolution_vertices_;
+    }
     area_.assign(static_cast<std::size_t>(t_.num_faces), 0.0);
     face_areas(t_, g, cur_.l, cur_.theta, area_);
     r_.gauss_bonnet_error = std::abs(gauss_bonnet_defect(t_, g, cur_.K, area_));

@@ -178,7 +178,7 @@ AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology,
 // and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
 // false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed.
 bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
-                     UniformizeResult& r, IntrinsicTriangulation& tri) {
+                     double max_layout_error, UniformizeResult& r, IntrinsicTriangulation& tri) {
   r.intrinsic.used = true;
   IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry, mollify_margin);
   if (ir.status != Status::Ok) {
@@ -196,14 +196,30 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
   capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
   FlowResult f = solve_flow_with_flips(tri, u0, r.target, capped);
   r.intrinsic.flow_flips = f.flips;
-  if (f.status == Status::Ok) {
+  // Converged only to the curvature resolution of near-coincident vertices (FlowResult::
+  // resolution_vertices), and that resolution is above a hundredth of the layout limit: the metric
+  // is as good as double lengths allow, but a layout closes around each vertex only to its
+  // curvature error (times the size of its neighbourhood, up to a few), and one layout's
+  // coordinates reproduce an edge of length s among edges of length l only to about ε·l/s, the
+  // same figure; the layout, cut and deck stages hold every edge to the limit. Circle packing's
+  // radii do not keep those edges short.
+  const bool resolution_only = f.status == Status::Ok && f.resolution_vertices > 0 &&
+                               !(f.max_curvature_error < fo.tolerance) &&
+                               f.curvature_resolution > 0.01 * max_layout_error;
+  if (f.status == Status::Ok && !resolution_only) {
     r.flow = std::move(f);
     return true;
   }
   r.intrinsic.used = false;
   r.flow.notes = f.notes;
-  r.intrinsic.fallback = "vertex scaling with intrinsic flips stopped (" + std::string(status_name(f.status)) + ": " +
-                         f.message + ")";
+  r.intrinsic.fallback =
+      resolution_only
+          ? "vertex scaling with intrinsic flips converged only to the curvature resolution of " +
+                std::to_string(f.resolution_vertices) + " near-coincident vertices (max |K̄ − K| " +
+                sci(f.max_curvature_error) + ", resolution " + sci(f.curvature_resolution) +
+                "), more than a hundredth of the layout limit " + sci(max_layout_error) +
+                ": a layout closes around those vertices, and reproduces their short edges, only to about that"
+          : "vertex scaling with intrinsic flips stopped (" + std::string(status_name(f.status)) + ": " + f.message + ")";
   r.flow.notes.push_back(r.intrinsic.fallback + "; the paper's circle packing was solved instead");
   return false;
 }
@@ -356,7 +372,7 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    if (flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri)) {
+    if (flow_with_flips(mesh, topology, fo, mo.mollify_margin, options.max_layout_error, r, m.tri)) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
       m.paths = trace_input_edges(m.tri, topology);
       if (m.paths.status != Status::Ok) return fail(m.paths.status, "straighten", m.paths.message);

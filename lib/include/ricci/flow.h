@@ -199,6 +199,13 @@ struct FlowResult {
   Geometry geometry = Geometry::Euclidean;  ///< the background geometry that was solved in
   int iterations = 0;
   double max_curvature_error = 0;
+  /// Vertices whose computed curvature resolves less than the tolerance (the ends of an edge far
+  /// shorter than its neighbours: their angles follow from double lengths only to about ε·l/s),
+  /// and the largest such resolution, ε·Σ|∂θ/∂u_b|·(1 + |u_b|) over the vertex's corners. Newton
+  /// stops when each of them is within its resolution and every other vertex within the tolerance,
+  /// so max_curvature_error may exceed the tolerance up to this. 0 on ordinary meshes.
+  Index resolution_vertices = 0;
+  double curvature_resolution = 0;
   double gauss_bonnet_error = 0;  ///< |Σ K + λ Σ A − 2πχ|
   double seconds = 0;
   /// Where `seconds` went, summed over every Newton (or gradient) run of the solve (the spherical
