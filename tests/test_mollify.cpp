@@ -234,6 +234,36 @@ TEST_CASE("uniformize: a cap flat to rounding is mollified and every scheme maps
   }
 }
 
+TEST_CASE("cli flow and uniformize: the curvature resolution of near-coincident vertices is in the JSON") {
+  ricci_test::TempDir dir;
+  for (const double fraction : {1.0, 1e-6}) {
+    CAPTURE(fraction);
+    const std::string name = fraction == 1.0 ? "grid.obj" : "short.obj";
+    ricci_test::write_bytes(dir / name, ricci::serialize_mesh(grid_with_short_edge(fraction), FileFormat::Obj));
+    const ricci_test::CommandResult f = ricci_test::run_cli({"flow", (dir / name).string(), "--json"});
+    REQUIRE_MESSAGE(f.exit_code == 0, f.err);
+    const nlohmann::json k = nlohmann::json::parse(f.out);
+    const ricci_test::CommandResult u =
+        ricci_test::run_cli({"uniformize", (dir / name).string(), "-o", (dir / ("out-" + name)).string(), "--no-pictures", "--json"});
+    REQUIRE_MESSAGE(u.exit_code == 0, u.err);
+    const nlohmann::json j = nlohmann::json::parse(u.out);
+    CHECK(k["scheme"] == "yamabe");
+    CHECK(j["scheme"] == "yamabe");
+    if (fraction == 1.0) {
+      CHECK(k["resolution_vertices"] == 0);
+      CHECK(k["curvature_resolution"].get<double>() == 0);
+      CHECK(j["curvature_resolution"].get<double>() == 0);
+    } else {
+      CHECK(k["resolution_vertices"] == 2);
+      const double resolution = k["curvature_resolution"].get<double>();
+      CHECK(resolution > 1e-12);
+      CHECK(k["max_curvature_error"].get<double>() <= resolution);
+      CHECK(j["curvature_resolution"].get<double>() > 1e-12);
+      CHECK(f.err.find("resolve their curvature only to") != std::string::npos);  // the note
+    }
+  }
+}
+
 TEST_CASE("cli uniformize and flow: the mollification is listed in the repairs with its epsilon") {
   ricci_test::TempDir dir;
   ricci_test::write_bytes(dir / "cap.obj", ricci::serialize_mesh(grid_with_cap(1e-16), FileFormat::Obj));
