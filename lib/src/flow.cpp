@@ -332,6 +332,8 @@ class FlowSolver {
   // Curvature resolution (see the design notes).
   void update_resolution();
   void resolution_at_u();
+  void note_resolution();
+  void set_tolerance();
   double judged_error(std::span<const double> K, std::span<const double> target) const;
   bool energy_difference(double t, double& dE);
   double directional_derivative(const Topology& t);
@@ -1769,6 +1771,27 @@ void FlowSolver::resolution_at_u() {
   update_resolution();
 }
 
+// A tolerance below what the curvatures resolve (a few ulps of the angle sums) is raised to that
+// level with a note: no step could be ranked below it.
+void FlowSolver::set_tolerance() {
+  tolerance_ = options_.tolerance;
+  if (const double floor = curvature_rounding(); tolerance_ < floor) {
+    tolerance_ = floor;
+    r_.notes.push_back("the tolerance " + format_double("%.3g", options_.tolerance) +
+                       " is below the rounding level of the curvatures (" + format_double("%.3g", floor) +
+                       ", 16 ulps of the largest angle sum); solved to that level");
+  }
+}
+
+void FlowSolver::note_resolution() {
+  r_.notes.push_back(std::to_string(resolution_vertices_) + " vertices resolve their curvature only to " +
+                     format_double("%.3g", largest_resolution_) +
+                     " (the ends of edges far shorter than their neighbours: their angles follow from the double "
+                     "lengths only to about ε·l/s); converged with each of them within its resolution and every other "
+                     "vertex within the tolerance " + format_double("%.3g", tolerance_) + ": max |K̄ − K| = " +
+                     format_double("%.3g", error_));
+}
+
 double FlowSolver::judged_error(std::span<const double> K, std::span<const double> target) const {
   if (!resolution_active_) return max_error(K, target, condition_);
   const auto n = static_cast<Index>(K.size());
@@ -1935,15 +1958,7 @@ void FlowSolver::run() {
     }
   }
 
-  // A tolerance below what the curvatures resolve (a few ulps of the angle sums) is raised to that
-  // level with a note: no step could be ranked below it.
-  tolerance_ = options_.tolerance;
-  if (const double floor = curvature_rounding(); tolerance_ < floor) {
-    tolerance_ = floor;
-    r_.notes.push_back("the tolerance " + format_double("%.3g", options_.tolerance) +
-                       " is below the rounding level of the curvatures (" + format_double("%.3g", floor) +
-                       ", 16 ulps of the largest angle sum); solved to that level");
-  }
+  set_tolerance();
   judged_ = error_;
   while (true) {
     // Within the resolution with the resolution of an earlier point: confirmed at this one.
@@ -1952,14 +1967,7 @@ void FlowSolver::run() {
       if (newton && polish_step()) continue;
       r_.status = Status::Ok;
       r_.message = "converged";
-      if (resolution_active_ && !(error_ < tolerance_))
-        r_.notes.push_back(
-            std::to_string(resolution_vertices_) + " vertices resolve their curvature only to " +
-            format_double("%.3g", largest_resolution_) +
-            " (the ends of edges far shorter than their neighbours: their angles follow from the double lengths "
-            "only to about ε·l/s); converged with each of them within its resolution and every other vertex "
-            "within the tolerance " + format_double("%.3g", tolerance_) + ": max |K̄ − K| = " +
-            format_double("%.3g", error_));
+      if (resolution_active_ && !(error_ < tolerance_)) note_resolution();
       if (polished_ > 0)
         r_.notes.push_back("polished by " + std::to_string(polished_) + " Newton step" + (polished_ == 1 ? "" : "s") +
                            " after the tolerance was met: max |K̄ − K| " + format_double("%.3g", error_before_polish_) +
