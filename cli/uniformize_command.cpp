@@ -839,8 +839,11 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
     print_note(o.quiet, note);
   }
   if (r.layout.rounding_floor > 1e-9) {
-    const std::string note = "the cut polygon reaches far out in the Poincare disk: double-precision coordinates resolve "
-                             "edge lengths there only to " + sci(r.layout.rounding_floor) + " (layout.rounding_floor)";
+    const std::string note =
+        "double-precision coordinates resolve some edge lengths of the layout only to " + sci(r.layout.rounding_floor) +
+        " of their length (layout.rounding_floor): edges far shorter than the other edges of their triangles" +
+        (r.geometry == ricci::Geometry::Hyperbolic ? ", or edges far out in the Poincaré disk (where a cut polygon reaches)"
+                                                   : "");
     run.notes.push_back(note);
     print_note(o.quiet, note);
   }
