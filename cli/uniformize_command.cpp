@@ -528,6 +528,8 @@ Json report_json(const Run& run) {
                        {"flipped_faces", L.flipped_faces},
                        {"rounding_floor", real(L.rounding_floor)},
                        {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
+                       {"excused_edges", r.layout_excused.edges},
+                       {"excused_area_fraction", real(r.layout_excused.area_fraction)},
                        {"polish_steps", L.polish_steps},
                        {"shape_solve", L.shape_solve},
                        {"seed_face", L.seed_face},
@@ -835,6 +837,14 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
   if (r.layout.flipped_faces > 0) {
     const std::string note = "the layout has " + std::to_string(r.layout.flipped_faces) + " flipped faces (first: face " +
                              std::to_string(r.layout.first_flipped_face) + ")";
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  }
+  if (r.layout_excused.edges > 0) {
+    const std::string note = std::to_string(r.layout_excused.edges) +
+                             " edges of the layout miss their length by more than the layout limit, each within " +
+                             sci(ricci::kRoundingAllowance) + " times what its coordinates resolve (edges far shorter than their neighbours); their faces "
+                             "are " + sci(r.layout_excused.area_fraction) + " of the surface's area";
     run.notes.push_back(note);
     print_note(o.quiet, note);
   }

@@ -42,6 +42,9 @@ constexpr double kGlobalPolishAbove = 1e-10;
 // E layouts whose propagation misses the metric by more than this (above the rounding floor) are
 // also computed from the triangles' shapes by one least-squares solve (LayoutOptions::polish_steps).
 constexpr double kShapeLayoutAbove = 1e-8;
+// A placement whose vertex has an angle with sine below this costs more in the propagation (see
+// run_layout()).
+constexpr double kIllPlaced = 1e-4;
 
 std::string num(double x) {
   char buf[64];
@@ -212,26 +215,28 @@ struct Positions {
   }
 };
 
+/// How far rounding the two ends' coordinates to double can move edge (a, b), in the geometry.
+double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
+  constexpr double u = 0x1p-53;
+  if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
+  if (g == Geometry::Hyperbolic) {
+    const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
+    return 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+  }
+  return 2 * u * std::sqrt(3.0);
+}
+
 /// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
 void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o) {
   o.max_edge_length_error = 0;
   o.worst_edge = kInvalid;
   o.rounding_floor = 0;
   o.max_error_above_rounding = 0;
-  constexpr double u = 0x1p-53;
   for (Index e = 0; e < t.num_edges; ++e) {
     const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
     const double d = P.distance(a, b);
     const double err = std::abs(d - l[e]) / l[e];
-    double drift = 0;  // how far rounding the two ends' coordinates can move them, in the geometry
-    if (g == Geometry::Euclidean) {
-      drift = u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
-    } else if (g == Geometry::Hyperbolic) {
-      const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
-      drift = 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
-    } else {
-      drift = 2 * u * std::sqrt(3.0);
-    }
+    const double drift = rounding_drift(g, P, a, b);
     o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
     if (!(err - drift / l[e] <= o.max_error_above_rounding)) o.max_error_above_rounding = err - drift / l[e];
     if (!(err <= o.max_edge_length_error)) {
@@ -821,6 +826,40 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
 
 // ---- the propagation -----------------------------------------------------------------------
 
+// The costs of the propagation's cheapest-first order (run_layout()).
+// Each face costs 1 plus how badly it conditions the vertex it places: −log sin of its smallest
+// angle (0.14 for an equilateral face, about 14 for an angle of 1e-6). The propagation develops
+// the faces cheapest-first from the seed (Dijkstra over the dual graph; breadth-first on
+// well-shaped meshes), so a vertex is placed from a sliver only when no better-shaped way of
+// similar depth reaches it: the angles a placement turns by are read from lengths, and the
+// error of a sliver's angles carries into every vertex placed after it. H keeps every face at
+// cost 1 (breadth-first): Poincaré coordinates lose precision as e^r away from the origin, and
+// the shortest chains from the central seed matter more there than the faces' shapes.
+// In every geometry, placing a vertex whose own angle is tiny costs −log sin of that angle more:
+// it lies where two circles meet at that angle, so the errors of the two vertices it is placed
+// from grow by 1/sin θ (the far vertex of a needle placed from its short side: by l/s). The same
+// needle entered so that it places an end of its short side costs nothing extra (that end is
+// placed at distance s along an angle known to about ε·l/s: an error of about ε·l). An angle whose
+// sine is above kIllPlaced adds nothing, so well-shaped meshes keep their order.
+struct PropagationCosts {
+  std::span<const double> theta;  // #F×3 corner angles
+  std::vector<double> face;       // #F
+
+  PropagationCosts(Geometry g, std::span<const double> corner_angles) : theta(corner_angles) {
+    face.resize(theta.size() / 3);
+    for (std::size_t f = 0; f < face.size(); ++f) {
+      const double smallest = std::min({theta[3 * f], theta[3 * f + 1], theta[3 * f + 2]});
+      face[f] = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
+    }
+  }
+  /// The cost of entering face corner_face(o) so that it places the vertex of corner o.
+  double entering(Index o) const {
+    const double sn = std::sin(theta[o]);
+    const double penalty = sn < kIllPlaced ? -std::log(std::max(sn, 1e-300)) : 0.0;
+    return face[corner_face(o)] + penalty;
+  }
+};
+
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
                   Clock::time_point start) {
   Layout out;
@@ -839,20 +878,9 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   Positions P{g, out.dims, x};
   std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0), taken(static_cast<std::size_t>(nf), 0);
   std::vector<Index> depth(static_cast<std::size_t>(nf), 0);
-  // Each face costs 1 plus how badly it conditions the vertex it places: −log sin of its smallest
-  // angle (0.14 for an equilateral face, about 14 for an angle of 1e-6). The propagation develops
-  // the faces cheapest-first from the seed (Dijkstra over the dual graph; breadth-first on
-  // well-shaped meshes), so a vertex is placed from a sliver only when no better-shaped way of
-  // similar depth reaches it: the angles a placement turns by are read from lengths, and the
-  // error of a sliver's angles carries into every vertex placed after it. H keeps every face at
-  // cost 1 (breadth-first): Poincaré coordinates lose precision as e^r away from the origin, and
-  // the shortest chains from the central seed matter more there than the faces' shapes.
-  std::vector<double> reached(static_cast<std::size_t>(nf)), face_cost(static_cast<std::size_t>(nf));
+  std::vector<double> reached(static_cast<std::size_t>(nf));
   std::vector<Index> via(static_cast<std::size_t>(nf), kInvalid);  // the corner of f that the face before it placed
-  for (Index f = 0; f < nf; ++f) {
-    const double smallest = std::min({theta[3 * f], theta[3 * f + 1], theta[3 * f + 2]});
-    face_cost[f] = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
-  }
+  const PropagationCosts costs(g, theta);
   // (cost, order of discovery, face): equal costs come out first in first out, so with all costs
   // equal this is the breadth-first propagation exactly.
   using Entry = std::tuple<double, std::int64_t, Index>;
@@ -896,7 +924,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
         const Index o = t.opposite[3 * f + k];
         if (o == kInvalid) continue;
         const Index nb = corner_face(o);
-        const double c = cost + face_cost[nb];
+        const double c = cost + costs.entering(o);
         if (taken[nb] || !(c < reached[nb])) continue;
         reached[nb] = c;
         via[nb] = o;
@@ -1331,6 +1359,38 @@ double layout_alignment_error(Geometry g, std::span<const double> a, std::span<c
 }  // namespace ricci
 
 namespace ricci {
+
+LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
+                           std::span<const double> positions, std::span<const double> face_area, double limit) {
+  LayoutMisses m;
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  if (l.size() != static_cast<std::size_t>(disk.num_edges) || face_area.size() != static_cast<std::size_t>(disk.num_faces) ||
+      positions.size() != static_cast<std::size_t>(disk.num_vertices) * static_cast<std::size_t>(dims)) {
+    m.worst_unexplained = kInf;  // nothing measured: nothing excused
+    m.area_fraction = 1;
+    return m;
+  }
+  std::vector<double> x(positions.begin(), positions.end());
+  const Positions P{g, dims, x};
+  std::vector<std::uint8_t> missed(static_cast<std::size_t>(disk.num_faces), 0);
+  for (Index e = 0; e < disk.num_edges; ++e) {
+    const Index a = disk.edge_vertices[2 * e], b = disk.edge_vertices[2 * e + 1];
+    const double err = std::abs(P.distance(a, b) - l[e]) / l[e];
+    if (!(err > limit)) continue;
+    ++m.edges;
+    const double unexplained = err - kRoundingAllowance * rounding_drift(g, P, a, b) / l[e];
+    if (!(unexplained <= m.worst_unexplained)) m.worst_unexplained = unexplained;  // NaN counts as the worst
+    for (int k = 0; k < 2; ++k)
+      if (const Index c = disk.edge_corners[2 * e + k]; c != kInvalid) missed[c / 3] = 1;
+  }
+  double total = 0, part = 0;
+  for (Index f = 0; f < disk.num_faces; ++f) {
+    total += face_area[f];
+    if (missed[f]) part += face_area[f];
+  }
+  m.area_fraction = m.edges == 0 ? 0 : total > 0 ? part / total : 1;
+  return m;
+}
 
 Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions) {
   Layout out;

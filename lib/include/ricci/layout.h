@@ -247,6 +247,27 @@ Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, 
 /// (#E) on the unit sphere — no cut is needed: the last faces close up by themselves.
 Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options = {});
 
+/// An edge of a layout may miss its length by up to this many times its rounding floor (Layout::
+/// rounding_floor) and still count as reproduced as well as its coordinates allow.
+inline constexpr double kRoundingAllowance = 8;
+
+/// The edges of a layout whose relative length error exceeds a limit, and where they are.
+struct LayoutMisses {
+  Index edges = 0;  ///< edges above the limit
+  /// Max over those edges of the error minus kRoundingAllowance times the edge's own rounding
+  /// floor: ≤ 0 when each is within what its coordinates resolve, > 0 (or NaN) when a better
+  /// layout of the same coordinates would reproduce it.
+  double worst_unexplained = 0;
+  /// The weight (face_area) of the faces on those edges over the total: 0 when there are none.
+  double area_fraction = 0;
+};
+
+/// Which edges of positions (#V×dims of `disk`, in geometry g) miss their lengths l (#E) by more
+/// than `limit` (relative), weighed by face_area (#F, e.g. the faces' areas in the input's 3D
+/// coordinates). On a size mismatch, an empty result.
+LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
+                           std::span<const double> positions, std::span<const double> face_area, double limit);
+
 /// The figures of a Layout (max_edge_length_error, worst_edge, rounding_floor, flipped_faces)
 /// for positions computed elsewhere (e.g. deck_through_domain()'s canonical polygon): `l` #E of
 /// `disk`, positions #V×dims. Status NonFiniteCoordinate names a vertex without a valid position.

@@ -45,7 +45,10 @@
 //     input's vertices first). Its cut prefers the pieces of input edges (weights 100× on the
 //     other edges), so seams mostly run along input edges.
 // Should the solve with flips fail, the paper's circle packing is solved instead and
-// `intrinsic.fallback` says why (a note in flow.notes too).
+// `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
+// solve converged only to the curvature resolution of near-coincident vertices
+// (FlowResult::resolution_vertices) and a later stage failed on it: the whole job is run again
+// with circle packing.
 //
 // Geometry and boundary mode default to the surface's natural ones (natural_geometry():
 // S for closed genus 0, E for χ = 0 and for genus 0 with boundary, H for χ < 0;
@@ -181,7 +184,8 @@ struct IntrinsicSummary {
   /// subdivision needed).
   bool straight_tiles = false;
   bool refined = false;              ///< the later stages ran on the common subdivision
-  /// Non-empty when the solve with flips failed: why (circle packing was solved instead).
+  /// Non-empty when the solve with flips failed, or converged only to its curvature resolution
+  /// and a later stage failed on it: why (circle packing was solved instead).
   std::string fallback;
 };
 
@@ -224,6 +228,10 @@ struct UniformizeResult {
   /// The layout: of the disk (positions per cut vertex, dims 2) or, for a closed genus-0
   /// surface, of the surface on the unit sphere (positions per vertex, dims 3).
   Layout layout;
+  /// Edges of `layout` above max_layout_error that the accuracy gate excused: each within
+  /// kRoundingAllowance times what its coordinates resolve, their faces at most max_layout_error of
+  /// the input's 3D area (the short edges at near-coincident vertices). edges = 0 when none.
+  LayoutMisses layout_excused;
   /// Max over the extra seeds of the deviation after alignment (distance of the geometry;
   /// layouts without normalisation). 0 when seed_checks is 0.
   double seed_independence_error = 0;
