@@ -490,7 +490,7 @@ class FlowSolver {
   // Curvature resolution: resolution_ (#V) at the last u whose derivative blocks were read
   // (resolution_current_ when that is u_), active when some condition vertex resolves less than
   // the tolerance; judged_ = judged_error() of the current point (error_ when not active).
-  std::vector<double> resolution_, corner_resolution_;
+  std::vector<double> resolution_;
   bool resolution_active_ = false, resolution_current_ = false;
   double judged_ = 0, largest_resolution_ = 0;
   Index resolution_vertices_ = 0;
@@ -1724,25 +1724,18 @@ double FlowSolver::curvature_rounding() const {
 // blocks in blocks_ (of u_): the rounding of each length (its log carries ε·(1 + |u|)) seen
 // through the angles' sensitivity to it.
 void FlowSolver::update_resolution() {
-  const Index nv = t_.num_vertices, nf = t_.num_faces;
+  const Index nv = t_.num_vertices;
   resolution_.resize(static_cast<std::size_t>(nv));
-  corner_resolution_.resize(3 * static_cast<std::size_t>(nf));
-#pragma omp parallel for schedule(static) if (nf >= kParallelMin)
-  for (Index f = 0; f < nf; ++f) {
-    const double* B = &blocks_[9 * static_cast<std::size_t>(f)];
-    double weight[3];
-    for (int b = 0; b < 3; ++b) weight[b] = 1 + std::abs(u_[t_.corner_vertex[3 * f + b]]);
-    for (int a = 0; a < 3; ++a)
-      corner_resolution_[3 * f + a] =
-          std::abs(B[3 * a]) * weight[0] + std::abs(B[3 * a + 1]) * weight[1] + std::abs(B[3 * a + 2]) * weight[2];
-  }
   double largest = 0;
   Index count = 0;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin) reduction(max : largest) reduction(+ : count)
   for (Index v = 0; v < nv; ++v) {
     double sum = 0;
-    for (Index i = t_.vertex_corner_offsets[v]; i < t_.vertex_corner_offsets[v + 1]; ++i)
-      sum += corner_resolution_[t_.vertex_corners[i]];
+    for (Index i = t_.vertex_corner_offsets[v]; i < t_.vertex_corner_offsets[v + 1]; ++i) {
+      const Index c = t_.vertex_corners[i], f = c / 3;
+      const double* row = &blocks_[9 * static_cast<std::size_t>(f) + 3 * static_cast<std::size_t>(c - 3 * f)];
+      for (int b = 0; b < 3; ++b) sum += std::abs(row[b]) * (1 + std::abs(u_[t_.corner_vertex[3 * f + b]]));
+    }
     resolution_[v] = kEps * sum;
     if (condition_[v] && resolution_[v] > tolerance_) {
       largest = std::max(largest, resolution_[v]);
