@@ -1360,6 +1360,11 @@ double layout_alignment_error(Geometry g, std::span<const double> a, std::span<c
 
 namespace ricci {
 
+Index farthest_face(const Topology& t, Index seed) {
+  std::vector<Index> dist;
+  return dual_bfs(t, seed, dist);
+}
+
 LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
                            std::span<const double> positions, std::span<const double> face_area, double limit) {
   LayoutMisses m;

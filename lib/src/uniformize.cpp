@@ -747,23 +747,7 @@ bool cut_and_lay_out(LayoutRun& run) {
 std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
   std::vector<Index> seeds;
   if (count <= 0 || seed < 0 || seed >= t.num_faces) return seeds;
-  std::vector<Index> dist(static_cast<std::size_t>(t.num_faces), -1);
-  std::vector<Index> queue{seed};
-  dist[static_cast<std::size_t>(seed)] = 0;
-  Index farthest = seed;
-  for (std::size_t q = 0; q < queue.size(); ++q) {
-    const Index f = queue[q];
-    const Index d = dist[static_cast<std::size_t>(f)];
-    if (d > dist[static_cast<std::size_t>(farthest)] || (d == dist[static_cast<std::size_t>(farthest)] && f < farthest))
-      farthest = f;
-    for (int k = 0; k < 3; ++k) {
-      const Index o = t.opposite[3 * static_cast<std::size_t>(f) + k];
-      if (o == kInvalid || dist[static_cast<std::size_t>(o / 3)] >= 0) continue;
-      dist[static_cast<std::size_t>(o / 3)] = d + 1;
-      queue.push_back(o / 3);
-    }
-  }
-  seeds.push_back(farthest);
+  seeds.push_back(farthest_face(t, seed));
   const int spread = count - 1;
   for (int k = 0; k < spread; ++k)
     seeds.push_back(spread == 1 ? t.num_faces / 2

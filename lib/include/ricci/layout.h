@@ -247,6 +247,10 @@ Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, 
 /// (#E) on the unit sphere — no cut is needed: the last faces close up by themselves.
 Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options = {});
 
+/// The face farthest from face `seed` in steps across edges (breadth-first over the dual graph; the
+/// smallest index among the farthest). `seed` itself when it is the only face reached.
+Index farthest_face(const Topology& t, Index seed);
+
 /// An edge of a layout may miss its length by up to this many times its rounding floor (Layout::
 /// rounding_floor) and still count as reproduced as well as its coordinates allow.
 inline constexpr double kRoundingAllowance = 8;
