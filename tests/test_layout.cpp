@@ -5,6 +5,7 @@
 // hold; alignment recovers known isometries; bad input gives a status naming the element. Shared
 // meshes (../shared/meshes, skipped when absent): figures per mesh.
 #include <doctest/doctest.h>
+#include <omp.h>
 
 #include <chrono>
 #include <cmath>
@@ -448,6 +449,96 @@ TEST_CASE("layout: divide and conquer matches the metric, the single propagation
   CHECK_FALSE(bad.is_valid(&why));
   CHECK(why.find("patches") != std::string::npos);
   bad.patches = -2;
+  CHECK_FALSE(bad.is_valid(nullptr));
+}
+
+TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threads, H breadth-first") {
+  struct Case {
+    const char* name;
+    Mesh mesh;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"torus 160x80", ricci_shapes::torus(160, 80, 3.0, 1.0)});
+  cases.push_back({"pretzel(2, 8)", ricci_shapes::pretzel(2, 8)});
+  for (const Case& c : cases) {
+    INFO(std::string(c.name));
+    const TopologyResult tr = build_topology(c.mesh.faces, c.mesh.num_vertices());
+    REQUIRE(tr.status == Status::Ok);
+    const Uniformized u = uniformize(c.mesh, tr.topology);
+    REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
+    Disk d;
+    if (u.geometry == Geometry::Euclidean) {
+      d = cut_disk(u);
+    } else {
+      d.cut = cut_compact(u.mesh, u.topo, u.flow.l);
+      REQUIRE(d.cut.status == Status::Ok);
+      d.topo = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices()).topology;
+      d.refined = refined_edge_lengths(d.cut, u.topo, u.geometry, u.flow.l);
+      d.l = disk_edge_lengths(d.cut, d.refined.surface, d.refined.l, d.topo);
+    }
+    LayoutOptions bare, lax, strict;
+    bare.patches = 0;
+    bare.polish_sweeps = 0;
+    bare.polish_steps = 0;
+    lax.refine_above = 1;  // every propagation is within 1 of its floor: nothing runs
+    strict.refine_above = 0;
+    const Layout b = layout_disk(d.topo, u.geometry, d.l, bare);
+    const Layout x = layout_disk(d.topo, u.geometry, d.l, lax);
+    REQUIRE(b.status == Status::Ok);
+    REQUIRE(x.status == Status::Ok);
+    CHECK(x.positions == b.positions);  // bit for bit: the propagation alone
+    CHECK(x.patches == 0);
+    CHECK(x.polish_sweeps == 0);
+    CHECK(x.polish_steps == 0);
+    REQUIRE(b.max_error_above_rounding > 0);  // so that the strict layout has something to refine
+    const int saved = omp_get_max_threads();
+    Layout one, two;
+    omp_set_num_threads(1);
+    one = layout_disk(d.topo, u.geometry, d.l, strict);
+    omp_set_num_threads(2);
+    two = layout_disk(d.topo, u.geometry, d.l, strict);
+    omp_set_num_threads(saved);
+    REQUIRE(one.status == Status::Ok);
+    REQUIRE(two.status == Status::Ok);
+    CHECK(one.positions == two.positions);  // patches laid out in parallel, gathered in order
+    CHECK(one.worst_edge == two.worst_edge);
+    const auto automatic = static_cast<int>(std::min<Index>(32, d.topo.num_faces / 4000));
+    CHECK(one.patches == (automatic > 1 ? automatic : 0));
+    CHECK(one.max_edge_length_error <= b.max_edge_length_error);
+    if (u.geometry == Geometry::Euclidean) CHECK(one.polish_sweeps == 30);
+    // The default: refined exactly when the propagation is more than 1e-10 above its floor.
+    const Layout def = layout_disk(d.topo, u.geometry, d.l, LayoutOptions{});
+    REQUIRE(def.status == Status::Ok);
+    const bool refined = def.patches > 0 || def.polish_sweeps > 0 || def.polish_steps > 0 || def.shape_solve;
+    CHECK(refined == (b.max_error_above_rounding > 1e-10));
+    if (!refined) CHECK(def.max_error_above_rounding <= 1e-10);
+    MESSAGE(std::string(c.name) << ": propagation " << b.max_edge_length_error << " (floor " << b.rounding_floor << "), default "
+                   << def.max_edge_length_error << (refined ? " refined" : " as propagated") << ", strict "
+                   << one.max_edge_length_error);
+    // H costs every face 1: the propagation is breadth-first, its depth the seed's dual eccentricity.
+    if (u.geometry == Geometry::Hyperbolic) {
+      std::vector<Index> dist(static_cast<std::size_t>(d.topo.num_faces), -1), queue{b.seed_face};
+      dist[b.seed_face] = 0;
+      Index far = 0;
+      for (std::size_t h = 0; h < queue.size(); ++h) {
+        const Index f = queue[h];
+        far = std::max(far, dist[f]);
+        for (int k = 0; k < 3; ++k) {
+          const Index o = d.topo.opposite[3 * f + k];
+          if (o == kInvalid || dist[o / 3] >= 0) continue;
+          dist[o / 3] = dist[f] + 1;
+          queue.push_back(o / 3);
+        }
+      }
+      CHECK(b.depth == far);
+    }
+  }
+  LayoutOptions bad;
+  bad.refine_above = -1;
+  std::string why;
+  CHECK_FALSE(bad.is_valid(&why));
+  CHECK(why.find("refine_above") != std::string::npos);
+  bad.refine_above = std::numeric_limits<double>::quiet_NaN();
   CHECK_FALSE(bad.is_valid(nullptr));
 }
 

@@ -34,11 +34,6 @@ using Cx = std::complex<double>;
 using V3 = std::array<double, 3>;
 constexpr double kPi = std::numbers::pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Layouts whose relative edge-length error after the sweeps exceeds the edges' own rounding floor
-// by more than this get global Gauss–Newton steps (LayoutOptions::polish_steps): a tenth of the
-// 1e-9 that uniformize() promises, so that the cost (a sparse factorization of 2·#V unknowns) is
-// paid only where the sweeps leave the layout near that promise.
-constexpr double kGlobalPolishAbove = 1e-10;
 // E layouts whose propagation misses the metric by more than this (above the rounding floor) are
 // also computed from the triangles' shapes by one least-squares solve (LayoutOptions::polish_steps).
 constexpr double kShapeLayoutAbove = 1e-8;
@@ -64,6 +59,23 @@ V3 scaled(const V3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
 V3 normalized(const V3& a) {
   const double n = norm(a);
   return n > 0 ? scaled(a, 1 / n) : V3{0, 0, 1};
+}
+
+/// |z| without hypot's overflow guards (a few times faster); hypot only when the square overflows
+/// or underflows.
+double euclidean_norm(Cx z) {
+  const double n2 = z.real() * z.real() + z.imag() * z.imag();
+  return n2 > 1e-300 && n2 < 1e300 ? std::sqrt(n2) : std::abs(z);
+}
+
+/// Area of a euclidean triangle with sides a, b, c by Kahan's ordering of Heron's formula (exact
+/// to a few ulps however thin the triangle); 0 when rounding leaves the sides degenerate.
+double heron_area(double a, double b, double c) {
+  if (a < b) std::swap(a, b);
+  if (b < c) std::swap(b, c);
+  if (a < b) std::swap(a, b);
+  const double p = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c));
+  return p > 0 ? 0.25 * std::sqrt(p) : 0.0;
 }
 
 /// f of the half-angle formula: identity (E), sinh (H), sin (S).
@@ -131,7 +143,7 @@ struct Positions {
   }
   double distance(Index a, Index b) const {
     switch (g) {
-      case Geometry::Euclidean: return std::abs(z(a) - z(b));
+      case Geometry::Euclidean: return euclidean_norm(z(a) - z(b));
       case Geometry::Hyperbolic: return disk_distance(z(a), z(b));
       default: return sphere_distance(p(a), p(b));
     }
@@ -161,10 +173,14 @@ struct Positions {
   void place(Index v, Index pv, Index qv, double rp, double rq) {
     switch (g) {
       case Geometry::Euclidean: {
+        // In the frame of the placed edge (P at 0, Q on +x at distance s, measured): x = along +
+        // i·across, along from the cosine law (absolute error about ε·max length), across = 2·area/s
+        // with the area by Kahan's stable Heron formula (relative error about ε), no trigonometry.
         const Cx P = z(pv), d = z(qv) - P;
-        const double s = std::abs(d);
-        const double th = angle_from_lengths(g, rq, s, rp);
-        set(v, P + std::polar(rp, std::arg(d) + th));
+        const double s = euclidean_norm(d);
+        const double along = ((rp - rq) * (rp + rq) + s * s) / (2 * s);
+        const double across = 2 * heron_area(s, rp, rq) / s;
+        set(v, P + (d / s) * Cx(along, across));
         break;
       }
       case Geometry::Hyperbolic: {
@@ -227,23 +243,44 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
 }
 
 /// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
+/// Parallel over edges; a NaN ranks above every number and ties go to the smaller edge index, so
+/// the result does not depend on the threads.
 void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o) {
-  o.max_edge_length_error = 0;
-  o.worst_edge = kInvalid;
-  o.rounding_floor = 0;
-  o.max_error_above_rounding = 0;
-  for (Index e = 0; e < t.num_edges; ++e) {
-    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-    const double d = P.distance(a, b);
-    const double err = std::abs(d - l[e]) / l[e];
-    const double drift = rounding_drift(g, P, a, b);
-    o.rounding_floor = std::max(o.rounding_floor, drift / l[e]);
-    if (!(err - drift / l[e] <= o.max_error_above_rounding)) o.max_error_above_rounding = err - drift / l[e];
-    if (!(err <= o.max_edge_length_error)) {
-      o.max_edge_length_error = err;
-      o.worst_edge = e;
+  auto rank = [](double x) { return std::isnan(x) ? kInf : x; };
+  double worst = 0, floor = 0, above = 0;
+  Index worst_edge = kInvalid;
+#pragma omp parallel
+  {
+    double my_worst = 0, my_floor = 0, my_above = 0;
+    Index my_edge = kInvalid;
+#pragma omp for schedule(static) nowait
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double d = P.distance(a, b);
+      const double err = std::abs(d - l[e]) / l[e];
+      const double drift = rounding_drift(g, P, a, b) / l[e];
+      my_floor = std::max(my_floor, drift);
+      if (rank(err - drift) > rank(my_above)) my_above = err - drift;
+      if (rank(err) > rank(my_worst)) {
+        my_worst = err;
+        my_edge = e;
+      }
+    }
+#pragma omp critical(ricci_measure_edges)
+    {
+      floor = std::max(floor, my_floor);
+      if (rank(my_above) > rank(above)) above = my_above;
+      if (my_edge != kInvalid && (rank(my_worst) > rank(worst) || (rank(my_worst) == rank(worst) &&
+                                                                   (worst_edge == kInvalid || my_edge < worst_edge)))) {
+        worst = my_worst;
+        worst_edge = my_edge;
+      }
     }
   }
+  o.max_edge_length_error = worst;
+  o.worst_edge = worst_edge;
+  o.rounding_floor = floor;
+  o.max_error_above_rounding = above;
 }
 
 // ---- validation ----------------------------------------------------------------------------
@@ -289,7 +326,7 @@ bool angles_and_areas(const Topology& t, Geometry g, std::span<const double> l, 
                 std::to_string(rep.violations) + " faces do";
     return false;
   }
-  face_areas(t, g, l, theta, area);
+  if (g != Geometry::Euclidean) face_areas(t, g, l, theta, area);  // E: no normalisation weights
   return true;
 }
 
@@ -522,21 +559,45 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
   const Index nf = t.num_faces;
   Patches out;
   out.seeds = {seed};
-  std::vector<Index> near, d;
+  // near[f]: steps from f to the nearest seed (−1: not reached). Each new seed's breadth-first
+  // search goes only where it comes strictly nearer: distances to a set of seeds are 1-Lipschitz
+  // over the dual graph, so every face on a shortest path to a face that comes nearer comes nearer
+  // too, and the pruned search gives the same distances as a full one from every seed.
+  std::vector<Index> near, queue;
   dual_bfs(t, seed, near);
+  queue.reserve(static_cast<std::size_t>(nf));
   while (static_cast<Index>(out.seeds.size()) < count) {
+    // The farthest face (the smallest index among the farthest).
     Index best = kInvalid;
-    for (Index f = 0; f < nf; ++f)
-      if (near[f] > 0 && (best == kInvalid || near[f] > near[best])) best = f;
+#pragma omp parallel
+    {
+      Index mine = kInvalid;
+#pragma omp for schedule(static) nowait
+      for (Index f = 0; f < nf; ++f)
+        if (near[f] > 0 && (mine == kInvalid || near[f] > near[mine])) mine = f;
+#pragma omp critical(ricci_partition_faces)
+      if (mine != kInvalid &&
+          (best == kInvalid || near[mine] > near[best] || (near[mine] == near[best] && mine < best)))
+        best = mine;
+    }
     if (best == kInvalid) break;
     out.seeds.push_back(best);
-    dual_bfs(t, best, d);
-    for (Index f = 0; f < nf; ++f)
-      if (d[f] >= 0 && (near[f] < 0 || d[f] < near[f])) near[f] = d[f];
+    near[best] = 0;
+    queue.assign({best});
+    for (std::size_t h = 0; h < queue.size(); ++h) {
+      const Index f = queue[h];
+      for (int k = 0; k < 3; ++k) {
+        const Index o = t.opposite[3 * f + k];
+        if (o == kInvalid) continue;
+        const Index nb = corner_face(o);
+        if (near[nb] >= 0 && near[nb] <= near[f] + 1) continue;
+        near[nb] = near[f] + 1;
+        queue.push_back(nb);
+      }
+    }
   }
   out.owner.assign(static_cast<std::size_t>(nf), kInvalid);
-  std::vector<Index> queue;
-  queue.reserve(static_cast<std::size_t>(nf));
+  queue.clear();
   for (Index p = 0; p < static_cast<Index>(out.seeds.size()); ++p) {
     out.owner[out.seeds[p]] = p;
     queue.push_back(out.seeds[p]);
@@ -600,25 +661,25 @@ void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std
   m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
 }
 
-/// Lays out patch p (seed face s) on its own by propagation into `L`, marking its faces in `owner`
-/// (as −2 − p) and listing its vertices in `touched` (each marked in `placed`). False with `out`
-/// set when a vertex leaves the range of double precision.
-bool lay_out_patch(const Topology& t, std::span<const double> l, Index p, Index s, std::vector<Index>& owner,
-                   Positions& L, std::vector<std::uint8_t>& placed, std::vector<Index>& touched,
-                   std::vector<Index>& pq, Layout& out) {
+/// Lays out patch p (seed face s; its faces: owner[f] == p) on its own by propagation into `L`,
+/// marking its faces in `visited` and listing its vertices in `touched` (each marked in
+/// `placed`). False with `out` set when a vertex leaves the range of double precision.
+bool lay_out_patch(const Topology& t, std::span<const double> l, Index p, Index s, std::span<const Index> owner,
+                   std::span<std::uint8_t> visited, Positions& L, std::vector<std::uint8_t>& placed,
+                   std::vector<Index>& touched, std::vector<Index>& pq, Layout& out) {
   const Index s0 = t.corner_vertex[3 * s], s1 = t.corner_vertex[3 * s + 1], s2 = t.corner_vertex[3 * s + 2];
   L.place_seed(s0, s1, s2, l[t.corner_edge[3 * s]], l[t.corner_edge[3 * s + 1]], l[t.corner_edge[3 * s + 2]]);
   touched.assign({s0, s1, s2});
   placed[s0] = placed[s1] = placed[s2] = 1;
   pq.assign({s});
-  owner[s] = -2 - p;
+  visited[s] = 1;
   for (std::size_t h = 0; h < pq.size(); ++h) {
     const Index f = pq[h];
     for (int c = 0; c < 3; ++c) {
       const Index o = t.opposite[3 * f + c];
-      if (o == kInvalid || owner[corner_face(o)] != p) continue;
+      if (o == kInvalid || owner[corner_face(o)] != p || visited[corner_face(o)]) continue;
       const Index nb = corner_face(o);
-      owner[nb] = -2 - p;
+      visited[nb] = 1;
       pq.push_back(nb);
       if (placed[t.corner_vertex[o]]) continue;
       const Index v = L.place_corner(t, l, o);
@@ -692,9 +753,11 @@ int fit_patch_maps(Geometry g, const std::vector<PatchCopy>& copies, const Copie
   if (maps.size() < 2 || seams == 0) return -1;
   if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.max_num_iterations = 50;
-  so.function_tolerance = 1e-20;
+  // The closed-form starts leave only a small, nearly linear correction: two or three steps reach
+  // the seams' rounding noise, where the cost moves by parts per thousand from step to step.
+  so.function_tolerance = 1e-3;
   so.gradient_tolerance = 1e-30;
   so.parameter_tolerance = 1e-20;
   so.logging_type = ceres::SILENT;
@@ -753,23 +816,40 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
                      std::vector<double>& x, Layout& out) {
   const Index nv = t.num_vertices, nf = t.num_faces;
   Patches parts = partition_faces(t, seed, std::min<Index>(count, nf));
-  std::vector<Index>& owner = parts.owner;
+  const std::vector<Index>& owner = parts.owner;
   const Index np = static_cast<Index>(parts.seeds.size());
-  std::vector<PatchCopy> copies;
-  std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
-  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
-  std::vector<Index> touched, pq;
-  Positions L{g, 2, lx};
+  // The patches are laid out in parallel, each in a frame of its own; their copies are gathered in
+  // patch order, so the result does not depend on the threads.
+  std::vector<std::vector<PatchCopy>> patch_copies(static_cast<std::size_t>(np));
+  std::vector<Layout> failures(static_cast<std::size_t>(np));
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(nf), 0);
   std::vector<PatchMap> maps(static_cast<std::size_t>(np));
-  for (Index p = 0; p < np; ++p) {
-    if (!lay_out_patch(t, l, p, parts.seeds[p], owner, L, placed, touched, pq, out)) return false;
-    start_patch_map(g, L, x, touched, maps[p]);
-    for (Index v : touched) {
-      copies.push_back({p, v, L.z(v)});
-      placed[v] = 0;
+#pragma omp parallel
+  {
+    std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
+    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+    std::vector<Index> touched, pq;
+    Positions L{g, 2, lx};
+#pragma omp for schedule(dynamic, 1)
+    for (Index p = 0; p < np; ++p) {
+      const bool ok = lay_out_patch(t, l, p, parts.seeds[p], owner, visited, L, placed, touched, pq, failures[p]);
+      if (ok) start_patch_map(g, L, x, touched, maps[p]);
+      for (Index v : touched) {
+        if (ok) patch_copies[p].push_back({p, v, L.z(v)});
+        placed[v] = 0;
+      }
     }
   }
-  for (Index f = 0; f < nf; ++f) owner[f] = -2 - owner[f];
+  for (const Layout& f : failures)
+    if (f.status == Status::NumericalFailure) {
+      out.status = f.status;
+      out.element = f.element;
+      out.element_index = f.element_index;
+      out.message = f.message;
+      return false;
+    }
+  std::vector<PatchCopy> copies;
+  for (const std::vector<PatchCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
   const CopiesByVertex by = group_copies(copies, nv);
   const std::vector<double> h = mean_edge_at_vertex(t, l);
   std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
@@ -780,53 +860,9 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   return true;
 }
 
-// ---- refining the propagation's layout -------------------------------------------------------
-
-/// After the propagation: in E, the layout from the triangles' shapes where the propagation misses
-/// its metric by more than kShapeLayoutAbove above the rounding floor (needle triangles placed
-/// from short bases can grow an error geometrically along a chain), kept when closer; the
-/// Gauss–Seidel sweeps (E, S); global Gauss–Newton steps where the layout is still coarser than
-/// kGlobalPolishAbove above its rounding floor (E, H, S; layout_polish.h). E then goes back to
-/// its rigid frame: seed corner 0 at the origin, corner 1 on +x.
-void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index s0,
-                   Index s1, const LayoutOptions& options, Positions& P, Layout& out) {
-  std::vector<double>& x = P.x;
-  const bool steps = options.polish_steps > 0;
-  if (g == Geometry::Euclidean && steps) {
-    Layout now;
-    measure_edges(t, g, l, P, now);
-    std::vector<double> trial = x;
-    if (now.max_error_above_rounding > kShapeLayoutAbove && detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
-      Layout shaped;
-      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped);
-      if (shaped.max_edge_length_error < now.max_edge_length_error) {
-        x.swap(trial);
-        out.shape_solve = true;
-      }
-    }
-  }
-  const bool sweeps = g != Geometry::Hyperbolic && options.polish_sweeps > 0;
-  if (!sweeps && !steps && !(g == Geometry::Euclidean && options.patches > 1)) return;
-  if (g != Geometry::Hyperbolic) {
-    detail::polish_by_sweeps(t, g, l, x, options.polish_sweeps);
-    out.polish_sweeps = options.polish_sweeps;
-  }
-  if (steps) {
-    Layout now;
-    measure_edges(t, g, l, P, now);
-    if (now.max_error_above_rounding > kGlobalPolishAbove)
-      out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
-  }
-  if (g == Geometry::Euclidean) {
-    const Cx o = P.z(s0), d = P.z(s1) - o;
-    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
-    for (Index v = 0; v < t.num_vertices; ++v) P.set(v, (P.z(v) - o) * rot);
-  }
-}
-
 // ---- the propagation -----------------------------------------------------------------------
 
-// The costs of the propagation's cheapest-first order (run_layout()).
+// The costs of the propagation's cheapest-first order.
 // Each face costs 1 plus how badly it conditions the vertex it places: −log sin of its smallest
 // angle (0.14 for an equilateral face, about 14 for an angle of 1e-6). The propagation develops
 // the faces cheapest-first from the seed (Dijkstra over the dual graph; breadth-first on
@@ -842,150 +878,204 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
 // placed at distance s along an angle known to about ε·l/s: an error of about ε·l). An angle whose
 // sine is above kIllPlaced adds nothing, so well-shaped meshes keep their order.
 struct PropagationCosts {
-  std::span<const double> theta;  // #F×3 corner angles
-  std::vector<double> face;       // #F
+  std::vector<double> entering;  // #F×3: the cost of entering corner_face(o) so that it places the vertex of o
+  double most = 1;               // the largest of them
 
-  PropagationCosts(Geometry g, std::span<const double> corner_angles) : theta(corner_angles) {
-    face.resize(theta.size() / 3);
-    for (std::size_t f = 0; f < face.size(); ++f) {
+  PropagationCosts(Geometry g, std::span<const double> theta) {
+    const Index nf = static_cast<Index>(theta.size() / 3);
+    entering.resize(theta.size());
+    double top = 1;
+#pragma omp parallel for schedule(static) reduction(max : top)
+    for (Index f = 0; f < nf; ++f) {
       const double smallest = std::min({theta[3 * f], theta[3 * f + 1], theta[3 * f + 2]});
-      face[f] = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
+      const double face = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
+      for (int k = 0; k < 3; ++k) {
+        const double sn = std::sin(theta[3 * f + k]);
+        const double c = face + (sn < kIllPlaced ? -std::log(std::max(sn, 1e-300)) : 0.0);
+        entering[3 * f + k] = c;
+        top = std::max(top, c);
+      }
     }
-  }
-  /// The cost of entering face corner_face(o) so that it places the vertex of corner o.
-  double entering(Index o) const {
-    const double sn = std::sin(theta[o]);
-    const double penalty = sn < kIllPlaced ? -std::log(std::max(sn, 1e-300)) : 0.0;
-    return face[corner_face(o)] + penalty;
+    most = top;
   }
 };
 
-Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
-                  Clock::time_point start) {
-  Layout out;
-  out.geometry = g;
-  out.dims = g == Geometry::Spherical ? 3 : 2;
-  std::vector<double> theta, area;
-  if (!check_lengths(t, g, l, out)) return out;
-  if (!angles_and_areas(t, g, l, theta, area, out)) return out;
+/// One face-by-face development of a disk (or a closed genus-0 surface) from a seed face whose
+/// vertices are placed already: each face taken places the vertex opposite the edge it was
+/// reached across, when that vertex has no position yet.
+///
+/// The order is cheapest-first by Dial's buckets: every entering cost is at least 1, so a face
+/// taken from the bucket of costs [k, k+1) reaches only later buckets, and the costs reached are
+/// exactly Dijkstra's; within a bucket faces come out first in first out. With all costs 1 (H)
+/// the buckets are the breadth-first levels. The buckets form a ring longer than the largest
+/// entering cost, so the work is linear in the faces.
+class Propagation {
+ public:
+  Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed)
+      : t_(t), g_(g), l_(l), seed_(seed), costs_(g, theta) {
+    const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
+    placed_.resize(nv);
+    taken_.resize(nf);
+    depth_.resize(nf);
+    reached_.resize(nf);
+    via_.resize(nf);
+    buckets_.resize(static_cast<std::size_t>(costs_.most) + 2);
+  }
 
-  const Index nv = t.num_vertices, nf = t.num_faces;
-  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face(t);
-  out.seed_face = seed;
-  std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
-  if (g == Geometry::Spherical)
-    for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
-  Positions P{g, out.dims, x};
-  std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0), taken(static_cast<std::size_t>(nf), 0);
-  std::vector<Index> depth(static_cast<std::size_t>(nf), 0);
-  std::vector<double> reached(static_cast<std::size_t>(nf));
-  std::vector<Index> via(static_cast<std::size_t>(nf), kInvalid);  // the corner of f that the face before it placed
-  const PropagationCosts costs(g, theta);
-  // (cost, order of discovery, face): equal costs come out first in first out, so with all costs
-  // equal this is the breadth-first propagation exactly.
-  using Entry = std::tuple<double, std::int64_t, Index>;
-  std::int64_t discovered = 0;
-  std::vector<Entry> heap;
-  heap.reserve(static_cast<std::size_t>(nf));
-  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
-  // One propagation; the seed face's vertices must be placed before.
-  auto propagate = [&]() -> bool {
-    std::fill(placed.begin(), placed.end(), std::uint8_t{0});
-    std::fill(taken.begin(), taken.end(), std::uint8_t{0});
-    std::fill(reached.begin(), reached.end(), kInf);
-    placed[s0] = placed[s1] = placed[s2] = 1;
-    depth[seed] = 0;
-    reached[seed] = 0;
-    via[seed] = kInvalid;
+  /// Develops every face reachable from the seed into P; false with `out` naming the vertex when
+  /// a position leaves double range. out.depth: the most faces between the seed and a face.
+  bool run(Positions& P, Layout& out) {
+    const Topology& t = t_;
+    std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
+    std::fill(taken_.begin(), taken_.end(), std::uint8_t{0});
+    std::fill(reached_.begin(), reached_.end(), kInf);
+    for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
+    depth_[seed_] = 0;
+    reached_[seed_] = 0;
+    via_[seed_] = kInvalid;
     out.depth = 0;
-    heap.clear();
-    heap.emplace_back(0.0, discovered++, seed);
-    while (!heap.empty()) {
-      std::pop_heap(heap.begin(), heap.end(), std::greater<>());
-      const auto [cost, order, f] = heap.back();
-      heap.pop_back();
-      if (taken[f] || cost > reached[f]) continue;
-      taken[f] = 1;
-      out.depth = std::max(out.depth, depth[f]);
-      if (via[f] != kInvalid && !placed[t.corner_vertex[via[f]]]) {
-        const Index v = P.place_corner(t, l, via[f]);
-        placed[v] = 1;
-        if (!P.finite(v)) {
-          out.status = Status::NumericalFailure;
-          out.element = Element::Vertex;
-          out.element_index = v;
-          out.message = "vertex " + std::to_string(v) + " left the range of double precision (" +
-                        std::string(g == Geometry::Hyperbolic ? "at the boundary of the Poincaré disk" : "not finite") +
-                        ") at propagation depth " + std::to_string(depth[f]);
-          return false;
+    const std::size_t ring = buckets_.size();
+    for (auto& b : buckets_) b.clear();
+    buckets_[0].emplace_back(0.0, seed_);
+    std::size_t pending = 1;
+    for (std::uint64_t current = 0; pending > 0; ++current) {
+      std::vector<std::pair<double, Index>>& bucket = buckets_[current % ring];
+      for (std::size_t i = 0; i < bucket.size(); ++i) {
+        const auto [cost, f] = bucket[i];
+        if (taken_[f] || cost > reached_[f]) continue;
+        taken_[f] = 1;
+        out.depth = std::max(out.depth, depth_[f]);
+        if (via_[f] != kInvalid && !placed_[t.corner_vertex[via_[f]]] && !place(P, via_[f], out)) return false;
+        for (int k = 0; k < 3; ++k) {
+          const Index o = t.opposite[3 * f + k];
+          if (o == kInvalid) continue;
+          const Index nb = corner_face(o);
+          const double c = cost + costs_.entering[o];
+          if (taken_[nb] || !(c < reached_[nb])) continue;
+          reached_[nb] = c;
+          via_[nb] = o;
+          depth_[nb] = depth_[f] + 1;
+          buckets_[static_cast<std::uint64_t>(c) % ring].emplace_back(c, nb);
+          ++pending;
         }
       }
-      for (int k = 0; k < 3; ++k) {
-        const Index o = t.opposite[3 * f + k];
-        if (o == kInvalid) continue;
-        const Index nb = corner_face(o);
-        const double c = cost + costs.entering(o);
-        if (taken[nb] || !(c < reached[nb])) continue;
-        reached[nb] = c;
-        via[nb] = o;
-        depth[nb] = depth[f] + 1;
-        heap.emplace_back(c, discovered++, nb);
-        std::push_heap(heap.begin(), heap.end(), std::greater<>());
-      }
+      pending -= bucket.size();
+      bucket.clear();
     }
     return true;
-  };
-  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
-  if (!propagate()) return out;
-  const std::vector<double> w = vertex_weights(t, area);
-  if (g == Geometry::Hyperbolic && options.normalize) {
-    // Second pass in the final frame: the seed face keeps its normalised position and the
-    // propagation runs again there, so no vertex is ever computed farther from the origin than
-    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
-    // Repeated while the frame still moves noticeably (a seed far from the centre).
-    for (int pass = 0; pass < 4; ++pass) {
-      const double moved = normalize_hyperbolic(t, P, w, seed, out);
-      if (!propagate()) return out;
-      ++out.propagation_passes;
-      if (moved < 1e-6) break;
-    }
   }
-  // Divide and conquer: kept only when it does not raise the edge-length error of the single
-  // propagation (a patch that leaves double range, or a fit that fails, leaves that layout as it was).
-  const int patches = options.patches >= 0 ? options.patches : static_cast<int>(std::min<Index>(32, nf / 4000));
+
+  /// Vertices that no face placed (none on a connected mesh).
+  Index unplaced() const {
+    return static_cast<Index>(std::count(placed_.begin(), placed_.end(), std::uint8_t{0}));
+  }
+
+ private:
+  bool place(Positions& P, Index o, Layout& out) {
+    const Index v = P.place_corner(t_, l_, o);
+    placed_[v] = 1;
+    if (P.finite(v)) return true;
+    out.status = Status::NumericalFailure;
+    out.element = Element::Vertex;
+    out.element_index = v;
+    out.message = "vertex " + std::to_string(v) + " left the range of double precision (" +
+                  std::string(g_ == Geometry::Hyperbolic ? "at the boundary of the Poincaré disk" : "not finite") +
+                  ") at propagation depth " + std::to_string(depth_[corner_face(o)]);
+    return false;
+  }
+
+  const Topology& t_;
+  Geometry g_;
+  std::span<const double> l_;
+  Index seed_;
+  PropagationCosts costs_;
+  std::vector<std::uint8_t> placed_, taken_;
+  std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
+  std::vector<double> reached_;
+  std::vector<std::vector<std::pair<double, Index>>> buckets_;
+};
+
+// ---- refining the propagation's layout -------------------------------------------------------
+
+/// After the propagation, only while the layout misses its metric by more than
+/// options.refine_above above the edges' rounding floors (`now`, kept up to date): the divide and conquer (E, H; automatic
+/// patch count, or always with an explicit count ≥ 2; kept when not less accurate); in E, the
+/// layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
+/// triangles placed from short bases can grow an error geometrically along a chain), kept when
+/// closer; the Gauss–Seidel sweeps (E, S); global Gauss–Newton steps (E, H, S; layout_polish.h).
+/// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
+/// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
+/// anything moved it.
+void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, Layout& out) {
+  std::vector<double>& x = P.x;
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
+  auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
+  bool moved = false;
+  const int automatic = coarse() ? static_cast<int>(std::min<Index>(32, t.num_faces / 4000)) : 0;
+  const int patches = options.patches >= 0 ? options.patches : automatic;
   if (patches > 1 && g != Geometry::Spherical) {
-    Layout before;
-    measure_edges(t, g, l, P, before);
-    const std::vector<double> kept = x;
-    Layout trial;
-    if (lay_out_patches(t, g, l, seed, patches, x, trial)) {
-      Layout after;
-      measure_edges(t, g, l, P, after);
-      if (std::isfinite(after.max_edge_length_error) && after.max_edge_length_error <= before.max_edge_length_error) {
-        out.patches = trial.patches;
-        out.patch_fit_iterations = trial.patch_fit_iterations;
-        out.patch_seam_error = trial.patch_seam_error;
-      } else {
-        x = kept;
-      }
+    std::vector<double> kept = x;
+    Layout trial, after;
+    if (lay_out_patches(t, g, l, seed, patches, x, trial)) measure_edges(t, g, l, P, after);
+    if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
+        after.max_edge_length_error <= now.max_edge_length_error) {
+      out.patches = trial.patches;
+      out.patch_fit_iterations = trial.patch_fit_iterations;
+      out.patch_seam_error = trial.patch_seam_error;
+      now = after;
+      moved = true;
     } else {
-      x = kept;
+      x.swap(kept);
     }
   }
-  refine_layout(t, g, l, theta, s0, s1, options, P, out);
-  for (Index v = 0; v < nv; ++v) out.unplaced_vertices += placed[v] ? 0 : 1;
+  const bool steps = options.polish_steps > 0;
+  if (g == Geometry::Euclidean && steps && now.max_error_above_rounding > kShapeLayoutAbove) {
+    std::vector<double> trial = x;
+    if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
+      Layout shaped;
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped);
+      if (shaped.max_edge_length_error < now.max_edge_length_error) {
+        x.swap(trial);
+        out.shape_solve = true;
+        now = shaped;
+        moved = true;
+      }
+    }
+  }
+  if (g != Geometry::Hyperbolic && options.polish_sweeps > 0 && coarse()) {
+    detail::polish_by_sweeps(t, g, l, x, options.polish_sweeps);
+    out.polish_sweeps = options.polish_sweeps;
+    measure_edges(t, g, l, P, now);
+    moved = true;
+  }
+  if (steps && coarse()) {
+    out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
+    measure_edges(t, g, l, P, now);
+    moved = true;
+  }
+  if (g == Geometry::Euclidean && moved) {
+    const Cx o = P.z(s0), d = P.z(s1) - o;
+    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
+    for (Index v = 0; v < t.num_vertices; ++v) P.set(v, (P.z(v) - o) * rot);
+  }
+}
 
-  // Edge-length error of the isometric layout.
-  auto edge_error = [&](Layout& o) { measure_edges(t, g, l, P, o); };
-  edge_error(out);
-
-  if (options.normalize) {
+/// The normalisation of the geometry (layout.h), the unit box, and the flipped faces; the edge
+/// error of the final positions (S with Möbius centring: of the isometric positions before it).
+void finish_layout(const Topology& t, Geometry g, std::span<const double> l, const std::vector<double>& area,
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& out) {
+  std::vector<double>& x = P.x;
+  const Index nv = t.num_vertices;
+  measure_edges(t, g, l, P, out);
+  if (options.normalize && g != Geometry::Euclidean) {
+    const std::vector<double> w = vertex_weights(t, area);
     if (g == Geometry::Hyperbolic) {
       normalize_hyperbolic(t, P, w, seed, out);
-      edge_error(out);  // an isometry: the error is re-measured on the final positions
-    } else if (g == Geometry::Spherical) {
+      measure_edges(t, g, l, P, out);  // an isometry: the error is re-measured on the final positions
+    } else {
       normalize_spherical(t, P, w, seed, options.sphere_mobius, out);
-      if (!options.sphere_mobius) edge_error(out);
+      if (!options.sphere_mobius) measure_edges(t, g, l, P, out);
     }
   }
   if (g == Geometry::Euclidean && options.unit_box && nv > 0) {
@@ -1000,12 +1090,57 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     for (Index v = 0; v < nv; ++v)
       for (int d = 0; d < 2; ++d) x[2 * v + d] = (x[2 * v + d] - lo[d]) * out.scale;
   }
-  for (Index f = 0; f < nf; ++f) {
+  Index flipped = 0, first = std::numeric_limits<Index>::max();
+#pragma omp parallel for schedule(static) reduction(+ : flipped) reduction(min : first)
+  for (Index f = 0; f < t.num_faces; ++f) {
     if (P.orientation(t.corner_vertex[3 * f], t.corner_vertex[3 * f + 1], t.corner_vertex[3 * f + 2]) < 0) {
-      if (out.flipped_faces == 0) out.first_flipped_face = f;
-      ++out.flipped_faces;
+      first = std::min(first, f);
+      ++flipped;
     }
   }
+  out.flipped_faces = flipped;
+  if (flipped > 0) out.first_flipped_face = first;
+}
+
+/// Validation, the seed, one propagation (H: repeated in the final frame), the refinement where
+/// it is needed, and the finish (normalisation, unit box, flipped faces).
+Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
+                  Clock::time_point start) {
+  Layout out;
+  out.geometry = g;
+  out.dims = g == Geometry::Spherical ? 3 : 2;
+  std::vector<double> theta, area;
+  if (!check_lengths(t, g, l, out)) return out;
+  if (!angles_and_areas(t, g, l, theta, area, out)) return out;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face(t);
+  out.seed_face = seed;
+  std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
+  if (g == Geometry::Spherical)
+    for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
+  Positions P{g, out.dims, x};
+  Propagation propagation(t, g, l, theta, seed);
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
+  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
+  if (!propagation.run(P, out)) return out;
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    // Second pass in the final frame: the seed face keeps its normalised position and the
+    // propagation runs again there, so no vertex is ever computed farther from the origin than
+    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
+    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    const std::vector<double> w = vertex_weights(t, area);
+    for (int pass = 0; pass < 4; ++pass) {
+      const double moved = normalize_hyperbolic(t, P, w, seed, out);
+      if (!propagation.run(P, out)) return out;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  out.unplaced_vertices = propagation.unplaced();
+  Layout now;
+  measure_edges(t, g, l, P, now);
+  refine_layout(t, g, l, theta, seed, options, P, now, out);
+  finish_layout(t, g, l, area, seed, options, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;
   out.message = "laid out " + std::to_string(nf) + " faces in " + std::string(geometry_name(g)) + " geometry";
@@ -1045,6 +1180,10 @@ bool LayoutOptions::is_valid(std::string* why) const {
   }
   if (seed_face < -1) {
     if (why) *why = "seed_face must be -1 (automatic) or a face index, got " + std::to_string(seed_face);
+    return false;
+  }
+  if (!(std::isfinite(refine_above) && refine_above >= 0)) {
+    if (why) *why = "refine_above must be a finite number >= 0, got " + num(refine_above);
     return false;
   }
   return true;

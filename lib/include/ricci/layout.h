@@ -16,13 +16,15 @@
 //
 // Propagation (the paper's Section 5 Step 4). The seed face is placed first (corner 0 at the
 // origin / north pole, its edge to corner 1 along +x), then faces are taken cheapest-first over the
-// dual graph (Dijkstra; each face costs 1 − log sin of its smallest angle in E and S, so slivers
+// dual graph (Dijkstra's costs in linear time by Dial's buckets; each face costs 1 − log sin of
+// its smallest angle in E and S, so slivers
 // are entered last, and 1 in H, which makes it breadth-first): every face reached across an edge
 // of a face already taken gets its third vertex placed, when that vertex has no position yet, as an intersection of the two
 // geodesic circles about the edge's placed ends (radii: the face's two other edge lengths; on the
 // left of the edge, since faces are counter-clockwise). The intersection is solved in closed form:
-//   E  the angle at the edge's first end from the three side lengths (half-angle formula, the
-//      placed edge measured from the positions), then a polar step;
+//   E  in the frame of the placed edge (its length measured from the positions): the step along
+//      it from the cosine law and the step across it as twice the area (Kahan's stable Heron
+//      formula) over its length — no trigonometry;
 //   H  a Möbius map z ↦ (z − p)/(1 − p̄ z) moves the first end p to 0, a rotation puts the second
 //      end on the positive real axis; there the circle about 0 of radius r is the euclidean circle
 //      |z| = tanh(r/2) and the point on it at the hyperbolic angle found as in E (hyperbolic
@@ -143,15 +145,20 @@ struct LayoutOptions {
   bool unit_box = false;
   /// S only: with normalize, Möbius-centre the sphere layout (not an isometry); false: rotation only.
   bool sphere_mobius = true;
-  /// E and S: sweeps of nonlinear Gauss–Seidel after the propagation — each vertex in turn takes
-  /// a Gauss–Newton step on Σ ((d(x, x_j) − l_j)/l_j)² over its edges (S: in its tangent plane,
-  /// then back onto the sphere). The propagation front leaves its rounding where it closes on
-  /// itself (one seam of edges); the sweeps spread it, which matters on large meshes
-  /// (tools/sweep_uniformize --polish-sweeps compares; on the shared nefertiti's subdivision,
-  /// 1.7e-7 → 4.4e-9). 0: none.
+  /// The refinement after the propagation (patches, shape solve, sweeps, global steps below) runs
+  /// only while the layout's relative edge-length error exceeds the edges' rounding floor
+  /// (Layout::max_error_above_rounding) by more than this. The propagation leaves the residual
+  /// curvature of the metric's double-precision lengths where its front closes on itself (one seam
+  /// of edges): about 1e-11 on 50k faces, 1e-8 on 400k; below this threshold one pass over the
+  /// faces is the layout. 0: refine every layout down to its rounding floor.
+  double refine_above = 1e-10;
+  /// E and S: sweeps of nonlinear Gauss–Seidel — each vertex in turn takes a Gauss–Newton step on
+  /// Σ ((d(x, x_j) − l_j)/l_j)² over its edges (S: in its tangent plane, then back onto the
+  /// sphere). The sweeps spread the seam's error over its neighbourhood, which matters on large
+  /// meshes (tools/sweep_uniformize --polish-sweeps compares; on the shared nefertiti's
+  /// subdivision, 1.7e-7 → 4.4e-9). 0: none.
   int polish_sweeps = 30;
-  /// E, H and S: then, when the relative edge-length error still exceeds the edges' rounding floors
-  /// by more than 1e-10 (Layout::max_error_above_rounding), up to this many
+  /// E, H and S: then, while still above refine_above, up to this many
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
   /// factorization reused by every step; a step is kept only when it lowers the max error). The sweeps reduce
   /// short-range error; these remove the long-range drift that the propagation accumulates over
@@ -163,14 +170,16 @@ struct LayoutOptions {
   int polish_steps = 3;
   /// E and H: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
   /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
-  /// over the dual graph, each patch is laid out by its own propagation, and the patches' isometries
-  /// into one frame are fitted jointly with Ceres over every vertex two patches share (each vertex
-  /// then sits at the mean of its copies). The result is kept only when its max edge-length error
-  /// is not above the single propagation's (Layout::patches says whether it was). Ignored in S.
-  /// -1 (default): automatic, min(32, #F / 4000) patches (off below 8000 faces). At most 256.
+  /// over the dual graph, each patch is laid out by its own propagation (in parallel), and the
+  /// patches' isometries into one frame are fitted jointly with Ceres over every vertex two patches
+  /// share (each vertex then sits at the mean of its copies). The result is kept only when its max
+  /// edge-length error is not above the single propagation's (Layout::patches says whether it
+  /// was). Ignored in S. -1 (default): automatic — min(32, #F / 4000) patches (none below 8000
+  /// faces), and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
   int patches = -1;
 
-  /// True when seed_face ≥ -1, polish_sweeps is in 0..10000 and polish_steps in 0..20; otherwise false, with the reason
+  /// True when seed_face ≥ -1, refine_above is finite and ≥ 0, polish_sweeps is in 0..10000 and
+  /// polish_steps in 0..20; otherwise false, with the reason
   /// in *why (when why is not null). A seed face beyond the mesh is refused by the layout call.
   bool is_valid(std::string* why) const;
 };
