@@ -1,7 +1,16 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages ricci needs to build and test. Idempotent: installs only what
 # is missing and does nothing (not even 'apt-get update') when everything is present.
+#   bash tools/setup.sh [--peers]    (--peers: also the benchmark-only peers' packages)
 set -euo pipefail
+
+peers=0
+for arg in "$@"; do
+  case "$arg" in
+    --peers) peers=1 ;;
+    *) echo "setup: unknown option '$arg' (usage: tools/setup.sh [--peers])" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   g++ make cmake          # toolchain (CMake >= 3.20)
@@ -36,6 +45,12 @@ packages=(
   python3-setuptools      # setuptools and wheel: pip builds the module offline (--no-build-isolation)
   python3-wheel
 )
+# Only with --peers: what the benchmark-only peers need (never the library, CLI or tests).
+if [ "$peers" -eq 1 ]; then
+  packages+=(
+    libcgal-dev           # CGAL (header-only): tools/peer_cgal, cmake -DRICCI_PEERS=ON
+  )
+fi
 
 missing=()
 for p in "${packages[@]}"; do
