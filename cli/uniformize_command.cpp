@@ -1267,7 +1267,8 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
       ->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks,
                   "Layouts from this many other seed faces (the first: the face farthest from the layout's own "
-                  "seed) are aligned to one from that seed (seed_independence_error). Default: 1.")
+                  "seed) are aligned to the layout (seed_independence_error), on a second thread beside the stages after "
+                  "the layout. Default: 1.")
       ->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth,
                   "Closed genus >= 1: word length of the cover tiling written (cover.svg, cover.obj): in the "
@@ -1278,7 +1279,8 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--patches", o.patches,
                   "Euclidean and hyperbolic layouts: divide and conquer with this many patches, laid out "
                   "separately and glued by isometries fitted with Ceres over every shared vertex (kept only "
-                  "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000). Default: -1.")
+                  "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000), only where one "
+                  "propagation misses its metric by more than 1e-10 above its rounding floor. Default: -1.")
       ->check(CLI::Range(-1, 256));
   cmd->add_flag("--no-pictures", o.no_pictures,
                 "Write no pictures and no report.html (only the meshes, metric, generators and report.json). "

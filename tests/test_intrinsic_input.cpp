@@ -595,7 +595,10 @@ TEST_CASE("layout: Gauss–Seidel sweeps on the sphere keep every point on it an
     const Layout a = layout_sphere(s.input, st.l, raw), b = layout_sphere(s.input, st.l, polished);
     REQUIRE(a.status == Status::Ok);
     REQUIRE(b.status == Status::Ok);
-    CHECK(b.polish_sweeps == 30);
+    // In rounds of 1, 2, 4, …: all 30 unless the layout reaches its rounding floor before.
+    CHECK(b.polish_sweeps >= 1);
+    CHECK(b.polish_sweeps <= 30);
+    CHECK((b.polish_sweeps == 30 || b.max_error_above_rounding <= 0));
     CHECK(a.polish_sweeps == 0);
     double off_sphere = 0;
     for (Index v = 0; v < s.input.num_vertices; ++v) {
@@ -604,7 +607,7 @@ TEST_CASE("layout: Gauss–Seidel sweeps on the sphere keep every point on it an
     }
     CHECK(off_sphere <= 1e-15);
     MESSAGE(s.name << ": edge error " << a.max_edge_length_error << " without sweeps, " << b.max_edge_length_error
-                   << " with 30");
+                   << " with " << b.polish_sweeps);
     // The sweeps spread the seam where the front closes: here they take 1e-11 to below 1e-12.
     CHECK(b.max_edge_length_error <= std::max(0.1 * a.max_edge_length_error, 1e-14));
     CHECK(b.flipped_faces == 0);

@@ -356,7 +356,7 @@ TEST_CASE("uniformize: a metric that is not flat fails the edge gate, and withou
   const UniformizeResult one = lay_out_metric(lr.validated.mesh, t, Geometry::Euclidean, l, o);
   REQUIRE(one.status == Status::Ok);
   CHECK(one.seed_independence_error > 1e-4);
-  // Two layouts at a time on two threads: the same numbers.
+  // The check on a second thread, beside the stages after the layout: the same numbers.
   o.flow.threads = 2;
   const UniformizeResult two = lay_out_metric(lr.validated.mesh, t, Geometry::Euclidean, l, o);
   REQUIRE(two.status == Status::Ok);

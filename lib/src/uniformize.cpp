@@ -755,69 +755,71 @@ std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
   return seeds;
 }
 
-// Seed independence: the layout again from options.seed_checks other seed faces, compared with a
-// layout from the layout's own seed (both without normalisation, so that an isometry aligns them).
-// The first check starts at the face farthest from that seed, where the two propagations share the
-// least (the longest paths, laid out in opposite directions); further checks start at faces spread
-// over the surface. With two threads available, each check is laid out beside the base (and beside
-// the check before it), so one check costs about one layout of wall time.
-bool check_seeds(LayoutRun& run) {
-  const Topology& topology = run.topology;
-  const UniformizeOptions& options = run.options;
-  const std::span<const double> metric_l = run.metric_l;
-  UniformizeResult& r = run.r;
+// Seed independence: the layout again from options.seed_checks other seed faces, each compared
+// with the layout itself up to the isometries of the geometry (align_layouts()). The layouts are
+// normalised alike (E: rigid frame, H: centre of mass, S: Möbius centring, unique up to a
+// rotation), so only an isometry separates two correct ones; E's unit box is undone by its scale.
+// The first check starts at the face farthest from the layout's seed, where the two propagations
+// share the least (the longest paths, laid out in opposite directions); further checks start at
+// faces spread over the surface. With two threads available the checks run on the second thread
+// while the deck stage runs on the first (start_seed_check() … finish_seed_check()).
+struct SeedCheck {
+  std::vector<Index> seeds;
+  std::vector<Layout> layouts;
+  std::exception_ptr error;
+  double seconds = 0;     // the checks' own wall time
+  bool beside = false;    // laid out on a second thread
+  std::jthread worker;    // last: joined before the layouts it writes are destroyed
+};
+
+void start_seed_check(LayoutRun& run, SeedCheck& sc) {
+  const UniformizeResult& r = run.r;
   const bool sphere = run.sphere;
-  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
-  const Topology& faces = sphere ? topology : r.disk;
-  const std::vector<Index> seeds = check_seed_faces(faces, r.layout.seed_face, options.seed_checks);
-  LayoutOptions lo = options.layout;
-  lo.normalize = false;
-  auto lay = [&](Index seed) {
-    LayoutOptions o = lo;
-    o.seed_face = seed;
-    return sphere ? layout_sphere(topology, metric_l, o) : layout_disk(r.disk, r.geometry, r.disk_lengths, o);
-  };
-  const int threads = options.flow.threads > 0 ? std::min(options.flow.threads, available_threads()) : available_threads();
-  // Layouts in order: the base, then the checks; two at a time when two threads are available.
-  std::vector<Layout> layouts(seeds.size() + 1);
-  std::vector<Index> order{r.layout.seed_face};
-  order.insert(order.end(), seeds.begin(), seeds.end());
-  for (std::size_t i = 0; i < order.size();) {
-    if (threads >= 2 && i + 1 < order.size()) {
-      std::exception_ptr error;
-      std::thread second([&, i] {
-        try {
-          layouts[i + 1] = lay(order[i + 1]);
-        } catch (...) {
-          error = std::current_exception();
-        }
-      });
-      try {
-        layouts[i] = lay(order[i]);
-      } catch (...) {
-        second.join();
-        throw;
+  const Topology& faces = sphere ? run.topology : r.disk;
+  sc.seeds = check_seed_faces(faces, r.layout.seed_face, run.options.seed_checks);
+  sc.layouts.resize(sc.seeds.size());
+  auto work = [&run, &sc, sphere] {
+    const UniformizeResult& res = run.r;
+    const auto t0 = Clock::now();
+    try {
+      for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
+        LayoutOptions o = run.options.layout;
+        o.seed_face = sc.seeds[k];
+        o.unit_box = false;
+        sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
+                               : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
       }
-      second.join();
-      if (error) std::rethrow_exception(error);
-      i += 2;
-    } else {
-      layouts[i] = lay(order[i]);
-      i += 1;
+    } catch (...) {
+      sc.error = std::current_exception();
     }
-  }
-  const Layout& base = layouts[0];
-  if (base.status != Status::Ok) return fail(base.status, "seed_check", base.message);
-  for (std::size_t k = 0; k < seeds.size(); ++k) {
-    const Layout& other = layouts[k + 1];
-    if (other.status != Status::Ok) return fail(other.status, "seed_check", other.message);
-    r.seed_faces_checked.push_back(seeds[k]);
+    sc.seconds = since(t0);
+  };
+  const FlowOptions& f = run.options.flow;
+  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
+  sc.beside = threads >= 2;
+  if (sc.beside) sc.worker = std::jthread(work);
+  else work();
+}
+
+bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
+  UniformizeResult& r = run.r;
+  if (sc.worker.joinable()) sc.worker.join();
+  if (sc.error) std::rethrow_exception(sc.error);
+  // The layout's own positions, back in its isometric frame (E's unit box is a translation and a
+  // uniform scale).
+  std::vector<double> own = r.layout.positions;
+  if (r.geometry == Geometry::Euclidean && r.layout.scale != 1)
+    for (double& x : own) x /= r.layout.scale;
+  for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
+    const Layout& other = sc.layouts[k];
+    if (other.status != Status::Ok) return run.fail(other.status, "seed_check", other.message);
+    r.seed_faces_checked.push_back(sc.seeds[k]);
     r.seed_independence_error =
-        std::max(r.seed_independence_error, layout_alignment_error(r.geometry, base.positions, other.positions));
+        std::max(r.seed_independence_error, layout_alignment_error(r.geometry, own, other.positions));
   }
   run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
-                               std::to_string(r.seed_faces_checked.size()) + " seeds" +
-                               (threads >= 2 ? " (two layouts at a time)" : ""));
+                                   std::to_string(r.seed_faces_checked.size()) + " seeds, laid out in " +
+                                   sci(sc.seconds) + " s" + (sc.beside ? " beside the stages after the layout" : ""));
   return true;
 }
 
@@ -990,7 +992,8 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
     if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) run.cones.push_back(v);
   if (!cut_and_lay_out(run)) return;
-  if (options.seed_checks > 0 && !check_seeds(run)) return;
+  SeedCheck seed_check;  // on the second thread until finish_seed_check() (joined on every return)
+  if (options.seed_checks > 0) start_seed_check(run, seed_check);
 
   // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
   // A metric with cones is no uniformization: its side pairings generate no surface group (the
@@ -1017,6 +1020,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   // ---- angle distortion ----
   r.angles = angle_distortion(mesh, topology, r.geometry, metric_l);
   stage_done("angles", "mean |log ratio| " + sci(r.angles.mean_abs_log) + ", max " + sci(r.angles.max_abs_log));
+  if (options.seed_checks > 0 && !finish_seed_check(run, seed_check)) return;
 
   r.status = Status::Ok;
   r.message = "ok";

@@ -156,7 +156,9 @@ struct LayoutOptions {
   /// Σ ((d(x, x_j) − l_j)/l_j)² over its edges (S: in its tangent plane, then back onto the
   /// sphere). The sweeps spread the seam's error over its neighbourhood, which matters on large
   /// meshes (tools/sweep_uniformize --polish-sweeps compares; on the shared nefertiti's
-  /// subdivision, 1.7e-7 → 4.4e-9). 0: none.
+  /// subdivision, 1.7e-7 → 4.4e-9). They run in rounds of 1, 2, 4, … sweeps, each only while the
+  /// layout is still above refine_above; this is the most in all (Layout::polish_sweeps: how many
+  /// ran). 0: none.
   int polish_sweeps = 30;
   /// E, H and S: then, while still above refine_above, up to this many
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky

@@ -20,8 +20,9 @@
 //   layout          refined_edge_lengths() + layout_disk() (plane / Poincaré disk) or
 //                   layout_sphere()
 //   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
-//                   farthest from the layout's seed), aligned by the fitted isometry to a layout
-//                   from that seed (align_layouts()): seed_independence_error
+//                   farthest from the layout's seed), aligned to the layout itself by the fitted
+//                   isometry (align_layouts()): seed_independence_error. Laid out on a second
+//                   thread while the polygon and deck stages run; reported after the angles
 //   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
 //                   domain's tiles (deck_through_domain()), best of several base vertices (below)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
@@ -126,12 +127,12 @@ struct UniformizeOptions {
   /// error, edge error, rounding floor) is below this, or once two bases in a row match the best
   /// score to 1 % (0: try them all).
   double polygon_tolerance = 1e-9;
-  /// Options of every layout; the seed check runs them with normalize off and its own seed faces.
+  /// Options of every layout; the seed check runs them with its own seed faces (and no unit box).
   LayoutOptions layout;
-  /// Extra seed faces whose layouts are compared with one from the layout's own seed: the face
-  /// farthest from it (in steps across edges), then faces spread over the surface (F/2; or 0 …
-  /// F−1 evenly). Two layouts run at a time when two threads are available (FlowOptions::threads
-  /// 0 or ≥ 2).
+  /// Extra seed faces whose layouts are compared with the layout itself: the face farthest from
+  /// its seed (in steps across edges), then faces spread over the surface (F/2; or 0 … F−1
+  /// evenly). They are laid out on a second thread, beside the stages after the layout, when two
+  /// threads are available (FlowOptions::threads 0 or ≥ 2).
   int seed_checks = 1;
   /// The layout must reproduce the metric to this relative edge-length error, else the run fails
   /// at the layout stage (NumericalFailure, naming the worst edge and the rounding floor) instead
@@ -232,8 +233,8 @@ struct UniformizeResult {
   /// kRoundingAllowance times what its coordinates resolve, their faces at most max_layout_error of
   /// the input's 3D area (the short edges at near-coincident vertices). edges = 0 when none.
   LayoutMisses layout_excused;
-  /// Max over the extra seeds of the deviation after alignment (distance of the geometry;
-  /// layouts without normalisation). 0 when seed_checks is 0.
+  /// Max over the extra seeds of the deviation from `layout` after alignment (distance of the
+  /// geometry; E: before the unit box). 0 when seed_checks is 0.
   double seed_independence_error = 0;
   std::vector<Index> seed_faces_checked;  ///< the extra seed faces, in the order they were laid out
 
