@@ -247,12 +247,15 @@ Image render_checkerboard(std::span<const double> positions, std::span<const ric
     const int max_y = std::min(SH - 1, static_cast<int>(std::ceil(std::max({y0, y1, y2}))));
     const double* uv = &corner_uv[6 * f];
     const bool textured = std::isfinite(uv[0] + uv[1] + uv[2] + uv[3] + uv[4] + uv[5]);
+    // Barycentric coordinates (w0, w1, w2) of the samples, affine in the sample position: stepped
+    // along each row.
+    const double inv = 1 / area;
+    const double w1_dx = (y2 - y0) * inv, w2_dx = -(y1 - y0) * inv;
     for (int py = min_y; py <= max_y; ++py) {
-      for (int px = min_x; px <= max_x; ++px) {
-        const double qx = px + 0.5, qy = py + 0.5;
-        // Barycentric coordinates (w0, w1, w2) of the sample.
-        const double w1 = ((qx - x0) * (y2 - y0) - (x2 - x0) * (qy - y0)) / area;
-        const double w2 = ((x1 - x0) * (qy - y0) - (qx - x0) * (y1 - y0)) / area;
+      const double qx0 = min_x + 0.5, qy = py + 0.5;
+      double w1 = ((qx0 - x0) * (y2 - y0) - (x2 - x0) * (qy - y0)) * inv;
+      double w2 = ((x1 - x0) * (qy - y0) - (qx0 - x0) * (y1 - y0)) * inv;
+      for (int px = min_x; px <= max_x; ++px, w1 += w1_dx, w2 += w2_dx) {
         const double w0 = 1 - w1 - w2;
         if (w0 < 0 || w1 < 0 || w2 < 0) continue;
         const double z = w0 * depth[a] + w1 * depth[b] + w2 * depth[c];
@@ -318,6 +321,53 @@ Image render_checkerboard(std::span<const double> positions, std::span<const ric
 // ---------------------------------------------------------------------------------------------
 // 2D drawings.
 
+namespace {
+
+/// The outline of a set of consistently oriented triangles (`order` indexes `faces`): the directed
+/// edges whose reverse is not an edge of the set, chained into closed loops (at a vertex where
+/// several loops touch, any outgoing edge continues the walk: every edge is used once, so the
+/// loops still bound the union, and their winding number at a point counts the triangles over it).
+std::vector<std::vector<ricci::Index>> outline_loops(std::span<const ricci::Index> faces,
+                                                     std::span<const std::size_t> order) {
+  std::vector<std::uint64_t> directed;
+  directed.reserve(3 * order.size());
+  auto key = [](ricci::Index a, ricci::Index b) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+  };
+  for (const std::size_t f : order)
+    for (int k = 0; k < 3; ++k) directed.push_back(key(faces[3 * f + k], faces[3 * f + (k + 1) % 3]));
+  std::sort(directed.begin(), directed.end());
+  std::vector<std::pair<ricci::Index, ricci::Index>> border;  // (from, to), sorted by from
+  for (const std::uint64_t e : directed) {
+    const auto a = static_cast<ricci::Index>(e >> 32), b = static_cast<ricci::Index>(e & 0xFFFFFFFFu);
+    if (!std::binary_search(directed.begin(), directed.end(), key(b, a))) border.emplace_back(a, b);
+  }
+  std::vector<char> used(border.size(), 0);
+  auto first_from = [&](ricci::Index a) {
+    return static_cast<std::size_t>(std::lower_bound(border.begin(), border.end(), std::make_pair(a, ricci::Index{-1})) -
+                                    border.begin());
+  };
+  std::vector<std::vector<ricci::Index>> loops;
+  for (std::size_t s = 0; s < border.size(); ++s) {
+    if (used[s]) continue;
+    std::vector<ricci::Index> loop;
+    std::size_t e = s;
+    while (true) {
+      used[e] = 1;
+      loop.push_back(border[e].first);
+      const ricci::Index next = border[e].second;
+      std::size_t n = first_from(next);
+      while (n < border.size() && border[n].first == next && used[n]) ++n;
+      if (n >= border.size() || border[n].first != next) break;  // back at the start (or an open chain)
+      e = n;
+    }
+    loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+}  // namespace
+
 Picture draw(const Drawing& g, int width, int height) {
   return render_both(width, height, [&](cairo_t* cr, int w, int h) {
     set_colour(cr, 0xFFFFFFFF);
@@ -379,6 +429,28 @@ Picture draw(const Drawing& g, int width, int height) {
     if (g.domain == Domain::SphereFront)
       std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return face_z[a] < face_z[b]; });
     cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+    // One colour and no edges: the faces are filled at once through the outline of their union
+    // (the same pixels, without the seams between anti-aliased triangles, and an SVG whose size
+    // does not grow with the faces).
+    if (g.edge_colour == 0 && g.face_colours.empty() && order.size() > 64) {
+      cairo_new_path(cr);
+      const std::vector<std::vector<ricci::Index>> loops = g.outline.empty() ? outline_loops(g.faces, order) : g.outline;
+      for (const std::vector<ricci::Index>& loop : loops) {
+        for (std::size_t i = 0; i < loop.size(); ++i) {
+          const ricci::Index v = loop[i];
+          const double x = X(g.positions[dims * v]), y = Y(g.positions[dims * v + 1]);
+          if (i == 0)
+            cairo_move_to(cr, x, y);
+          else
+            cairo_line_to(cr, x, y);
+        }
+        cairo_close_path(cr);
+      }
+      cairo_set_fill_rule(cr, CAIRO_FILL_RULE_WINDING);
+      set_colour(cr, g.face_colour);
+      cairo_fill(cr);
+      order.clear();
+    }
     for (const std::size_t f : order) {
       for (int k = 0; k < 3; ++k) {
         const ricci::Index v = g.faces[3 * f + k];

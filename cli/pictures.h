@@ -94,6 +94,10 @@ struct Drawing {
   std::uint32_t face_colour = 0xFFDCE6F2;
   std::uint32_t edge_colour = 0x40304050;  ///< thin mesh edges (0: none)
   std::vector<Polyline> lines;             ///< drawn on top (sides, generators, outlines)
+  /// Optional: the closed loops of vertices bounding the faces' union (e.g. a disk's boundary
+  /// loop). With one face colour and no edges the faces are filled at once through this outline,
+  /// computed from the faces when empty.
+  std::vector<std::vector<ricci::Index>> outline;
   std::string title;
 };
 

@@ -38,8 +38,12 @@ std::vector<Polyline> side_lines(const ricci::CutResult& cut, std::span<const do
   return out;
 }
 
-Drawing disk_drawing(const ricci::CutResult& cut, std::span<const double> positions, Geometry g, const std::string& title) {
+Drawing disk_drawing(const ricci::CutResult& cut, const ricci::Topology& disk, std::span<const double> positions,
+                     Geometry g, const std::string& title) {
   Drawing d;
+  for (Index L = 0; L < disk.num_boundary_loops(); ++L)
+    d.outline.emplace_back(disk.boundary_vertices.begin() + disk.boundary_offsets[L],
+                           disk.boundary_vertices.begin() + disk.boundary_offsets[L + 1]);
   d.domain = g == Geometry::Hyperbolic ? Domain::Disk : Domain::Plane;
   d.positions.assign(positions.begin(), positions.end());
   d.faces = cut.cut_faces;
@@ -128,16 +132,15 @@ ConformalDistortion conformal_distortion(std::span<const double> positions, std:
   return out;
 }
 
-std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, const ricci::Mesh& surface,
-                                              const ricci::CoverResult* cover, ConformalDistortion* distortion) {
-  std::vector<NamedPicture> out;
+namespace {
+
+/// The fundamental domain (and, in H, the canonical polygon), or the sphere layout.
+void domain_pictures(const ricci::UniformizeResult& r, const ricci::Mesh& surface, std::vector<NamedPicture>& out) {
   const Geometry g = r.geometry;
   const std::string gname(ricci::geometry_name(g));
-
-  // The fundamental domain(s).
   if (r.has_cut) {
     const bool compact = r.cut.compact;
-    const Drawing d = disk_drawing(r.cut, r.layout.positions, g,
+    const Drawing d = disk_drawing(r.cut, r.disk, r.layout.positions, g,
                                    compact ? std::string(r.cut.boundary_loops > 0 ? "Compact domain (" : "Compact fundamental domain (") +
                                                  std::to_string(r.cut.num_generators()) + " side pairings)"
                                            : "Fundamental domain: " + r.cut.word);
@@ -149,7 +152,8 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                    p.png, p.svg});
     if (r.has_polygon && compact) {
       // The library gives it centred (DomainDeck::polygon_frame).
-      const Picture q = draw(disk_drawing(r.polygon_cut, r.polygon.positions, g, "Canonical polygon " + r.polygon_cut.word));
+      const Picture q =
+          draw(disk_drawing(r.polygon_cut, r.polygon_disk, r.polygon.positions, g, "Canonical polygon " + r.polygon_cut.word));
       out.push_back({"polygon", "The canonical fundamental polygon",
                      "Sides a_i, b_i and their partners a_i^-1, b_i^-1 share a colour; each deck generator maps a "
                      "side onto its partner. Laid out through the compact domain's tiles.",
@@ -168,7 +172,11 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                    "The round-sphere metric laid out on the unit sphere (Möbius-centred), seen from +z.", p.png, p.svg});
   }
 
-  // The universal cover.
+}
+
+/// The universal cover's tiling, when there is one.
+void cover_picture(const ricci::UniformizeResult& r, const ricci::CoverResult* cover, std::vector<NamedPicture>& out) {
+  const Geometry g = r.geometry;
   if (cover != nullptr && cover->status == ricci::Status::Ok && r.has_cut) {
     const ricci::Mesh tiling = ricci::cover_mesh(r.cut, r.layout.positions, *cover);
     Drawing d;
@@ -220,39 +228,29 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                    p.png, std::string()});
   }
 
-  // Checkerboard renderings from three viewpoints.
-  const std::vector<double> uv = corner_uv(r, surface);
-  if (distortion != nullptr) *distortion = conformal_distortion(surface.positions, surface.faces, uv);
-  CheckerOptions co;
-  co.checks_across = g == Geometry::Spherical ? 24 : 20;
-  const double az[3] = {30, 150, 270};
-  for (int k = 0; k < 3; ++k) {
-    CheckerView view;
-    view.azimuth_degrees = az[k];
-    view.elevation_degrees = 20;
-    const Image img = render_checkerboard(surface.positions, surface.faces, uv, view, co);
-    out.push_back({"checker-" + std::to_string(k + 1), "Checkerboard, view " + std::to_string(k + 1),
-                   k == 0 ? std::string("The surface textured by its parameterization (") +
-                                (g == Geometry::Spherical ? "Mercator projection of the sphere layout" : "the layout") +
-                                "). A conformal map keeps checks square; they only change size."
-                          : std::string(),
-                   encode_png(img), std::string()});
-  }
+}
 
-  // Angle ratios.
+/// The histogram of corner-angle ratios.
+void angle_picture(const ricci::UniformizeResult& r, std::vector<NamedPicture>& out) {
   if (!r.angles.ratio.empty()) {
     double lo = 1, hi = 1;
-    std::vector<double> sorted = r.angles.ratio;
-    std::sort(sorted.begin(), sorted.end());
-    lo = std::min(0.5, sorted[sorted.size() / 200]);
-    hi = std::max(1.5, sorted[sorted.size() - 1 - sorted.size() / 200]);
+    // The 0.5 % and 99.5 % quantiles (two selections, not a sort).
+    std::vector<double> q = r.angles.ratio;
+    const std::size_t low = q.size() / 200, high = q.size() - 1 - q.size() / 200;
+    std::nth_element(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(high), q.end());
+    hi = std::max(1.5, q[high]);
+    std::nth_element(q.begin(), q.begin() + static_cast<std::ptrdiff_t>(low), q.begin() + static_cast<std::ptrdiff_t>(high));
+    lo = std::min(0.5, q[low]);
     const Picture p = histogram(r.angles.ratio, lo, hi, 60, "Corner angles: input / conformal metric", "angle ratio");
     out.push_back({"angles", "Angle distortion",
                    "Corner angles of the input mesh over those of the computed metric (the mapped angles); 1 is perfect.",
                    p.png, p.svg});
   }
 
-  // Convergence.
+}
+
+/// Newton's convergence by iteration and by time.
+void convergence_pictures(const ricci::UniformizeResult& r, std::vector<NamedPicture>& out) {
   if (!r.flow.history.empty()) {
     Chart it, tm;
     it.title = "Newton convergence";
@@ -278,6 +276,55 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
                    a.png, a.svg});
     out.push_back({"convergence-time", "Convergence by time", "The same against wall-clock seconds.", b.png, b.svg});
   }
+}
+
+/// The checkerboard rendering from view k of three (azimuths 30°, 150°, 270°), as PNG.
+std::string checker_png(const ricci::Mesh& surface, std::span<const double> uv, Geometry g, int k) {
+  CheckerOptions co;
+  co.checks_across = g == Geometry::Spherical ? 24 : 20;
+  const double az[3] = {30, 150, 270};
+  CheckerView view;
+  view.azimuth_degrees = az[k];
+  view.elevation_degrees = 20;
+  return encode_png(render_checkerboard(surface.positions, surface.faces, uv, view, co));
+}
+
+}  // namespace
+
+std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, const ricci::Mesh& surface,
+                                              const ricci::CoverResult* cover, ConformalDistortion* distortion) {
+  const Geometry g = r.geometry;
+  const std::vector<double> uv = corner_uv(r, surface);
+  if (distortion != nullptr) *distortion = conformal_distortion(surface.positions, surface.faces, uv);
+  // Two threads: the checkerboards (software rasterizer, no text) on one, the vector drawings
+  // (cairo, with text) and the third checkerboard on the other; gathered in a fixed order.
+  std::vector<NamedPicture> drawn, charts;
+  std::string png[3];
+#pragma omp parallel sections num_threads(2)
+  {
+#pragma omp section
+    {
+      png[0] = checker_png(surface, uv, g, 0);
+      png[2] = checker_png(surface, uv, g, 2);
+    }
+#pragma omp section
+    {
+      domain_pictures(r, surface, drawn);
+      cover_picture(r, cover, drawn);
+      angle_picture(r, charts);
+      convergence_pictures(r, charts);
+      png[1] = checker_png(surface, uv, g, 1);
+    }
+  }
+  std::vector<NamedPicture> out = std::move(drawn);
+  for (int k = 0; k < 3; ++k)
+    out.push_back({"checker-" + std::to_string(k + 1), "Checkerboard, view " + std::to_string(k + 1),
+                   k == 0 ? std::string("The surface textured by its parameterization (") +
+                                (g == Geometry::Spherical ? "Mercator projection of the sphere layout" : "the layout") +
+                                "). A conformal map keeps checks square; they only change size."
+                          : std::string(),
+                   std::move(png[k]), std::string()});
+  for (NamedPicture& c : charts) out.push_back(std::move(c));
   return out;
 }
 
