@@ -130,6 +130,7 @@ struct UniformizeCommandOptions {
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
   bool unit_box = false;                  ///< E: layout scaled into [0,1]²
   int patches = -1;                       ///< layout: divide-and-conquer patches (-1 automatic)
+  double layout_refine_above = 1e-10;     ///< layout: refine only above the rounding floor by more than this
   bool no_pictures = false;               ///< no PNG/SVG pictures, no report.html
   bool no_angle_relax = false;
   bool no_circle_normalization = false;

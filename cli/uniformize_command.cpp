@@ -530,6 +530,7 @@ Json report_json(const Run& run) {
                        {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
                        {"excused_edges", r.layout_excused.edges},
                        {"excused_area_fraction", real(r.layout_excused.area_fraction)},
+                       {"polish_sweeps", L.polish_sweeps},
                        {"polish_steps", L.polish_steps},
                        {"shape_solve", L.shape_solve},
                        {"seed_face", L.seed_face},
@@ -685,6 +686,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   uo.seed_checks = o.seed_checks;
   uo.layout.unit_box = o.unit_box;
   uo.layout.patches = o.patches;
+  uo.layout.refine_above = o.layout_refine_above;
   if (!uo.is_valid(&why)) return usage(why);
   return std::nullopt;
 }
@@ -1282,6 +1284,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000), only where one "
                   "propagation misses its metric by more than 1e-10 above its rounding floor. Default: -1.")
       ->check(CLI::Range(-1, 256));
+  cmd->add_option("--layout-refine-above", o.layout_refine_above,
+                  "Refine the layout (patches, Gauss-Seidel sweeps, global Gauss-Newton steps) only while its "
+                  "relative edge-length error exceeds its coordinates' rounding floor by more than this; 0: refine "
+                  "every layout down to its rounding floor. Default: 1e-10.")
+      ->check(number_validator(false, false));
   cmd->add_flag("--no-pictures", o.no_pictures,
                 "Write no pictures and no report.html (only the meshes, metric, generators and report.json). "
                 "Default: off.");
@@ -1318,6 +1325,8 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
   cmd->add_option("--patches", o.patches, "As for uniformize. Default: -1.")->check(CLI::Range(-1, 256));
+  cmd->add_option("--layout-refine-above", o.layout_refine_above, "As for uniformize. Default: 1e-10.")
+      ->check(number_validator(false, false));
   cmd->add_flag("--json", o.json, "Print the report on stdout. Default: off.");
   cmd->add_flag("-q,--quiet", o.quiet, "Silence progress and notes on stderr. Default: off.");
   cmd->add_flag("--largest-component", o.largest_component, "Keep the largest connected component. Default: off.");

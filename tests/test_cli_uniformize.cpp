@@ -218,6 +218,18 @@ TEST_CASE("cli uniformize: torus, sphere and disk outputs") {
   CHECK(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", (tmp / "t9").string(), "-q",
                  "--patches", "257"})
             .exit_code == 2);
+  // --layout-refine-above 0: the sweeps run down to the rounding floor (not at the default, where
+  // one propagation is within 1e-10 of it on this torus); a negative threshold is a usage error.
+  CHECK(t["layout"]["polish_sweeps"] == 0);
+  const auto strict = run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o",
+                               (tmp / "t0").string(), "--json", "-q", "--no-pictures", "--layout-refine-above", "0"});
+  REQUIRE(strict.exit_code == 0);
+  const Json t0 = parse(strict.out);
+  CHECK(t0["layout"]["max_edge_length_error"].get<double>() <= t["layout"]["max_edge_length_error"].get<double>());
+  CHECK((t0["layout"]["polish_sweeps"].get<int>() > 0 || t0["layout"]["max_error_above_rounding"].get<double>() == 0));
+  CHECK(run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o", (tmp / "t10").string(), "-q",
+                 "--layout-refine-above", "-1"})
+            .exit_code == 2);
 
   const auto sphere = run_cli({"uniformize", (ricci_test::fixtures_dir() / "icosphere.obj").string(), "-o",
                                (tmp / "s").string(), "--json", "-q"});

@@ -170,6 +170,16 @@ def test_library_failures_carry_their_status(tmp_path):
     assert e.value.status == "invalid_argument"
 
 
+def test_layout_refine_above_reaches_the_layout():
+    # 0 refines every layout to its rounding floor: never less accurate than the default.
+    default = ricci.uniformize(FIXTURES / "torus.obj", seed_checks=0)
+    strict = ricci.uniformize(FIXTURES / "torus.obj", seed_checks=0, layout_refine_above=0.0)
+    assert default.report["layout"]["polish_sweeps"] == 0
+    assert strict.report["layout"]["max_edge_length_error"] <= default.report["layout"]["max_edge_length_error"]
+    with pytest.raises(TypeError, match="layout_refine_above"):
+        ricci.uniformize(FIXTURES / "torus.obj", layout_refine_above="small")
+
+
 def test_bad_options_are_type_errors():
     with pytest.raises(TypeError, match="unknown option 'tolerance'"):
         ricci.uniformize(FIXTURES / "torus.obj", tolerance=1e-9)

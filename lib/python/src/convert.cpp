@@ -183,6 +183,7 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"seed_checks", integer(&O::seed_checks, o)},
                   {"cover_depth", integer(&O::cover_depth, o)},
                   {"patches", integer(&O::patches, o)},
+                  {"layout_refine_above", real(&O::layout_refine_above, o)},
                   {"unit_box", flag(&O::unit_box, o, false)}});
   apply(options, setters, "uniformize");
 }
