@@ -491,6 +491,7 @@ TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threa
     CHECK(x.polish_sweeps == 0);
     CHECK(x.polish_steps == 0);
     REQUIRE(b.max_error_above_rounding > 0);  // so that the strict layout has something to refine
+    CHECK(b.seed_face == central_face(d.topo));  // the default seed, public for the seed check
     const int saved = omp_get_max_threads();
     Layout one, two;
     omp_set_num_threads(1);

@@ -354,7 +354,7 @@ Index dual_bfs(const Topology& t, Index s, std::vector<Index>& dist) {
   return far;
 }
 
-Index central_face(const Topology& t) {
+Index central_face_of(const Topology& t) {
   std::vector<Index> da, db;
   const Index a = dual_bfs(t, dual_bfs(t, 0, da), da);
   const Index b = dual_bfs(t, a, da);
@@ -1116,7 +1116,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   if (!check_lengths(t, g, l, out)) return out;
   if (!angles_and_areas(t, g, l, theta, area, out)) return out;
   const Index nv = t.num_vertices, nf = t.num_faces;
-  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face(t);
+  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face_of(t);
   out.seed_face = seed;
   std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
   if (g == Geometry::Spherical)
@@ -1506,6 +1506,8 @@ Index farthest_face(const Topology& t, Index seed) {
   std::vector<Index> dist;
   return dual_bfs(t, seed, dist);
 }
+
+Index central_face(const Topology& t) { return t.num_faces > 0 ? central_face_of(t) : kInvalid; }
 
 LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
                            std::span<const double> positions, std::span<const double> face_area, double limit) {

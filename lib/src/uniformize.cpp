@@ -103,15 +103,14 @@ struct DiskBuild {
   RefinedMetric metric;
   Topology disk;
   std::vector<double> lengths;
-  Layout layout;
   Status status = Status::NotRun;
   std::string message;
   std::string stage;
 };
 
-/// cut → metric on the cut → layout, for one set of cut options.
+/// cut → metric on the cut → the disk's connectivity and lengths, for one set of cut options.
 DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l,
-                     const CutOptions& co, const LayoutOptions& lo) {
+                     const CutOptions& co) {
   DiskBuild d;
   d.cut = cut_surface(mesh, topology, co);
   if (d.cut.status != Status::Ok) {
@@ -136,13 +135,6 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
   }
   d.disk = std::move(tr.topology);
   d.lengths = disk_edge_lengths(d.cut, d.metric.surface, d.metric.l, d.disk);
-  d.layout = layout_disk(d.disk, g, d.lengths, lo);
-  if (d.layout.status != Status::Ok) {
-    d.status = d.layout.status;
-    d.message = d.layout.message;
-    d.stage = "layout";
-    return d;
-  }
   d.status = Status::Ok;
   return d;
 }
@@ -596,6 +588,8 @@ namespace {
 
 // The stages from `cut` on (layout_stages()), sharing the inputs and the result. Each step returns
 // false once a stage failed (r.status, failed_stage and message set).
+struct SeedCheck;
+
 struct LayoutRun {
   const Mesh& mesh;
   const Topology& topology;
@@ -607,6 +601,7 @@ struct LayoutRun {
   bool sphere = false;     // closed genus 0: laid out on the sphere, uncut
   bool closed_h = false;   // closed genus >= 2 in H: the compact domain and a canonical polygon
   std::vector<Index> cones;  // interior vertices with target K̄ ≠ 0
+  SeedCheck* seed_check = nullptr;  // started beside the layout (options.seed_checks > 0)
 
   bool fail(Status s, const std::string& stage, const std::string& message) {
     r.status = s;
@@ -637,6 +632,74 @@ std::vector<double> cut_face_areas(const CutResult& cut) {
 
 // Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
 // gate: a layout that does not reproduce the metric is no result.
+// The face farthest from `seed` in steps across edges (breadth-first; the smallest index among the
+// farthest), and the seeds of the checks after it: evenly spread over the faces (F/2 for one).
+std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
+  std::vector<Index> seeds;
+  if (count <= 0 || seed < 0 || seed >= t.num_faces) return seeds;
+  seeds.push_back(farthest_face(t, seed));
+  const int spread = count - 1;
+  for (int k = 0; k < spread; ++k)
+    seeds.push_back(spread == 1 ? t.num_faces / 2
+                                : static_cast<Index>((static_cast<std::int64_t>(t.num_faces - 1) * k) / (spread - 1)));
+  return seeds;
+}
+
+// Seed independence: the layout again from options.seed_checks other seed faces, each compared
+// with the layout itself up to the isometries of the geometry (align_layouts()). The layouts are
+// normalised alike (E: rigid frame, H: centre of mass, S: Möbius centring, unique up to a
+// rotation), so only an isometry separates two correct ones; E's unit box is undone by its scale.
+// The first check starts at the face farthest from the layout's seed, where the two propagations
+// share the least (the longest paths, laid out in opposite directions); further checks start at
+// faces spread over the surface. With two threads available the checks run on a second thread,
+// started just before the layout itself (start_layout()) and joined after the angles
+// (finish_seed_check()), so they overlap the layout and every stage after it.
+struct SeedCheck {
+  std::vector<Index> seeds;
+  std::vector<Layout> layouts;
+  std::exception_ptr error;
+  double seconds = 0;     // the checks' own wall time
+  bool beside = false;    // laid out on a second thread
+  std::jthread worker;    // last: joined before the layouts it writes are destroyed
+};
+
+void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Index seed) {
+  const bool sphere = run.sphere;
+  sc.seeds = check_seed_faces(faces, seed, run.options.seed_checks);
+  sc.layouts.resize(sc.seeds.size());
+  auto work = [&run, &sc, sphere] {
+    const UniformizeResult& res = run.r;
+    const auto t0 = Clock::now();
+    try {
+      for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
+        LayoutOptions o = run.options.layout;
+        o.seed_face = sc.seeds[k];
+        o.unit_box = false;
+        sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
+                               : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
+      }
+    } catch (...) {
+      sc.error = std::current_exception();
+    }
+    sc.seconds = since(t0);
+  };
+  const FlowOptions& f = run.options.flow;
+  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
+  sc.beside = threads >= 2;
+  if (sc.beside) sc.worker = std::jthread(work);
+  else work();
+}
+
+// The options of the layout itself: its seed made explicit (the default central face), so that
+// the seed check can start from the face farthest from it, beside the layout, before it runs.
+LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
+  LayoutOptions lo = run.options.layout;
+  if (lo.seed_face < 0) lo.seed_face = central_face(faces);
+  if (run.seed_check != nullptr && lo.seed_face >= 0 && lo.seed_face < faces.num_faces)
+    start_seed_check(run, *run.seed_check, faces, lo.seed_face);
+  return lo;
+}
+
 bool cut_and_lay_out(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
@@ -670,7 +733,7 @@ bool cut_and_lay_out(LayoutRun& run) {
 
   // ---- cut and layout ----
   if (sphere) {
-    r.layout = layout_sphere(topology, metric_l, options.layout);
+    r.layout = layout_sphere(topology, metric_l, start_layout(run, topology));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
   } else if (compact) {
@@ -688,25 +751,21 @@ bool cut_and_lay_out(LayoutRun& run) {
     r.disk_lengths = disk_edge_lengths(r.cut, r.cut_metric.surface, r.cut_metric.l, r.disk);
     stage_done("cut", "compact domain: " + std::to_string(r.cut.num_sides()) + " sides, " +
                           std::to_string(r.cut.num_generators()) + " side pairings");
-    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, options.layout);
+    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
   } else {
     r.has_cut = true;
-    DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut, options.layout);
+    DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut);
     r.cut = std::move(d.cut);
     r.cut_metric = std::move(d.metric);
     r.disk = std::move(d.disk);
     r.disk_lengths = std::move(d.lengths);
-    r.layout = std::move(d.layout);
     if (d.status != Status::Ok) return fail(d.status, d.stage, d.message);
-    const double total = since(stage_done.t0);
-    const double lay_s = std::min(total, r.layout.seconds);
-    r.timings.emplace_back("cut", total - lay_s);
-    if (options.on_stage) options.on_stage(StageRecord{"cut", total - lay_s, r.cut.brief_report()});
-    r.timings.emplace_back("layout", lay_s);
-    if (options.on_stage) options.on_stage(StageRecord{"layout", lay_s, r.layout.brief_report()});
-    stage_done.t0 = Clock::now();
+    stage_done("cut", r.cut.brief_report());
+    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
+    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
+    stage_done("layout", r.layout.brief_report());
   }
 
   // ---- the accuracy gate: a layout that does not reproduce the metric is no result ----
@@ -742,65 +801,6 @@ bool cut_and_lay_out(LayoutRun& run) {
   return true;
 }
 
-// The face farthest from `seed` in steps across edges (breadth-first; the smallest index among the
-// farthest), and the seeds of the checks after it: evenly spread over the faces (F/2 for one).
-std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
-  std::vector<Index> seeds;
-  if (count <= 0 || seed < 0 || seed >= t.num_faces) return seeds;
-  seeds.push_back(farthest_face(t, seed));
-  const int spread = count - 1;
-  for (int k = 0; k < spread; ++k)
-    seeds.push_back(spread == 1 ? t.num_faces / 2
-                                : static_cast<Index>((static_cast<std::int64_t>(t.num_faces - 1) * k) / (spread - 1)));
-  return seeds;
-}
-
-// Seed independence: the layout again from options.seed_checks other seed faces, each compared
-// with the layout itself up to the isometries of the geometry (align_layouts()). The layouts are
-// normalised alike (E: rigid frame, H: centre of mass, S: Möbius centring, unique up to a
-// rotation), so only an isometry separates two correct ones; E's unit box is undone by its scale.
-// The first check starts at the face farthest from the layout's seed, where the two propagations
-// share the least (the longest paths, laid out in opposite directions); further checks start at
-// faces spread over the surface. With two threads available the checks run on the second thread
-// while the deck stage runs on the first (start_seed_check() … finish_seed_check()).
-struct SeedCheck {
-  std::vector<Index> seeds;
-  std::vector<Layout> layouts;
-  std::exception_ptr error;
-  double seconds = 0;     // the checks' own wall time
-  bool beside = false;    // laid out on a second thread
-  std::jthread worker;    // last: joined before the layouts it writes are destroyed
-};
-
-void start_seed_check(LayoutRun& run, SeedCheck& sc) {
-  const UniformizeResult& r = run.r;
-  const bool sphere = run.sphere;
-  const Topology& faces = sphere ? run.topology : r.disk;
-  sc.seeds = check_seed_faces(faces, r.layout.seed_face, run.options.seed_checks);
-  sc.layouts.resize(sc.seeds.size());
-  auto work = [&run, &sc, sphere] {
-    const UniformizeResult& res = run.r;
-    const auto t0 = Clock::now();
-    try {
-      for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
-        LayoutOptions o = run.options.layout;
-        o.seed_face = sc.seeds[k];
-        o.unit_box = false;
-        sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
-                               : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
-      }
-    } catch (...) {
-      sc.error = std::current_exception();
-    }
-    sc.seconds = since(t0);
-  };
-  const FlowOptions& f = run.options.flow;
-  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
-  sc.beside = threads >= 2;
-  if (sc.beside) sc.worker = std::jthread(work);
-  else work();
-}
-
 bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   UniformizeResult& r = run.r;
   if (sc.worker.joinable()) sc.worker.join();
@@ -819,7 +819,7 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   }
   run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
                                    std::to_string(r.seed_faces_checked.size()) + " seeds, laid out in " +
-                                   sci(sc.seconds) + " s" + (sc.beside ? " beside the stages after the layout" : ""));
+                                   sci(sc.seconds) + " s" + (sc.beside ? " beside the layout and the stages after it" : ""));
   return true;
 }
 
@@ -991,9 +991,9 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   run.closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
   for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
     if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) run.cones.push_back(v);
+  SeedCheck seed_check;  // on a second thread until finish_seed_check() (joined on every return)
+  if (options.seed_checks > 0) run.seed_check = &seed_check;
   if (!cut_and_lay_out(run)) return;
-  SeedCheck seed_check;  // on the second thread until finish_seed_check() (joined on every return)
-  if (options.seed_checks > 0) start_seed_check(run, seed_check);
 
   // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
   // A metric with cones is no uniformization: its side pairings generate no surface group (the
@@ -1020,7 +1020,7 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   // ---- angle distortion ----
   r.angles = angle_distortion(mesh, topology, r.geometry, metric_l);
   stage_done("angles", "mean |log ratio| " + sci(r.angles.mean_abs_log) + ", max " + sci(r.angles.max_abs_log));
-  if (options.seed_checks > 0 && !finish_seed_check(run, seed_check)) return;
+  if (run.seed_check != nullptr && !finish_seed_check(run, seed_check)) return;
 
   r.status = Status::Ok;
   r.message = "ok";

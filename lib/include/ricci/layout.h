@@ -262,6 +262,10 @@ Layout layout_sphere(const Topology& surface, std::span<const double> l, const L
 /// smallest index among the farthest). `seed` itself when it is the only face reached.
 Index farthest_face(const Topology& t, Index seed);
 
+/// The seed layout_disk() and layout_sphere() take when LayoutOptions::seed_face is -1: the
+/// central face of the double-sweep diameter (see the top of this header). kInvalid without faces.
+Index central_face(const Topology& t);
+
 /// An edge of a layout may miss its length by up to this many times its rounding floor (Layout::
 /// rounding_floor) and still count as reproduced as well as its coordinates allow.
 inline constexpr double kRoundingAllowance = 8;

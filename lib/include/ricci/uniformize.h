@@ -22,7 +22,7 @@
 //   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
 //                   farthest from the layout's seed), aligned to the layout itself by the fitted
 //                   isometry (align_layouts()): seed_independence_error. Laid out on a second
-//                   thread while the polygon and deck stages run; reported after the angles
+//                   thread beside the layout and the stages after it; reported after the angles
 //   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
 //                   domain's tiles (deck_through_domain()), best of several base vertices (below)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
@@ -131,8 +131,8 @@ struct UniformizeOptions {
   LayoutOptions layout;
   /// Extra seed faces whose layouts are compared with the layout itself: the face farthest from
   /// its seed (in steps across edges), then faces spread over the surface (F/2; or 0 … F−1
-  /// evenly). They are laid out on a second thread, beside the stages after the layout, when two
-  /// threads are available (FlowOptions::threads 0 or ≥ 2).
+  /// evenly). They are laid out on a second thread, beside the layout and the stages after it,
+  /// when two threads are available (FlowOptions::threads 0 or ≥ 2).
   int seed_checks = 1;
   /// The layout must reproduce the metric to this relative edge-length error, else the run fails
   /// at the layout stage (NumericalFailure, naming the worst edge and the rounding floor) instead
