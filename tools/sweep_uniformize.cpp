@@ -146,12 +146,14 @@ int main(int argc, char** argv) {
   if (!out_path.empty()) {
     std::string doc = "# ricci uniformize on the shared meshes\n\n"
                       "`build/tools/sweep_uniformize --out tools/SWEEP-uniformize.md` (Release build), library defaults "
-                      "(Newton to 1e-12 plus polishing, 3 extra seeds, 8 base vertices for the canonical polygon). "
-                      "Hardware threads: " +
+                      "(Newton to 1e-12 plus polishing, " + std::to_string(options.seed_checks) + " extra seed" +
+                      (options.seed_checks == 1 ? "" : "s") + ", " + std::to_string(options.base_candidates) +
+                      " base vertices for the canonical polygon; the layout refined only where it misses its "
+                      "metric by more than 1e-10 above its rounding floor). Hardware threads: " +
                       std::to_string(std::thread::hardware_concurrency()) +
                       ".\n\nColumns: *layout edge error* — max relative edge-length error of the layout (the compact "
-                      "domain for closed and bordered H surfaces); *seed independence* — largest deviation of three "
-                      "more seed layouts after the fitted isometry; *domain cycles* — the compact domain's fitted side "
+                      "domain for closed and bordered H surfaces); *seed independence* — largest deviation of the "
+                      "extra seeds' layouts from the layout after the fitted isometry; *domain cycles* — the compact domain's fitted side "
                       "pairings around its vertex cycles (distance to the identity); *pairings moved* — how far (largest "
                       "hyperbolic displacement of a side vertex) the pairings moved onto exact cycles; *relation error* "
                       "— Π[A_i⁻¹, B_i] of the canonical generators (H: products of the moved pairings, 113-bit); *as "
