@@ -161,6 +161,30 @@ TEST_CASE("layout: every fixture lays out with the metric's edge lengths, no fli
   }
 }
 
+TEST_CASE("layout: an unrefined cut carries the input's own connectivity and lengths") {
+  // A disk is not cut and a coarse torus's cut adds no vertex: the refined surface is the input,
+  // its connectivity copied (not rebuilt) and every length copied bit for bit.
+  using namespace ricci_shapes;
+  for (const Mesh& m : {disk(6), torus(8, 6, 2.0, 0.7)}) {
+    const Topology t = build_topology(m.faces, m.num_vertices()).topology;
+    const CutResult cut = cut_surface(m, t);
+    REQUIRE(cut.status == Status::Ok);
+    if (cut.num_refined_vertices() != 0) continue;
+    std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+    for (Index e = 0; e < t.num_edges; ++e) l[e] = 1 + 0.01 * (e % 7);
+    const RefinedMetric r = refined_edge_lengths(cut, t, Geometry::Euclidean, l);
+    REQUIRE(r.status == Status::Ok);
+    const Topology rebuilt = build_topology(cut.surface_faces, t.num_vertices).topology;
+    CHECK(r.surface.corner_vertex == rebuilt.corner_vertex);
+    CHECK(r.surface.opposite == rebuilt.opposite);
+    CHECK(r.surface.corner_edge == rebuilt.corner_edge);
+    CHECK(r.surface.edge_vertices == rebuilt.edge_vertices);
+    CHECK(r.surface.vertex_corners == rebuilt.vertex_corners);
+    CHECK(r.surface.boundary_vertices == rebuilt.boundary_vertices);
+    CHECK(r.l == l);
+  }
+}
+
 TEST_CASE("layout: the metric carried to refined surfaces is exact in E, H and S") {
   using namespace ricci_shapes;
   Index refined_meshes = 0;

@@ -1257,10 +1257,17 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
     r.l.clear();
     return r;
   }
-  TopologyResult st = build_topology(cut.surface_faces, nin + nadd);
-  if (st.status != Status::Ok)
-    return fail(Status::InvalidArgument, "the cut's refined surface is not a valid mesh: " + st.message);
-  r.surface = std::move(st.topology);
+  // Without refinement the surface is the input itself (same faces, same corners): its
+  // connectivity is copied rather than built again.
+  if (nadd == 0 && std::equal(cut.surface_faces.begin(), cut.surface_faces.end(), input.corner_vertex.begin(),
+                              input.corner_vertex.end())) {
+    r.surface = input;
+  } else {
+    TopologyResult st = build_topology(cut.surface_faces, nin + nadd);
+    if (st.status != Status::Ok)
+      return fail(Status::InvalidArgument, "the cut's refined surface is not a valid mesh: " + st.message);
+    r.surface = std::move(st.topology);
+  }
   const Topology& s = r.surface;
   for (Index f : cut.surface_face_to_input)
     if (f < 0 || f >= input.num_faces)

@@ -126,14 +126,21 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
     d.stage = "cut_metric";
     return d;
   }
-  TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
-  if (tr.status != Status::Ok) {
-    d.status = Status::NumericalFailure;
-    d.message = "the cut disk is not a valid mesh: " + tr.message;
-    d.stage = "cut_metric";
-    return d;
+  // A disk is not cut: its disk is the surface itself, whose connectivity is copied.
+  if (d.cut.num_cut_vertices() == d.metric.surface.num_vertices &&
+      std::equal(d.cut.cut_faces.begin(), d.cut.cut_faces.end(), d.metric.surface.corner_vertex.begin(),
+                 d.metric.surface.corner_vertex.end())) {
+    d.disk = d.metric.surface;
+  } else {
+    TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+    if (tr.status != Status::Ok) {
+      d.status = Status::NumericalFailure;
+      d.message = "the cut disk is not a valid mesh: " + tr.message;
+      d.stage = "cut_metric";
+      return d;
+    }
+    d.disk = std::move(tr.topology);
   }
-  d.disk = std::move(tr.topology);
   d.lengths = disk_edge_lengths(d.cut, d.metric.surface, d.metric.l, d.disk);
   d.status = Status::Ok;
   return d;
