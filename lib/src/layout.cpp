@@ -1235,14 +1235,18 @@ Layout layout_sphere(const Topology& surface, std::span<const double> l, const L
 // ---------------------------------------------------------------------------------------------
 // The metric on the refined surface.
 
-RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, Geometry g,
-                                   std::span<const double> input_lengths) {
-  RefinedMetric r;
+namespace {
+
+/// The checks of refined_edge_lengths() and its surface's connectivity (the input's own when the
+/// cut added nothing: same faces, same corners, copied rather than built again). False with `r`
+/// failed.
+bool refined_surface(const CutResult& cut, const Topology& input, Geometry g, std::span<const double> input_lengths,
+                     RefinedMetric& r) {
   auto fail = [&](Status s, const std::string& m) {
     r.status = s;
     r.message = m;
     r.l.clear();
-    return r;
+    return false;
   };
   if (cut.status != Status::Ok) return fail(Status::InvalidArgument, "the cut did not succeed: " + cut.message);
   const Index nin = cut.num_input_vertices, nadd = cut.num_refined_vertices();
@@ -1255,10 +1259,8 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
     return fail(Status::InvalidArgument, "the cut's refinement records have inconsistent sizes");
   if (!check_lengths(input, g, input_lengths, r)) {
     r.l.clear();
-    return r;
+    return false;
   }
-  // Without refinement the surface is the input itself (same faces, same corners): its
-  // connectivity is copied rather than built again.
   if (nadd == 0 && std::equal(cut.surface_faces.begin(), cut.surface_faces.end(), input.corner_vertex.begin(),
                               input.corner_vertex.end())) {
     r.surface = input;
@@ -1268,7 +1270,6 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
       return fail(Status::InvalidArgument, "the cut's refined surface is not a valid mesh: " + st.message);
     r.surface = std::move(st.topology);
   }
-  const Topology& s = r.surface;
   for (Index f : cut.surface_face_to_input)
     if (f < 0 || f >= input.num_faces)
       return fail(Status::InvalidArgument, "the cut names input face " + std::to_string(f) + ", out of range");
@@ -1276,6 +1277,23 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
     if (cut.refined_vertex_face[k] < 0 || cut.refined_vertex_face[k] >= input.num_faces)
       return fail(Status::InvalidArgument, "added vertex " + std::to_string(nin + k) + " names input face " +
                                                std::to_string(cut.refined_vertex_face[k]) + ", out of range");
+  return true;
+}
+
+}  // namespace
+
+RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, Geometry g,
+                                   std::span<const double> input_lengths) {
+  RefinedMetric r;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = m;
+    r.l.clear();
+    return r;
+  };
+  if (!refined_surface(cut, input, g, input_lengths, r)) return r;
+  const Index nin = cut.num_input_vertices;
+  const Topology& s = r.surface;
   r.l.assign(static_cast<std::size_t>(s.num_edges), 0.0);
 
   // Per input face: corner frames, computed lazily.
