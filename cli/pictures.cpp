@@ -429,38 +429,32 @@ Picture draw(const Drawing& g, int width, int height) {
     if (g.domain == Domain::SphereFront)
       std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return face_z[a] < face_z[b]; });
     cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+    // A closed polygon through vertices, added to the current path.
+    auto add_loop = [&](std::span<const ricci::Index> loop) {
+      for (std::size_t i = 0; i < loop.size(); ++i) {
+        const ricci::Index v = loop[i];
+        const double x = X(g.positions[dims * v]), y = Y(g.positions[dims * v + 1]);
+        if (i == 0)
+          cairo_move_to(cr, x, y);
+        else
+          cairo_line_to(cr, x, y);
+      }
+      cairo_close_path(cr);
+    };
     // One colour and no edges: the faces are filled at once through the outline of their union
     // (the same pixels, without the seams between anti-aliased triangles, and an SVG whose size
     // does not grow with the faces).
     if (g.edge_colour == 0 && g.face_colours.empty() && order.size() > 64) {
       cairo_new_path(cr);
       const std::vector<std::vector<ricci::Index>> loops = g.outline.empty() ? outline_loops(g.faces, order) : g.outline;
-      for (const std::vector<ricci::Index>& loop : loops) {
-        for (std::size_t i = 0; i < loop.size(); ++i) {
-          const ricci::Index v = loop[i];
-          const double x = X(g.positions[dims * v]), y = Y(g.positions[dims * v + 1]);
-          if (i == 0)
-            cairo_move_to(cr, x, y);
-          else
-            cairo_line_to(cr, x, y);
-        }
-        cairo_close_path(cr);
-      }
+      for (const std::vector<ricci::Index>& loop : loops) add_loop(loop);
       cairo_set_fill_rule(cr, CAIRO_FILL_RULE_WINDING);
       set_colour(cr, g.face_colour);
       cairo_fill(cr);
       order.clear();
     }
     for (const std::size_t f : order) {
-      for (int k = 0; k < 3; ++k) {
-        const ricci::Index v = g.faces[3 * f + k];
-        const double x = X(g.positions[dims * v]), y = Y(g.positions[dims * v + 1]);
-        if (k == 0)
-          cairo_move_to(cr, x, y);
-        else
-          cairo_line_to(cr, x, y);
-      }
-      cairo_close_path(cr);
+      add_loop(std::span<const ricci::Index>(g.faces).subspan(3 * f, 3));
       set_colour(cr, f < g.face_colours.size() ? g.face_colours[f] : g.face_colour);
       if (g.edge_colour != 0) {
         cairo_fill_preserve(cr);

@@ -402,34 +402,49 @@ TEST_CASE("layout: alignment recovers known isometries") {
   }
 }
 
-TEST_CASE("layout: divide and conquer matches the metric, the single propagation and its own seams") {
-  // E: a fine torus cut open (a long propagation); H: the genus-2 fixture's compact domain.
-  struct Case {
-    const char* name;
-    Mesh mesh;
-  };
-  std::vector<Case> cases;
-  cases.push_back({"torus 160x80", ricci_shapes::torus(160, 80, 3.0, 1.0)});
-  cases.push_back({"pretzel(2, 8)", ricci_shapes::pretzel(2, 8)});
-  for (const Case& c : cases) {
-    INFO(std::string(c.name));
-    const TopologyResult tr = build_topology(c.mesh.faces, c.mesh.num_vertices());
+namespace {
+
+/// Long propagations: E, a fine torus cut open; H, a genus-2 pretzel's compact domain.
+struct LongCase {
+  std::string name;
+  Uniformized u;
+  Disk d;
+};
+
+std::vector<LongCase> long_propagation_cases() {
+  std::vector<LongCase> out;
+  for (auto [name, mesh] : {std::pair<std::string, Mesh>{"torus 160x80", ricci_shapes::torus(160, 80, 3.0, 1.0)},
+                            std::pair<std::string, Mesh>{"pretzel(2, 8)", ricci_shapes::pretzel(2, 8)}}) {
+    INFO(name);
+    const TopologyResult tr = build_topology(mesh.faces, mesh.num_vertices());
     REQUIRE(tr.status == Status::Ok);
-    const Uniformized u = uniformize(c.mesh, tr.topology);
-    REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
-    Disk d;
-    if (u.geometry == Geometry::Euclidean) {
-      d = cut_disk(u);
+    LongCase c{name, uniformize(mesh, tr.topology), {}};
+    REQUIRE_MESSAGE(c.u.flow.status == Status::Ok, c.u.flow.message);
+    if (c.u.geometry == Geometry::Euclidean) {
+      c.d = cut_disk(c.u);
     } else {
-      d.cut = cut_compact(u.mesh, u.topo, u.flow.l);
-      REQUIRE_MESSAGE(d.cut.status == Status::Ok, d.cut.message);
-      const TopologyResult dt = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+      c.d.cut = cut_compact(c.u.mesh, c.u.topo, c.u.flow.l);
+      REQUIRE_MESSAGE(c.d.cut.status == Status::Ok, c.d.cut.message);
+      const TopologyResult dt = build_topology(c.d.cut.cut_faces, c.d.cut.num_cut_vertices());
       REQUIRE(dt.status == Status::Ok);
-      d.topo = dt.topology;
-      d.refined = refined_edge_lengths(d.cut, u.topo, u.geometry, u.flow.l);
-      REQUIRE(d.refined.status == Status::Ok);
-      d.l = disk_edge_lengths(d.cut, d.refined.surface, d.refined.l, d.topo);
+      c.d.topo = dt.topology;
+      c.d.refined = refined_edge_lengths(c.d.cut, c.u.topo, c.u.geometry, c.u.flow.l);
+      REQUIRE(c.d.refined.status == Status::Ok);
+      c.d.l = disk_edge_lengths(c.d.cut, c.d.refined.surface, c.d.refined.l, c.d.topo);
     }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("layout: divide and conquer matches the metric, the single propagation and its own seams") {
+  for (const LongCase& lc : long_propagation_cases()) {
+    const Uniformized& u = lc.u;
+    const Disk& d = lc.d;
+    const std::string& name = lc.name;
+    INFO(name);
     LayoutOptions single;
     single.patches = 0;
     single.polish_sweeps = 0;
@@ -455,7 +470,7 @@ TEST_CASE("layout: divide and conquer matches the metric, the single propagation
     CHECK(b.unplaced_vertices == 0);
     CHECK(layout_alignment_error(u.geometry, a.positions, b.positions) < 1e-9);
     if (u.geometry == Geometry::Hyperbolic) CHECK(b.centre_of_mass < 1e-9);
-    MESSAGE(std::string(c.name) << ": " << d.topo.num_faces << " faces, single propagation " << a.max_edge_length_error
+    MESSAGE(name << ": " << d.topo.num_faces << " faces, single propagation " << a.max_edge_length_error
                    << ", 12 patches " << b.max_edge_length_error << " (seams " << b.patch_seam_error << ", "
                    << b.patch_fit_iterations << " Ceres iterations), rounding floor " << b.rounding_floor);
     // More patches than faces: one patch per face at most, still exact.
@@ -477,29 +492,11 @@ TEST_CASE("layout: divide and conquer matches the metric, the single propagation
 }
 
 TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threads, H breadth-first") {
-  struct Case {
-    const char* name;
-    Mesh mesh;
-  };
-  std::vector<Case> cases;
-  cases.push_back({"torus 160x80", ricci_shapes::torus(160, 80, 3.0, 1.0)});
-  cases.push_back({"pretzel(2, 8)", ricci_shapes::pretzel(2, 8)});
-  for (const Case& c : cases) {
-    INFO(std::string(c.name));
-    const TopologyResult tr = build_topology(c.mesh.faces, c.mesh.num_vertices());
-    REQUIRE(tr.status == Status::Ok);
-    const Uniformized u = uniformize(c.mesh, tr.topology);
-    REQUIRE_MESSAGE(u.flow.status == Status::Ok, u.flow.message);
-    Disk d;
-    if (u.geometry == Geometry::Euclidean) {
-      d = cut_disk(u);
-    } else {
-      d.cut = cut_compact(u.mesh, u.topo, u.flow.l);
-      REQUIRE(d.cut.status == Status::Ok);
-      d.topo = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices()).topology;
-      d.refined = refined_edge_lengths(d.cut, u.topo, u.geometry, u.flow.l);
-      d.l = disk_edge_lengths(d.cut, d.refined.surface, d.refined.l, d.topo);
-    }
+  for (const LongCase& lc : long_propagation_cases()) {
+    const Uniformized& u = lc.u;
+    const Disk& d = lc.d;
+    const std::string& name = lc.name;
+    INFO(lc.name);
     LayoutOptions bare, lax, strict;
     bare.patches = 0;
     bare.polish_sweeps = 0;
@@ -537,7 +534,7 @@ TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threa
     const bool refined = def.patches > 0 || def.polish_sweeps > 0 || def.polish_steps > 0 || def.shape_solve;
     CHECK(refined == (b.max_error_above_rounding > 1e-10));
     if (!refined) CHECK(def.max_error_above_rounding <= 1e-10);
-    MESSAGE(std::string(c.name) << ": propagation " << b.max_edge_length_error << " (floor " << b.rounding_floor << "), default "
+    MESSAGE(name << ": propagation " << b.max_edge_length_error << " (floor " << b.rounding_floor << "), default "
                    << def.max_edge_length_error << (refined ? " refined" : " as propagated") << ", strict "
                    << one.max_edge_length_error);
     // H costs every face 1: the propagation is breadth-first, its depth the seed's dual eccentricity.
