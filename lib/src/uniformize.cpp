@@ -637,8 +637,6 @@ std::vector<double> cut_face_areas(const CutResult& cut) {
   return area;
 }
 
-// Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
-// gate: a layout that does not reproduce the metric is no result.
 // The face farthest from `seed` in steps across edges (breadth-first; the smallest index among the
 // farthest), and the seeds of the checks after it: evenly spread over the faces (F/2 for one).
 std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
@@ -707,6 +705,8 @@ LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
   return lo;
 }
 
+// Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
+// gate: a layout that does not reproduce the metric is no result.
 bool cut_and_lay_out(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
