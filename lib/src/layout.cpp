@@ -1006,7 +1006,7 @@ class Propagation {
 /// still above the threshold); global Gauss–Newton steps (E, H, S; layout_polish.h).
 /// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
-/// anything moved it.
+/// anything moved it. `now` describes the positions on return.
 void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
                    Index seed, const LayoutOptions& options, Positions& P, Layout& now, Layout& out) {
   std::vector<double>& x = P.x;
@@ -1061,16 +1061,21 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     const Cx o = P.z(s0), d = P.z(s1) - o;
     const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
     for (Index v = 0; v < t.num_vertices; ++v) P.set(v, (P.z(v) - o) * rot);
+    measure_edges(t, g, l, P, now);
   }
 }
 
 /// The normalisation of the geometry (layout.h), the unit box, and the flipped faces; the edge
-/// error of the final positions (S with Möbius centring: of the isometric positions before it).
+/// error of the final positions (S with Möbius centring: of the isometric positions before it),
+/// starting from `now`, the figures of the positions as refined.
 void finish_layout(const Topology& t, Geometry g, std::span<const double> l, const std::vector<double>& area,
-                   Index seed, const LayoutOptions& options, Positions& P, Layout& out) {
+                   Index seed, const LayoutOptions& options, const Layout& now, Positions& P, Layout& out) {
   std::vector<double>& x = P.x;
   const Index nv = t.num_vertices;
-  measure_edges(t, g, l, P, out);
+  out.max_edge_length_error = now.max_edge_length_error;
+  out.worst_edge = now.worst_edge;
+  out.rounding_floor = now.rounding_floor;
+  out.max_error_above_rounding = now.max_error_above_rounding;
   if (options.normalize && g != Geometry::Euclidean) {
     const std::vector<double> w = vertex_weights(t, area);
     if (g == Geometry::Hyperbolic) {
@@ -1143,7 +1148,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   Layout now;
   measure_edges(t, g, l, P, now);
   refine_layout(t, g, l, theta, seed, options, P, now, out);
-  finish_layout(t, g, l, area, seed, options, P, out);
+  finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;
   out.message = "laid out " + std::to_string(nf) + " faces in " + std::string(geometry_name(g)) + " geometry";
