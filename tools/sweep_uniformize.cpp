@@ -67,9 +67,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::string table;
-  table += "| mesh | geometry | #F | Newton it. | max \\|K̄ − K\\| | layout edge error | flips | seed independence | "
+  table += "| mesh | geometry | #F | Newton it. | max \\|K̄ − K\\| | layout edge error | rounding floor | flips | seed independence | "
            "domain cycles | pairings moved | relation error | as fitted | polygon edge error | s |\n";
-  table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::cout << table << std::flush;
   ricci::UniformizeOptions options;
   if (polish >= 0) options.layout.polish_sweeps = polish;
@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
       std::string row = "| " + name + " | ";
       const ricci::LoadResult lr = ricci::load_mesh(p.string());
       if (lr.status != ricci::Status::Ok) {
-        row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | | | |\n";
+        row += std::string(ricci::status_name(lr.status)) + " | | | | | | | | | | | | | |\n";
       } else {
         ricci::UniformizeResult r = ricci::uniformize(lr.validated.mesh, lr.validated.topology, options);
         // As `ricci uniformize` does: a boundary target that an ear makes infeasible gets the ears split.
@@ -110,14 +110,15 @@ int main(int argc, char** argv) {
         if (!ok && r.flow.iterations == 0) {
           char secs[32];
           std::snprintf(secs, sizeof secs, "%.1f", s);
-          row += std::string(ricci::status_name(r.status)) + " (" + r.failed_stage + ") | | | | | | | | | | " + secs + " |\n";
+          row += std::string(ricci::status_name(r.status)) + " (" + r.failed_stage + ") | | | | | | | | | | | " + secs + " |\n";
         } else {
           row += std::to_string(r.flow.iterations) + " | " + sci(r.flow.max_curvature_error) + " | ";
           if (r.layout.status == ricci::Status::Ok)
-            row += sci(r.layout.max_edge_length_error) + " | " + std::to_string(r.layout.flipped_faces) + " | " +
+            row += sci(r.layout.max_edge_length_error) + " | " + sci(r.layout.rounding_floor) + " | " +
+                   std::to_string(r.layout.flipped_faces) + " | " +
                    sci(r.seed_independence_error) + " | ";
           else
-            row += "| | | ";
+            row += "| | | | ";
           const bool domain = !r.domain_maps.empty();
           const bool deck = r.has_deck && r.deck.status == ricci::Status::Ok;
           row += (domain ? sci(r.domain_cycle_error) : std::string("–")) + " | ";
@@ -152,7 +153,8 @@ int main(int argc, char** argv) {
                       "metric by more than 1e-10 above its rounding floor). Hardware threads: " +
                       std::to_string(std::thread::hardware_concurrency()) +
                       ".\n\nColumns: *layout edge error* — max relative edge-length error of the layout (the compact "
-                      "domain for closed and bordered H surfaces); *seed independence* — largest deviation of the "
+                      "domain for closed and bordered H surfaces); *rounding floor* — the largest relative change of an "
+                      "edge's length that rounding its ends' coordinates can make (Layout::rounding_floor); *seed independence* — largest deviation of the "
                       "extra seeds' layouts from the layout after the fitted isometry; *domain cycles* — the compact domain's fitted side "
                       "pairings around its vertex cycles (distance to the identity); *pairings moved* — how far (largest "
                       "hyperbolic displacement of a side vertex) the pairings moved onto exact cycles; *relation error* "
