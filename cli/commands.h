@@ -125,7 +125,8 @@ struct UniformizeCommandOptions {
   double tolerance = 1e-12;               ///< flow: max |K̄ − K| at convergence
   int max_iterations = 0;                 ///< flow: 0 for the library default
   int threads = 0;                        ///< OpenMP threads; 0: the OpenMP default
-  int base_candidates = 8;                ///< H: base vertices tried for the canonical polygon
+  bool mesh_polygon = false;              ///< H: the mesh-path canonical polygon (polygon.obj)
+  int base_candidates = 8;                ///< H: base vertices tried for the mesh-path canonical polygon
   int seed_checks = 1;                    ///< extra seed faces for seed_independence_error
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
   bool unit_box = false;                  ///< E: layout scaled into [0,1]²

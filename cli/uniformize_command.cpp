@@ -332,6 +332,28 @@ Json generators_array(const std::vector<ricci::DeckGenerator>& gens) {
   return a;
 }
 
+/// The geodesic canonical polygon: its corners (in the generators' frame), sides, angles and the
+/// checks that make it a fundamental domain; `words`: each generator in the domain's pairings.
+Json geodesic_polygon_json(const ricci::GeodesicPolygon& gp, const std::vector<std::string>& words) {
+  Json verts = Json::array();
+  for (const std::complex<double>& z : gp.vertices) verts.push_back(Json::array({z.real(), z.imag()}));
+  Json c{{"kind", "geodesic"},
+         {"word", gp.word},
+         {"vertices", std::move(verts)},
+         {"side_lengths", gp.side_lengths},
+         {"angles", gp.angles},
+         {"perimeter", real(gp.perimeter)},
+         {"angle_sum", real(gp.angle_sum)},
+         {"area", real(gp.area)},
+         {"reach", real(gp.reach)},
+         {"closure_error", real(gp.closure_error)},
+         {"simple", gp.simple},
+         {"relation_error", real(gp.deck.relation_error)},
+         {"seconds", gp.seconds}};
+  if (!words.empty()) c["generator_words"] = words;
+  return c;
+}
+
 std::string generators_json(const ricci::UniformizeResult& r, const std::string& source) {
   Json j;
   j["format"] = "ricci-deck-generators";
@@ -339,14 +361,20 @@ std::string generators_json(const ricci::UniformizeResult& r, const std::string&
   j["input"] = source;
   j["geometry"] = std::string(ricci::geometry_name(r.geometry));
   j["genus"] = r.deck.genus;
-  j["word"] = r.has_polygon || (r.has_deck && r.polygon_cut.status == Status::Ok) ? r.polygon_cut.word : r.cut.word;
+  const bool geodesic = r.has_geodesic_polygon && !r.has_polygon;
+  j["word"] = geodesic ? r.geodesic_polygon.word
+                       : (r.has_polygon || (r.has_deck && r.polygon_cut.status == Status::Ok) ? r.polygon_cut.word : r.cut.word);
   j["convention"] =
       r.geometry == Geometry::Hyperbolic
-          ? "each generator X maps side X of the polygon onto side X^-1, reversing it; H: z -> e^{i theta}(z - z0)/(1 - "
-            "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1; "
-            "generators in the frame of polygon.obj (the polygon centred), domain_side_pairings in that of mesh.obj "
-            "and domain.obj"
+          ? std::string("each generator X maps side X of the polygon onto side X^-1, reversing it; H: z -> e^{i theta}(z - z0)/(1 - "
+                        "conj(z0) z) = (a z + b)/(conj(b) z + conj(a)) on the Poincare disk; relation [A1^-1,B1]...[Ag^-1,Bg] = 1; ") +
+                (geodesic ? "generators in the frame of the geodesic canonical polygon (report.json's polygon.vertices, the "
+                            "polygon centred), each a word in the domain_side_pairings (generator_words), which are in the "
+                            "frame of mesh.obj and domain.obj"
+                          : "generators in the frame of polygon.obj (the polygon centred), domain_side_pairings in that of "
+                            "mesh.obj and domain.obj")
           : "each generator X maps side X of the polygon onto side X^-1: z -> z + translation";
+  if (geodesic) j["generator_words"] = r.canonical_words;
   j["relation_error"] = r.has_deck ? real(r.deck.relation_error) : Json(nullptr);
   if (r.has_deck && r.geometry == Geometry::Hyperbolic) j["relator"] = moebius_json(r.deck.relator);
   j["generators"] = generators_array(r.deck.generators);
@@ -575,7 +603,11 @@ Json report_json(const Run& run) {
                            {"rounding_floor", real(b.rounding_floor)},
                            {"seconds", b.seconds}});
     c["base_candidates"] = std::move(cands);
+    c["kind"] = "mesh";
+    if (r.has_geodesic_polygon) c["geodesic"] = geodesic_polygon_json(r.geodesic_polygon, r.canonical_words);
     j["polygon"] = std::move(c);
+  } else if (have && r.has_geodesic_polygon) {
+    j["polygon"] = geodesic_polygon_json(r.geodesic_polygon, r.canonical_words);
   } else {
     j["polygon"] = nullptr;
   }
@@ -683,6 +715,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   }
   uo.flow.normalize_circle_domains = !o.no_circle_normalization;
   uo.base_candidates = o.base_candidates;
+  uo.mesh_polygon = o.mesh_polygon;
   uo.seed_checks = o.seed_checks;
   uo.layout.unit_box = o.unit_box;
   uo.layout.patches = o.patches;
@@ -1262,10 +1295,13 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
       ->check(number_validator(true, true));
   cmd->add_option("--threads", o.threads, "OpenMP threads; 0 uses the OpenMP default. Default: 0.")
       ->check(number_validator(false, true));
+  cmd->add_flag("--mesh-polygon", o.mesh_polygon,
+                "Closed genus >= 2: the canonical polygon as a canonical cut of the mesh laid out through the compact "
+                "domain (polygon.obj; seconds to minutes at genus >= 4) instead of the geodesic 4g-gon of canonical "
+                "generators found from the domain's side pairings (milliseconds). Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates,
-                  "Closed genus >= 2: base vertices tried for the canonical polygon; the one whose generators and "
-                  "positions double precision resolves best is "
-                  "kept. Default: 8.")
+                  "Closed genus >= 2 with --mesh-polygon: base vertices tried for the canonical polygon; the one whose "
+                  "generators and positions double precision resolves best is kept. Default: 8.")
       ->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks,
                   "Layouts from this many other seed faces (the first: the face farthest from the layout's own "
@@ -1320,6 +1356,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("-o,--output", o.output, "Output directory (as for uniformize). Required.")->required()->type_name("OUTDIR");
   cmd->add_option("--geometry", o.geometry, "Geometry of the lengths: auto (the file's). Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
+  cmd->add_flag("--mesh-polygon", o.mesh_polygon, "As for uniformize. Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 1.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));

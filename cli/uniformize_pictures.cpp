@@ -20,6 +20,78 @@ using ricci::Index;
 using cplx = std::complex<double>;
 constexpr double kPi = std::numbers::pi;
 
+/// Points along the geodesic from z1 to z2 in the Poincaré disk (the segment from 0 to T(z2) in
+/// the frame T moving z1 to 0, mapped back), as x, y pairs appended to `points`.
+void geodesic_points(cplx z1, cplx z2, int samples, std::vector<double>& points) {
+  const ricci::Moebius T = ricci::Moebius::to_origin(z1), back = T.inverse();
+  const cplx w = T.apply(z2);
+  for (int k = 0; k <= samples; ++k) {
+    const cplx z = back.apply(w * (static_cast<double>(k) / samples));
+    points.push_back(z.real());
+    points.push_back(z.imag());
+  }
+}
+
+/// The geodesic canonical 4g-gon (sides a_i, a_i^-1 in one colour, b_i, b_i^-1 in another) over
+/// its copies under the deck group: the classic tessellation of the disk, words up to length 3
+/// (fewer copies when the group is large), copies whose centre lands within |z| < 0.985.
+Picture geodesic_polygon_drawing(const ricci::UniformizeResult& r) {
+  const ricci::GeodesicPolygon& gp = r.geodesic_polygon;
+  const std::size_t n = gp.vertices.size();
+  cplx centre = 0;  // the copies are told apart by where they send the corners' mean
+  for (const cplx& z : gp.vertices) centre += z / static_cast<double>(n);
+  std::vector<ricci::Moebius> letters;
+  for (const ricci::DeckGenerator& G : r.deck.generators) {
+    letters.push_back(G.map);
+    letters.push_back(G.map.inverse());
+  }
+  std::vector<ricci::Moebius> copies{ricci::Moebius{}};
+  std::vector<cplx> seen{centre};
+  std::size_t frontier_begin = 0;
+  constexpr std::size_t kMaxCopies = 3000;
+  for (int depth = 0; depth < 3 && copies.size() < kMaxCopies; ++depth) {
+    const std::size_t frontier_end = copies.size();
+    for (std::size_t c = frontier_begin; c < frontier_end && copies.size() < kMaxCopies; ++c)
+      for (const ricci::Moebius& L : letters) {
+        const ricci::Moebius M = (copies[c] * L).normalized();
+        const cplx at = M.apply(centre);
+        if (!(std::abs(at) < 0.985)) continue;
+        bool known = false;
+        for (const cplx& q : seen)
+          if (ricci::hyperbolic_distance(q, at) < 1e-6) {
+            known = true;
+            break;
+          }
+        if (known) continue;
+        copies.push_back(M);
+        seen.push_back(at);
+      }
+    frontier_begin = frontier_end;
+  }
+  Drawing d;
+  d.domain = Domain::Disk;
+  d.dims = 2;
+  d.edge_colour = 0;
+  for (std::size_t c = 1; c < copies.size(); ++c) {
+    Polyline pl;
+    pl.colour = 0x80707A88;
+    pl.width = 0.7;
+    for (std::size_t k = 0; k < n; ++k)
+      geodesic_points(copies[c].apply(gp.vertices[k]), copies[c].apply(gp.vertices[(k + 1) % n]), 16, pl.points);
+    d.lines.push_back(std::move(pl));
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    Polyline pl;
+    const std::size_t block = k / 4, in_block = k % 4;
+    pl.colour = palette(static_cast<int>(2 * block + (in_block % 2)));
+    pl.width = 2.5;
+    geodesic_points(gp.vertices[k], gp.vertices[(k + 1) % n], 48, pl.points);
+    d.lines.push_back(std::move(pl));
+  }
+  d.title = "Canonical polygon " + gp.word + " (geodesic, " + std::to_string(copies.size()) + " copies)";
+  return draw(d);
+}
+
 /// Sides of a cut as polylines over `positions` (2D), one colour per generator (partners share it).
 std::vector<Polyline> side_lines(const ricci::CutResult& cut, std::span<const double> positions, double width) {
   std::vector<Polyline> out;
@@ -150,6 +222,14 @@ void domain_pictures(const ricci::UniformizeResult& r, const ricci::Mesh& surfac
                              "grown from a central face, in the Poincaré disk. Paired sides share a colour."
                            : "The cut surface laid out (" + gname + "); sides that are glued together share a colour.",
                    p.png, p.svg});
+    if (r.has_geodesic_polygon && !r.has_polygon) {
+      const Picture q = geodesic_polygon_drawing(r);
+      out.push_back({"polygon", "The canonical fundamental polygon",
+                     "The geodesic 4g-gon of the canonical generators (found from the compact domain's side pairings): "
+                     "sides a_i, a_i^-1 share a colour, as do b_i, b_i^-1, and each generator maps a side onto its "
+                     "partner. Grey: its copies under the deck group, tiling the Poincaré disk.",
+                     q.png, q.svg});
+    }
     if (r.has_polygon && compact) {
       // The library gives it centred (DomainDeck::polygon_frame).
       const Picture q =

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include <cmath>
+#include <numbers>
 #include <complex>
 #include <random>
 #include <sstream>
@@ -77,11 +78,18 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
     CHECK(g["residual_max"].get<double>() < 1e-9);
     CHECK(g["translation_length"].get<double>() > 0);
   }
-  // The layout is the compact domain; the canonical polygon is laid out through its tiles.
+  // The layout is the compact domain; the canonical polygon is the geodesic octagon of the
+  // canonical generators, each a word in the domain's side pairings.
   CHECK(j["cut"]["kind"] == "compact");
   CHECK(j["cut"]["canonical"] == false);
+  CHECK(j["polygon"]["kind"] == "geodesic");
   CHECK(j["polygon"]["word"] == "a1 b1 a1^-1 b1^-1 a2 b2 a2^-1 b2^-1");
-  CHECK(j["polygon"]["max_edge_length_error"].get<double>() < 1e-9);
+  CHECK(j["polygon"]["vertices"].size() == 8);
+  CHECK(j["polygon"]["simple"] == true);
+  CHECK(j["polygon"]["angle_sum"].get<double>() == doctest::Approx(2 * std::numbers::pi).epsilon(1e-12));
+  CHECK(j["polygon"]["area"].get<double>() == doctest::Approx(4 * std::numbers::pi).epsilon(1e-12));
+  CHECK(j["polygon"]["closure_error"].get<double>() < 1e-12);
+  CHECK(j["polygon"]["generator_words"].size() == 4);
   CHECK(j["domain_cycle_error"].get<double>() < 1e-12);
   CHECK(j["domain_adjusted_cycle_error"].get<double>() < 1e-25);
   CHECK(j["domain_pairing_adjustment"].get<double>() < 1e-10);
@@ -100,7 +108,7 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
                      "checker-3.png",   "convergence-time.png", "convergence-time.svg", "convergence.png",
                      "convergence.svg", "cover.obj",       "cover.png",       "cover.svg",
                      "domain.obj",      "domain.png",      "domain.svg",      "generators.json",
-                     "mesh.glb",        "mesh.obj",        "metric.csv",      "polygon.obj",     "polygon.png",
+                     "mesh.glb",        "mesh.obj",        "metric.csv",      "polygon.png",
                      "polygon.svg",     "report.html",     "report.json",     "signature.json"});
   // The checkerboard's texture map is close to conformal (square checks): sigma_max/sigma_min.
   CHECK(j["conformal_distortion"]["faces"].get<int>() > 1000);
@@ -129,6 +137,7 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   const Json gens = parse(ricci_test::read_bytes(out / "generators.json"));
   REQUIRE(gens.is_object());
   CHECK(gens["word"] == j["polygon"]["word"]);
+  CHECK(gens["generator_words"] == j["polygon"]["generator_words"]);
   CHECK(gens["domain_side_pairings"].size() >= 4);
   REQUIRE(gens["generators"].size() == 4);
   for (const Json& g : gens["generators"]) {
@@ -147,6 +156,29 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(t.exit_code == 0);
   CHECK(t.err.empty());
   CHECK(t.out.rfind("ok hyperbolic", 0) == 0);
+}
+
+TEST_CASE("cli uniformize: --mesh-polygon lays a canonical cut of the mesh out as the polygon (polygon.obj)") {
+  TempDir tmp;
+  const fs::path out = tmp / "out";
+  const auto r = run_cli({"uniformize", "-o", out.string(), "--json", "--no-pictures", "--mesh-polygon"});
+  REQUIRE(r.exit_code == 0);
+  const Json j = parse(r.out);
+  CHECK(j["polygon"]["kind"] == "mesh");
+  CHECK(j["polygon"]["word"] == "a1 b1 a1^-1 b1^-1 a2 b2 a2^-1 b2^-1");
+  CHECK(j["polygon"]["canonical"] == true);
+  CHECK(j["polygon"]["max_edge_length_error"].get<double>() < 1e-9);
+  CHECK(j["polygon"]["flipped_faces"] == 0);
+  CHECK(j["polygon"]["base_candidates"].size() >= 1);
+  // The geodesic polygon of the same generators, in their frame.
+  CHECK(j["polygon"]["geodesic"]["simple"] == true);
+  CHECK(j["polygon"]["geodesic"]["angle_sum"].get<double>() == doctest::Approx(2 * std::numbers::pi).epsilon(1e-12));
+  CHECK(j["relation_error"].get<double>() < 1e-9);
+  CHECK(j["fitted_relation_error"].get<double>() < 1e-9);
+  CHECK(fs::exists(out / "polygon.obj"));
+  const Json gens = parse(ricci_test::read_bytes(out / "generators.json"));
+  CHECK(gens["word"] == j["polygon"]["word"]);
+  CHECK(!gens.contains("generator_words"));
 }
 
 TEST_CASE("cli uniformize: the output directory is all or nothing") {

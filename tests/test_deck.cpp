@@ -382,6 +382,122 @@ TEST_CASE("deck: bad input is a status, never NaN") {
   CHECK(cover_svg(P.cut, P.positions, cr).empty());
 }
 
+namespace {
+
+/// The regular 4g-gon with interior angles 2π/4g and opposite sides paired (x1 … x2g x1^-1 …
+/// x2g^-1: one vertex class, genus g), as a cut whose sides alone are filled in, and its side
+/// pairings in closed form (see regular_polygon()): a fundamental polygon that is not canonical.
+std::pair<CutResult, std::vector<DeckGenerator>> opposite_sides_polygon(Index g) {
+  const Index N = 4 * g, half = N / 2;
+  const double phi0 = 0.3, d = std::acosh(1 / std::tan(M_PI / N));
+  auto phi = [&](Index j) { return phi0 + (2 * j + 1) * M_PI / N; };
+  CutResult c;
+  c.status = Status::Ok;
+  c.genus = g;
+  c.compact = true;
+  std::vector<DeckGenerator> maps;
+  for (Index s = 0; s < N; ++s) {
+    const Index L = s % half;
+    c.side_kind.push_back(SideKind::Loop);
+    c.side_generator.push_back(L);
+    c.side_orientation.push_back(s < half ? 1 : -1);
+    c.side_partner.push_back(s < half ? s + half : s - half);
+    c.side_boundary_loop.push_back(-1);
+    c.side_label.push_back("x" + std::to_string(L + 1) + (s < half ? "" : "^-1"));
+  }
+  for (Index L = 0; L < half; ++L) {
+    c.generator_kind.push_back(SideKind::Loop);
+    c.generator_name.push_back("x" + std::to_string(L + 1));
+    DeckGenerator G;
+    G.name = c.generator_name.back();
+    G.map = Moebius::rotation(phi(L + half)) * Moebius::translation_real(2 * d) * Moebius::rotation(M_PI - phi(L));
+    maps.push_back(G);
+  }
+  return {c, maps};
+}
+
+}  // namespace
+
+TEST_CASE("deck: the geodesic polygon of the regular 4g-gon's generators is its dual regular 4g-gon") {
+  // Canonical generators of the regular 4g-gon with angles 2π/4g (Bolza for g = 2). The
+  // perimeter Σ d(p, Y_k p) is invariant under the rotation by one block, which permutes the side
+  // elements, so its unique minimiser is the tile's centre and the corners are the centres of the
+  // 4g tiles around a vertex: the dual tile of the self-dual {4g, 4g} tiling, again regular with
+  // angles 2π/4g, sides 2 arccosh cot(π/4g) and circumradius arccosh cot²(π/4g).
+  for (Index g : {2, 3, 4}) {
+    CAPTURE(g);
+    const Polygon P = regular_polygon(g, 7, {3});
+    DeckResult deck;
+    deck.geometry = Geometry::Hyperbolic;
+    deck.genus = g;
+    for (std::size_t i = 0; i < P.closed_form.size(); ++i) {
+      DeckGenerator G;
+      G.name = std::string(i % 2 ? "b" : "a") + std::to_string(i / 2 + 1);
+      G.map = P.closed_form[i];
+      deck.generators.push_back(G);
+    }
+    const GeodesicPolygon gp = geodesic_polygon(deck);
+    REQUIRE_MESSAGE(gp.status == Status::Ok, gp.message);
+    MESSAGE(gp.message);
+    const double N = 4.0 * g;
+    CHECK(gp.simple);
+    CHECK(gp.vertices.size() == static_cast<std::size_t>(N));
+    for (double a : gp.angles) CHECK(a == doctest::Approx(2 * M_PI / N).epsilon(1e-8));
+    for (double l : gp.side_lengths) CHECK(l == doctest::Approx(2 * std::acosh(1 / std::tan(M_PI / N))).epsilon(1e-8));
+    CHECK(gp.reach == doctest::Approx(std::acosh(std::pow(std::tan(M_PI / N), -2))).epsilon(1e-8));
+    CHECK(gp.area == doctest::Approx(4 * M_PI * (g - 1)).epsilon(1e-12));
+    CHECK(gp.closure_error < 1e-12);
+    CHECK(gp.deck.relation_error < 1e-12);
+    // The generators in the polygon's frame are the given ones conjugated by `frame`.
+    for (std::size_t i = 0; i < deck.generators.size(); ++i)
+      CHECK(moebius_difference(gp.deck.generators[i].map, gp.frame * deck.generators[i].map * gp.frame.inverse()) < 1e-10);
+  }
+}
+
+TEST_CASE("deck: canonical generators from a polygon with opposite sides paired") {
+  // x1 … x2g x1^-1 … x2g^-1 on the regular 4g-gon: the moves on the word reach a1 b1 a1^-1 b1^-1 …;
+  // the generators, words in the x's, satisfy the canonical relation and span a geodesic polygon
+  // that is a fundamental domain. On the Bolza surface (g = 2) every element other than the
+  // identity translates by at least the systole 2 arccosh(1 + √2).
+  for (Index g : {2, 3, 4}) {
+    CAPTURE(g);
+    const auto [cut, maps] = opposite_sides_polygon(g);
+    const CanonicalGenerators cg = canonical_generators(cut, maps);
+    REQUIRE_MESSAGE(cg.status == Status::Ok, cg.message);
+    MESSAGE(cg.message);
+    REQUIRE(cg.deck.generators.size() == static_cast<std::size_t>(2 * g));
+    CHECK(cg.words.size() == cg.deck.generators.size());
+    CHECK(cg.moves > 0);
+    // The pairings are given in double (no low parts): the relation holds to their rounding,
+    // amplified by how far the words reach (g = 4: 1.4e-9 at the frame's origin).
+    CHECK(cg.deck.relation_error < 1e-8);
+    for (const DeckGenerator& G : cg.deck.generators) {
+      CAPTURE(G.name);
+      if (g == 2) CHECK(G.translation_length > 2 * std::acosh(1 + std::sqrt(2.0)) - 1e-9);
+      CHECK(std::abs(std::norm(G.map.a) - std::norm(G.map.b) - 1) < 1e-9 * std::norm(G.map.a));
+    }
+    const GeodesicPolygon gp = geodesic_polygon(cg.deck);
+    REQUIRE_MESSAGE(gp.status == Status::Ok, gp.message);
+    CHECK(gp.simple);
+    CHECK(gp.angle_sum == doctest::Approx(2 * M_PI).epsilon(1e-12));
+    CHECK(gp.area == doctest::Approx(4 * M_PI * (g - 1)).epsilon(1e-12));
+    CHECK(gp.deck.relation_error < 1e-8);
+    MESSAGE(gp.message);
+  }
+  // Bad input: a side without its partner, maps of the wrong count, an open surface.
+  auto [cut, maps] = opposite_sides_polygon(2);
+  CHECK(canonical_generators(cut, std::span<const DeckGenerator>(maps).first(3)).status == Status::InvalidArgument);
+  CutResult broken = cut;
+  broken.side_orientation[5] = 1;
+  CHECK(canonical_generators(broken, maps).status == Status::InvalidArgument);
+  CutResult open = cut;
+  open.boundary_loops = 1;
+  CHECK(canonical_generators(open, maps).status == Status::InvalidArgument);
+  DeckResult few;
+  few.generators.resize(2);
+  CHECK(geodesic_polygon(few).status == Status::InvalidArgument);
+}
+
 TEST_CASE("deck: universal cover of the Bolza surface") {
   const Polygon P = regular_polygon(2, 3, {6, 5, 7, 4});
   const DeckResult r = fit_deck_transformations(P.cut, Geometry::Hyperbolic, P.positions);
@@ -555,6 +671,7 @@ TEST_CASE("deck: side pairings moved onto exact vertex cycles") {
     CAPTURE(static_cast<int>(scheme));
     UniformizeOptions uo;
     uo.metric.scheme = scheme;
+    uo.mesh_polygon = true;
     const UniformizeResult u = uniformize(v.mesh, v.topology, uo);
     REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
     REQUIRE(u.cut.compact);

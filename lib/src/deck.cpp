@@ -785,11 +785,13 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
   const std::vector<MoebiusQ> fitted = X;
   out.adjusted_cycle_error = out.cycle_error;
   if (options.adjust_pairings && !cycles.empty()) {
+    out.fitted_side_maps = out.side_maps;
     out.adjusted_cycle_error = adjust_pairings(X, cycles);
     // The adjusted maps replace the fitted ones; their residuals on the domain's sides.
     for (std::size_t k = 0; k < X.size(); ++k) {
       DeckGenerator& G = out.side_maps[k];
       G.map = X[k].to_double();
+      G.map_low = MoebiusQ(X[k].a - CQ(G.map.a), X[k].b - CQ(G.map.b)).to_double();
       G.theta = G.map.theta();
       G.z0 = G.map.z0();
       G.translation_length = G.map.translation_length();

@@ -840,10 +840,88 @@ void take_domain(UniformizeResult& r, const DomainDeck& dd) {
   r.tile_consistency = dd.tile_consistency;
 }
 
-// Closed genus >= 2 in H: canonical cuts from a few base vertices, each laid out through the
-// compact domain's tiles; the one double precision resolves best is kept (then the polygon, its
-// generators and deck), else generators without a view, else the domain's side pairings alone.
+// The geodesic polygon of generators given in some frame, re-expressed in that frame (vertices
+// moved back by its frame, which becomes the identity; the generators are `deck`'s own).
+GeodesicPolygon geodesic_in_frame_of(const DeckResult& deck) {
+  GeodesicPolygon gp = geodesic_polygon(deck);
+  if (gp.status != Status::Ok) return gp;
+  const Moebius back = gp.frame.inverse();
+  for (std::complex<double>& z : gp.vertices) z = back.apply(z);
+  const double relation = gp.deck.relation_error;
+  gp.deck = deck;
+  gp.deck.relation_error = relation;  // measured at corner 0, in quad
+  gp.frame = Moebius{};
+  return gp;
+}
+
+// Closed genus >= 2 in H, the default: canonical generators from the compact domain's side
+// pairings (canonical_generators()) and their geodesic 4g-gon (geodesic_polygon()), kept when
+// the polygon is a fundamental domain (simple, angle sum 2π) and the relation holds to 1e-12.
+// False (with polygon_note saying why) when not: the caller then tries the mesh path.
+bool geodesic_canonical_polygon(LayoutRun& run) {
+  UniformizeResult& r = run.r;
+  DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck);
+  if (dd.status != Status::Ok) {
+    r.polygon_note = "no geodesic polygon (" + dd.message + ")";
+    return false;
+  }
+  CanonicalGenerators cg = canonical_generators(r.cut, dd.side_maps, dd.fitted_side_maps);
+  if (cg.status != Status::Ok) {
+    r.polygon_note = "no geodesic polygon (" + cg.message + ")";
+    return false;
+  }
+  GeodesicPolygon gp = geodesic_polygon(cg.deck);
+  const bool fundamental = gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9;
+  if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
+    r.polygon_note = "no geodesic polygon: " + gp.message;
+    return false;
+  }
+  take_domain(r, dd);
+  r.fitted_relation_error = cg.fitted_relation_error;
+  r.deck = gp.deck;
+  r.deck.status = Status::Ok;
+  r.deck.message = cg.message;
+  r.deck.seconds = cg.deck.seconds + gp.seconds;
+  r.canonical_words = std::move(cg.words);
+  r.geodesic_polygon = std::move(gp);
+  r.has_geodesic_polygon = true;
+  r.has_deck = true;
+  r.polygon_note.clear();
+  run.stage_done("polygon", r.geodesic_polygon.message);
+  run.stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
+                             std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                             sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) + "), " +
+                             std::to_string(cg.moves) + " moves on the word, relation error " +
+                             sci(r.deck.relation_error));
+  return true;
+}
+
+bool mesh_canonical_polygon(LayoutRun& run);
+
+// Closed genus >= 2 in H with mesh_polygon (or when the geodesic polygon is not a fundamental
+// domain): canonical cuts from a few base vertices, each laid out through the compact domain's
+// tiles; the one double precision resolves best is kept (then the polygon, its generators and
+// deck), else generators without a view, else the domain's side pairings alone. The geodesic
+// polygon of the generators found is added when it is a fundamental domain.
 bool canonical_polygon(LayoutRun& run) {
+  if (!run.options.mesh_polygon && geodesic_canonical_polygon(run)) return true;
+  const std::string geodesic_note = run.r.polygon_note;
+  if (!mesh_canonical_polygon(run)) return false;
+  UniformizeResult& r = run.r;
+  if (r.has_deck) {
+    GeodesicPolygon gp = geodesic_in_frame_of(r.deck);
+    if (gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9) {
+      r.geodesic_polygon = std::move(gp);
+      r.has_geodesic_polygon = true;
+    }
+  }
+  if (!geodesic_note.empty())
+    r.polygon_note = geodesic_note + (r.polygon_note.empty() ? "" : "; " + r.polygon_note);
+  return true;
+}
+
+// The mesh path (see canonical_polygon()).
+bool mesh_canonical_polygon(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
   const UniformizeOptions& options = run.options;

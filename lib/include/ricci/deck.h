@@ -261,6 +261,9 @@ struct DomainDeck {
   DeckResult deck;
   /// The compact domain's side pairings x1, x2, … (each maps side x_k onto x_k^-1, reversed).
   std::vector<DeckGenerator> side_maps;
+  /// The same as fitted, before the adjustment (empty when adjust_pairings is off or the domain
+  /// has no vertex cycles).
+  std::vector<DeckGenerator> fitted_side_maps;
   /// #Vc(canonical)×2: the canonical disk laid out through the compact domain's tiles; empty
   /// when a vertex lies beyond double range (then positions_note names it).
   std::vector<double> canonical_positions;
@@ -300,6 +303,91 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
 /// its vertex cycles: status, side_maps, cycle_error (deck has status NotRun; no positions).
 DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> domain_positions,
                                const DeckOptions& options = {});
+
+// ---- Canonical generators and the geodesic canonical polygon (H, closed, genus ≥ 2) ----------
+//
+// canonical_generators() needs no canonical cut of the mesh. The compact domain's boundary word
+// (x1 x2 x1^-1 …, one letter per side pairing) is brought to the normal form a1 b1 a1^-1 b1^-1 …
+// by the classification proof's moves on the word alone: cancel x x^-1; join the corners into
+// one vertex class (cut off the triangle of the two sides at a corner of the smallest class and
+// reglue it along one of them); then, for a linked pair a … b … a^-1 … b^-1, two cuts and
+// pastes make the block c^-1 e c e^-1. A cut along a diagonal into P1 and P2, reglued along x,
+// moves P2 by g = X^-1 (x's side in P1) or X; the new letter's pairing is g, and the pairings of
+// the sides moved with P2 are conjugated or multiplied by g. So every canonical generator is a
+// word in the side pairings, evaluated in quad (map + map_low) once at the end. Among the moves
+// available at each step the one leaving the shortest words is taken. The cost depends on the
+// word's length (the domain's side count), not on the mesh.
+//
+// geodesic_polygon() lays out the canonical polygon with deck.h's side convention (A_i maps side
+// a_i onto side a_i^-1, reversed): from a vertex p, block i's corners are u, A^-1 B^-1 A u,
+// B^-1 A u, A u and the next block starts at [B, A^-1] u; the polygon closes because the relation
+// holds. p minimises the perimeter (each side length is the displacement of an isometry at p, a
+// convex function; Newton in a frame moved with p), and the polygon is then centred on its
+// vertices' centre of mass (on the hyperboloid). The polygon is a fundamental domain when it is simple with angle sum
+// 2π (Poincaré's theorem); both are checked, not assumed.
+
+/// What canonical_generators() returns.
+struct CanonicalGenerators {
+  /// Ok; InvalidArgument (not a cut of a closed surface of genus ≥ 2, a side without a pairing,
+  /// one pairing per generator not given); NumericalFailure (the word did not reach the normal
+  /// form, or the relation is not finite).
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  /// The generators a1 b1 … ag bg in the side pairings' frame; side/partner −1 (no sides of a
+  /// cut), residual_max the largest residual of the pairings they are products of, relation
+  /// error at the frame's origin.
+  DeckResult deck;
+  std::vector<std::string> words;   ///< per generator, its word in the pairings ("x3 x1^-1 x7")
+  std::vector<Index> word_lengths;  ///< per generator, the length of that word
+  Index moves = 0;                  ///< cut-and-paste moves on the word
+  Index handle_moves = 0;           ///< per-handle substitutions (A, B A^±1), (B^±1 A, B) made
+  /// The relation of the same words in `fitted_maps` (at the frame's origin, quad); equal to
+  /// deck.relation_error when none are given.
+  double fitted_relation_error = 0;
+};
+
+/// See the block comment above. `domain` is a closed cut of genus ≥ 2 whose sides are all
+/// paired (cut_compact(), or any cut_surface() of a closed surface); `side_maps` one map per
+/// generator of it, each sending the generator's side onto its partner (fit_domain_pairings()'s
+/// side_maps, whose map_low carry the adjusted maps to quad precision).
+/// `fitted_maps` (optional, same order): the pairings as fitted, in which the same words give
+/// fitted_relation_error.
+CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
+                                         std::span<const DeckGenerator> fitted_maps = {});
+
+/// What geodesic_polygon() returns.
+struct GeodesicPolygon {
+  /// Ok; InvalidArgument (not 2g ≥ 4 hyperbolic generators); NumericalFailure (a value is not
+  /// finite). Ok does not mean simple: see `simple`.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  std::string word;  ///< "a1 b1 a1^-1 b1^-1 …"
+  /// The 4g corners in the polygon's frame, counter-clockwise; corner j starts side j.
+  std::vector<std::complex<double>> vertices;
+  /// The generators' frame → the polygon's frame.
+  Moebius frame;
+  /// The generators conjugated into the polygon's frame (names, residuals kept); relation_error
+  /// of Π [A_i^-1, B_i] conjugated to corner 0, in quad.
+  DeckResult deck;
+  std::vector<double> side_lengths;  ///< 4g hyperbolic lengths
+  std::vector<double> angles;        ///< 4g interior angles, in (0, 2π)
+  double perimeter = 0;
+  double angle_sum = 0;  ///< 2π for a fundamental polygon
+  double area = 0;       ///< (4g − 2)π − angle_sum: 4π(g − 1) for a fundamental polygon
+  /// Largest hyperbolic distance of a corner from the centre; double coordinates resolve lengths
+  /// there to about 2^-52·e^reach.
+  double reach = 0;
+  /// Hyperbolic distance between corner 0 and where the walk around the 4g sides ends (quad).
+  double closure_error = 0;
+  /// No two non-adjacent sides meet and adjacent sides meet only at their corner.
+  bool simple = false;
+  int newton_steps = 0;  ///< steps of the perimeter minimisation
+  double seconds = 0;
+};
+
+/// See the block comment above. `canonical`: generators a1 b1 … ag bg (g ≥ 2) in deck.h's
+/// convention, with map_low when they come from quad products.
+GeodesicPolygon geodesic_polygon(const DeckResult& canonical);
 
 // ---- Universal cover ----------------------------------------------------------------------
 

@@ -23,13 +23,18 @@
 //                   farthest from the layout's seed), aligned to the layout itself by the fitted
 //                   isometry (align_layouts()): seed_independence_error. Laid out on a second
 //                   thread beside the layout and the stages after it; reported after the angles
-//   polygon         closed genus ≥ 2 in H: a canonical cut_surface() laid out through the compact
-//                   domain's tiles (deck_through_domain()), best of several base vertices (below)
+//   polygon         closed genus ≥ 2 in H: the compact domain's side pairings (fit_domain_pairings()),
+//                   canonical generators as words in them (canonical_generators(): moves on the
+//                   domain's word, no cut of the mesh) and their geodesic 4g-gon (geodesic_polygon(),
+//                   has_geodesic_polygon), kept when it is a fundamental domain with the relation to
+//                   1e-12. With mesh_polygon, or when that fails: a canonical cut_surface() laid out
+//                   through the compact domain's tiles (deck_through_domain()), best of several base
+//                   vertices (below; has_polygon)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
 //                   the domain's (adjusted) side pairings from the polygon stage — also when the
-//                   canonical polygon lies beyond double range and only its view is missing
-//                   (has_deck, not has_polygon); when no canonical cut exists at all, the pairings
-//                   alone (fit_domain_pairings())
+//                   mesh-path polygon lies beyond double range and only its view is missing
+//                   (has_deck, not has_polygon); when no canonical generators exist at all, the
+//                   pairings alone (fit_domain_pairings())
 //   angles          corner angles of the input against those of the metric (angle_distortion)
 //
 // Vertex scaling with intrinsic Delaunay flips (the default: Scheme::Yamabe with
@@ -55,7 +60,7 @@
 // S for closed genus 0, E for χ = 0 and for genus 0 with boundary, H for χ < 0;
 // natural_boundary_mode(): circles in E, geodesics in H).
 //
-// Base candidates (closed, H). Poincaré coordinates resolve hyperbolic distance only to about
+// Base candidates (closed, H, the mesh path). Poincaré coordinates resolve hyperbolic distance only to about
 // 2^-52 / (1 − |z|²), and the relation of generators whose base point lies far from their axes
 // loses digits as e^distance. The canonical polygon's shape depends strongly on the base vertex of
 // its loops, so up to `base_candidates` base vertices are tried: the most central vertex (least
@@ -121,7 +126,14 @@ struct UniformizeOptions {
   CutOptions cut;
   /// After the flow converged, up to two more Newton steps, kept when they lower max |K̄ − K|.
   bool polish = true;
-  /// H (closed): base vertices tried for the canonical polygon (see the header comment).
+  /// H (closed): the canonical polygon as a canonical cut of the mesh laid out through the
+  /// compact domain (the mesh-path view, polygon.obj; best of `base_candidates` base vertices,
+  /// each a cut and a layout: seconds to minutes at genus ≥ 4) instead of the default, the
+  /// geodesic 4g-gon of canonical generators found from the domain's side pairings alone
+  /// (canonical_generators(), geodesic_polygon(): milliseconds at any genus). The default also
+  /// falls back to the mesh path when the geodesic polygon is not a fundamental domain.
+  bool mesh_polygon = false;
+  /// H (closed): base vertices tried for the mesh-path canonical polygon (see the header comment).
   int base_candidates = 8;
   /// H (closed): stop trying base vertices at the first canonical polygon whose max(relation
   /// error, edge error, rounding floor) is below this, or once two bases in a row match the best
@@ -250,8 +262,17 @@ struct UniformizeResult {
   std::vector<double> polygon_lengths;  ///< #E(polygon_disk): its edge lengths
   Layout polygon;                       ///< its positions and figures (E: a copy of layout)
 
+  /// Closed genus ≥ 2 in H: the geodesic canonical 4g-gon of `deck` (geodesic_polygon()), its
+  /// vertices and frame in the frame of `deck`'s generators (frame = identity); with the default
+  /// it is the canonical polygon itself, and `canonical_words` hold each generator as a word in
+  /// the compact domain's side pairings (`domain_maps`: x1, x2, …).
+  bool has_geodesic_polygon = false;
+  GeodesicPolygon geodesic_polygon;
+  std::vector<std::string> canonical_words;
+
   /// Deck transformations of the canonical polygon (closed genus ≥ 1), in the frame of `polygon`
-  /// (E: that of `layout`; H: DomainDeck::polygon_frame, the polygon centred).
+  /// (E: that of `layout`; H: DomainDeck::polygon_frame, the polygon centred; with the geodesic
+  /// polygon, the frame where it is centred).
   bool has_deck = false;
   DeckResult deck;  ///< valid when has_deck
   /// H: the compact domain's side pairings (Ceres fits), the largest deviation from the identity

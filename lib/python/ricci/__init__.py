@@ -161,8 +161,8 @@ def flow(V, F=None, *, name=None, progress=None, **options):
 
 def uniformize(V=None, F=None, *, name=None, progress=None, **options):
     """The whole job (`ricci uniformize`): geometry, scheme, target, boundary, tol, max_iterations,
-    threads, base_candidates, seed_checks, cover_depth, patches, unit_box, flips, angle_relax,
-    circle_normalization, split_ears, largest_component. Returns a UniformizeResult; raises
+    threads, mesh_polygon, base_candidates, seed_checks, cover_depth, patches, unit_box, flips,
+    angle_relax, circle_normalization, split_ears, largest_component. Returns a UniformizeResult; raises
     RicciError naming the stage that failed."""
     V, F, path, name = _mesh_args(V, F, name, True)
     job = _ricci.uniformize(V, F, path, name, options, progress)

@@ -184,7 +184,8 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"cover_depth", integer(&O::cover_depth, o)},
                   {"patches", integer(&O::patches, o)},
                   {"layout_refine_above", real(&O::layout_refine_above, o)},
-                  {"unit_box", flag(&O::unit_box, o, false)}});
+                  {"unit_box", flag(&O::unit_box, o, false)},
+                  {"mesh_polygon", flag(&O::mesh_polygon, o, false)}});
   apply(options, setters, "uniformize");
 }
 

@@ -1,0 +1,816 @@
+// ricci — canonical generators of a closed hyperbolic surface from the side pairings of any
+// fundamental polygon, and the geodesic canonical 4g-gon they span. See deck.h.
+//
+// Takes: a compact domain (cut_compact(): sides x1 … with partners) and its side pairings
+// (fit_domain_pairings(), adjusted to exact vertex cycles, map + map_low in quad).
+// Gives: the generators A1 B1 … Ag Bg as exact products of those pairings (canonical_generators())
+// and the geodesic polygon with vertices p, A1 p, … (geodesic_polygon()). Nothing here touches the
+// mesh: the classification proof's cut-and-paste runs on the polygon's word (a few dozen letters),
+// so the cost does not grow with the mesh or, beyond the word's length, with the genus.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "moebius_quad.h"
+#include "ricci/deck.h"
+
+namespace ricci {
+
+namespace {
+
+using detail::CQ;
+using detail::MoebiusQ;
+using detail::quad;
+using cplx = std::complex<double>;
+
+// ---- words in the side pairings ---------------------------------------------------------------
+
+/// A word in the domain's side pairings: +k+1 for pairing k, −(k+1) for its inverse; composition
+/// left to right as matrices (the rightmost letter acts first).
+using Word = std::vector<int>;
+
+Word inverse(const Word& w) {
+  Word out(w.rbegin(), w.rend());
+  for (int& x : out) x = -x;
+  return out;
+}
+
+/// Concatenation, freely reduced at the seams (every input is reduced).
+Word concat(std::initializer_list<const Word*> parts) {
+  Word out;
+  for (const Word* p : parts)
+    for (int x : *p) {
+      if (!out.empty() && out.back() == -x)
+        out.pop_back();
+      else
+        out.push_back(x);
+    }
+  return out;
+}
+
+// ---- the polygon's word and cut-and-paste ----------------------------------------------------------
+
+/// A polygon with side pairings, read counter-clockwise: side j carries letter[j] with sign[j]
+/// (+1: the side labelled x, −1: x^-1). Corner j is where side j starts. element[L] is letter L's
+/// pairing (it maps the +1 side onto the −1 side, reversed) as a word in the original pairings.
+struct Schema {
+  std::vector<int> letter, sign;
+  std::vector<Word> element;
+  std::vector<MoebiusQ> map;  ///< element[L] evaluated, updated by the same products move by move
+  int moves = 0;
+
+  int size() const { return static_cast<int>(letter.size()); }
+  int at(int j) const { return ((j % size()) + size()) % size(); }
+  /// Position of letter L's side with sign s.
+  int find(int L, int s) const {
+    for (int j = 0; j < size(); ++j)
+      if (letter[j] == L && sign[j] == s) return j;
+    return -1;
+  }
+  /// Reverses letter L's orientation: its sides swap signs and its pairing is inverted.
+  void flip(int L) {
+    for (int j = 0; j < size(); ++j)
+      if (letter[j] == L) sign[j] = -sign[j];
+    element[L] = inverse(element[L]);
+    map[L] = map[L].inverse();
+  }
+
+  /// Corner classes (the surface's vertices): the pairing of letter L sends the start of its +1
+  /// side to the end of its −1 side, and the end of the +1 side to the start of the −1 side.
+  std::vector<int> corner_classes(int* count) const {
+    const int n = size();
+    std::vector<int> parent(static_cast<std::size_t>(n));
+    std::iota(parent.begin(), parent.end(), 0);
+    auto root = [&](int x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    for (int p = 0; p < n; ++p) {
+      if (sign[p] != 1) continue;
+      const int q = find(letter[p], -1);
+      parent[root(p)] = root(at(q + 1));
+      parent[root(at(p + 1))] = root(q);
+    }
+    std::vector<int> label(static_cast<std::size_t>(n), -1), out(static_cast<std::size_t>(n));
+    *count = 0;
+    for (int j = 0; j < n; ++j) {
+      const int r = root(j);
+      if (label[r] < 0) label[r] = (*count)++;
+      out[j] = label[r];
+    }
+    return out;
+  }
+
+  /// Removes an adjacent pair x x^-1 (the corner between them is a vertex of its own, fixed by x,
+  /// whose angle is the whole 2π: x is the identity). False when there is none.
+  bool cancel_once() {
+    const int n = size();
+    if (n <= 2) return false;
+    for (int j = 0; j < n; ++j) {
+      const int k = at(j + 1);
+      if (letter[j] != letter[k]) continue;
+      const int first = std::min(j, k), second = std::max(j, k);
+      letter.erase(letter.begin() + second);
+      sign.erase(sign.begin() + second);
+      letter.erase(letter.begin() + first);
+      sign.erase(sign.begin() + first);
+      return true;
+    }
+    return false;
+  }
+
+  /// Cuts along the diagonal from corner i to corner j (P1: sides i … j−1 and the diagonal y,
+  /// P2: sides j … i−1 and y^-1) and glues the two pieces back along letter x, whose sides lie in
+  /// different pieces; returns the new letter y. The piece with fewer sides moves (so fewer
+  /// pairings change): by g = X^-1 when x's +1 side stays, else X, which lays x's sides onto each
+  /// other. A letter with a side in the moved piece follows: both sides moved g L g^-1, only its
+  /// −1 side moved g L, only its +1 side moved L g^-1; y's pairing (its +1 side lies in P1) is g
+  /// when P2 moves and g^-1 when P1 does.
+  int cut_paste(int i, int j, int x) {
+    const int n = size();
+    std::vector<char> in_p2(static_cast<std::size_t>(n), 0);
+    int p2_sides = 0;
+    for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
+    const bool move_p2 = p2_sides <= n - p2_sides;
+    auto moved = [&](int k) { return in_p2[k] == (move_p2 ? 1 : 0); };
+    const int xp = find(x, 1), xm = find(x, -1);
+    const bool plus_stays = !moved(xp);
+    const Word g = plus_stays ? inverse(element[x]) : element[x];
+    const Word g_inv = inverse(g);
+    const MoebiusQ G = plus_stays ? map[x].inverse() : map[x], G_inv = G.inverse();
+    for (int L = 0; L < static_cast<int>(element.size()); ++L) {
+      if (L == x) continue;
+      const int p = find(L, 1), m = find(L, -1);
+      if (p < 0 || m < 0) continue;  // cancelled or never used
+      if (moved(p) && moved(m)) {
+        element[L] = concat({&g, &element[L], &g_inv});
+        map[L] = (G * map[L] * G_inv).normalized();
+      } else if (!moved(p) && moved(m)) {
+        element[L] = concat({&g, &element[L]});
+        map[L] = (G * map[L]).normalized();
+      } else if (moved(p) && !moved(m)) {
+        element[L] = concat({&element[L], &g_inv});
+        map[L] = (map[L] * G_inv).normalized();
+      }
+    }
+    const int y = static_cast<int>(element.size());
+    element.push_back(move_p2 ? g : g_inv);
+    map.push_back(move_p2 ? G : G_inv);
+    element[x].clear();
+    map[x] = MoebiusQ();
+    // The pieces as cyclic side lists (y: +1 in P1, −1 in P2), then the staying piece with x's
+    // side replaced by the moved piece's sides after x's other side.
+    std::vector<std::pair<int, int>> P1, P2;
+    for (int k = i; k != j; k = at(k + 1)) P1.push_back({k, 0});
+    P1.push_back({-1, 1});
+    for (int k = j; k != i; k = at(k + 1)) P2.push_back({k, 0});
+    P2.push_back({-1, -1});
+    const std::vector<std::pair<int, int>>& stay = move_p2 ? P1 : P2;
+    const std::vector<std::pair<int, int>>& move = move_p2 ? P2 : P1;
+    const int in_stay = plus_stays ? xp : xm, in_move = plus_stays ? xm : xp;
+    std::size_t at_move = 0;
+    while (move[at_move].first != in_move) ++at_move;
+    std::vector<int> nl, ns;
+    auto put = [&](const std::pair<int, int>& e) {
+      nl.push_back(e.first < 0 ? y : letter[e.first]);
+      ns.push_back(e.first < 0 ? e.second : sign[e.first]);
+    };
+    for (const auto& e : stay) {
+      if (e.first == in_stay) {
+        for (std::size_t k = 1; k < move.size(); ++k) put(move[(at_move + k) % move.size()]);
+      } else {
+        put(e);
+      }
+    }
+    letter = std::move(nl);
+    sign = std::move(ns);
+    ++moves;
+    return y;
+  }
+
+  /// Letters of the blocks u v u^-1 v^-1 found by a greedy scan from every rotation (the largest
+  /// count), with the rotation that starts at one.
+  int commutator_blocks(std::vector<char>* in_block, int* start) const {
+    const int n = size();
+    int best = -1;
+    for (int r = 0; r < n; ++r) {
+      std::vector<char> mark(static_cast<std::size_t>(n), 0);
+      int count = 0;
+      for (int k = 0; k + 4 <= n;) {
+        const int a = at(r + k), b = at(r + k + 1), c = at(r + k + 2), d = at(r + k + 3);
+        if (letter[a] == letter[c] && letter[b] == letter[d] && letter[a] != letter[b] &&
+            sign[a] == -sign[c] && sign[b] == -sign[d]) {
+          mark[a] = mark[b] = mark[c] = mark[d] = 1;
+          ++count;
+          k += 4;
+        } else {
+          ++k;
+        }
+      }
+      if (count > best) {
+        best = count;
+        *in_block = mark;
+        *start = r;
+      }
+    }
+    return best;
+  }
+};
+
+/// Size of a schema's pairings: the sum over its letters of how far each moves the frame's origin
+/// (2 asinh |b|), the pairings evaluated in quad. The compact domain is laid out around that origin,
+/// so short canonical loops are those that move it little; the greedy choice among moves keeps this
+/// sum small, which keeps the generators' axes near the domain and their products resolvable.
+struct Sizer {
+  double operator()(const Schema& s) const;
+};
+
+/// One vertex class: a corner of the smallest other class is removed by cutting off the triangle
+/// of its two sides b (ending there) and a (leaving it towards another class) and regluing it
+/// along b's partner; that merges it with the corner at b's partner. Among the candidate corners
+/// the move leaving the shortest words is taken. False when no move applies.
+bool reduce_classes(Schema& s, const Sizer& size_of) {
+  int count = 0;
+  std::vector<int> cls = s.corner_classes(&count);
+  if (count <= 1) return true;
+  std::vector<int> size(static_cast<std::size_t>(count), 0);
+  for (int c : cls) ++size[c];
+  const int Q = static_cast<int>(std::min_element(size.begin(), size.end()) - size.begin());
+  const int n = s.size();
+  Schema best;
+  double best_size = 0;
+  bool found = false;
+  for (int k = 0; k < n; ++k) {
+    if (cls[k] != Q || cls[s.at(k + 1)] == Q) continue;
+    Schema trial = s;
+    trial.cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]);
+    const double trial_size = size_of(trial);
+    if (!found || trial_size < best_size) {
+      best = std::move(trial);
+      best_size = trial_size;
+      found = true;
+    }
+  }
+  if (!found) return false;
+  s = std::move(best);
+  return true;
+}
+
+/// One more commutator block: for a linked pair a … b … a^-1 … b^-1 of letters outside the
+/// blocks (signs made so by flipping letters), cut from the corner before a to the corner after
+/// a^-1 and reglue along b, giving a X U c^-1 Z Y a^-1 c; then cut from the corner after a^-1 to
+/// the corner after c^-1 and reglue along a, giving the block c^-1 e c e^-1. Among linked pairs
+/// the one leaving the shortest words is taken. False when none makes progress.
+bool add_commutator(Schema& s, const Sizer& size_of) {
+  std::vector<char> in_block;
+  int start = 0;
+  const int blocks = s.commutator_blocks(&in_block, &start);
+  const int n = s.size();
+  Schema best;
+  double best_size = 0;
+  bool found = false;
+  for (int ta = 0; ta < n; ++ta) {
+    if (in_block[ta]) continue;
+    const int La = s.letter[ta];
+    int ta2 = -1;
+    for (int k = 1; k < n; ++k)
+      if (s.letter[s.at(ta + k)] == La) ta2 = s.at(ta + k);
+    const int span = (ta2 - ta + n) % n;
+    for (int k = 1; k < span; ++k) {
+      const int tb = s.at(ta + k);
+      if (in_block[tb]) continue;
+      const int Lb = s.letter[tb];
+      int tb2 = -1;
+      for (int m = 1; m < n; ++m)
+        if (s.letter[s.at(ta + m)] == Lb && s.at(ta + m) != tb) tb2 = s.at(ta + m);
+      if ((tb2 - ta + n) % n <= span) continue;  // not linked
+      Schema t = s;
+      if (t.sign[ta] != 1) t.flip(La);
+      if (t.sign[tb] != 1) t.flip(Lb);
+      const int c = t.cut_paste(ta, t.at(ta2 + 1), Lb);
+      const int qa = t.find(La, -1), qc = t.find(c, -1);
+      if (qa < 0 || qc < 0) continue;
+      t.cut_paste(t.at(qa + 1), t.at(qc + 1), La);
+      std::vector<char> mark;
+      int rot = 0;
+      if (t.commutator_blocks(&mark, &rot) <= blocks) continue;
+      const double trial_size = size_of(t);
+      if (!found || trial_size < best_size) {
+        best = std::move(t);
+        best_size = trial_size;
+        found = true;
+      }
+    }
+  }
+  if (!found) return false;
+  s = std::move(best);
+  return true;
+}
+
+int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps);
+int reduce_handles(std::vector<MoebiusQ>& gens, std::vector<Word>& words);
+MoebiusQ relator(const std::vector<MoebiusQ>& gens);
+
+MoebiusQ quad_map(const DeckGenerator& g) {
+  return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
+}
+
+
+
+double Sizer::operator()(const Schema& s) const {
+  double sum = 0;
+  for (int j = 0; j < s.size(); ++j)
+    if (s.sign[j] == 1) sum += 2 * std::asinh(std::sqrt(static_cast<double>(s.map[s.letter[j]].b.norm())));
+  return sum;
+}
+
+DeckGenerator generator_from(const MoebiusQ& M, const std::string& name) {
+  DeckGenerator G;
+  G.name = name;
+  G.geometry = Geometry::Hyperbolic;
+  G.map = M.to_double();
+  G.map_low = MoebiusQ(M.a - CQ(G.map.a), M.b - CQ(G.map.b)).to_double();
+  G.theta = G.map.theta();
+  G.z0 = G.map.z0();
+  G.translation_length = G.map.translation_length();
+  return G;
+}
+
+/// R = [A1^-1, B1] … [Ag^-1, Bg] in quad (deck.h's relation).
+MoebiusQ relator(const std::vector<MoebiusQ>& gens) {
+  MoebiusQ R;
+  for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
+    R = R * gens[i].inverse() * gens[i + 1] * gens[i] * gens[i + 1].inverse();
+  return R;
+}
+
+std::string word_text(const Word& w, const std::vector<std::string>& names) {
+  std::string out;
+  for (int x : w) {
+    if (!out.empty()) out += ' ';
+    out += names[static_cast<std::size_t>(std::abs(x) - 1)];
+    if (x < 0) out += "^-1";
+  }
+  return out.empty() ? std::string("1") : out;
+}
+
+}  // namespace
+
+namespace {
+
+/// One run of the normal form from the domain's schema: the generators a1 b1 … in the pairings'
+/// frame and their words, or a status. `recentre`: keep the working frame at the point where the
+/// pairings move least (sizes then compare shapes, not where the moved pieces drifted); without
+/// it sizes are taken at the origin of the pairings' frame, the domain's centre.
+struct NormalForm {
+  Status status = Status::NotRun;
+  std::string message;
+  std::vector<MoebiusQ> gens;
+  std::vector<Word> words;
+  int moves = 0, handle_moves = 0;
+};
+
+NormalForm normal_form(Schema s, Index genus, bool recentre_moves) {
+  NormalForm nf;
+  auto bad = [&](Status st, const std::string& m) {
+    nf.status = st;
+    nf.message = "canonical generators: " + m;
+    return nf;
+  };
+  const Sizer sizer;
+  MoebiusQ C;  // pairings' frame → working frame
+  auto recentre = [&] {
+    if (!recentre_moves) return true;
+    std::vector<MoebiusQ> alive;
+    for (int j = 0; j < s.size(); ++j)
+      if (s.sign[j] == 1) alive.push_back(s.map[s.letter[j]]);
+    MoebiusQ T;
+    if (minimise_displacement(alive, T, 8) < 0) return false;
+    for (MoebiusQ& M : s.map) M = (T * M * T.inverse()).normalized();
+    C = (T * C).normalized();
+    return true;
+  };
+  // The classification proof on the word: cancel x x^-1, one vertex class, then commutators.
+  const int limit = 16 * (s.size() + 4);
+  for (int guard = 0;; ++guard) {
+    if (guard > limit) return bad(Status::NumericalFailure, "the word did not reach its normal form.");
+    if (s.cancel_once()) continue;
+    if (!recentre()) return bad(Status::NumericalFailure, "a pairing is not finite.");
+    int count = 0;
+    s.corner_classes(&count);
+    if (count > 1) {
+      if (!reduce_classes(s, sizer)) return bad(Status::NumericalFailure, "no move joins the polygon's corners.");
+      continue;
+    }
+    std::vector<char> mark;
+    int start = 0;
+    if (4 * s.commutator_blocks(&mark, &start) == s.size()) {
+      std::rotate(s.letter.begin(), s.letter.begin() + start, s.letter.end());
+      std::rotate(s.sign.begin(), s.sign.begin() + start, s.sign.end());
+      break;
+    }
+    if (!add_commutator(s, sizer)) return bad(Status::NumericalFailure, "no linked pair of letters makes progress.");
+  }
+  if (s.size() != 4 * static_cast<int>(genus))
+    return bad(Status::NumericalFailure, "the normal form has " + std::to_string(s.size()) + " sides, not 4g = " +
+                                             std::to_string(4 * genus) + ".");
+  // Each block a b a^-1 b^-1 (letters flipped to those signs) gives a_i, b_i; handles reduced in
+  // the working frame, then back in the pairings' frame.
+  std::vector<MoebiusQ> work;
+  for (Index i = 0; i < genus; ++i) {
+    const int a = s.letter[static_cast<std::size_t>(4 * i)], b = s.letter[static_cast<std::size_t>(4 * i + 1)];
+    if (s.sign[static_cast<std::size_t>(4 * i)] != 1) s.flip(a);
+    if (s.sign[static_cast<std::size_t>(4 * i + 1)] != 1) s.flip(b);
+    for (const int L : {a, b}) {
+      work.push_back(s.map[static_cast<std::size_t>(L)]);
+      nf.words.push_back(s.element[static_cast<std::size_t>(L)]);
+    }
+  }
+  nf.handle_moves = reduce_handles(work, nf.words);
+  for (const MoebiusQ& M : work) nf.gens.push_back((C.inverse() * M * C).normalized());
+  nf.moves = s.moves;
+  nf.status = Status::Ok;
+  return nf;
+}
+
+}  // namespace
+
+CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
+                                         std::span<const DeckGenerator> fitted_maps) {
+  const auto t_start = std::chrono::steady_clock::now();
+  CanonicalGenerators out;
+  auto bad = [&](Status st, const std::string& m) {
+    out.status = st;
+    out.message = m;
+    out.deck.status = st;
+    out.deck.message = m;
+    out.deck.generators.clear();
+    return out;
+  };
+  if (domain.status != Status::Ok || domain.boundary_loops != 0 || domain.genus < 2)
+    return bad(Status::InvalidArgument, "canonical generators need a cut of a closed surface of genus >= 2.");
+  const Index letters = domain.num_generators();
+  if (static_cast<Index>(side_maps.size()) != letters ||
+      (!fitted_maps.empty() && static_cast<Index>(fitted_maps.size()) != letters))
+    return bad(Status::InvalidArgument, "canonical generators: expected one side pairing per generator of the cut.");
+  Schema s;
+  std::vector<std::string> names;
+  for (Index L = 0; L < letters; ++L) {
+    s.element.push_back({static_cast<int>(L) + 1});
+    s.map.push_back(quad_map(side_maps[static_cast<std::size_t>(L)]));
+    names.push_back(side_maps[static_cast<std::size_t>(L)].name);
+    if (!std::isfinite(static_cast<double>(s.map.back().a.norm() + s.map.back().b.norm())))
+      return bad(Status::InvalidArgument, "canonical generators: side pairing " + names.back() + " is not finite.");
+  }
+  std::vector<int> seen(static_cast<std::size_t>(letters), 0);
+  for (Index j = 0; j < domain.num_sides(); ++j) {
+    const Index L = domain.side_generator[j];
+    const int o = domain.side_orientation[j];
+    if (domain.side_kind[j] == SideKind::Boundary || L < 0 || L >= letters || (o != 1 && o != -1))
+      return bad(Status::InvalidArgument, "canonical generators: side " + std::to_string(j) + " is not paired.");
+    seen[static_cast<std::size_t>(L)] += o == 1 ? 1 : 16;
+    s.letter.push_back(static_cast<int>(L));
+    s.sign.push_back(o);
+  }
+  for (Index L = 0; L < letters; ++L)
+    if (seen[static_cast<std::size_t>(L)] != 17)
+      return bad(Status::InvalidArgument, "canonical generators: letter " + std::to_string(L) +
+                                              " does not label exactly one side and its inverse.");
+
+  // Two runs (sizes at the domain's centre; sizes where the pairings move least). The moves are
+  // greedy, so either can end with longer generators; the run whose geodesic polygon is a
+  // fundamental domain with the smaller perimeter is kept (else the smaller relation error).
+  const Index g = domain.genus;
+  std::optional<NormalForm> best;
+  double best_score = 0, best_relation = 0;
+  std::string last_error;
+  for (const bool recentre : {false, true}) {
+    NormalForm nf = normal_form(s, g, recentre);
+    if (nf.status != Status::Ok) {
+      last_error = nf.message;
+      continue;
+    }
+    DeckResult trial;
+    trial.geometry = Geometry::Hyperbolic;
+    trial.genus = g;
+    for (std::size_t k = 0; k < nf.gens.size(); ++k)
+      trial.generators.push_back(generator_from(nf.gens[k], std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1)));
+    const GeodesicPolygon gp = geodesic_polygon(trial);
+    const double relation = gp.status == Status::Ok ? gp.deck.relation_error : relator(nf.gens).distance_to_identity();
+    const bool fundamental = gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9 &&
+                             relation <= 1e-12;
+    const double score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+    if (!best || score < best_score || (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
+      best = std::move(nf);
+      best_score = score;
+      best_relation = relation;
+    }
+  }
+  if (!best) return bad(Status::NumericalFailure, last_error);
+
+  DeckResult& r = out.deck;
+  r.geometry = Geometry::Hyperbolic;
+  r.genus = g;
+  double pairing_residual = 0;
+  for (const DeckGenerator& d : side_maps) pairing_residual = std::max(pairing_residual, d.residual_max);
+  for (std::size_t k = 0; k < best->gens.size(); ++k) {
+    r.generators.push_back(generator_from(best->gens[k], std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1)));
+    r.generators.back().residual_max = pairing_residual;
+    out.words.push_back(word_text(best->words[k], names));
+    out.word_lengths.push_back(static_cast<Index>(best->words[k].size()));
+  }
+  r.residual_max = pairing_residual;
+  const MoebiusQ R = relator(best->gens);
+  r.relator = R.to_double();
+  // At the origin of the pairings' frame (geodesic_polygon() measures it again at its corner 0).
+  r.relation_error = R.distance_to_identity();
+  out.fitted_relation_error = r.relation_error;
+  if (!fitted_maps.empty()) {
+    std::vector<MoebiusQ> F, fg;
+    for (const DeckGenerator& d : fitted_maps) F.push_back(quad_map(d));
+    for (const Word& w : best->words) {
+      MoebiusQ M;
+      for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
+      fg.push_back(M);
+    }
+    out.fitted_relation_error = relator(fg).distance_to_identity();
+  }
+  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
+    return bad(Status::NumericalFailure, "canonical generators: the relation is not finite.");
+  out.moves = best->moves;
+  out.handle_moves = best->handle_moves;
+  r.status = Status::Ok;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "%d canonical generators from %d side pairings (%d cut-and-paste moves on the word, %d handle "
+                "substitutions); relation error %.3g",
+                static_cast<int>(2 * g), static_cast<int>(letters), best->moves, best->handle_moves, r.relation_error);
+  r.message = buf;
+  out.status = Status::Ok;
+  out.message = buf;
+  return out;
+}
+
+namespace {
+
+/// Perimeter of the polygon with corner 0 at the frame's origin, for the side elements Y_k
+/// (side k runs from W_k p to W_k Y_k p, so its length is the displacement of Y_k at p).
+double perimeter_at(const std::vector<MoebiusQ>& Y, CQ z) {
+  double sum = 0;
+  for (const MoebiusQ& M : Y) sum += detail::hyperbolic_distance_q(z, M.apply(z));
+  return sum;
+}
+
+/// Moves the frame to the point p minimising D(p) = Σ_k d(p, Y_k p) (a convex function: each term
+/// is an isometry's displacement): Newton with finite differences (in quad) at the frame's origin,
+/// each step at most hyperbolic distance 2 and backtracked so D does not grow, then the frame moved
+/// there (Y conjugated in place, F ← T F). Returns the steps taken, −1 when D is not finite.
+int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) {
+  constexpr double h = 1e-5;
+  constexpr double kMaxStep = 0.76;  // tanh(1)
+  int steps = 0;
+  for (int it = 0; it < max_steps; ++it) {
+    auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
+    const double f0 = f(0, 0), fxp = f(h, 0), fxm = f(-h, 0), fyp = f(0, h), fym = f(0, -h);
+    const double fpp = f(h, h), fpm = f(h, -h), fmp = f(-h, h), fmm = f(-h, -h);
+    if (!std::isfinite(f0 + fxp + fxm + fyp + fym + fpp + fpm + fmp + fmm)) return -1;
+    const double gx = (fxp - fxm) / (2 * h), gy = (fyp - fym) / (2 * h);
+    const double hxx = (fxp - 2 * f0 + fxm) / (h * h), hyy = (fyp - 2 * f0 + fym) / (h * h);
+    const double hxy = (fpp - fpm - fmp + fmm) / (4 * h * h);
+    const double det = hxx * hyy - hxy * hxy;
+    cplx step;
+    if (hxx > 0 && det > 0) step = cplx(-(hyy * gx - hxy * gy) / det, -(hxx * gy - hxy * gx) / det);
+    else step = cplx(-gx, -gy) * 0.1 / std::max(1.0, std::hypot(gx, gy));
+    if (std::abs(step) > kMaxStep) step *= kMaxStep / std::abs(step);
+    double t = 1;
+    while (t > 1e-6 && !(f(t * step.real(), t * step.imag()) <= f0)) t *= 0.5;
+    if (t <= 1e-6) break;
+    step *= t;
+    ++steps;
+    const MoebiusQ T = MoebiusQ::to_origin(CQ(step));
+    F = (T * F).normalized();
+    for (MoebiusQ& M : Y) M = (T * M * T.inverse()).normalized();
+    if (std::abs(step) < 1e-9) break;
+  }
+  return steps;
+}
+
+/// The polygon's corner maps: corner j is W[j](p), W[0] = identity, with deck.h's convention
+/// (block i from u: A^-1 B^-1 A u, B^-1 A u, A u, then [B, A^-1] u).
+std::vector<MoebiusQ> corner_maps(const std::vector<MoebiusQ>& gens) {
+  std::vector<MoebiusQ> W;
+  MoebiusQ U;  // block start
+  for (std::size_t i = 0; i + 1 < gens.size(); i += 2) {
+    const MoebiusQ& A = gens[i];
+    const MoebiusQ& B = gens[i + 1];
+    W.push_back(U);
+    W.push_back((A.inverse() * B.inverse() * A * U).normalized());
+    W.push_back((B.inverse() * A * U).normalized());
+    W.push_back((A * U).normalized());
+    U = (B * A.inverse() * B.inverse() * A * U).normalized();
+  }
+  W.push_back(U);  // the walk's end: the identity when the relation holds
+  return W;
+}
+
+/// Per-handle reduction of canonical generators (working frame): (A, B) → (A, B A^±1) and
+/// (A, B) → (B^±1 A, B) keep [A^-1, B] exactly, hence the relation and every other block's
+/// corners; each is taken while it shortens the handle's four sides of the geodesic polygon at
+/// the perimeter-minimising p (which is then found again). Like Euclid's algorithm on the handle's
+/// basis; it stops when no substitution shortens any handle. Returns the substitutions made.
+int reduce_handles(std::vector<MoebiusQ>& gens, std::vector<Word>& words) {
+  const std::size_t g = gens.size() / 2;
+  int made = 0;
+  for (int round = 0; round < 64; ++round) {
+    // p: the perimeter's minimiser, at the origin of the frame F.
+    std::vector<MoebiusQ> W = corner_maps(gens);
+    std::vector<MoebiusQ> Y;
+    for (std::size_t k = 0; k < 4 * g; ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
+    MoebiusQ F;
+    if (minimise_displacement(Y, F, 40) < 0) return made;
+    const CQ p = F.inverse().apply(CQ{0, 0});
+    bool improved = false;
+    for (std::size_t i = 0; i < g; ++i) {
+      const CQ u = W[4 * i].apply(p);  // the block's first corner (earlier blocks unchanged)
+      auto block = [&](const MoebiusQ& A, const MoebiusQ& B) {
+        const CQ v1 = (A.inverse() * B.inverse() * A).apply(u), v2 = (B.inverse() * A).apply(u), v3 = A.apply(u);
+        const CQ v4 = (B * A.inverse() * B.inverse() * A).apply(u);
+        return detail::hyperbolic_distance_q(u, v1) + detail::hyperbolic_distance_q(v1, v2) +
+               detail::hyperbolic_distance_q(v2, v3) + detail::hyperbolic_distance_q(v3, v4);
+      };
+      for (int guard = 0; guard < 64; ++guard) {
+        MoebiusQ& A = gens[2 * i];
+        MoebiusQ& B = gens[2 * i + 1];
+        const double now = block(A, B);
+        const std::array<std::pair<MoebiusQ, MoebiusQ>, 4> options = {
+            std::pair{A, (B * A).normalized()}, std::pair{A, (B * A.inverse()).normalized()},
+            std::pair{(B * A).normalized(), B}, std::pair{(B.inverse() * A).normalized(), B}};
+        int best = -1;
+        double best_len = now;
+        for (int o = 0; o < 4; ++o) {
+          const double len = block(options[o].first, options[o].second);
+          if (std::isfinite(len) && len < best_len * (1 - 1e-12)) best_len = len, best = o;
+        }
+        if (best < 0) break;
+        Word& wa = words[2 * i];
+        Word& wb = words[2 * i + 1];
+        const Word ia = inverse(wa), ib = inverse(wb);
+        if (best == 0) wb = concat({&wb, &wa});
+        else if (best == 1) wb = concat({&wb, &ia});
+        else if (best == 2) wa = concat({&wb, &wa});
+        else wa = concat({&ib, &wa});
+        A = options[best].first;
+        B = options[best].second;
+        ++made;
+        improved = true;
+      }
+    }
+    if (!improved) break;
+  }
+  return made;
+}
+
+/// Klein-model point of a disk point (geodesics are straight there).
+cplx klein(cplx z) { return 2.0 * z / (1.0 + std::norm(z)); }
+
+double cross(cplx a, cplx b) { return a.real() * b.imag() - a.imag() * b.real(); }
+
+/// Whether the closed segments pq and rs meet (orientation tests; touching counts).
+bool segments_meet(cplx p, cplx q, cplx r, cplx s) {
+  const double d1 = cross(q - p, r - p), d2 = cross(q - p, s - p), d3 = cross(s - r, p - r), d4 = cross(s - r, q - r);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+  auto on = [](cplx a, cplx b, cplx c, double d) {  // c on segment ab, given collinear (d == 0)
+    return d == 0 && std::min(a.real(), b.real()) <= c.real() && c.real() <= std::max(a.real(), b.real()) &&
+           std::min(a.imag(), b.imag()) <= c.imag() && c.imag() <= std::max(a.imag(), b.imag());
+  };
+  return on(p, q, r, d1) || on(p, q, s, d2) || on(r, s, p, d3) || on(r, s, q, d4);
+}
+
+}  // namespace
+
+GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
+  const auto t_start = std::chrono::steady_clock::now();
+  GeodesicPolygon out;
+  auto bad = [&](Status st, const std::string& m) {
+    out.status = st;
+    out.message = m;
+    out.vertices.clear();
+    return out;
+  };
+  const std::size_t n2 = canonical.generators.size();
+  if (canonical.geometry != Geometry::Hyperbolic || n2 < 4 || n2 % 2 != 0)
+    return bad(Status::InvalidArgument, "the geodesic polygon needs 2g >= 4 hyperbolic generators a1 b1 ...");
+  const std::size_t g = n2 / 2;
+  std::vector<MoebiusQ> gens;
+  for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
+  const std::vector<MoebiusQ> W = corner_maps(gens);
+  const std::size_t n = 4 * g;
+  std::vector<MoebiusQ> Y;  // side k: W_k^-1 W_{k+1}
+  for (std::size_t k = 0; k < n; ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
+
+  // p minimising the perimeter, at the origin of the frame F.
+  MoebiusQ F;
+  std::vector<MoebiusQ> Yf = Y;
+  const int steps = minimise_displacement(Yf, F, 200);
+  if (steps < 0) return bad(Status::NumericalFailure, "the geodesic polygon's perimeter is not finite.");
+  out.newton_steps = steps;
+
+  // Corners with p at the origin of F, then the frame centred on them.
+  std::vector<CQ> corners;
+  for (std::size_t k = 0; k < n; ++k) corners.push_back((F * W[k] * F.inverse()).apply(CQ{0, 0}));
+  const CQ end = (F * W[n] * F.inverse()).apply(CQ{0, 0});
+  out.closure_error = detail::hyperbolic_distance_q(end, CQ{0, 0});
+  // The centre: the corners' centre of mass on the hyperboloid (symmetric polygons keep their
+  // centre exactly).
+  quad t = 0, x = 0, y = 0;
+  for (const CQ& q : corners) {
+    const quad o = 1 - q.norm();
+    t += (1 + q.norm()) / o;
+    x += 2 * q.re / o;
+    y += 2 * q.im / o;
+  }
+  const quad lorentz = t * t - x * x - y * y;
+  if (!(lorentz > 0)) return bad(Status::NumericalFailure, "the geodesic polygon's corners have no centre.");
+  const quad den = t + detail::qsqrt(lorentz);
+  const CQ c{x / den, y / den};
+  const MoebiusQ C = MoebiusQ::to_origin(c);
+  const MoebiusQ frame = (C * F).normalized();
+  out.frame = frame.to_double();
+  std::vector<CQ> v;
+  for (const CQ& q : corners) v.push_back(C.apply(q));
+  for (const CQ& q : v) out.vertices.push_back(q.to_double());
+
+  // Generators in the polygon's frame; the relation at corner 0.
+  std::vector<MoebiusQ> gp;
+  out.deck = canonical;
+  out.deck.generators.clear();
+  for (std::size_t i = 0; i < n2; ++i) {
+    gp.push_back((frame * gens[i] * frame.inverse()).normalized());
+    DeckGenerator G = generator_from(gp.back(), canonical.generators[i].name);
+    G.side = canonical.generators[i].side;
+    G.partner = canonical.generators[i].partner;
+    G.residual_max = canonical.generators[i].residual_max;
+    G.residual_rms = canonical.generators[i].residual_rms;
+    G.pairs = canonical.generators[i].pairs;
+    out.deck.generators.push_back(G);
+  }
+  const MoebiusQ R = relator(gp);
+  out.deck.relator = R.to_double();
+  const MoebiusQ V0 = MoebiusQ::to_origin(v[0]);
+  out.deck.relation_error = (V0 * R * V0.inverse()).distance_to_identity();
+
+  // Sides, angles, reach, simplicity.
+  for (std::size_t k = 0; k < n; ++k) {
+    const CQ& a = v[k];
+    const CQ& b = v[(k + 1) % n];
+    out.side_lengths.push_back(detail::hyperbolic_distance_q(a, b));
+    out.perimeter += out.side_lengths.back();
+    out.reach = std::max(out.reach, detail::hyperbolic_distance_q(a, CQ{0, 0}));
+    const MoebiusQ T = MoebiusQ::to_origin(a);
+    const cplx next = T.apply(v[(k + 1) % n]).to_double(), prev = T.apply(v[(k + n - 1) % n]).to_double();
+    double angle = std::arg(prev / next);
+    if (angle <= 0) angle += 2 * M_PI;
+    out.angles.push_back(angle);
+    out.angle_sum += angle;
+  }
+  out.area = (static_cast<double>(n) - 2) * M_PI - out.angle_sum;
+  out.simple = true;
+  std::vector<cplx> kz;
+  for (const cplx& z : out.vertices) kz.push_back(klein(z));
+  for (std::size_t i = 0; i < n && out.simple; ++i)
+    for (std::size_t j = i + 2; j < n && out.simple; ++j) {
+      if (i == 0 && j == n - 1) continue;  // adjacent through corner 0
+      if (segments_meet(kz[i], kz[(i + 1) % n], kz[j], kz[(j + 1) % n])) out.simple = false;
+    }
+  for (std::size_t i = 0; i < n && out.simple; ++i)
+    if (kz[i] == kz[(i + 1) % n]) out.simple = false;
+  if (!std::isfinite(out.perimeter) || !std::isfinite(out.angle_sum) || !std::isfinite(out.deck.relation_error) ||
+      !std::isfinite(out.closure_error))
+    return bad(Status::NumericalFailure, "the geodesic polygon has a value that is not finite.");
+  out.word.clear();
+  for (std::size_t i = 1; i <= g; ++i) {
+    const std::string k = std::to_string(i);
+    out.word += (i > 1 ? " a" : "a") + k + " b" + k + " a" + k + "^-1 b" + k + "^-1";
+  }
+  out.status = Status::Ok;
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "geodesic %d-gon: perimeter %.6g, angle sum %.15g (2pi %s), reach %.3g, %s, relation error %.3g",
+                static_cast<int>(n), out.perimeter, out.angle_sum,
+                std::abs(out.angle_sum - 2 * M_PI) < 1e-9 ? "yes" : "no", out.reach, out.simple ? "simple" : "not simple",
+                out.deck.relation_error);
+  out.message = buf;
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return out;
+}
+
+}  // namespace ricci
