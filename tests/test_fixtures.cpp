@@ -273,6 +273,9 @@ std::vector<Shape> shapes() {
   out.push_back({"annulus(8,48)", annulus(8, 48), 0, 2, 0, 20});
   out.push_back({"annulus(1,3)", annulus(1, 3), 0, 2, 0, 10});
   out.push_back({"sphere-3holes", remove_vertex_stars(icosphere(3), {0, 5, 9}), -1, 3, 0, 50});
+  for (const auto& [c, r] : {std::pair{2, 2}, std::pair{3, 2}})
+    out.push_back({"pretzel_grid(" + std::to_string(c) + "," + std::to_string(r) + ")", pretzel_grid(c, r, 3),
+                   2 - 2 * c * r, 0, c * r, 20});
   out.push_back({"genus2-2holes", remove_vertex_stars(pretzel(2, 4), {0, 400}), -4, 2, 2, 20});
   return out;
 }
@@ -335,6 +338,9 @@ TEST_CASE("shapes: generators give valid meshes of the documented topology") {
   CHECK(disk(5).num_faces() == 6 * 25);
   CHECK(annulus(3, 10).num_vertices() == 40);
   CHECK(annulus(3, 10).num_faces() == 60);
+  // A row of holes is the grid with one row, to the bit.
+  CHECK(pretzel_grid(3, 1, 3).positions == pretzel(3, 3).positions);
+  CHECK(pretzel_grid(3, 1, 3).faces == pretzel(3, 3).faces);
 }
 
 TEST_CASE("shapes: closed surfaces face outward, open ones face up, and none folds over") {

@@ -639,8 +639,6 @@ TEST_CASE("signature: every shared mesh of genus >= 1 or with >= 2 loops has one
   std::map<std::string, ricci::ConformalSignature> found;
   for (const char* folder : {"genus1", "genus2", "genus3plus", "boundary"}) {
     for (const std::filesystem::path& p : ricci_test::mesh_files(root / folder)) {
-      // botijo's canonical polygon takes ≈ 50 s (a stage of its own); tools/SIGNATURES.md lists it.
-      if (p.filename() == "botijo.obj") continue;
       INFO(p.string());
       ricci::LoadOptions lo;
       lo.validate.split_ears = true;  // as `ricci signature` splits the ears the circle target cannot realise

@@ -220,15 +220,16 @@ Mesh torus(int n_major, int n_minor, double R, double r) {
   return m;
 }
 
-Mesh pretzel(int genus, int cells_per_unit) {
-  if (genus < 1 || genus > 64 || cells_per_unit < 2 || cells_per_unit > 32)
-    throw std::invalid_argument("pretzel: genus must be in [1, 64] and cells_per_unit in [2, 32]");
+namespace {
+
+/// The plate of pretzel() and pretzel_grid(): cols × rows square holes at the odd units along x
+/// and y, through the whole thickness.
+Mesh holed_plate(int cols, int rows, int cells_per_unit) {
   const int c = cells_per_unit;
-  const int n[3] = {(2 * genus + 1) * c, 3 * c, c};  // voxels along x, y, z
-  // Holes are the odd units along x in the middle unit along y, through the whole thickness.
+  const int n[3] = {(2 * cols + 1) * c, (2 * rows + 1) * c, c};  // voxels along x, y, z
   auto filled = [&](int i, int j, int k) {
     if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return false;
-    const bool hole = (j / c == 1) && ((i / c) % 2 == 1);
+    const bool hole = ((j / c) % 2 == 1) && ((i / c) % 2 == 1);
     return !hole;
   };
   const std::int64_t gx = n[0] + 1, gy = n[1] + 1, gz = n[2] + 1;
@@ -291,6 +292,20 @@ Mesh pretzel(int genus, int cells_per_unit) {
   for (Index v = 0; v < m.num_vertices(); ++v)
     for (int d = 0; d < 3; ++d) m.positions[3 * v + d] = (m.positions[3 * v + d] - 0.5 * (lo[d] + hi[d])) * scale;
   return m;
+}
+
+}  // namespace
+
+Mesh pretzel(int genus, int cells_per_unit) {
+  if (genus < 1 || genus > 64 || cells_per_unit < 2 || cells_per_unit > 32)
+    throw std::invalid_argument("pretzel: genus must be in [1, 64] and cells_per_unit in [2, 32]");
+  return holed_plate(genus, 1, cells_per_unit);
+}
+
+Mesh pretzel_grid(int cols, int rows, int cells_per_unit) {
+  if (cols < 1 || rows < 1 || cols * rows > 256 || cells_per_unit < 2 || cells_per_unit > 32)
+    throw std::invalid_argument("pretzel_grid: cols, rows >= 1 with cols * rows <= 256 and cells_per_unit in [2, 32]");
+  return holed_plate(cols, rows, cells_per_unit);
 }
 
 Mesh disk(int rings) {

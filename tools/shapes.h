@@ -49,6 +49,12 @@ Mesh torus(int n_major, int n_minor, double R, double r);
 /// Preconditions: 1 ≤ genus ≤ 64, 2 ≤ cells_per_unit ≤ 32.
 Mesh pretzel(int genus, int cells_per_unit);
 
+/// Closed surface of genus cols·rows: as pretzel(), with the holes in a grid of cols × rows (so
+/// the surface stays round as the genus grows, where a row of holes grows long: its hyperbolic
+/// metric's diameter grows with the genus). pretzel_grid(g, 1, c) is pretzel(g, c).
+/// Preconditions: cols, rows ≥ 1, cols·rows ≤ 256, 2 ≤ cells_per_unit ≤ 32.
+Mesh pretzel_grid(int cols, int rows, int cells_per_unit);
+
 // ---------------------------------------------------------------------------------------------
 // Surfaces with boundary.
 

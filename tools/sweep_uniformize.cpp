@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   }
   std::string table;
   table += "| mesh | geometry | #F | Newton it. | max \\|K̄ − K\\| | layout edge error | rounding floor | flips | seed independence | "
-           "domain cycles | pairings moved | relation error | as fitted | polygon edge error | s |\n";
+           "domain cycles | pairings moved | relation error | as fitted | polygon | s |\n";
   table += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::cout << table << std::flush;
   ricci::UniformizeOptions options;
@@ -126,7 +126,9 @@ int main(int argc, char** argv) {
           row += (deck ? sci(r.deck.relation_error) : std::string("–")) + " | ";
           row += (deck ? sci(domain ? r.fitted_relation_error : r.deck.relation_error) : std::string("–")) + " | ";
           if (r.has_polygon)
-            row += sci(r.polygon.max_edge_length_error);
+            row += "edge error " + sci(r.polygon.max_edge_length_error);
+          else if (r.has_geodesic_polygon)
+            row += "geodesic, reach " + sci(r.geodesic_polygon.reach);
           else if (deck)
             row += "not drawn (beyond double range)";
           else if (!r.polygon_note.empty())
@@ -149,7 +151,7 @@ int main(int argc, char** argv) {
                       "`build/tools/sweep_uniformize --out tools/SWEEP-uniformize.md` (Release build), library defaults "
                       "(Newton to 1e-12 plus polishing, " + std::to_string(options.seed_checks) + " extra seed" +
                       (options.seed_checks == 1 ? "" : "s") + ", " + std::to_string(options.base_candidates) +
-                      " base vertices for the canonical polygon; the layout refined only where it misses its "
+                      " base vertices for a canonical polygon of the mesh where the geodesic one is not made; the layout refined only where it misses its "
                       "metric by more than 1e-10 above its rounding floor). Hardware threads: " +
                       std::to_string(std::thread::hardware_concurrency()) +
                       ".\n\nColumns: *layout edge error* — max relative edge-length error of the layout (the compact "
@@ -159,8 +161,10 @@ int main(int argc, char** argv) {
                       "pairings around its vertex cycles (distance to the identity); *pairings moved* — how far (largest "
                       "hyperbolic displacement of a side vertex) the pairings moved onto exact cycles; *relation error* "
                       "— Π[A_i⁻¹, B_i] of the canonical generators (H: products of the moved pairings, 113-bit); *as "
-                      "fitted* — the same words in the pairings as fitted (torus: the fitted translations); *polygon "
-                      "edge error* — the canonical polygon's positions (double, centred) against the metric.\n\n" +
+                      "fitted* — the same words in the pairings as fitted (torus: the fitted translations); *polygon* "
+                      "— H: the geodesic canonical 4g-gon and its reach (largest distance of a corner from its centre; "
+                      "double coordinates resolve about 2^-52 e^reach there), or the mesh-path polygon's edge error; "
+                      "torus: the canonical cut's layout edge error.\n\n" +
                       table;
     const ricci::WriteResult w = ricci::write_file_atomic(out_path, doc);
     if (w.status != ricci::Status::Ok) {

@@ -857,24 +857,27 @@ GeodesicPolygon geodesic_in_frame_of(const DeckResult& deck) {
 // Closed genus >= 2 in H, the default: canonical generators from the compact domain's side
 // pairings (canonical_generators()) and their geodesic 4g-gon (geodesic_polygon()), kept when
 // the polygon is a fundamental domain (simple, angle sum 2π) and the relation holds to 1e-12.
-// False (with polygon_note saying why) when not: the caller then tries the mesh path.
-bool geodesic_canonical_polygon(LayoutRun& run) {
+// Otherwise polygon_note says why and the caller tries the mesh path (Fallback), unless the
+// domain's pairings themselves failed (PairingsFailed: the mesh path needs the same pairings).
+enum class GeodesicOutcome { Done, Fallback, PairingsFailed };
+
+GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_failure) {
   UniformizeResult& r = run.r;
   DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck);
   if (dd.status != Status::Ok) {
-    r.polygon_note = "no geodesic polygon (" + dd.message + ")";
-    return false;
+    pairings_failure = std::move(dd);
+    return GeodesicOutcome::PairingsFailed;
   }
   CanonicalGenerators cg = canonical_generators(r.cut, dd.side_maps, dd.fitted_side_maps);
   if (cg.status != Status::Ok) {
     r.polygon_note = "no geodesic polygon (" + cg.message + ")";
-    return false;
+    return GeodesicOutcome::Fallback;
   }
   GeodesicPolygon gp = geodesic_polygon(cg.deck);
   const bool fundamental = gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9;
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
     r.polygon_note = "no geodesic polygon: " + gp.message;
-    return false;
+    return GeodesicOutcome::Fallback;
   }
   take_domain(r, dd);
   r.fitted_relation_error = cg.fitted_relation_error;
@@ -893,7 +896,7 @@ bool geodesic_canonical_polygon(LayoutRun& run) {
                              sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) + "), " +
                              std::to_string(cg.moves) + " moves on the word, relation error " +
                              sci(r.deck.relation_error));
-  return true;
+  return GeodesicOutcome::Done;
 }
 
 bool mesh_canonical_polygon(LayoutRun& run);
@@ -904,7 +907,12 @@ bool mesh_canonical_polygon(LayoutRun& run);
 // deck), else generators without a view, else the domain's side pairings alone. The geodesic
 // polygon of the generators found is added when it is a fundamental domain.
 bool canonical_polygon(LayoutRun& run) {
-  if (!run.options.mesh_polygon && geodesic_canonical_polygon(run)) return true;
+  if (!run.options.mesh_polygon) {
+    DomainDeck failed;
+    const GeodesicOutcome outcome = geodesic_canonical_polygon(run, failed);
+    if (outcome == GeodesicOutcome::Done) return true;
+    if (outcome == GeodesicOutcome::PairingsFailed) return run.fail(failed.status, "deck", failed.message);
+  }
   const std::string geodesic_note = run.r.polygon_note;
   if (!mesh_canonical_polygon(run)) return false;
   UniformizeResult& r = run.r;
