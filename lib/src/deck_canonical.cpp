@@ -233,6 +233,19 @@ struct Sizer {
   double operator()(const Schema& s) const;
 };
 
+/// The smallest of the schemas offered (the first of equal sizes).
+struct BestSchema {
+  Schema schema;
+  double size = 0;
+  bool found = false;
+  void offer(Schema&& t, double t_size) {
+    if (found && !(t_size < size)) return;
+    schema = std::move(t);
+    size = t_size;
+    found = true;
+  }
+};
+
 /// One vertex class: a corner of the smallest other class is removed by cutting off the triangle
 /// of its two sides b (ending there) and a (leaving it towards another class) and regluing it
 /// along b's partner; that merges it with the corner at b's partner. Among the candidate corners
@@ -245,22 +258,16 @@ bool reduce_classes(Schema& s, const Sizer& size_of) {
   for (int c : cls) ++size[c];
   const int Q = static_cast<int>(std::min_element(size.begin(), size.end()) - size.begin());
   const int n = s.size();
-  Schema best;
-  double best_size = 0;
-  bool found = false;
+  BestSchema best;
   for (int k = 0; k < n; ++k) {
     if (cls[k] != Q || cls[s.at(k + 1)] == Q) continue;
     Schema trial = s;
     trial.cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]);
     const double trial_size = size_of(trial);
-    if (!found || trial_size < best_size) {
-      best = std::move(trial);
-      best_size = trial_size;
-      found = true;
-    }
+    best.offer(std::move(trial), trial_size);
   }
-  if (!found) return false;
-  s = std::move(best);
+  if (!best.found) return false;
+  s = std::move(best.schema);
   return true;
 }
 
@@ -274,9 +281,7 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
   int start = 0;
   const int blocks = s.commutator_blocks(&in_block, &start);
   const int n = s.size();
-  Schema best;
-  double best_size = 0;
-  bool found = false;
+  BestSchema best;
   for (int ta = 0; ta < n; ++ta) {
     if (in_block[ta]) continue;
     const int La = s.letter[ta];
@@ -303,15 +308,11 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
       int rot = 0;
       if (t.commutator_blocks(&mark, &rot) <= blocks) continue;
       const double trial_size = size_of(t);
-      if (!found || trial_size < best_size) {
-        best = std::move(t);
-        best_size = trial_size;
-        found = true;
-      }
+      best.offer(std::move(t), trial_size);
     }
   }
-  if (!found) return false;
-  s = std::move(best);
+  if (!best.found) return false;
+  s = std::move(best.schema);
   return true;
 }
 
