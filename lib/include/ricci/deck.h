@@ -156,8 +156,9 @@ struct DeckGenerator {
   double theta = 0;                 ///< H: θ of the map
   std::complex<double> z0{0, 0};    ///< H: z₀ of the map (the point it sends to 0)
   Moebius map;                      ///< H: the map as an SU(1,1) matrix
-  /// H: what rounding `map` to double left out of a map computed in quad (deck_through_domain()):
-  /// map + map_low (entry by entry) is that map to about 106 bits; zero for maps fitted in double.
+  /// H: what rounding `map` to double left out of a map computed in quad (deck_through_domain(),
+  /// canonical_generators(), and the adjusted side pairings of fit_domain_pairings()): map +
+  /// map_low (entry by entry) is that map to about 106 bits; zero for maps fitted in double.
   /// Maps whose axes lie far from the origin have large entries, and products of them (traces of
   /// words) need these digits.
   Moebius map_low{{0, 0}, {0, 0}};
