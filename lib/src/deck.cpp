@@ -305,13 +305,7 @@ DeckResult fail(DeckResult r, Status s, std::string msg) {
 /// v0 to the origin (R first: conjugating the generators first would multiply their rounding by
 /// |C|², large when v0 lies far from the frame's centre).
 double relation_of(const std::vector<MoebiusQ>& gens, CQ v0, Moebius* relator) {
-  const std::size_t g = gens.size() / 2;
-  MoebiusQ R;
-  for (std::size_t i = 0; i < g; ++i) {
-    const MoebiusQ& A = gens[2 * i];
-    const MoebiusQ& B = gens[2 * i + 1];
-    R = R * A.inverse() * B * A * B.inverse();
-  }
+  const MoebiusQ R = detail::canonical_relator(gens);
   if (relator) *relator = R.to_double();
   const MoebiusQ C = MoebiusQ::to_origin(v0);
   return (C * R * C.inverse()).distance_to_identity();
@@ -504,6 +498,7 @@ namespace ricci {
 
 namespace {
 
+using detail::HyperboloidSum;
 using detail::quad;
 
 std::uint64_t dkey(Index u, Index v) {
@@ -621,26 +616,6 @@ cplx minimax_centre(const std::vector<CQ>& pts) {
   }
   return c;
 }
-
-/// A weighted sum of points of the disk lifted to the hyperboloid, and its projection back: the
-/// hyperboloid combination (the record of a vertex the cut added inside a face) or centre of mass.
-struct HyperboloidSum {
-  quad t = 0, x = 0, y = 0;
-  void add(CQ z, quad weight) {
-    const quad o = 1 - z.norm();
-    t += weight * (1 + z.norm()) / o;
-    x += weight * 2 * z.re / o;
-    y += weight * 2 * z.im / o;
-  }
-  /// The normalised sum in the disk; false when degenerate.
-  bool point(CQ& w) const {
-    const quad n2 = t * t - x * x - y * y;
-    if (!(n2 > 0)) return false;
-    const quad den = t + detail::qsqrt(n2);
-    w = CQ{x / den, y / den};
-    return true;
-  }
-};
 
 }  // namespace
 

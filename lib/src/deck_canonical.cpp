@@ -318,7 +318,6 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
 
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps);
 int reduce_handles(std::vector<MoebiusQ>& gens, std::vector<Word>& words);
-MoebiusQ relator(const std::vector<MoebiusQ>& gens);
 
 MoebiusQ quad_map(const DeckGenerator& g) {
   return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
@@ -345,13 +344,6 @@ DeckGenerator generator_from(const MoebiusQ& M, const std::string& name) {
   return G;
 }
 
-/// R = [A1^-1, B1] … [Ag^-1, Bg] in quad (deck.h's relation).
-MoebiusQ relator(const std::vector<MoebiusQ>& gens) {
-  MoebiusQ R;
-  for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
-    R = R * gens[i].inverse() * gens[i + 1] * gens[i] * gens[i + 1].inverse();
-  return R;
-}
 
 std::string word_text(const Word& w, const std::vector<std::string>& names) {
   std::string out;
@@ -505,7 +497,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
     for (std::size_t k = 0; k < nf.gens.size(); ++k)
       trial.generators.push_back(generator_from(nf.gens[k], std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1)));
     const GeodesicPolygon gp = geodesic_polygon(trial);
-    const double relation = gp.status == Status::Ok ? gp.deck.relation_error : relator(nf.gens).distance_to_identity();
+    const double relation = gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(nf.gens).distance_to_identity();
     const bool fundamental = gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9 &&
                              relation <= 1e-12;
     const double score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
@@ -529,7 +521,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
     out.word_lengths.push_back(static_cast<Index>(best->words[k].size()));
   }
   r.residual_max = pairing_residual;
-  const MoebiusQ R = relator(best->gens);
+  const MoebiusQ R = detail::canonical_relator(best->gens);
   r.relator = R.to_double();
   // At the origin of the pairings' frame (geodesic_polygon() measures it again at its corner 0).
   r.relation_error = R.distance_to_identity();
@@ -542,7 +534,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
       for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
       fg.push_back(M);
     }
-    out.fitted_relation_error = relator(fg).distance_to_identity();
+    out.fitted_relation_error = detail::canonical_relator(fg).distance_to_identity();
   }
   if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
     return bad(Status::NumericalFailure, "canonical generators: the relation is not finite.");
@@ -732,17 +724,10 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
   out.closure_error = detail::hyperbolic_distance_q(end, CQ{0, 0});
   // The centre: the corners' centre of mass on the hyperboloid (symmetric polygons keep their
   // centre exactly).
-  quad t = 0, x = 0, y = 0;
-  for (const CQ& q : corners) {
-    const quad o = 1 - q.norm();
-    t += (1 + q.norm()) / o;
-    x += 2 * q.re / o;
-    y += 2 * q.im / o;
-  }
-  const quad lorentz = t * t - x * x - y * y;
-  if (!(lorentz > 0)) return bad(Status::NumericalFailure, "the geodesic polygon's corners have no centre.");
-  const quad den = t + detail::qsqrt(lorentz);
-  const CQ c{x / den, y / den};
+  detail::HyperboloidSum mass;
+  for (const CQ& q : corners) mass.add(q, 1);
+  CQ c;
+  if (!mass.point(c)) return bad(Status::NumericalFailure, "the geodesic polygon's corners have no centre.");
   const MoebiusQ C = MoebiusQ::to_origin(c);
   const MoebiusQ frame = (C * F).normalized();
   out.frame = frame.to_double();
@@ -764,7 +749,7 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
     G.pairs = canonical.generators[i].pairs;
     out.deck.generators.push_back(G);
   }
-  const MoebiusQ R = relator(gp);
+  const MoebiusQ R = detail::canonical_relator(gp);
   out.deck.relator = R.to_double();
   const MoebiusQ V0 = MoebiusQ::to_origin(v[0]);
   out.deck.relation_error = (V0 * R * V0.inverse()).distance_to_identity();

@@ -7,6 +7,7 @@
 #include <cfloat>
 #include <cmath>
 #include <complex>
+#include <vector>
 
 #include "ricci/deck.h"
 
@@ -96,6 +97,35 @@ inline double hyperbolic_distance_q(CQ z, CQ w) {
   if (x < 0.5) return 2 * std::atanh(static_cast<double>(qsqrt(x2)));
   // 2 artanh x = log((1 + x)² / (1 − x²)), 1 − x² = (1 − |z|²)(1 − |w|²)/|1 − w̄ z|².
   return 2 * std::log1p(x) - std::log(static_cast<double>(oz * ow / dn));
+}
+
+/// A weighted sum of points of the disk lifted to the hyperboloid, and its projection back: the
+/// hyperboloid combination (the record of a vertex the cut added inside a face) or centre of mass.
+struct HyperboloidSum {
+  quad t = 0, x = 0, y = 0;
+  void add(CQ z, quad weight) {
+    const quad o = 1 - z.norm();
+    t += weight * (1 + z.norm()) / o;
+    x += weight * 2 * z.re / o;
+    y += weight * 2 * z.im / o;
+  }
+  /// The normalised sum in the disk; false when degenerate.
+  bool point(CQ& w) const {
+    const quad n2 = t * t - x * x - y * y;
+    if (!(n2 > 0)) return false;
+    const quad den = t + qsqrt(n2);
+    w = CQ{x / den, y / den};
+    return true;
+  }
+};
+
+/// The canonical relator [A1^-1, B1] … [Ag^-1, Bg] of generators in the order a1 b1 a2 b2 …
+/// (deck.h's relation).
+inline MoebiusQ canonical_relator(const std::vector<MoebiusQ>& gens) {
+  MoebiusQ R;
+  for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
+    R = R * gens[i].inverse() * gens[i + 1] * gens[i] * gens[i + 1].inverse();
+  return R;
 }
 
 }  // namespace ricci::detail
