@@ -184,9 +184,32 @@ def _die_with_parent():
         pass
 
 
-def run_one(path, folder, options, timeout=None, threads=None):
-    """Uniformizes one mesh in a child process into `folder`; returns {status, message, seconds}."""
+RUN_MARK = ".ricci-batch-run"  # in a mesh's folder: the batch run that wrote it
+
+
+def run_one(path, folder, options, timeout=None, threads=None, run_id=None):
+    """Uniformizes one mesh in a child process into `folder`; returns {status, message, seconds}.
+    With `run_id`, a folder this very batch run already completed is not written again: Dask runs a
+    task again when the worker holding its finished result dies, and the rewrite would race with
+    the summary reading that folder."""
     start = time.monotonic()
+    if run_id is not None:
+        try:
+            with open(os.path.join(folder, RUN_MARK), encoding="utf-8") as f:
+                done = f.read() == run_id
+        except OSError:
+            done = False
+        report = read_report(folder) if done else None
+        if report is not None:
+            return {"status": report["status"], "message": report.get("message", ""), "seconds": 0.0}
+    result = _run_one(path, folder, options, timeout, threads, start)
+    if run_id is not None and read_report(folder) is not None:
+        with open(os.path.join(folder, RUN_MARK), "w", encoding="utf-8") as f:
+            f.write(run_id)
+    return result
+
+
+def _run_one(path, folder, options, timeout, threads, start):
     os.makedirs(os.path.dirname(folder) or ".", exist_ok=True)  # KEY may have folders (genus1/kitten)
     # What a process killed while writing this folder left beside it (its staging directory, or the
     # earlier folder it had moved aside): the run below writes the folder afresh.
@@ -376,8 +399,9 @@ def batch(args):
                                    dashboard_address=None, silence_logs=40)
             client = Client(cluster)
         try:
+            run_id = f"{os.getpid()}-{time.time_ns()}"
             futures = {client.submit(run_one, path, os.path.join(os.path.abspath(outdir), key), options,
-                                     args.timeout, threads, pure=False, key=f"ricci-{i}"): (path, key)
+                                     args.timeout, threads, run_id, pure=False, key=f"ricci-{i}"): (path, key)
                        for i, (path, key) in enumerate(todo)}
             for future in as_completed(futures):
                 path, key = futures.pop(future)
