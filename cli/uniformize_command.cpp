@@ -306,6 +306,64 @@ Json moebius_json(const ricci::Moebius& m) {
   return Json{{"a", {m.a.real(), m.a.imag()}}, {"b", {m.b.real(), m.b.imag()}}};
 }
 
+/// mesh.obj with an atlas: a `g chart_K` line (0-based) before each run of faces in one chart;
+/// the faces keep their order. `obj` is serialize_mesh()'s text, one `f` line per face.
+std::string obj_with_chart_groups(const std::string& obj, const std::vector<Index>& face_chart) {
+  std::string s;
+  s.reserve(obj.size() + obj.size() / 16);
+  std::size_t face = 0;
+  Index group = ricci::kInvalid;
+  for (std::size_t at = 0; at < obj.size();) {
+    std::size_t end = obj.find('\n', at);
+    end = end == std::string::npos ? obj.size() : end + 1;
+    if (obj.compare(at, 2, "f ") == 0 && face < face_chart.size()) {
+      if (face_chart[face] != group) {
+        group = face_chart[face];
+        s += "g chart_" + std::to_string(group) + '\n';
+      }
+      ++face;
+    }
+    s.append(obj, at, end - at);
+    at = end;
+  }
+  return s;
+}
+
+/// The atlas of a layout that one chart could not hold (layout.h): each chart's figures and its
+/// maps into its parent and the root chart (H: SU(1,1) matrices, to_root_low the low part of the
+/// quad composition; E: angle and translation), and the chart of every face of mesh.obj.
+Json atlas_json(const ricci::UniformizeResult& r) {
+  const ricci::LayoutAtlas& a = r.atlas;
+  Json charts = Json::array();
+  for (const ricci::LayoutChart& c : a.charts) {
+    Json j{{"parent", c.parent},
+           {"depth", c.depth},
+           {"seed_face", c.seed_face == ricci::kInvalid ? Json(nullptr) : Json(c.seed_face)},
+           {"faces", c.faces},
+           {"max_edge_length_error", real(c.max_edge_length_error)},
+           {"rounding_floor", real(c.rounding_floor)},
+           {"collar_vertices", c.collar_vertices},
+           {"transition_error", real(c.transition_error)}};
+    if (r.geometry == Geometry::Hyperbolic) {
+      j["to_parent"] = moebius_json(c.to_parent);
+      j["to_root"] = moebius_json(c.to_root);
+      j["to_root_low"] = moebius_json(c.to_root_low);
+    } else {
+      j["to_parent"] = Json{{"angle", real(c.angle_to_parent)},
+                            {"translation", {real(c.translation_to_parent.real()), real(c.translation_to_parent.imag())}}};
+      j["to_root"] = Json{{"angle", real(c.angle_to_root)},
+                          {"translation", {real(c.translation_to_root.real()), real(c.translation_to_root.imag())}}};
+    }
+    charts.push_back(std::move(j));
+  }
+  return Json{{"root_max_edge_length_error", real(r.layout.max_edge_length_error)},
+              {"root_rounding_floor", real(r.layout.rounding_floor)},
+              {"root_flipped_faces", r.layout.flipped_faces},
+              {"max_transition_error", real(a.max_transition_error)},
+              {"charts", std::move(charts)},
+              {"face_chart", a.face_chart}};
+}
+
 Json generators_array(const std::vector<ricci::DeckGenerator>& gens) {
   Json a = Json::array();
   for (const ricci::DeckGenerator& g : gens) {
@@ -566,7 +624,13 @@ Json report_json(const Run& run) {
                        {"patches", L.patches},
                        {"patch_seam_error", L.patches > 0 ? real(L.patch_seam_error) : Json(nullptr)},
                        {"vertices", static_cast<std::int64_t>(L.positions.size() / std::max(1, L.dims))},
-                       {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)}};
+                       {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)},
+                       {"charts", r.has_atlas ? r.atlas.num_charts() : 1},
+                       {"atlas", r.has_atlas ? atlas_json(r) : Json(nullptr)}};
+    if (r.has_atlas) {
+      j["layout"]["max_edge_length_error"] = real(r.atlas.max_edge_length_error);
+      j["layout"]["flipped_faces"] = r.atlas.flipped_faces;
+    }
   } else {
     j["layout"] = nullptr;
   }
@@ -716,6 +780,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   uo.flow.normalize_circle_domains = !o.no_circle_normalization;
   uo.base_candidates = o.base_candidates;
   uo.mesh_polygon = o.mesh_polygon;
+  uo.use_atlas = !o.no_atlas;
   uo.seed_checks = o.seed_checks;
   uo.layout.unit_box = o.unit_box;
   uo.layout.patches = o.patches;
@@ -869,9 +934,21 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
     if (run.console && !o.output.empty()) print_error("no output written to " + o.output);
     return finish(o, run, start);
   }
-  if (r.layout.flipped_faces > 0) {
-    const std::string note = "the layout has " + std::to_string(r.layout.flipped_faces) + " flipped faces (first: face " +
-                             std::to_string(r.layout.first_flipped_face) + ")";
+  const Index flipped = r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces;
+  if (flipped > 0) {
+    const std::string note = "the layout has " + std::to_string(flipped) + " flipped faces (first: face " +
+                             std::to_string(r.has_atlas ? r.atlas.first_flipped_face : r.layout.first_flipped_face) +
+                             ")" + (r.has_atlas ? ", each in its own chart" : "");
+    run.notes.push_back(note);
+    print_note(o.quiet, note);
+  }
+  if (r.has_atlas) {
+    const std::string note =
+        "one chart's coordinates resolve the layout only to " + sci(r.layout.max_edge_length_error) +
+        " of an edge's length, so it is laid out in " + std::to_string(r.atlas.num_charts()) +
+        " charts (a group in mesh.obj and layout.atlas in report.json per chart): every face within " +
+        sci(r.atlas.max_edge_length_error) + " in its own chart, transition maps fitted to " +
+        sci(r.atlas.max_transition_error) + "; the pictures, domain.obj, cover and deck use the first chart";
     run.notes.push_back(note);
     print_note(o.quiet, note);
   }
@@ -883,7 +960,7 @@ std::optional<int> note_result(const UniformizeCommandOptions& o, Run& run, Cloc
     run.notes.push_back(note);
     print_note(o.quiet, note);
   }
-  if (r.layout.rounding_floor > 1e-9) {
+  if (r.layout.rounding_floor > 1e-9 && !r.has_atlas) {
     const std::string note =
         "double-precision coordinates resolve some edge lengths of the layout only to " + sci(r.layout.rounding_floor) +
         " of their length (layout.rounding_floor): edges far shorter than the other edges of their triangles" +
@@ -922,8 +999,11 @@ std::optional<int> output_surface(const UniformizeCommandOptions& o, Run& run, C
     surface.corner_texcoords.clear();
     run.sphere_positions = r.intrinsic.refined ? through.mesh.positions : r.layout.positions;
   } else {
-    // The input's faces with their layout (through the subdivision when refined).
-    surface = r.intrinsic.refined ? through.mesh : ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
+    // The input's faces with their layout (through the subdivision when refined; per chart with
+    // an atlas).
+    surface = r.intrinsic.refined ? through.mesh
+              : r.has_atlas       ? ricci::surface_with_atlas_uvs(r.cut, r.atlas)
+                                  : ricci::surface_with_cut_uvs(r.cut, r.layout.positions);
   }
   return std::nullopt;
 }
@@ -959,7 +1039,10 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
                                                         r.cut.cut_faces)});
     }
   }
-  files.push_back({"mesh.obj", ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+  files.push_back({"mesh.obj", r.has_atlas && !r.intrinsic.refined
+                                   ? obj_with_chart_groups(ricci::serialize_mesh(surface, ricci::FileFormat::Obj),
+                                                           r.atlas.face_chart)
+                                   : ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
   if (sphere) {
     ricci::Mesh s;
     s.positions = run.sphere_positions;
@@ -1299,6 +1382,10 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                 "Closed genus >= 2: the canonical polygon as a canonical cut of the mesh laid out through the compact "
                 "domain (polygon.obj; seconds to minutes at genus >= 4) instead of the geodesic 4g-gon of canonical "
                 "generators found from the domain's side pairings (milliseconds). Default: off.");
+  cmd->add_flag("--no-atlas", o.no_atlas,
+                "E and H: lay the surface out in one chart only; where its coordinates cannot resolve every face "
+                "(a conformal factor spanning many orders of magnitude, e.g. a long finger) the run fails at the "
+                "layout stage instead of writing an atlas of charts (groups chart_K in mesh.obj). Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates,
                   "Closed genus >= 2 with --mesh-polygon: base vertices tried for the canonical polygon; the one whose "
                   "generators and positions double precision resolves best is kept. Default: 8.")
@@ -1357,6 +1444,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--geometry", o.geometry, "Geometry of the lengths: auto (the file's). Default: auto.")
       ->check(CLI::IsMember({"auto", "euclidean", "hyperbolic", "spherical"}));
   cmd->add_flag("--mesh-polygon", o.mesh_polygon, "As for uniformize. Default: off.");
+  cmd->add_flag("--no-atlas", o.no_atlas, "As for uniformize. Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 1.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));

@@ -125,6 +125,63 @@ Drawing disk_drawing(const ricci::CutResult& cut, const ricci::Topology& disk, s
   return d;
 }
 
+/// An atlas (layout.h): the root chart with each face coloured by the chart holding it, then the
+/// first few other charts, each in its own coordinates (fitted to the picture).
+void atlas_pictures(const ricci::UniformizeResult& r, std::vector<NamedPicture>& out) {
+  const ricci::LayoutAtlas& a = r.atlas;
+  const std::string n = std::to_string(a.num_charts());
+  Drawing d = disk_drawing(r.cut, r.disk, r.layout.positions, r.geometry, "Atlas: " + n + " charts");
+  d.face_colours.resize(a.face_chart.size());
+  for (std::size_t f = 0; f < a.face_chart.size(); ++f)
+    d.face_colours[f] = a.face_chart[f] == 0 ? d.face_colour : palette(static_cast<int>(a.face_chart[f]) - 1);
+  // A ring around each chart's origin, since its faces are often too small to see here.
+  double extent = 0;
+  for (double x : r.layout.positions) extent = std::max(extent, std::abs(x));
+  for (Index k = 1; k < a.num_charts(); ++k) {
+    const Index v = r.disk.corner_vertex[3 * a.charts[static_cast<std::size_t>(k)].seed_face];
+    Polyline ring;
+    ring.colour = palette(static_cast<int>(k) - 1);
+    ring.width = 2;
+    for (int i = 0; i <= 48; ++i) {
+      const double t = 2 * kPi * i / 48;
+      ring.points.push_back(r.layout.positions[2 * v] + 0.04 * extent * std::cos(t));
+      ring.points.push_back(r.layout.positions[2 * v + 1] + 0.04 * extent * std::sin(t));
+    }
+    d.lines.push_back(std::move(ring));
+  }
+  const Picture p = draw(d);
+  out.push_back({"atlas", "The atlas of charts",
+                 "One chart's coordinates could not resolve every face, so the layout is an atlas: the first chart "
+                 "(pale) and, coloured, the faces held by the other charts where the first chart puts them, each "
+                 "circled since they are often too small to see. Each chart is laid out from its own smallest face; "
+                 "mesh.obj groups its faces as chart_K with their own texture coordinates.",
+                 p.png, p.svg});
+  constexpr Index kShown = 3;
+  for (Index k = 1; k < a.num_charts() && k <= kShown; ++k) {
+    const ricci::LayoutChart& ch = a.charts[static_cast<std::size_t>(k)];
+    Drawing c;
+    c.domain = Domain::Plane;
+    for (std::size_t f = 0; f < a.face_chart.size(); ++f) {
+      if (a.face_chart[f] != k) continue;
+      for (int q = 0; q < 3; ++q) {
+        c.faces.push_back(static_cast<Index>(c.positions.size() / 2));
+        c.positions.push_back(a.corner_positions[6 * f + 2 * q]);
+        c.positions.push_back(a.corner_positions[6 * f + 2 * q + 1]);
+      }
+    }
+    c.face_colour = palette(static_cast<int>(k) - 1);
+    c.edge_colour = c.faces.size() / 3 > 20000 ? 0 : 0x30304050;
+    char err[32];
+    std::snprintf(err, sizeof err, "%.2g", ch.max_edge_length_error);
+    c.title = "Chart " + std::to_string(k) + " of " + n + ": " + std::to_string(ch.faces) + " faces, edge error " + err;
+    const Picture q = draw(c);
+    out.push_back({"chart-" + std::to_string(k), "Chart " + std::to_string(k),
+                   "The faces of chart " + std::to_string(k) + " in its own coordinates (seed face " +
+                       std::to_string(ch.seed_face) + " at the origin), fitted to the picture.",
+                   q.png, q.svg});
+  }
+}
+
 }  // namespace
 
 std::vector<double> corner_uv(const ricci::UniformizeResult& r, const ricci::Mesh& surface) {
@@ -391,6 +448,7 @@ std::vector<NamedPicture> uniformize_pictures(const ricci::UniformizeResult& r, 
     {
       domain_pictures(r, surface, drawn);
       cover_picture(r, cover, drawn);
+      if (r.has_atlas) atlas_pictures(r, drawn);
       angle_picture(r, charts);
       convergence_pictures(r, charts);
       png[1] = checker_png(surface, uv, g, 1);

@@ -527,3 +527,69 @@ TEST_CASE("cli uniformize: --no-flips and the paper's scheme run without flips")
     CHECK(!fs::exists(out / "refinement.obj"));
   }
 }
+
+TEST_CASE("cli uniformize: a surface one chart cannot hold is written as an atlas (groups in mesh.obj, maps in report.json)") {
+  TempDir tmp;
+  // A genus-2 surface with a finger of aspect 20 : 1 (tools/shapes): its finger's faces shrink
+  // below what one Poincaré chart resolves.
+  const fs::path in = tmp / "finger.obj";
+  REQUIRE(ricci::write_mesh(in.string(), ricci_shapes::tube_pretzel(2, 4, 20, 3)).status == ricci::Status::Ok);
+  const auto run = run_cli({"uniformize", in.string(), "-o", (tmp / "o").string(), "--json", "-q"});
+  INFO(run.err);
+  REQUIRE(run.exit_code == 0);
+  const Json j = parse(run.out);
+  const Json& L = j["layout"];
+  const int charts = L["charts"].get<int>();
+  CHECK(charts >= 2);
+  CHECK(L["max_edge_length_error"].get<double>() <= 1e-9);
+  CHECK(L["flipped_faces"] == 0);
+  const Json& atlas = L["atlas"];
+  REQUIRE(atlas.is_object());
+  CHECK(atlas["root_max_edge_length_error"].get<double>() > 1e-6);
+  REQUIRE(atlas["charts"].size() == static_cast<std::size_t>(charts));
+  CHECK(j["relation_error"].get<double>() <= 1e-12);
+  for (const char* name : {"mesh.obj", "domain.obj", "report.json", "report.html", "domain.png", "checker-1.png", "polygon.png"})
+    CHECK_MESSAGE(fs::exists(tmp / "o" / name), name);
+
+  // mesh.obj: a group per run of faces of one chart; each corner's vt, carried by its chart's map
+  // into the root chart, lands on that corner's position in domain.obj (the root chart).
+  const std::string text = ricci_test::read_bytes(tmp / "o" / "mesh.obj");
+  std::vector<int> group_of_face;
+  {
+    std::istringstream lines(text);
+    std::string line;
+    int group = -1;
+    while (std::getline(lines, line)) {
+      if (line.rfind("g chart_", 0) == 0) group = std::stoi(line.substr(8));
+      if (line.rfind("f ", 0) == 0) group_of_face.push_back(group);
+    }
+  }
+  const ricci::ReadResult mesh = ricci::read_mesh((tmp / "o" / "mesh.obj").string());
+  const ricci::ReadResult domain = ricci::read_mesh((tmp / "o" / "domain.obj").string());
+  REQUIRE(mesh.status == ricci::Status::Ok);
+  REQUIRE(domain.status == ricci::Status::Ok);
+  const std::size_t nf = mesh.mesh.faces.size() / 3;
+  REQUIRE(group_of_face.size() == nf);
+  REQUIRE(atlas["face_chart"].size() == nf);
+  REQUIRE(domain.mesh.faces.size() == 3 * nf);
+  std::vector<int> faces_per_chart(static_cast<std::size_t>(charts), 0);
+  double carried = 0;
+  for (std::size_t f = 0; f < nf; ++f) {
+    const int k = atlas["face_chart"][f].get<int>();
+    REQUIRE(k >= 0);
+    REQUIRE(k < charts);
+    CHECK(group_of_face[f] == k);
+    ++faces_per_chart[static_cast<std::size_t>(k)];
+    const Json& m = atlas["charts"][k]["to_root"];
+    const ricci::Moebius to_root{{m["a"][0].get<double>(), m["a"][1].get<double>()},
+                                 {m["b"][0].get<double>(), m["b"][1].get<double>()}};
+    for (int c = 0; c < 3; ++c) {
+      const ricci::Index t = mesh.mesh.corner_texcoords[3 * f + c], d = domain.mesh.faces[3 * f + c];
+      const std::complex<double> vt{mesh.mesh.texcoords[2 * t], mesh.mesh.texcoords[2 * t + 1]};
+      const std::complex<double> root{domain.mesh.positions[3 * d], domain.mesh.positions[3 * d + 1]};
+      carried = std::max(carried, ricci::hyperbolic_distance(to_root.apply(vt), root));
+    }
+  }
+  CHECK(carried <= 1e-9);
+  for (int k = 0; k < charts; ++k) CHECK(atlas["charts"][k]["faces"] == faces_per_chart[static_cast<std::size_t>(k)]);
+}

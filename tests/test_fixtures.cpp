@@ -51,7 +51,7 @@ TEST_CASE("fixtures: the generator reproduces the committed files byte for byte"
   const auto r = ricci_test::run_program(RICCI_MAKE_FIXTURES_PATH, {tmp.path().string()});
   REQUIRE_MESSAGE(r.exit_code == 0, r.err);
   const auto made = ricci_test::mesh_files(tmp.path());
-  CHECK(made.size() == 8);
+  CHECK(made.size() == 9);
   CHECK(ricci_test::mesh_files(ricci_test::fixtures_dir()).size() == made.size());  // none stale
   for (const auto& file : made) {
     INFO(file.filename().string());
@@ -80,7 +80,7 @@ TEST_CASE("fixtures: the README table matches the loader") {
     CHECK(ricci_test::check_topology(t, r.validated.mesh.faces) == "");
     ++checked;
   }
-  CHECK(checked == 8);
+  CHECK(checked == 9);
 }
 
 TEST_CASE("fixtures: every bad file gives its documented status") {
@@ -168,7 +168,7 @@ std::vector<std::pair<std::string, Mesh>> loaded_fixtures() {
 
 TEST_CASE("fixtures: random transforms and their compositions keep the topology of every fixture") {
   const auto fixtures = loaded_fixtures();
-  REQUIRE(fixtures.size() == 8);
+  REQUIRE(fixtures.size() == 9);
   const auto list = transforms();
   for (const auto& [name, mesh] : fixtures) {
     INFO(name);

@@ -37,8 +37,15 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
                                   << ", seed independence " << r.seed_independence_error);
     CHECK(r.geometry == natural_geometry(t));
     CHECK(r.flow.max_curvature_error < 1e-12);
-    CHECK(r.layout.flipped_faces == 0);
-    CHECK(r.layout.max_edge_length_error < std::max(1e-9, 8 * r.layout.rounding_floor));
+    if (r.has_atlas) {
+      // genus2-finger.obj: one chart cannot hold its finger; every face to 1e-9 in its own chart.
+      CHECK(r.layout.rounding_floor > 1e-6);
+      CHECK(r.atlas.flipped_faces == 0);
+      CHECK(r.atlas.max_edge_length_error <= 1e-9);
+    } else {
+      CHECK(r.layout.flipped_faces == 0);
+      CHECK(r.layout.max_edge_length_error < std::max(1e-9, 8 * r.layout.rounding_floor));
+    }
     CHECK(r.timings.size() == stages.size());
     const bool sphere = t.is_closed() && t.euler_characteristic() == 2;
     CHECK(r.has_cut == !sphere);
@@ -93,7 +100,9 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
       for (const DeckGenerator& G : r.deck.generators) CHECK(G.translation_length > 0.1);
       CHECK(!r.cut.canonical);  // the compact domain
       CHECK(r.domain_maps.size() == static_cast<std::size_t>(r.cut.num_generators()));
-      CHECK(r.domain_cycle_error < 1e-12);
+      // The pairings are fitted on the first chart, which resolves a finger's vertices only
+      // absolutely (to about 1e-16 / (1 − |z|²)), not relative to its tiny edges.
+      CHECK(r.domain_cycle_error < (r.has_atlas ? 1e-10 : 1e-12));
       CHECK(r.candidates.empty());  // no base search on the mesh
     } else {
       CHECK(r.candidates.empty());
@@ -177,6 +186,15 @@ TEST_CASE("uniformize: a layout that does not reproduce the metric is a failure,
   UniformizeOptions o;
   o.boundary = BoundaryMode::Free;
   o.seed_checks = 0;
+  // By default the faces one chart cannot resolve get charts of their own (both ends here).
+  const UniformizeResult atlas = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(atlas.status == Status::Ok, atlas.message);
+  CHECK(atlas.has_atlas);
+  CHECK(atlas.atlas.num_charts() >= 3);
+  CHECK(atlas.layout.max_edge_length_error > o.max_layout_error);
+  CHECK(atlas.atlas.max_edge_length_error <= 1e-9);
+  // With one chart only, the gate refuses it.
+  o.use_atlas = false;
   const UniformizeResult r = uniformize(v.mesh, v.topology, o);
   CHECK(r.flow.status == Status::Ok);  // the flow itself converges
   CHECK(r.status == Status::NumericalFailure);
@@ -184,7 +202,8 @@ TEST_CASE("uniformize: a layout that does not reproduce the metric is a failure,
   CHECK(r.message.find("edge-length error") != std::string::npos);
   CHECK(r.message.find("(edge ") != std::string::npos);
   MESSAGE(r.message);
-  // A limit below any rounding always trips the gate.
+  // A limit below any rounding always trips the gate, atlas or not.
+  o.use_atlas = true;
   o.max_layout_error = 1e-300;
   const UniformizeResult t = uniformize(v.mesh, v.topology, o);
   CHECK(t.status == Status::NumericalFailure);

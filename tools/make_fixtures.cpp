@@ -30,6 +30,7 @@ std::vector<Fixture> fixtures() {
       {"annulus.obj", annulus(8, 48)},
       {"sphere-3holes.obj", remove_vertex_stars(sphere, {0, 5, 9})},
       {"genus2-1hole.obj", remove_vertex_stars(genus2, {0})},
+      {"genus2-finger.obj", tube_pretzel(2, 4, 20, 3)},
   };
 }
 

@@ -222,15 +222,16 @@ Mesh torus(int n_major, int n_minor, double R, double r) {
 
 namespace {
 
-/// The plate of pretzel() and pretzel_grid(): cols × rows square holes at the odd units along x
-/// and y, through the whole thickness.
-Mesh holed_plate(int cols, int rows, int cells_per_unit) {
-  const int c = cells_per_unit;
-  const int n[3] = {(2 * cols + 1) * c, (2 * rows + 1) * c, c};  // voxels along x, y, z
+/// The boundary of a solid of voxels: n[0] × n[1] × n[2] voxels, voxel (i, j, k) in the solid
+/// when inside(i, j, k) (only asked within those bounds). Each exposed voxel face becomes two
+/// triangles, vertices welded on the integer grid; then Taubin-smoothed (λ/μ) and scaled to lie
+/// in [−1, 1] along x, centred at the origin. The solid must have a manifold boundary (no two
+/// voxels meeting only along an edge or at a corner).
+template <class Inside>
+Mesh voxel_surface(const int (&n)[3], const Inside& inside) {
   auto filled = [&](int i, int j, int k) {
     if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) return false;
-    const bool hole = ((j / c) % 2 == 1) && ((i / c) % 2 == 1);
-    return !hole;
+    return static_cast<bool>(inside(i, j, k));
   };
   const std::int64_t gx = n[0] + 1, gy = n[1] + 1, gz = n[2] + 1;
   std::vector<Index> grid_vertex(static_cast<std::size_t>(gx * gy * gz), ricci::kInvalid);
@@ -294,6 +295,14 @@ Mesh holed_plate(int cols, int rows, int cells_per_unit) {
   return m;
 }
 
+/// The plate of pretzel() and pretzel_grid(): cols × rows square holes at the odd units along x
+/// and y, through the whole thickness.
+Mesh holed_plate(int cols, int rows, int cells_per_unit) {
+  const int c = cells_per_unit;
+  const int n[3] = {(2 * cols + 1) * c, (2 * rows + 1) * c, c};  // voxels along x, y, z
+  return voxel_surface(n, [c](int i, int j, int) { return !(((j / c) % 2 == 1) && ((i / c) % 2 == 1)); });
+}
+
 }  // namespace
 
 Mesh pretzel(int genus, int cells_per_unit) {
@@ -306,6 +315,24 @@ Mesh pretzel_grid(int cols, int rows, int cells_per_unit) {
   if (cols < 1 || rows < 1 || cols * rows > 256 || cells_per_unit < 2 || cells_per_unit > 32)
     throw std::invalid_argument("pretzel_grid: cols, rows >= 1 with cols * rows <= 256 and cells_per_unit in [2, 32]");
   return holed_plate(cols, rows, cells_per_unit);
+}
+
+Mesh tube_pretzel(int genus, int tube_units, int finger_units, int cells_per_unit) {
+  if (genus < 1 || genus > 16 || tube_units < 1 || tube_units > 200 || finger_units < 0 || finger_units > 200 ||
+      cells_per_unit < 2 || cells_per_unit > 16 || (genus == 1 && finger_units == 0))
+    throw std::invalid_argument(
+        "tube_pretzel: genus in [1, 16] (genus 1 with a finger), tube_units in [1, 200], finger_units in [0, 200], "
+        "cells_per_unit in [2, 16]");
+  const int c = cells_per_unit, period = 3 + tube_units;  // one ring of 3 × 3 units, then a tube
+  const int rings = (genus - 1) * period + 3;             // units along x up to the last ring's end
+  const int n[3] = {(rings + finger_units) * c, 3 * c, c};
+  return voxel_surface(n, [c, period, rings](int i, int j, int) {
+    const int x = i / c, y = j / c;  // units
+    if (x >= rings) return y == 1;   // the finger
+    const int xp = x % period;       // units within one period
+    if (xp >= 3) return y == 1;      // a tube: the middle unit of the three
+    return !(xp == 1 && y == 1);     // the ring around its hole
+  });
 }
 
 Mesh disk(int rings) {

@@ -55,6 +55,19 @@ Mesh pretzel(int genus, int cells_per_unit);
 /// Preconditions: cols, rows ≥ 1, cols·rows ≤ 256, 2 ≤ cells_per_unit ≤ 32.
 Mesh pretzel_grid(int cols, int rows, int cells_per_unit);
 
+/// Closed surface of genus g made of g handles joined in a row by long thin tubes, and a dead-end
+/// finger: each handle is a ring of 3 × 3 units around a one-unit hole, one unit thick;
+/// consecutive rings are joined by a tube of one unit × one unit cross-section and `tube_units`
+/// units long (aspect tube_units : 1), and the last ring carries a finger of the same
+/// cross-section, `finger_units` long (0: none); built and smoothed as pretzel().
+/// Their hyperbolic metric has a short closed geodesic around each tube, and a finger's faces
+/// shrink about e^{−π/2} ≈ 0.2 per unit along it (the conformal factor of a capped cylinder): a
+/// finger of 20 units holds faces some 1e-14 times the handles' size, which one Poincaré chart
+/// around the handles cannot resolve.
+/// Preconditions: 1 ≤ genus ≤ 16 (genus 1 only with a finger), 1 ≤ tube_units ≤ 200,
+/// 0 ≤ finger_units ≤ 200, 2 ≤ cells_per_unit ≤ 16.
+Mesh tube_pretzel(int genus, int tube_units, int finger_units, int cells_per_unit);
+
 // ---------------------------------------------------------------------------------------------
 // Surfaces with boundary.
 

@@ -3,6 +3,7 @@
 #include "ricci/layout.h"
 
 #include "ceres_quiet.h"
+#include "layout_internal.h"
 #include "layout_polish.h"
 #include "model_geometry.h"
 
@@ -233,13 +234,8 @@ struct Positions {
 
 /// How far rounding the two ends' coordinates to double can move edge (a, b), in the geometry.
 double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
-  constexpr double u = 0x1p-53;
-  if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(P.z(a)) + std::abs(P.z(b)));
-  if (g == Geometry::Hyperbolic) {
-    const double ra = std::abs(P.z(a)), rb = std::abs(P.z(b));
-    return 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
-  }
-  return 2 * u * std::sqrt(3.0);
+  if (g == Geometry::Spherical) return 2 * 0x1p-53 * std::sqrt(3.0);
+  return detail::rounding_drift_planar(g, P.z(a), P.z(b));
 }
 
 /// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
@@ -1602,5 +1598,27 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
   out.message = "measured";
   return out;
 }
+
+namespace detail {
+
+double rounding_drift_planar(Geometry g, std::complex<double> a, std::complex<double> b) {
+  constexpr double u = 0x1p-53;
+  if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(a) + std::abs(b));
+  const double ra = std::abs(a), rb = std::abs(b);
+  return 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+}
+
+bool propagate_faces(const Topology& t, Geometry g, std::span<const double> l, Index seed,
+                     std::span<const Index> owner, Index label, std::vector<double>& positions,
+                     std::vector<Index>& touched, Layout& out) {
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  positions.assign(static_cast<std::size_t>(dims) * t.num_vertices, 0.0);
+  Positions L{g, dims, positions};
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(t.num_faces), 0), placed(static_cast<std::size_t>(t.num_vertices), 0);
+  std::vector<Index> queue;
+  return lay_out_patch(t, l, label, seed, owner, visited, L, placed, touched, queue, out);
+}
+
+}  // namespace detail
 
 }  // namespace ricci

@@ -265,6 +265,7 @@ bool UniformizeOptions::is_valid(std::string* why) const {
   if (!cut.is_valid(&w)) return fail(w);
   if (!layout.is_valid(&w)) return fail(w);
   if (!deck.is_valid(&w)) return fail(w);
+  if (!atlas.is_valid(&w)) return fail("atlas: " + w);
   return true;
 }
 
@@ -272,7 +273,10 @@ std::string UniformizeResult::brief_report() const {
   std::string s = std::string(status_name(status)) + " " + std::string(geometry_name(geometry));
   if (!failed_stage.empty()) s += " (failed at " + failed_stage + ")";
   s += ": " + std::to_string(flow.iterations) + " iterations, max |K̄ − K| " + sci(flow.max_curvature_error);
-  if (layout.status == Status::Ok)
+  if (layout.status == Status::Ok && has_atlas)
+    s += ", layout edge error " + sci(atlas.max_edge_length_error) + " in " + std::to_string(atlas.num_charts()) +
+         " charts, " + std::to_string(atlas.flipped_faces) + " flipped";
+  else if (layout.status == Status::Ok)
     s += ", layout edge error " + sci(layout.max_edge_length_error) + ", " + std::to_string(layout.flipped_faces) +
          " flipped";
   if (has_deck && deck.status == Status::Ok) s += ", relation error " + sci(deck.relation_error);
@@ -792,8 +796,15 @@ bool cut_and_lay_out(LayoutRun& run) {
     excused = m.worst_unexplained <= 0 && m.area_fraction <= options.max_layout_error;
     if (excused) r.layout_excused = m;
   }
-  if (!excused && (r.layout.max_edge_length_error > options.max_layout_error ||
-                   !std::isfinite(r.layout.max_edge_length_error))) {
+  // Faces the root chart's coordinates cannot resolve get charts of their own.
+  if (!excused && options.use_atlas && !sphere && (r.layout.max_edge_length_error > options.max_layout_error ||
+                                                   !std::isfinite(r.layout.max_edge_length_error))) {
+    r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, options.atlas);
+    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error;
+    stage_done("atlas", r.atlas.message);
+  }
+  if (!excused && !r.has_atlas && (r.layout.max_edge_length_error > options.max_layout_error ||
+                                   !std::isfinite(r.layout.max_edge_length_error))) {
     r.layout.status = Status::NumericalFailure;
     return fail(Status::NumericalFailure, "layout",
                       "the layout reproduces the metric only to a relative edge-length error of " +
@@ -802,6 +813,9 @@ bool cut_and_lay_out(LayoutRun& run) {
                           sci(r.layout.rounding_floor) + " here" +
                           (r.layout.rounding_floor > options.max_layout_error
                                ? ": the metric's conformal factor spans too many orders of magnitude for one chart"
+                               : "") +
+                          (r.atlas.status != Status::NotRun && r.atlas.status != Status::Ok
+                               ? "; an atlas of charts failed too: " + r.atlas.message
                                : ""));
   }
 

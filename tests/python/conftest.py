@@ -22,7 +22,7 @@ SHARED = SOURCE.parent / "shared" / "meshes"
 CLI = os.environ.get("RICCI_CLI", str(SOURCE / "build" / "ricci"))
 
 GOOD_FIXTURES = ["genus2.obj", "torus.obj", "disk.obj", "annulus.obj", "icosphere.obj", "sphere-3holes.obj",
-                 "genus2-1hole.obj", "genus3.obj"]
+                 "genus2-1hole.obj", "genus3.obj", "genus2-finger.obj"]
 
 
 def run_cli(*args, check=True):

@@ -69,12 +69,14 @@
 //      layout (only the rotation is applied).
 #pragma once
 
+#include <complex>
 #include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "ricci/cut.h"
+#include "ricci/deck.h"
 #include "ricci/metric.h"
 #include "ricci/status.h"
 #include "ricci/topology.h"
@@ -291,6 +293,113 @@ LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const dou
 /// for positions computed elsewhere (e.g. deck_through_domain()'s canonical polygon): `l` #E of
 /// `disk`, positions #V×dims. Status NonFiniteCoordinate names a vertex without a valid position.
 Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions);
+
+// ---------------------------------------------------------------------------------------------
+// An atlas of charts: a layout of every face to full precision where one chart cannot hold them.
+//
+// A conformal factor that spans many orders of magnitude (a long finger of a hyperbolic surface
+// shrinks about e^{-π/2} per width along it) leaves faces far smaller than what one chart's
+// double coordinates resolve where they lie: Poincaré coordinates resolve hyperbolic distance to
+// about 2^-52 / (1 − |z|²), plane coordinates to 2^-53·|z|. Near a chart's own origin they resolve
+// relative to the distance from it, so a finger laid out from its smallest face (its tip) keeps
+// every digit: its faces grow with their distance from the tip.
+//
+// layout_atlas() starts from a layout (chart 0, the root: its positions as given) and repeats,
+// chart by chart in the order they are made: the faces of a chart that miss an edge length by
+// more than AtlasOptions::limit form groups connected across edges; each group becomes a new
+// chart, laid out by propagation from its smallest face (least longest edge; placed as
+// layout_disk()'s seed: corner 0 at the origin, corner 1 along +x) together with a collar of
+// the parent's resolved faces around it (collar_rings rings across edges). The transition map
+// into the parent is the isometry fitted on the collar's vertices (align_layouts(): closed form,
+// every point); the group's faces then belong to the new chart, the collar's stay in the parent.
+// A group that its own chart resolves no better, a transition map that misses its collar by more
+// than max_transition_error, or charts nested deeper than max_depth end the atlas with
+// NumericalFailure naming the face.
+//
+// The charts are consistent: a face's three edges always fit one chart, so what ties the charts to
+// one metric is the collar, whose vertices both charts place; transition_error is the largest
+// distance between a collar vertex's two positions after the fitted map, relative to the shortest
+// collar edge at that vertex.
+//
+// Maps into the root chart compose the transition maps: H in 113-bit arithmetic (to_root +
+// to_root_low, as DeckGenerator's map + map_low), E as rigid motions in double.
+
+/// Options of layout_atlas().
+struct AtlasOptions {
+  /// A face is resolved by a chart when each of its edges misses its length by at most this
+  /// (relative) in that chart's coordinates.
+  double limit = 1e-9;
+  /// Rings of the parent's faces around a new chart's group, laid out with it to fit the
+  /// transition map.
+  int collar_rings = 2;
+  /// Charts nest at most this deep (the root: 0).
+  int max_depth = 16;
+  /// A chart whose transition_error exceeds this ends the atlas (NumericalFailure): its collar
+  /// does not lie where its parent's does, so the two charts are not layouts of one metric
+  /// (each face always fits its own chart; only the collars tie the charts together).
+  double max_transition_error = 1e-6;
+
+  /// True when limit and max_transition_error are finite and > 0, collar_rings in 1..16 and
+  /// max_depth in 1..64; otherwise false, with the reason in *why (when why is not null).
+  bool is_valid(std::string* why) const;
+};
+
+/// One chart of an atlas.
+struct LayoutChart {
+  Index parent = -1;           ///< the chart its transition map goes into; -1 for the root
+  int depth = 0;               ///< 0 for the root, parent's + 1 otherwise
+  Index seed_face = kInvalid;  ///< the face placed at its origin (the root: kInvalid, its positions were given)
+  Index faces = 0;             ///< faces it holds (LayoutAtlas::face_chart)
+  double max_edge_length_error = 0;  ///< over the edges of its faces, in its coordinates (relative)
+  Index worst_face = kInvalid;       ///< a face where that occurs; kInvalid without faces
+  double rounding_floor = 0;         ///< max over those edges of Layout::rounding_floor's measure
+  Index collar_vertices = 0;         ///< vertices the transition map was fitted on
+  double transition_error = 0;       ///< see the top of this section (0 for the root)
+  /// The map from this chart's coordinates into its parent's, and into the root chart's:
+  ///   H  z ↦ (a z + b)/(b̄ z + ā) (Moebius); to_root + to_root_low, entry by entry, is the
+  ///      composition along the parents to about 106 bits;
+  ///   E  z ↦ e^{i angle} z + translation.
+  Moebius to_parent, to_root;
+  Moebius to_root_low{{0, 0}, {0, 0}};
+  double angle_to_parent = 0, angle_to_root = 0;                        ///< E
+  std::complex<double> translation_to_parent{0, 0}, translation_to_root{0, 0};  ///< E
+};
+
+/// What layout_atlas() returns.
+struct LayoutAtlas {
+  /// Ok: every face resolved within AtlasOptions::limit in its chart. InvalidArgument (sizes,
+  /// options, S); NumericalFailure (a group its chart does not resolve, charts too deep, a
+  /// propagation leaving double range), naming the face or vertex.
+  Status status = Status::NotRun;
+  std::string message = "not run";
+  Element element = Element::None;
+  std::int64_t element_index = -1;
+
+  std::vector<LayoutChart> charts;       ///< charts[0] is the root (the positions given)
+  std::vector<Index> face_chart;         ///< #F: the chart holding each face
+  /// #F×3×2: each face's corners in its chart's coordinates, corner c of face f at
+  /// [6f + 2c, 6f + 2c + 1].
+  std::vector<double> corner_positions;
+  double max_edge_length_error = 0;  ///< max over the charts
+  double max_transition_error = 0;   ///< max over the charts
+  /// Faces negatively oriented in their chart (H: in Klein coordinates), and the smallest.
+  Index flipped_faces = 0;
+  Index first_flipped_face = kInvalid;
+  double seconds = 0;
+
+  Index num_charts() const { return static_cast<Index>(charts.size()); }
+};
+
+/// An atlas of `disk` (E or H) with edge lengths l (#E) from the layout `positions` (#V×2; the
+/// root chart): see the top of this section. With every face resolved by `positions`, one chart.
+LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const double> l,
+                         std::span<const double> positions, const AtlasOptions& options = {});
+
+/// The cut's surface (cut.surface_positions, cut.surface_faces) with texture coordinates from an
+/// atlas of its disk (the disk's faces are the cut's faces, slot for slot): one texture coordinate
+/// per cut vertex and chart it appears in, numbered in the order of first use, each corner taking
+/// the one of its face's chart. An empty mesh when the atlas is not Ok or the sizes differ.
+Mesh surface_with_atlas_uvs(const CutResult& cut, const LayoutAtlas& atlas);
 
 // ---------------------------------------------------------------------------------------------
 // Comparing layouts.

@@ -93,7 +93,8 @@ namespace ricci {
 
 /// What on_stage receives when a stage ends.
 struct StageRecord {
-  /// "initial_metric", "target", "flow", "cut", "layout", "seed_check", "polygon", "deck" or "angles".
+  /// "initial_metric", "target", "flow", "cut", "layout", "atlas" (only when the layout needs
+  /// charts), "seed_check", "polygon", "deck" or "angles".
   std::string_view stage;
   double seconds = 0;      ///< time the stage took
   std::string summary;     ///< one line: what it found (e.g. the layout's edge error)
@@ -151,6 +152,12 @@ struct UniformizeOptions {
   /// of returning positions that are not the metric's (e.g. a long strip with a free boundary in E,
   /// whose conformal factor spans more orders of magnitude than double precision holds).
   double max_layout_error = 1e-6;
+  /// E and H: when the layout misses that limit where its coordinates cannot resolve the faces
+  /// (and the miss is not excused as negligible), the faces are laid out in an atlas of charts
+  /// (layout_atlas(); has_atlas), each face to `atlas.limit` in its own chart. false: such a
+  /// layout fails as before.
+  bool use_atlas = true;
+  AtlasOptions atlas;  ///< options of layout_atlas()
   DeckOptions deck;  ///< options of the deck and side-pairing fits
   /// Called when each stage ends (the library never prints). Flow iterations: flow.on_iteration.
   std::function<void(const StageRecord&)> on_stage;
@@ -245,6 +252,11 @@ struct UniformizeResult {
   /// kRoundingAllowance times what its coordinates resolve, their faces at most max_layout_error of
   /// the input's 3D area (the short edges at near-coincident vertices). edges = 0 when none.
   LayoutMisses layout_excused;
+  /// E and H: the layout needed more than one chart (UniformizeOptions::use_atlas): `atlas` holds
+  /// them, every face resolved to AtlasOptions::limit in its own chart. `layout` stays the root
+  /// chart (its positions are what the cut, seed check, polygon, deck and cover use).
+  bool has_atlas = false;
+  LayoutAtlas atlas;
   /// Max over the extra seeds of the deviation from `layout` after alignment (distance of the
   /// geometry; E: before the unit box). 0 when seed_checks is 0.
   double seed_independence_error = 0;

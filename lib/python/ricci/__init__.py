@@ -108,7 +108,10 @@ class UniformizeResult(_Result):
     uv                 (#faces of surface, 3, 2) per-corner layout (plane or Poincare disk);
                        None for a closed genus-0 surface (see `sphere`)
     sphere             (#V, 3) unit-sphere positions (closed genus 0), else None
-    layout_positions   (#cut vertices, 2) or (#V, 3): the layout of the cut disk or the sphere
+    layout_positions   (#cut vertices, 2) or (#V, 3): the layout of the cut disk or the sphere (the
+                       first chart when the layout is an atlas)
+    face_chart         (#faces of surface,) the chart of each face's uv (all 0 with one chart), or
+                       None without a cut
     cut                dict: word, canonical, faces of the cut disk, cut_to_surface, sides, ...
     generators         dict of the deck group: names and, in H, "moebius" (k, 2, 2) SU(1,1)
                        matrices and translation lengths, in E "translation" (k, 2) and rotation;
@@ -121,7 +124,7 @@ class UniformizeResult(_Result):
     __slots__ = ()
     _fields = ("status", "message", "failed_stage", "geometry", "V", "F", "vertex_to_input", "edges",
                "u", "K", "K_target", "edge_lengths", "iterations", "surface", "uv", "sphere",
-               "layout_positions", "cut", "generators", "relation_error", "timings", "notes",
+               "face_chart", "layout_positions", "cut", "generators", "relation_error", "timings", "notes",
                "repairs", "report")
 
     def signature(self):
@@ -161,9 +164,10 @@ def flow(V, F=None, *, name=None, progress=None, **options):
 
 def uniformize(V=None, F=None, *, name=None, progress=None, **options):
     """The whole job (`ricci uniformize`): geometry, scheme, target, boundary, tol, max_iterations,
-    threads, mesh_polygon, base_candidates, seed_checks, cover_depth, patches, unit_box, flips,
+    threads, mesh_polygon, atlas, base_candidates, seed_checks, cover_depth, patches, unit_box, flips,
     angle_relax, circle_normalization, split_ears, largest_component. Returns a UniformizeResult; raises
-    RicciError naming the stage that failed."""
+    RicciError naming the stage that failed. With an atlas of charts (``report["layout"]["charts"]``
+    > 1), ``uv`` holds each face's corners in its own chart and ``face_chart`` names the chart."""
     V, F, path, name = _mesh_args(V, F, name, True)
     job = _ricci.uniformize(V, F, path, name, options, progress)
     result = UniformizeResult(job)

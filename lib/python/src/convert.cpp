@@ -185,7 +185,8 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"patches", integer(&O::patches, o)},
                   {"layout_refine_above", real(&O::layout_refine_above, o)},
                   {"unit_box", flag(&O::unit_box, o, false)},
-                  {"mesh_polygon", flag(&O::mesh_polygon, o, false)}});
+                  {"mesh_polygon", flag(&O::mesh_polygon, o, false)},
+                  {"atlas", flag(&O::no_atlas, o, true)}});
   apply(options, setters, "uniformize");
 }
 

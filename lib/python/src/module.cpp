@@ -385,6 +385,18 @@ PYBIND11_MODULE(_ricci, m) {
         py::array a = view(j.uv, 2, self);
         return a.attr("reshape")(-1, 3, 2);
       })
+      .def_property_readonly("face_chart", [](py::object self) -> py::object {
+        UniformizeJob& j = self.cast<UniformizeJob&>();
+        ensure_surface(j);
+        const ricci::UniformizeResult& r = j.run.result;
+        if (j.uv.empty() || !r.has_cut) return py::none();
+        if (!r.has_atlas || r.intrinsic.refined) {
+          py::array_t<ricci::Index> zeros(static_cast<py::ssize_t>(j.surface.faces.size() / 3));
+          std::fill(zeros.mutable_data(), zeros.mutable_data() + zeros.size(), ricci::Index{0});
+          return zeros;
+        }
+        return view(r.atlas.face_chart, 0, self);
+      })
       .def_property_readonly("sphere", [](py::object self) -> py::object {
         UniformizeJob& j = self.cast<UniformizeJob&>();
         ensure_surface(j);

@@ -1,0 +1,370 @@
+// The atlas of charts (layout.h, "An atlas of charts"): takes a disk, its edge lengths and one
+// layout of it (E or H); gives charts, each face's corners in its own chart, and the transition
+// maps between charts (H composed in quad). Calls the layout's propagation (layout_internal.h).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "layout_internal.h"
+#include "model_geometry.h"
+#include "moebius_quad.h"
+#include "ricci/layout.h"
+
+namespace ricci {
+
+namespace {
+
+using Cx = std::complex<double>;
+
+std::string sci(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", x);
+  return b;
+}
+
+double planar_distance(Geometry g, Cx a, Cx b) {
+  return g == Geometry::Hyperbolic ? model::disk_distance(a, b) : std::abs(a - b);
+}
+
+/// The atlas while it is built.
+struct AtlasBuild {
+  const Topology& t;
+  Geometry g;
+  std::span<const double> l;
+  const AtlasOptions& options;
+  LayoutAtlas& out;
+  std::vector<double> face_error;  ///< #F: max relative edge error of the face in its chart
+  std::vector<double> face_floor;  ///< #F: its rounding floor there (rounding_drift() / length)
+  std::vector<Index> owner;        ///< scratch labels for a chart's propagation (-1 elsewhere)
+
+  Cx corner(Index f, int c) const { return {out.corner_positions[6 * f + 2 * c], out.corner_positions[6 * f + 2 * c + 1]}; }
+
+  /// How far rounding can move the distance of a and b: as Layout::rounding_floor's, but with
+  /// each coordinate's own magnitude (doubles resolve a point near a chart's origin relative to
+  /// its distance from it).
+  double rounding_drift(Cx a, Cx b) const {
+    constexpr double u = 0x1p-53;
+    if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(a) + std::abs(b));
+    const double ra = std::abs(a), rb = std::abs(b);
+    return 2 * u * std::sqrt(2.0) * (ra / ((1 - ra) * (1 + ra)) + rb / ((1 - rb) * (1 + rb)));
+  }
+
+  /// The face's max relative edge error in its chart's coordinates, and its rounding floor.
+  void measure_face(Index f, double& err, double& floor) const {
+    err = floor = 0;
+    for (int c = 0; c < 3; ++c) {
+      const Cx a = corner(f, (c + 1) % 3), b = corner(f, (c + 2) % 3);
+      const double le = l[t.corner_edge[3 * f + c]];
+      const double e = std::abs(planar_distance(g, a, b) - le) / le;
+      err = std::isnan(e) || std::isnan(err) ? NAN : std::max(err, e);
+      floor = std::max(floor, rounding_drift(a, b) / le);
+    }
+  }
+
+  bool fail(Element e, Index i, const std::string& message) {
+    out.status = Status::NumericalFailure;
+    out.element = e;
+    out.element_index = i;
+    out.message = message;
+    return false;
+  }
+
+  /// A face goes to a new chart when it misses the limit, or when its coordinates resolve it to
+  /// less than kMargin times the limit: the collar of a new chart then lies where its parent's
+  /// positions are good to well below the limit, which the transition map is fitted on.
+  static constexpr double kMargin = 1e-2;
+  bool unresolved(Index f) const {
+    return !(face_error[f] <= options.limit) || !(face_floor[f] <= kMargin * options.limit);
+  }
+
+  /// Groups of the unresolved faces of chart k, connected across edges (in face order).
+  std::vector<std::vector<Index>> unresolved_groups(Index k) const {
+    std::vector<std::vector<Index>> groups;
+    std::vector<std::uint8_t> seen(static_cast<std::size_t>(t.num_faces), 0);
+    for (Index f0 = 0; f0 < t.num_faces; ++f0) {
+      if (seen[f0] || out.face_chart[f0] != k || !unresolved(f0)) continue;
+      std::vector<Index> group{f0};
+      seen[f0] = 1;
+      for (std::size_t h = 0; h < group.size(); ++h) {
+        for (int c = 0; c < 3; ++c) {
+          const Index o = t.opposite[3 * group[h] + c];
+          if (o == kInvalid) continue;
+          const Index nb = corner_face(o);
+          if (seen[nb] || out.face_chart[nb] != k || !unresolved(nb)) continue;
+          seen[nb] = 1;
+          group.push_back(nb);
+        }
+      }
+      groups.push_back(std::move(group));
+    }
+    return groups;
+  }
+
+  /// The collar: faces of chart k resolved there, within collar_rings rings of the group.
+  std::vector<Index> collar(const std::vector<Index>& group, Index k, Index label) {
+    std::vector<Index> ring = group, faces;
+    for (int r = 0; r < options.collar_rings; ++r) {
+      std::vector<Index> next;
+      for (Index f : ring) {
+        for (int c = 0; c < 3; ++c) {
+          const Index o = t.opposite[3 * f + c];
+          if (o == kInvalid) continue;
+          const Index nb = corner_face(o);
+          if (owner[nb] == label || out.face_chart[nb] != k || unresolved(nb)) continue;
+          owner[nb] = label;
+          next.push_back(nb);
+        }
+      }
+      faces.insert(faces.end(), next.begin(), next.end());
+      ring = std::move(next);
+    }
+    return faces;
+  }
+
+  /// The chart's map into the root: the parent's composed with its own transition.
+  void compose_to_root(LayoutChart& ch) const {
+    const LayoutChart& p = out.charts[static_cast<std::size_t>(ch.parent)];
+    if (g == Geometry::Hyperbolic) {
+      using detail::CQ;
+      using detail::MoebiusQ;
+      const MoebiusQ root(CQ(p.to_root.a) + CQ(p.to_root_low.a), CQ(p.to_root.b) + CQ(p.to_root_low.b));
+      const MoebiusQ m = (root * MoebiusQ(ch.to_parent)).normalized();
+      ch.to_root = m.to_double();
+      ch.to_root_low = Moebius{(m.a - CQ(ch.to_root.a)).to_double(), (m.b - CQ(ch.to_root.b)).to_double()};
+    } else {
+      const Cx rot = std::polar(1.0, p.angle_to_root);
+      ch.angle_to_root = std::remainder(p.angle_to_root + ch.angle_to_parent, 2 * std::numbers::pi);
+      ch.translation_to_root = rot * ch.translation_to_parent + p.translation_to_root;
+    }
+  }
+
+  /// Makes a chart of `group` (faces of chart k): lays it out with its collar, fits the
+  /// transition, moves the group's faces into it.
+  bool make_chart(const std::vector<Index>& group, Index k) {
+    const Index c = out.num_charts();
+    LayoutChart ch;
+    ch.parent = k;
+    ch.depth = out.charts[static_cast<std::size_t>(k)].depth + 1;
+    if (ch.depth > options.max_depth)
+      return fail(Element::Face, group[0], "charts nest deeper than " + std::to_string(options.max_depth) +
+                                               " around face " + std::to_string(group[0]));
+    // The smallest face (least longest edge) is the new origin.
+    auto longest = [&](Index f) {
+      return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+    };
+    ch.seed_face = group[0];
+    for (Index f : group)
+      if (longest(f) < longest(ch.seed_face)) ch.seed_face = f;
+    for (Index f : group) owner[f] = c;
+    const std::vector<Index> ring = collar(group, k, c);
+    if (ring.empty())
+      return fail(Element::Face, ch.seed_face, "no face of chart " + std::to_string(k) + " around face " +
+                                                   std::to_string(ch.seed_face) + " is resolved: nothing to fit a chart to");
+    std::vector<double> x;
+    std::vector<Index> touched;
+    Layout pl;
+    const bool ok = detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
+    for (Index f : group) owner[f] = -1;
+    for (Index f : ring) owner[f] = -1;
+    if (!ok) return fail(pl.element, pl.element_index, pl.message);
+    // Fit points: each collar vertex once, with its parent and its own position, and the shortest
+    // collar edge at it.
+    std::vector<double> parent_pts, own_pts, scale;
+    std::vector<Index> index_of(static_cast<std::size_t>(t.num_vertices), kInvalid);
+    for (Index f : ring) {
+      for (int cc = 0; cc < 3; ++cc) {
+        const Index v = t.corner_vertex[3 * f + cc];
+        const double le = std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
+        if (index_of[v] == kInvalid) {
+          index_of[v] = static_cast<Index>(scale.size());
+          const Cx p = corner(f, cc);
+          parent_pts.insert(parent_pts.end(), {p.real(), p.imag()});
+          own_pts.insert(own_pts.end(), {x[2 * v], x[2 * v + 1]});
+          scale.push_back(le);
+        } else {
+          scale[index_of[v]] = std::min(scale[index_of[v]], le);
+        }
+      }
+    }
+    const LayoutAlignment fit = align_layouts(g, parent_pts, own_pts);
+    if (fit.status != Status::Ok)
+      return fail(Element::Face, ch.seed_face, "the chart around face " + std::to_string(ch.seed_face) +
+                                                   " could not be fitted to chart " + std::to_string(k) + ": " + fit.message);
+    ch.collar_vertices = static_cast<Index>(scale.size());
+    if (g == Geometry::Hyperbolic) {
+      ch.to_parent = Moebius::from_theta_z0(fit.angle, {fit.translation[0], fit.translation[1]});
+    } else {
+      ch.angle_to_parent = fit.angle;
+      ch.translation_to_parent = {fit.translation[0], fit.translation[1]};
+    }
+    auto to_parent = [&](Cx z) {
+      return g == Geometry::Hyperbolic ? ch.to_parent.apply(z) : std::polar(1.0, ch.angle_to_parent) * z + ch.translation_to_parent;
+    };
+    for (std::size_t i = 0; i < scale.size(); ++i) {
+      const double d = planar_distance(g, {parent_pts[2 * i], parent_pts[2 * i + 1]}, to_parent({own_pts[2 * i], own_pts[2 * i + 1]}));
+      ch.transition_error = std::max(ch.transition_error, d / scale[i]);
+    }
+    if (!(ch.transition_error <= options.max_transition_error))
+      return fail(Element::Face, ch.seed_face,
+                  "the chart around face " + std::to_string(ch.seed_face) + " misses chart " + std::to_string(k) +
+                      " on their common collar by " + sci(ch.transition_error) + " of an edge's length (limit " +
+                      sci(options.max_transition_error) + "): the lengths are not one metric there");
+    compose_to_root(ch);
+    // The group's faces move into the new chart.
+    Index resolved = 0;
+    for (Index f : group) {
+      out.face_chart[f] = c;
+      for (int cc = 0; cc < 3; ++cc) {
+        const Index v = t.corner_vertex[3 * f + cc];
+        out.corner_positions[6 * f + 2 * cc] = x[2 * v];
+        out.corner_positions[6 * f + 2 * cc + 1] = x[2 * v + 1];
+      }
+      measure_face(f, face_error[f], face_floor[f]);
+      if (!unresolved(f)) ++resolved;
+    }
+    if (resolved == 0)
+      return fail(Element::Face, ch.seed_face, "the chart around face " + std::to_string(ch.seed_face) + " resolves none of its " +
+                                                   std::to_string(group.size()) + " faces (edge error " +
+                                                   sci(face_error[ch.seed_face]) + " at its own origin)");
+    out.charts.push_back(ch);
+    return true;
+  }
+
+  /// Sign of the face's orientation in its chart (H: in Klein coordinates, where geodesics are
+  /// straight).
+  double orientation(Index f) const {
+    Cx p[3];
+    for (int c = 0; c < 3; ++c) {
+      p[c] = corner(f, c);
+      if (g == Geometry::Hyperbolic) p[c] *= 2 / (1 + std::norm(p[c]));
+    }
+    const Cx u = p[1] - p[0], w = p[2] - p[0];
+    return u.real() * w.imag() - u.imag() * w.real();
+  }
+
+  /// Every chart's figures from its faces.
+  void summarise() {
+    for (LayoutChart& ch : out.charts) {
+      ch.faces = 0;
+      ch.max_edge_length_error = ch.rounding_floor = 0;
+      ch.worst_face = kInvalid;
+    }
+    for (Index f = 0; f < t.num_faces; ++f) {
+      LayoutChart& ch = out.charts[static_cast<std::size_t>(out.face_chart[f])];
+      double err = 0, floor = 0;
+      measure_face(f, err, floor);
+      if (!(orientation(f) > 0) && out.flipped_faces++ == 0) out.first_flipped_face = f;
+      ++ch.faces;
+      ch.rounding_floor = std::max(ch.rounding_floor, floor);
+      if (ch.worst_face == kInvalid || err > ch.max_edge_length_error) {
+        ch.max_edge_length_error = err;
+        ch.worst_face = f;
+      }
+    }
+    for (const LayoutChart& ch : out.charts) {
+      out.max_edge_length_error = std::max(out.max_edge_length_error, ch.max_edge_length_error);
+      out.max_transition_error = std::max(out.max_transition_error, ch.transition_error);
+    }
+  }
+};
+
+}  // namespace
+
+bool AtlasOptions::is_valid(std::string* why) const {
+  std::string w;
+  if (!(std::isfinite(limit) && limit > 0)) w = "limit must be a finite number > 0";
+  else if (collar_rings < 1 || collar_rings > 16) w = "collar_rings must be in 1..16";
+  else if (max_depth < 1 || max_depth > 64) w = "max_depth must be in 1..64";
+  else if (!(std::isfinite(max_transition_error) && max_transition_error > 0))
+    w = "max_transition_error must be a finite number > 0";
+  if (why != nullptr) *why = w;
+  return w.empty();
+}
+
+LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions,
+                         const AtlasOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  LayoutAtlas out;
+  std::string why;
+  if (!options.is_valid(&why) || g == Geometry::Spherical || l.size() != static_cast<std::size_t>(disk.num_edges) ||
+      positions.size() != 2 * static_cast<std::size_t>(disk.num_vertices)) {
+    out.status = Status::InvalidArgument;
+    out.message = !why.empty() ? "options: " + why
+                  : g == Geometry::Spherical ? std::string("an atlas is made in E and H only")
+                                             : "sizes: #E lengths and #V×2 positions are required";
+    return out;
+  }
+  const Index nf = disk.num_faces;
+  out.face_chart.assign(static_cast<std::size_t>(nf), 0);
+  out.corner_positions.resize(6 * static_cast<std::size_t>(nf));
+  for (Index f = 0; f < nf; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Index v = disk.corner_vertex[3 * f + c];
+      out.corner_positions[6 * f + 2 * c] = positions[2 * v];
+      out.corner_positions[6 * f + 2 * c + 1] = positions[2 * v + 1];
+    }
+  LayoutChart root;
+  out.charts.push_back(root);
+  AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
+               std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1)};
+#pragma omp parallel for schedule(static)
+  for (Index f = 0; f < nf; ++f) b.measure_face(f, b.face_error[f], b.face_floor[f]);
+  for (Index k = 0; k < out.num_charts(); ++k) {
+    for (const std::vector<Index>& group : b.unresolved_groups(k))
+      if (!b.make_chart(group, k)) {
+        out.charts.clear();
+        out.face_chart.clear();
+        out.corner_positions.clear();
+        return out;
+      }
+  }
+  b.summarise();
+  out.status = Status::Ok;
+  out.message = std::to_string(out.num_charts()) + (out.num_charts() == 1 ? " chart" : " charts") +
+                ", max edge-length error " + sci(out.max_edge_length_error) + ", transitions to " +
+                sci(out.max_transition_error);
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+Mesh surface_with_atlas_uvs(const CutResult& cut, const LayoutAtlas& atlas) {
+  Mesh m;
+  const std::size_t corners = cut.cut_faces.size();
+  if (atlas.status != Status::Ok || atlas.face_chart.size() * 3 != corners || atlas.corner_positions.size() != 2 * corners ||
+      cut.surface_faces.size() != corners)
+    return m;
+  m.positions = cut.surface_positions;
+  m.faces = cut.surface_faces;
+  m.corner_texcoords.resize(corners);
+  // One texture coordinate per (cut vertex, chart), numbered in the order of first use.
+  const std::int64_t charts = atlas.num_charts();
+  std::vector<std::pair<std::int64_t, Index>> key(corners);
+  for (std::size_t c = 0; c < corners; ++c)
+    key[c] = {static_cast<std::int64_t>(cut.cut_faces[c]) * charts + atlas.face_chart[c / 3], static_cast<Index>(c)};
+  std::sort(key.begin(), key.end());
+  std::vector<Index> first_corner;  // per distinct key, its smallest corner
+  std::vector<Index> key_of(corners);
+  for (std::size_t k = 0; k < corners; ++k) {
+    if (k == 0 || key[k].first != key[k - 1].first) first_corner.push_back(key[k].second);
+    key_of[key[k].second] = static_cast<Index>(first_corner.size() - 1);
+  }
+  std::vector<Index> order(first_corner.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return first_corner[a] < first_corner[b]; });
+  std::vector<Index> number(first_corner.size());
+  m.texcoords.resize(2 * first_corner.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    number[order[i]] = static_cast<Index>(i);
+    const Index c = first_corner[order[i]];
+    m.texcoords[2 * i] = atlas.corner_positions[2 * c];
+    m.texcoords[2 * i + 1] = atlas.corner_positions[2 * c + 1];
+  }
+  for (std::size_t c = 0; c < corners; ++c) m.corner_texcoords[c] = number[key_of[c]];
+  return m;
+}
+
+}  // namespace ricci
