@@ -18,6 +18,7 @@
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 using namespace ricci;
@@ -224,4 +225,37 @@ TEST_CASE("atlas: lengths that are not one metric are refused naming a face, and
   CHECK(layout_atlas(r.disk, r.geometry, std::span<const double>(r.disk_lengths).first(3), r.layout.positions).status ==
         Status::InvalidArgument);
   CHECK(surface_with_atlas_uvs(r.cut, LayoutAtlas{}).faces.empty());
+}
+
+TEST_CASE("atlas: a 200 : 1 strip with a free boundary, whose one chart cannot even place every vertex, maps") {
+  // K = 0 inside and a free boundary: u is harmonic and grows linearly along the strip, so its
+  // conformal factor spans about e^{π·200} (1e272) from end to end. One propagation rounds whole
+  // edges at the small end onto one point: the layout keeps them aside (keep_unresolved) and the
+  // atlas lays them out from their own smallest face.
+  const ValidateResult v = validate_mesh(ricci_shapes::strip(800, 4, 200.0, 1.0));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.boundary = BoundaryMode::Free;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.brief_report() << "; " << r.atlas.message << "; root chart kept " << r.layout.unresolved_vertices
+                           << " vertices aside; seed independence " << r.seed_independence_error);
+  CHECK(r.layout.unresolved_vertices > 0);
+  REQUIRE(r.has_atlas);
+  CHECK(r.atlas.num_charts() >= 2);
+  CHECK(r.atlas.max_edge_length_error <= 1e-9);
+  CHECK(r.atlas.flipped_faces == 0);
+  CHECK(r.seed_independence_error <= 1e-9);
+  // The layout alone: refused by default, completed with the vertices set aside on request.
+  LayoutOptions lo;
+  const Layout strict = layout_disk(r.disk, r.geometry, r.disk_lengths, lo);
+  CHECK(strict.status == Status::NumericalFailure);
+  CHECK(strict.element == Element::Vertex);
+  lo.keep_unresolved = true;
+  const Layout kept = layout_disk(r.disk, r.geometry, r.disk_lengths, lo);
+  REQUIRE(kept.status == Status::Ok);
+  CHECK(kept.unresolved_vertices > 0);
+  CHECK(std::all_of(kept.positions.begin(), kept.positions.end(), [](double x) { return std::isfinite(x); }));
+  CHECK(kept.polish_steps == 0);
+  CHECK(kept.polish_sweeps == 0);
 }

@@ -907,8 +907,9 @@ struct PropagationCosts {
 /// entering cost, so the work is linear in the faces.
 class Propagation {
  public:
-  Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed)
-      : t_(t), g_(g), l_(l), seed_(seed), costs_(g, theta) {
+  Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed,
+              bool keep_going)
+      : t_(t), g_(g), l_(l), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
     const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
     placed_.resize(nv);
     taken_.resize(nf);
@@ -925,6 +926,7 @@ class Propagation {
     std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
     std::fill(taken_.begin(), taken_.end(), std::uint8_t{0});
     std::fill(reached_.begin(), reached_.end(), kInf);
+    out.unresolved_vertices = 0;
     for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
     depth_[seed_] = 0;
     reached_[seed_] = 0;
@@ -971,6 +973,13 @@ class Propagation {
     const Index v = P.place_corner(t_, l_, o);
     placed_[v] = 1;
     if (P.finite(v)) return true;
+    if (keep_going_) {
+      // At the first end of the edge it was placed from: finite, and its faces measure as missed.
+      const Index from = t_.corner_vertex[next_corner(o)];
+      for (int d = 0; d < P.dims; ++d) P.x[static_cast<std::size_t>(P.dims * v + d)] = P.x[static_cast<std::size_t>(P.dims * from + d)];
+      ++out.unresolved_vertices;
+      return true;
+    }
     out.status = Status::NumericalFailure;
     out.element = Element::Vertex;
     out.element_index = v;
@@ -984,6 +993,7 @@ class Propagation {
   Geometry g_;
   std::span<const double> l_;
   Index seed_;
+  bool keep_going_;
   PropagationCosts costs_;
   std::vector<std::uint8_t> placed_, taken_;
   std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
@@ -1123,7 +1133,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   if (g == Geometry::Spherical)
     for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
   Positions P{g, out.dims, x};
-  Propagation propagation(t, g, l, theta, seed);
+  Propagation propagation(t, g, l, theta, seed, options.keep_unresolved);
   const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
   P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
   if (!propagation.run(P, out)) return out;
@@ -1143,7 +1153,9 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   out.unplaced_vertices = propagation.unplaced();
   Layout now;
   measure_edges(t, g, l, P, now);
-  refine_layout(t, g, l, theta, seed, options, P, now, out);
+  // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global
+  // steps would trade the resolved faces for them.
+  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, out);
   finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;

@@ -684,6 +684,7 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
         LayoutOptions o = run.options.layout;
         o.seed_face = sc.seeds[k];
         o.unit_box = false;
+        o.keep_unresolved = run.options.use_atlas && !sphere;
         sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
                                : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
       }
@@ -703,6 +704,8 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
 // the seed check can start from the face farthest from it, beside the layout, before it runs.
 LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
   LayoutOptions lo = run.options.layout;
+  // With an atlas, vertices beyond one chart's range are left to it (not for the sphere).
+  if (run.options.use_atlas && !run.sphere) lo.keep_unresolved = true;
   if (lo.seed_face < 0) lo.seed_face = central_face(faces);
   if (run.seed_check != nullptr && lo.seed_face >= 0 && lo.seed_face < faces.num_faces)
     start_seed_check(run, *run.seed_check, faces, lo.seed_face);
@@ -831,12 +834,45 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   std::vector<double> own = r.layout.positions;
   if (r.geometry == Geometry::Euclidean && r.layout.scale != 1)
     for (double& x : own) x /= r.layout.scale;
+  // With an atlas, the layouts are compared on the vertices of the first chart's faces: the others
+  // are exactly those one chart's coordinates cannot resolve (or could not place).
+  std::vector<Index> kept;
+  if (r.has_atlas) {
+    std::vector<std::uint8_t> in_root(static_cast<std::size_t>(r.disk.num_vertices), 0);
+    for (Index f = 0; f < r.disk.num_faces; ++f)
+      if (r.atlas.face_chart[f] == 0)
+        for (int c = 0; c < 3; ++c) in_root[r.disk.corner_vertex[3 * f + c]] = 1;
+    for (Index v = 0; v < r.disk.num_vertices; ++v)
+      if (in_root[v]) kept.push_back(v);
+  }
+  auto restrict = [&](const std::vector<double>& x) {
+    if (!r.has_atlas) return x;
+    std::vector<double> y;
+    y.reserve(2 * kept.size());
+    for (Index v : kept) y.insert(y.end(), {x[2 * v], x[2 * v + 1]});
+    return y;
+  };
+  own = restrict(own);
+  // In the plane such a layout can span many orders of magnitude, so there the distance is taken
+  // relative to the first chart's extent (its largest distance from its points' mean).
+  double scale = 1;
+  if (r.has_atlas && r.geometry == Geometry::Euclidean && !kept.empty()) {
+    double mx = 0, my = 0, far = 0;
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+      mx += own[2 * i];
+      my += own[2 * i + 1];
+    }
+    mx /= static_cast<double>(kept.size());
+    my /= static_cast<double>(kept.size());
+    for (std::size_t i = 0; i < kept.size(); ++i) far = std::max(far, std::hypot(own[2 * i] - mx, own[2 * i + 1] - my));
+    if (far > 0) scale = far;
+  }
   for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
     const Layout& other = sc.layouts[k];
     if (other.status != Status::Ok) return run.fail(other.status, "seed_check", other.message);
     r.seed_faces_checked.push_back(sc.seeds[k]);
-    r.seed_independence_error =
-        std::max(r.seed_independence_error, layout_alignment_error(r.geometry, own, other.positions));
+    r.seed_independence_error = std::max(r.seed_independence_error,
+                                         layout_alignment_error(r.geometry, own, restrict(other.positions)) / scale);
   }
   run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
                                    std::to_string(r.seed_faces_checked.size()) + " seeds, laid out in " +

@@ -181,6 +181,13 @@ struct LayoutOptions {
   /// was). Ignored in S. -1 (default): automatic — min(32, #F / 4000) patches (none below 8000
   /// faces), and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
   int patches = -1;
+  /// A vertex whose position leaves the range of double precision (E: placed from an edge whose
+  /// ends rounded onto one point; H: at or beyond the unit circle) fails the layout
+  /// (NumericalFailure) by default. true: it is put on the first end of the edge it was placed
+  /// from and counted (Layout::unresolved_vertices), so the layout completes with those faces
+  /// missed, for layout_atlas() to lay them out in charts of their own. Such a layout is not
+  /// refined (patches, sweeps, global steps): their positions are no estimate to improve.
+  bool keep_unresolved = false;
 
   /// True when seed_face ≥ -1, refine_above is finite and ≥ 0, polish_sweeps is in 0..10000 and
   /// polish_steps in 0..20; otherwise false, with the reason
@@ -225,6 +232,9 @@ struct Layout {
   Index first_flipped_face = kInvalid;  ///< smallest flipped face; kInvalid when there is none
   /// Vertices used by no face (placed at the origin / north pole).
   Index unplaced_vertices = 0;
+  /// With LayoutOptions::keep_unresolved: vertices whose position left double range, put on a
+  /// neighbour instead (in the last propagation).
+  Index unresolved_vertices = 0;
 
   double scale = 1;                  ///< E with unit_box: the factor applied
   double mobius_length_change = 0;   ///< S with Möbius centring: max relative change of an edge

@@ -19,6 +19,10 @@
 //                   skipped for a closed genus-0 surface, which is laid out on the sphere directly
 //   layout          refined_edge_lengths() + layout_disk() (plane / Poincaré disk) or
 //                   layout_sphere()
+//   atlas           E and H, only when the layout misses max_layout_error where one chart's
+//                   coordinates cannot resolve the faces: layout_atlas() (has_atlas), charts of
+//                   their own for those faces (the layout then keeps vertices it could not place,
+//                   LayoutOptions::keep_unresolved, for the charts to lay out)
 //   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
 //                   farthest from the layout's seed), aligned to the layout itself by the fitted
 //                   isometry (align_layouts()): seed_independence_error. Laid out on a second
@@ -258,7 +262,9 @@ struct UniformizeResult {
   bool has_atlas = false;
   LayoutAtlas atlas;
   /// Max over the extra seeds of the deviation from `layout` after alignment (distance of the
-  /// geometry; E: before the unit box). 0 when seed_checks is 0.
+  /// geometry; E: before the unit box). 0 when seed_checks is 0. With an atlas: over the vertices
+  /// of the first chart's faces only, and in E relative to that chart's extent (such a plane
+  /// layout can span more orders of magnitude than an absolute distance means anything across).
   double seed_independence_error = 0;
   std::vector<Index> seed_faces_checked;  ///< the extra seed faces, in the order they were laid out
 
