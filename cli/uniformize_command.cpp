@@ -331,7 +331,8 @@ std::string obj_with_chart_groups(const std::string& obj, const std::vector<Inde
 
 /// The atlas of a layout that one chart could not hold (layout.h): each chart's figures and its
 /// maps into its parent and the root chart (H: SU(1,1) matrices, to_root_low the low part of the
-/// quad composition; E: angle and translation), and the chart of every face of mesh.obj.
+/// quad composition; E: angle and translation), and the chart of every face of the cut surface:
+/// mesh.obj's, or refinement.obj's for a refined result (mesh.obj's groups name its own faces').
 Json atlas_json(const ricci::UniformizeResult& r) {
   const ricci::LayoutAtlas& a = r.atlas;
   Json charts = Json::array();
@@ -361,6 +362,7 @@ Json atlas_json(const ricci::UniformizeResult& r) {
               {"root_flipped_faces", r.layout.flipped_faces},
               {"max_transition_error", real(a.max_transition_error)},
               {"charts", std::move(charts)},
+              {"face_chart_of", r.intrinsic.refined ? "refinement.obj" : "mesh.obj"},
               {"face_chart", a.face_chart}};
 }
 
@@ -1033,16 +1035,23 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
       std::vector<Index> tags(r.cut.surface_face_to_input.size());
       for (std::size_t f = 0; f < tags.size(); ++f) tags[f] = cs.face_input[r.cut.surface_face_to_input[f]];
       const std::vector<double>& sx = r.cut.surface_positions;
-      files.push_back({"refinement.obj", refinement_obj("the common subdivision of the input and the final intrinsic "
-                                                        "triangulation, with its layout as texture coordinates",
-                                                        run.file, sx, r.cut.surface_faces, tags, r.layout.positions,
-                                                        r.cut.cut_faces)});
+      // With an atlas, each piece's texture coordinates are in its own chart.
+      const ricci::Mesh charted = r.has_atlas ? ricci::surface_with_atlas_uvs(r.cut, r.atlas) : ricci::Mesh{};
+      files.push_back({"refinement.obj",
+                       refinement_obj("the common subdivision of the input and the final intrinsic triangulation, with "
+                                      "its layout as texture coordinates" +
+                                          std::string(r.has_atlas ? " (each piece in its own chart: "
+                                                                    "report.json layout.atlas.face_chart)"
+                                                                  : ""),
+                                      run.file, sx, r.cut.surface_faces, tags,
+                                      r.has_atlas ? charted.texcoords : r.layout.positions,
+                                      r.has_atlas ? charted.corner_texcoords : r.cut.cut_faces)});
     }
   }
-  files.push_back({"mesh.obj", r.has_atlas && !r.intrinsic.refined
-                                   ? obj_with_chart_groups(ricci::serialize_mesh(surface, ricci::FileFormat::Obj),
-                                                           r.atlas.face_chart)
-                                   : ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+  files.push_back({"mesh.obj", r.has_atlas ? obj_with_chart_groups(ricci::serialize_mesh(surface, ricci::FileFormat::Obj),
+                                                                   r.intrinsic.refined ? through.face_chart
+                                                                                       : r.atlas.face_chart)
+                                           : ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
   if (sphere) {
     ricci::Mesh s;
     s.positions = run.sphere_positions;

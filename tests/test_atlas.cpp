@@ -9,6 +9,7 @@
 #include <cmath>
 #include <complex>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -258,4 +259,70 @@ TEST_CASE("atlas: a 200 : 1 strip with a free boundary, whose one chart cannot e
   CHECK(std::all_of(kept.positions.begin(), kept.positions.end(), [](double x) { return std::isfinite(x); }));
   CHECK(kept.polish_steps == 0);
   CHECK(kept.polish_sweeps == 0);
+}
+
+TEST_CASE("atlas: a refined result (common subdivision) lays the input's faces out chart by chart") {
+  // A torus with a finger and needles and caps: its straight input triangles fold at a few
+  // vertices (the later stages run on the common subdivision) and its finger needs a chart.
+  std::mt19937_64 rng(1);
+  const Mesh m = ricci_shapes::insert_needles_and_caps(ricci_shapes::tube_pretzel(1, 1, 20, 3), rng, 0.3, 0.02);
+  const ValidateResult v = validate_mesh(m);
+  REQUIRE(v.status == Status::Ok);
+  const UniformizeResult r = uniformize(v.mesh, v.topology);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.brief_report() << "; " << r.atlas.message);
+  REQUIRE(r.intrinsic.refined);
+  REQUIRE(r.has_atlas);
+  CHECK(r.atlas.max_edge_length_error <= 1e-9);
+  const InputSurfaceLayout in = input_surface_layout(v.mesh, v.topology, r);
+  REQUIRE_MESSAGE(in.status == Status::Ok, in.message);
+  const Index F = v.topology.num_faces;
+  REQUIRE(in.face_chart.size() == static_cast<std::size_t>(F));
+  REQUIRE(in.mesh.corner_texcoords.size() == 3 * static_cast<std::size_t>(F));
+  CHECK(in.mesh.faces == v.mesh.faces);
+  // Every input corner lies, in its face's chart, on a copy of its vertex in that chart (exactly
+  // where its piece is in that chart; carried by chart_to_chart() where the piece lies in another
+  // chart and the vertex is on their border), relative to the face's size.
+  std::vector<std::vector<Index>> copies(static_cast<std::size_t>(v.topology.num_vertices));
+  for (Index c = 0; c < static_cast<Index>(r.cut.cut_faces.size()); ++c) {
+    const Index sv = r.cut.cut_to_surface[r.cut.cut_faces[c]];
+    if (sv < v.topology.num_vertices) copies[sv].push_back(c);
+  }
+  double carried = 0;
+  Index checked = 0;
+  std::vector<Index> charts_used(static_cast<std::size_t>(r.atlas.num_charts()), 0);
+  for (Index f = 0; f < F; ++f) {
+    const Index K = in.face_chart[f];
+    REQUIRE(K >= 0);
+    REQUIRE(K < r.atlas.num_charts());
+    ++charts_used[K];
+    Cx w[3];
+    for (int k = 0; k < 3; ++k) {
+      const Index t = in.mesh.corner_texcoords[3 * f + k];
+      w[k] = {in.mesh.texcoords[2 * t], in.mesh.texcoords[2 * t + 1]};
+      REQUIRE(std::isfinite(w[k].real()));
+      REQUIRE(std::isfinite(w[k].imag()));
+    }
+    const double size = std::max({std::abs(w[1] - w[0]), std::abs(w[2] - w[1]), std::abs(w[0] - w[2])});
+    REQUIRE(size > 0);
+    for (int k = 0; k < 3; ++k) {
+      double best = INFINITY;
+      for (Index c : copies[v.mesh.faces[3 * f + k]])
+        if (r.atlas.face_chart[corner_face(c)] == K)
+          best = std::min(best, std::abs(w[k] - Cx{r.atlas.corner_positions[2 * c], r.atlas.corner_positions[2 * c + 1]}));
+      if (!std::isfinite(best)) continue;
+      ++checked;
+      carried = std::max(carried, best / size);
+    }
+  }
+  MESSAGE(checked << " of " << 3 * F << " input corners on a copy of their vertex in their face's chart, to "
+                  << carried << " of the face's size");
+  CHECK(checked >= 3 * F * 9 / 10);
+  CHECK(carried <= 1e-9);
+  CHECK(std::count_if(charts_used.begin(), charts_used.end(), [](Index n) { return n > 0; }) >= 2);
+  // chart_to_chart: there and back is the identity; a chart that does not exist gives NaN.
+  const Cx z{0.01, -0.02};
+  const Cx back = chart_to_chart(r.atlas, r.geometry, 1, 0, chart_to_chart(r.atlas, r.geometry, 0, 1, z));
+  CHECK(std::abs(back - z) <= 1e-15);
+  CHECK(std::isnan(chart_to_chart(r.atlas, r.geometry, 0, r.atlas.num_charts(), z).real()));
 }

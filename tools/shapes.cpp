@@ -318,20 +318,20 @@ Mesh pretzel_grid(int cols, int rows, int cells_per_unit) {
 }
 
 Mesh tube_pretzel(int genus, int tube_units, int finger_units, int cells_per_unit) {
-  if (genus < 1 || genus > 16 || tube_units < 1 || tube_units > 200 || finger_units < 0 || finger_units > 200 ||
-      cells_per_unit < 2 || cells_per_unit > 16 || (genus == 1 && finger_units == 0))
+  if (genus < 0 || genus > 16 || tube_units < 1 || tube_units > 200 || finger_units < 0 || finger_units > 200 ||
+      cells_per_unit < 2 || cells_per_unit > 16 || (genus <= 1 && finger_units == 0))
     throw std::invalid_argument(
-        "tube_pretzel: genus in [1, 16] (genus 1 with a finger), tube_units in [1, 200], finger_units in [0, 200], "
-        "cells_per_unit in [2, 16]");
+        "tube_pretzel: genus in [0, 16] (genus 0 and 1 with a finger), tube_units in [1, 200], finger_units in "
+        "[0, 200], cells_per_unit in [2, 16]");
   const int c = cells_per_unit, period = 3 + tube_units;  // one ring of 3 × 3 units, then a tube
-  const int rings = (genus - 1) * period + 3;             // units along x up to the last ring's end
+  const int rings = (std::max(genus, 1) - 1) * period + 3;  // units along x up to the last ring's end
   const int n[3] = {(rings + finger_units) * c, 3 * c, c};
-  return voxel_surface(n, [c, period, rings](int i, int j, int) {
-    const int x = i / c, y = j / c;  // units
-    if (x >= rings) return y == 1;   // the finger
-    const int xp = x % period;       // units within one period
-    if (xp >= 3) return y == 1;      // a tube: the middle unit of the three
-    return !(xp == 1 && y == 1);     // the ring around its hole
+  return voxel_surface(n, [c, period, rings, genus](int i, int j, int) {
+    const int x = i / c, y = j / c;              // units
+    if (x >= rings) return y == 1;               // the finger
+    const int xp = x % period;                   // units within one period
+    if (xp >= 3) return y == 1;                  // a tube: the middle unit of the three
+    return genus == 0 || !(xp == 1 && y == 1);   // the ring around its hole (genus 0: a block)
   });
 }
 

@@ -64,7 +64,8 @@ Mesh pretzel_grid(int cols, int rows, int cells_per_unit);
 /// shrink about e^{−π/2} ≈ 0.2 per unit along it (the conformal factor of a capped cylinder): a
 /// finger of 20 units holds faces some 1e-14 times the handles' size, which one Poincaré chart
 /// around the handles cannot resolve.
-/// Preconditions: 1 ≤ genus ≤ 16 (genus 1 only with a finger), 1 ≤ tube_units ≤ 200,
+/// Genus 0: one solid block of 3 × 3 × 1 units with the finger.
+/// Preconditions: 0 ≤ genus ≤ 16 (genus 0 and 1 only with a finger), 1 ≤ tube_units ≤ 200,
 /// 0 ≤ finger_units ≤ 200, 2 ≤ cells_per_unit ≤ 16.
 Mesh tube_pretzel(int genus, int tube_units, int finger_units, int cells_per_unit);
 

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -73,15 +74,17 @@ struct AtlasBuild {
     return false;
   }
 
-  /// A face goes to a new chart when it misses the limit, or when its coordinates resolve it to
-  /// less than kMargin times the limit: the collar of a new chart then lies where its parent's
-  /// positions are good to well below the limit, which the transition map is fitted on.
+  /// A face its chart does not resolve: an edge misses the limit.
+  bool unresolved(Index f) const { return !(face_error[f] <= options.limit); }
+  /// A face near the limit: its coordinates resolve it to less than kMargin times the limit. A
+  /// group of unresolved faces takes the near ones connected to it too, so that the collar of its
+  /// chart lies where the parent's positions are good to well below the limit (the transition map
+  /// is fitted there).
   static constexpr double kMargin = 1e-2;
-  bool unresolved(Index f) const {
-    return !(face_error[f] <= options.limit) || !(face_floor[f] <= kMargin * options.limit);
-  }
+  bool near_limit(Index f) const { return unresolved(f) || !(face_floor[f] <= kMargin * options.limit); }
 
-  /// Groups of the unresolved faces of chart k, connected across edges (in face order).
+  /// Groups of chart k's faces for new charts: each unresolved face with the faces near the limit
+  /// connected to it across edges (in face order).
   std::vector<std::vector<Index>> unresolved_groups(Index k) const {
     std::vector<std::vector<Index>> groups;
     std::vector<std::uint8_t> seen(static_cast<std::size_t>(t.num_faces), 0);
@@ -94,7 +97,7 @@ struct AtlasBuild {
           const Index o = t.opposite[3 * group[h] + c];
           if (o == kInvalid) continue;
           const Index nb = corner_face(o);
-          if (seen[nb] || out.face_chart[nb] != k || !unresolved(nb)) continue;
+          if (seen[nb] || out.face_chart[nb] != k || !near_limit(nb)) continue;
           seen[nb] = 1;
           group.push_back(nb);
         }
@@ -114,7 +117,7 @@ struct AtlasBuild {
           const Index o = t.opposite[3 * f + c];
           if (o == kInvalid) continue;
           const Index nb = corner_face(o);
-          if (owner[nb] == label || out.face_chart[nb] != k || unresolved(nb)) continue;
+          if (owner[nb] == label || out.face_chart[nb] != k || near_limit(nb)) continue;
           owner[nb] = label;
           next.push_back(nb);
         }
@@ -329,6 +332,24 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
                 sci(out.max_transition_error);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
+}
+
+std::complex<double> chart_to_chart(const LayoutAtlas& atlas, Geometry g, Index from, Index to, std::complex<double> z) {
+  if (from < 0 || to < 0 || from >= atlas.num_charts() || to >= atlas.num_charts())
+    return {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
+  if (from == to) return z;
+  const LayoutChart& a = atlas.charts[static_cast<std::size_t>(from)];
+  const LayoutChart& b = atlas.charts[static_cast<std::size_t>(to)];
+  if (g == Geometry::Hyperbolic) {
+    using detail::CQ;
+    using detail::MoebiusQ;
+    const MoebiusQ A(CQ(a.to_root.a) + CQ(a.to_root_low.a), CQ(a.to_root.b) + CQ(a.to_root_low.b));
+    const MoebiusQ B(CQ(b.to_root.a) + CQ(b.to_root_low.a), CQ(b.to_root.b) + CQ(b.to_root_low.b));
+    return (B.inverse() * A).normalized().apply(CQ(z)).to_double();
+  }
+  // z_root = e^{iα} z + t for each chart: z_to = e^{−iβ}(e^{iα} z + t_a − t_b).
+  return std::polar(1.0, -b.angle_to_root) *
+         (std::polar(1.0, a.angle_to_root) * z + (a.translation_to_root - b.translation_to_root));
 }
 
 Mesh surface_with_atlas_uvs(const CutResult& cut, const LayoutAtlas& atlas) {

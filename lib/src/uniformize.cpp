@@ -1208,13 +1208,16 @@ InputSurfaceLayout input_surface_layout(const Mesh& mesh, const Topology& topolo
   } else {
     // Each input corner takes the cut vertex of its vertex in a piece of its face.
     const CutResult& cut = r.cut;
-    std::vector<Index> corner_cut(static_cast<std::size_t>(3 * F), kInvalid);
+    std::vector<Index> corner_cut(static_cast<std::size_t>(3 * F), kInvalid), corner_src(corner_cut.size(), kInvalid);
     for (Index c = 0; c < static_cast<Index>(cut.cut_faces.size()); ++c) {
       const Index sv = cut.cut_to_surface[cut.cut_faces[c]];
       if (sv >= nv) continue;
       const Index f = s.face_input[cut.surface_face_to_input[corner_face(c)]];
       for (Index k = 0; k < 3; ++k)
-        if (mesh.faces[3 * f + k] == sv && corner_cut[3 * f + k] == kInvalid) corner_cut[3 * f + k] = cut.cut_faces[c];
+        if (mesh.faces[3 * f + k] == sv && corner_cut[3 * f + k] == kInvalid) {
+          corner_cut[3 * f + k] = cut.cut_faces[c];
+          corner_src[3 * f + k] = c;
+        }
     }
     if (std::find(corner_cut.begin(), corner_cut.end(), kInvalid) != corner_cut.end()) {
       out.status = Status::NumericalFailure;
@@ -1222,10 +1225,33 @@ InputSurfaceLayout input_surface_layout(const Mesh& mesh, const Topology& topolo
       return out;
     }
     out.mesh.positions = mesh.positions;
-    out.mesh.texcoords = x;
-    out.mesh.corner_texcoords = corner_cut;
-    for (Index f = 0; f < F; ++f)
-      count(f, orientation(&x[2 * corner_cut[3 * f]], &x[2 * corner_cut[3 * f + 1]], &x[2 * corner_cut[3 * f + 2]], 2));
+    if (r.has_atlas) {
+      // Each input face in the chart of the piece holding its corner 0, the other corners carried
+      // into it when their pieces lie in other charts; a texture coordinate per corner.
+      const LayoutAtlas& a = r.atlas;
+      out.face_chart.resize(static_cast<std::size_t>(F));
+      out.mesh.texcoords.resize(6 * static_cast<std::size_t>(F));
+      out.mesh.corner_texcoords.resize(3 * static_cast<std::size_t>(F));
+      for (Index f = 0; f < F; ++f) {
+        const Index chart = a.face_chart[corner_face(corner_src[3 * f])];
+        out.face_chart[f] = chart;
+        for (Index k = 0; k < 3; ++k) {
+          const Index c = corner_src[3 * f + k];
+          const std::complex<double> z =
+              chart_to_chart(a, r.geometry, a.face_chart[corner_face(c)], chart,
+                             {a.corner_positions[2 * c], a.corner_positions[2 * c + 1]});
+          out.mesh.texcoords[6 * f + 2 * k] = z.real();
+          out.mesh.texcoords[6 * f + 2 * k + 1] = z.imag();
+          out.mesh.corner_texcoords[3 * f + k] = 3 * f + k;
+        }
+        count(f, orientation(&out.mesh.texcoords[6 * f], &out.mesh.texcoords[6 * f + 2], &out.mesh.texcoords[6 * f + 4], 2));
+      }
+    } else {
+      out.mesh.texcoords = x;
+      out.mesh.corner_texcoords = corner_cut;
+      for (Index f = 0; f < F; ++f)
+        count(f, orientation(&x[2 * corner_cut[3 * f]], &x[2 * corner_cut[3 * f + 1]], &x[2 * corner_cut[3 * f + 2]], 2));
+    }
   }
   out.status = Status::Ok;
   out.message = "ok";

@@ -405,6 +405,10 @@ struct LayoutAtlas {
 LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const double> l,
                          std::span<const double> positions, const AtlasOptions& options = {});
 
+/// A point of chart `from`'s coordinates in chart `to`'s (E: the rigid motions to the root; H: the
+/// maps to the root composed in quad). NaN for a chart that does not exist.
+std::complex<double> chart_to_chart(const LayoutAtlas& atlas, Geometry g, Index from, Index to, std::complex<double> z);
+
 /// The cut's surface (cut.surface_positions, cut.surface_faces) with texture coordinates from an
 /// atlas of its disk (the disk's faces are the cut's faces, slot for slot): one texture coordinate
 /// per cut vertex and chart it appears in, numbered in the order of first use, each corner taking

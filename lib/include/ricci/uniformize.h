@@ -351,6 +351,10 @@ struct InputSurfaceLayout {
   /// the smallest of them (kInvalid when none).
   Index flipped_faces = 0;
   Index first_flipped_face = kInvalid;
+  /// With an atlas (r.has_atlas): #F, the chart of each input face's texture coordinates (the
+  /// chart of the piece holding its corner 0; corners whose pieces lie in other charts are carried
+  /// over by chart_to_chart()), and one texture coordinate per corner. Empty otherwise.
+  std::vector<Index> face_chart;
 };
 
 /// The input mesh laid out through the common subdivision of a refined result (r.intrinsic.refined,

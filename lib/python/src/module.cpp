@@ -390,7 +390,8 @@ PYBIND11_MODULE(_ricci, m) {
         ensure_surface(j);
         const ricci::UniformizeResult& r = j.run.result;
         if (j.uv.empty() || !r.has_cut) return py::none();
-        if (!r.has_atlas || r.intrinsic.refined) {
+        if (r.has_atlas && r.intrinsic.refined) return view(j.through.face_chart, 0, self);
+        if (!r.has_atlas) {
           py::array_t<ricci::Index> zeros(static_cast<py::ssize_t>(j.surface.faces.size() / 3));
           std::fill(zeros.mutable_data(), zeros.mutable_data() + zeros.size(), ricci::Index{0});
           return zeros;
