@@ -107,26 +107,6 @@ void normalize_positions(Mesh& m) {
   }
 }
 
-// Sorted, duplicate-free vertex neighbour lists (CSR), so that sums over neighbours run in a
-// fixed order.
-void vertex_neighbours(const Mesh& m, std::vector<Index>& offsets, std::vector<Index>& nbrs) {
-  const Index nv = m.num_vertices();
-  std::vector<std::vector<Index>> lists(nv);
-  for (std::size_t c = 0; c < m.faces.size(); ++c) {
-    const std::size_t f = c / 3, k = c % 3;
-    const Index v = m.faces[c];
-    lists[v].push_back(m.faces[3 * f + (k + 1) % 3]);
-    lists[v].push_back(m.faces[3 * f + (k + 2) % 3]);
-  }
-  offsets.assign(1, 0);
-  nbrs.clear();
-  for (auto& l : lists) {
-    std::sort(l.begin(), l.end());
-    l.erase(std::unique(l.begin(), l.end()), l.end());
-    nbrs.insert(nbrs.end(), l.begin(), l.end());
-    offsets.push_back(static_cast<Index>(nbrs.size()));
-  }
-}
 
 // One umbrella step p ← p + factor·(mean of neighbours − p), all vertices at once.
 void umbrella_step(Mesh& m, const std::vector<Index>& offsets, const std::vector<Index>& nbrs,
@@ -650,6 +630,25 @@ double min_angle_degrees(const Mesh& mesh) {
     }
   }
   return best;
+}
+
+void vertex_neighbours(const Mesh& m, std::vector<Index>& offsets, std::vector<Index>& nbrs) {
+  const Index nv = m.num_vertices();
+  std::vector<std::vector<Index>> lists(nv);
+  for (std::size_t c = 0; c < m.faces.size(); ++c) {
+    const std::size_t f = c / 3, k = c % 3;
+    const Index v = m.faces[c];
+    lists[v].push_back(m.faces[3 * f + (k + 1) % 3]);
+    lists[v].push_back(m.faces[3 * f + (k + 2) % 3]);
+  }
+  offsets.assign(1, 0);
+  nbrs.clear();
+  for (auto& l : lists) {
+    std::sort(l.begin(), l.end());
+    l.erase(std::unique(l.begin(), l.end()), l.end());
+    nbrs.insert(nbrs.end(), l.begin(), l.end());
+    offsets.push_back(static_cast<Index>(nbrs.size()));
+  }
 }
 
 }  // namespace ricci_shapes

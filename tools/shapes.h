@@ -55,6 +55,10 @@ Mesh pretzel(int genus, int cells_per_unit);
 /// Preconditions: cols, rows ≥ 1, cols·rows ≤ 256, 2 ≤ cells_per_unit ≤ 32.
 Mesh pretzel_grid(int cols, int rows, int cells_per_unit);
 
+/// Sorted, duplicate-free neighbour lists of every vertex (CSR: vertex v's neighbours are
+/// nbrs[offsets[v] … offsets[v+1]]), so that sums over neighbours run in a fixed order.
+void vertex_neighbours(const Mesh& m, std::vector<Index>& offsets, std::vector<Index>& nbrs);
+
 /// Closed surface of genus g made of g handles joined in a row by long thin tubes, and a dead-end
 /// finger: each handle is a ring of 3 × 3 units around a one-unit hole, one unit thick;
 /// consecutive rings are joined by a tube of one unit × one unit cross-section and `tube_units`

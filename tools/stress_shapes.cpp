@@ -283,3 +283,118 @@ StressMesh large_random_order(std::int64_t faces, std::uint64_t seed) {
 double min_angle_radians(const Mesh& mesh) { return min_angle_degrees(mesh) * kPi / 180.0; }
 
 }  // namespace ricci_shapes
+
+namespace ricci_shapes {
+
+namespace {
+
+/// Random vertices whose closed stars are pairwise disjoint and interior (for remove_vertex_stars).
+std::vector<Index> disjoint_star_centres(const Mesh& m, std::mt19937_64& rng, int count) {
+  std::vector<Index> offsets, nbrs;
+  vertex_neighbours(m, offsets, nbrs);
+  const Index nv = m.num_vertices();
+  std::vector<std::uint8_t> blocked(static_cast<std::size_t>(nv), 0);
+  std::vector<Index> centres;
+  for (int attempt = 0; attempt < 64 * count && static_cast<int>(centres.size()) < count; ++attempt) {
+    const Index v = uniform_index(rng, nv);
+    if (blocked[v]) continue;
+    centres.push_back(v);
+    // Block everything within two steps: the star's link and the links of its link.
+    blocked[v] = 1;
+    for (Index i = offsets[v]; i < offsets[v + 1]; ++i) {
+      const Index w = nbrs[i];
+      blocked[w] = 1;
+      for (Index j = offsets[w]; j < offsets[w + 1]; ++j) blocked[nbrs[j]] = 1;
+    }
+  }
+  return centres;
+}
+
+/// Moves each vertex by up to `amount` × its shortest edge, in the plane of its vertex normal.
+void jitter_vertices(Mesh& m, std::mt19937_64& rng, double amount) {
+  const Index nv = m.num_vertices();
+  std::vector<Vec3> normal(static_cast<std::size_t>(nv), Vec3{0, 0, 0});
+  std::vector<double> shortest(static_cast<std::size_t>(nv), INFINITY);
+  auto p = [&](Index v) { return Vec3{m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]}; };
+  for (Index f = 0; f < m.num_faces(); ++f) {
+    const Index a = m.faces[3 * f], b = m.faces[3 * f + 1], c = m.faces[3 * f + 2];
+    const Vec3 pa = p(a), pb = p(b), pc = p(c);
+    const Vec3 u{pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]}, w{pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
+    const Vec3 n{u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+    const Index vs[3] = {a, b, c};
+    for (int k = 0; k < 3; ++k) {
+      for (int d = 0; d < 3; ++d) normal[vs[k]][d] += n[d];
+      const Vec3 x = p(vs[k]), y = p(vs[(k + 1) % 3]);
+      const double e = std::sqrt((x[0] - y[0]) * (x[0] - y[0]) + (x[1] - y[1]) * (x[1] - y[1]) + (x[2] - y[2]) * (x[2] - y[2]));
+      shortest[vs[k]] = std::min(shortest[vs[k]], e);
+      shortest[vs[(k + 1) % 3]] = std::min(shortest[vs[(k + 1) % 3]], e);
+    }
+  }
+  for (Index v = 0; v < nv; ++v) {
+    Vec3 n = normal[v];
+    const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(nn > 0) || !std::isfinite(shortest[v])) continue;
+    for (double& x : n) x /= nn;
+    // A random direction, made tangent.
+    Vec3 r{2 * unit_double(rng) - 1, 2 * unit_double(rng) - 1, 2 * unit_double(rng) - 1};
+    const double dn = r[0] * n[0] + r[1] * n[1] + r[2] * n[2];
+    for (int d = 0; d < 3; ++d) r[d] -= dn * n[d];
+    const double rn = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    if (!(rn > 0)) continue;
+    const double step = amount * unit_double(rng) * shortest[v] / rn;
+    for (int d = 0; d < 3; ++d) m.positions[3 * v + d] += step * r[d];
+  }
+}
+
+}  // namespace
+
+RandomSurface random_surface(std::uint64_t seed, Index target_faces) {
+  if (target_faces < 500 || target_faces > 200000)
+    throw std::invalid_argument("random_surface: target_faces must be in [500, 200000]");
+  std::mt19937_64 rng(seed);
+  RandomSurface s;
+  s.genus = static_cast<int>(uniform_index(rng, 13));
+  s.loops = static_cast<int>(uniform_index(rng, 9));
+  // About 1/3 of the target from the base; flips keep the count, splits add 2 faces each.
+  const double split_fraction = 0.3 * unit_double(rng);
+  const double base_target = static_cast<double>(target_faces) / (1 + 2 * split_fraction);
+  std::string base;
+  if (s.genus == 0) {
+    int sub = 1;
+    while (sub < 8 && 20.0 * std::pow(4.0, sub + 1) <= base_target * 1.3) ++sub;
+    s.mesh = icosphere(sub);
+    base = "icosphere(" + std::to_string(sub) + ")";
+  } else {
+    std::vector<int> divisors;
+    for (int d = 1; d <= s.genus; ++d)
+      if (s.genus % d == 0) divisors.push_back(d);
+    const int rows = divisors[uniform_index(rng, static_cast<Index>(divisors.size()))], cols = s.genus / rows;
+    int cells = 2;
+    Mesh m = pretzel_grid(cols, rows, cells);
+    while (cells < 32 && static_cast<double>(m.num_faces()) < base_target / 1.3) {
+      Mesh bigger = pretzel_grid(cols, rows, cells + 1);
+      if (static_cast<double>(bigger.num_faces()) > base_target * 1.3) break;
+      m = std::move(bigger);
+      ++cells;
+    }
+    s.mesh = std::move(m);
+    base = "pretzel_grid(" + std::to_string(cols) + ", " + std::to_string(rows) + ", " + std::to_string(cells) + ")";
+  }
+  s.mesh = flip_random_edges(s.mesh, rng, 0.3 * unit_double(rng));
+  s.mesh = split_random_faces(s.mesh, rng, split_fraction);
+  const std::vector<Index> centres = disjoint_star_centres(s.mesh, rng, s.loops);
+  s.loops = static_cast<int>(centres.size());
+  if (!centres.empty()) s.mesh = remove_vertex_stars(s.mesh, centres);
+  s.jitter = 0.3 * unit_double(rng);
+  jitter_vertices(s.mesh, rng, s.jitter);
+  s.aspect = std::pow(100.0, unit_double(rng));
+  for (Index v = 0; v < s.mesh.num_vertices(); ++v) s.mesh.positions[3 * v] *= s.aspect;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "seed %llu: genus %d, %d loops, %lld faces, aspect %.1f, jitter %.2f, %s",
+                static_cast<unsigned long long>(seed), s.genus, s.loops, static_cast<long long>(s.mesh.num_faces()),
+                s.aspect, s.jitter, base.c_str());
+  s.description = buf;
+  return s;
+}
+
+}  // namespace ricci_shapes

@@ -99,4 +99,23 @@ StressMesh large_random_order(std::int64_t faces, std::uint64_t seed);
 /// Smallest corner angle over all faces in radians (0 for a degenerate face).
 double min_angle_radians(const Mesh& mesh);
 
+/// One draw of random_surface(): the mesh and what was drawn.
+struct RandomSurface {
+  Mesh mesh;
+  int genus = 0;          ///< genus of the surface
+  int loops = 0;          ///< boundary loops (holes cut around vertices)
+  double aspect = 1;      ///< the stretch along x (triangles up to about this aspect ratio)
+  double jitter = 0;      ///< vertex displacement, relative to the shortest edge at the vertex
+  std::string description;  ///< one line: genus, loops, faces, aspect, jitter, base
+};
+
+/// A random surface for sweeps: genus uniform in 0..12 and 0..8 boundary loops, about
+/// `target_faces` faces (±30 %), a voxel pretzel grid (genus ≥ 1, holes in a random cols × rows
+/// grid) or an icosphere (genus 0), some edges flipped and faces split at random, every vertex
+/// jittered by up to a random fraction (≤ 0.3) of its shortest edge inside its tangent plane,
+/// then stretched along x by a factor drawn log-uniformly in [1, 100] (anisotropic "CAD"
+/// triangles); the holes are the stars of random vertices whose closed stars are disjoint.
+/// Deterministic for (seed, target_faces). Precondition: 500 ≤ target_faces ≤ 200000.
+RandomSurface random_surface(std::uint64_t seed, Index target_faces);
+
 }  // namespace ricci_shapes
