@@ -561,6 +561,34 @@ StoredMetric read_metric(const std::string& path, const ricci::Topology& t) {
 using Run = UniformizeRun;
 using Settings = UniformizeSettings;
 
+/// report.json's "layout": the layout's figures (over its charts when it is an atlas).
+Json layout_json(const ricci::UniformizeResult& r) {
+  const ricci::Layout& L = r.layout;
+  Json j = Json{{"domain", r.has_cut ? (r.geometry == Geometry::Hyperbolic ? "poincare-disk" : "plane") : "sphere"},
+                {"max_edge_length_error", real(L.max_edge_length_error)},
+                {"flipped_faces", L.flipped_faces},
+                {"rounding_floor", real(L.rounding_floor)},
+                {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
+                {"excused_edges", r.layout_excused.edges},
+                {"excused_area_fraction", real(r.layout_excused.area_fraction)},
+                {"polish_sweeps", L.polish_sweeps},
+                {"polish_steps", L.polish_steps},
+                {"shape_solve", L.shape_solve},
+                {"seed_face", L.seed_face},
+                {"depth", L.depth},
+                {"patches", L.patches},
+                {"patch_seam_error", L.patches > 0 ? real(L.patch_seam_error) : Json(nullptr)},
+                {"vertices", static_cast<std::int64_t>(L.positions.size() / std::max(1, L.dims))},
+                {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)},
+                {"charts", r.has_atlas ? r.atlas.num_charts() : 1},
+                {"atlas", r.has_atlas ? atlas_json(r) : Json(nullptr)}};
+  if (r.has_atlas) {
+    j["max_edge_length_error"] = real(r.atlas.max_edge_length_error);
+    j["flipped_faces"] = r.atlas.flipped_faces;
+  }
+  return j;
+}
+
 Json report_json(const Run& run) {
   const ricci::UniformizeResult& r = run.result;
   const bool have = run.have_result;
@@ -609,33 +637,7 @@ Json report_json(const Run& run) {
   j["curvature_resolution"] = flowed ? real(r.flow.curvature_resolution) : Json(nullptr);
   j["gauss_bonnet_error"] = flowed ? real(r.flow.gauss_bonnet_error) : Json(nullptr);
   const bool laid = have && r.layout.status == Status::Ok;
-  if (laid) {
-    const ricci::Layout& L = r.layout;
-    j["layout"] = Json{{"domain", r.has_cut ? (r.geometry == Geometry::Hyperbolic ? "poincare-disk" : "plane") : "sphere"},
-                       {"max_edge_length_error", real(L.max_edge_length_error)},
-                       {"flipped_faces", L.flipped_faces},
-                       {"rounding_floor", real(L.rounding_floor)},
-                       {"max_error_above_rounding", real(std::max(0.0, L.max_error_above_rounding))},
-                       {"excused_edges", r.layout_excused.edges},
-                       {"excused_area_fraction", real(r.layout_excused.area_fraction)},
-                       {"polish_sweeps", L.polish_sweeps},
-                       {"polish_steps", L.polish_steps},
-                       {"shape_solve", L.shape_solve},
-                       {"seed_face", L.seed_face},
-                       {"depth", L.depth},
-                       {"patches", L.patches},
-                       {"patch_seam_error", L.patches > 0 ? real(L.patch_seam_error) : Json(nullptr)},
-                       {"vertices", static_cast<std::int64_t>(L.positions.size() / std::max(1, L.dims))},
-                       {"mobius_length_change", r.has_cut ? Json(nullptr) : real(L.mobius_length_change)},
-                       {"charts", r.has_atlas ? r.atlas.num_charts() : 1},
-                       {"atlas", r.has_atlas ? atlas_json(r) : Json(nullptr)}};
-    if (r.has_atlas) {
-      j["layout"]["max_edge_length_error"] = real(r.atlas.max_edge_length_error);
-      j["layout"]["flipped_faces"] = r.atlas.flipped_faces;
-    }
-  } else {
-    j["layout"] = nullptr;
-  }
+  j["layout"] = laid ? layout_json(r) : Json(nullptr);
   j["seed_independence_error"] = laid && !r.seed_faces_checked.empty() ? real(r.seed_independence_error) : Json(nullptr);
   j["seed_faces_checked"] = have ? Json(r.seed_faces_checked) : Json::array();
   auto cut_json = [](const ricci::CutResult& c) {

@@ -255,3 +255,20 @@ def test_embedded_default_and_paths():
     assert r.report["embedded_default"] and r.report["mesh"]["genus"] == 2
     V, F = ricci.read_mesh(str(FIXTURES / "genus2.obj"))
     assert np.array_equal(r.V, V)
+
+
+def test_atlas_face_chart_matches_the_report():
+    # genus2-finger.obj: its finger needs a chart of its own; uv holds each face in its chart.
+    r = ricci.uniformize(str(FIXTURES / "genus2-finger.obj"), seed_checks=0)
+    layout = r.report["layout"]
+    assert layout["charts"] >= 2
+    assert layout["max_edge_length_error"] <= 1e-9
+    assert r.face_chart.tolist() == layout["atlas"]["face_chart"]
+    assert sorted(set(r.face_chart.tolist())) == list(range(layout["charts"]))
+    assert r.uv.shape == (len(r.face_chart), 3, 2)
+    assert np.isfinite(r.uv).all()
+    # One chart only: the layout stage refuses it, naming the stage.
+    with pytest.raises(ricci.RicciError) as e:
+        ricci.uniformize(str(FIXTURES / "genus2-finger.obj"), seed_checks=0, atlas=False)
+    assert "layout" in str(e.value)
+    assert (ricci.uniformize(str(FIXTURES / "genus2.obj"), seed_checks=0).face_chart == 0).all()

@@ -341,6 +341,7 @@ def _parser():
     u.add_argument("--max-iter", dest="max_iterations", type=int)
     u.add_argument("--threads", type=int, help="OpenMP threads per mesh (default: cores / workers)")
     u.add_argument("--mesh-polygon", action="store_true", default=None)
+    u.add_argument("--no-atlas", dest="atlas", action="store_false", default=None)
     u.add_argument("--base-candidates", type=int)
     u.add_argument("--seed-checks", type=int)
     u.add_argument("--cover-depth", type=int)
@@ -356,7 +357,7 @@ def _parser():
 
 
 UNIFORMIZE_KEYS = ("geometry", "scheme", "target", "boundary", "tol", "max_iterations", "threads", "mesh_polygon",
-                   "base_candidates",
+                   "atlas", "base_candidates",
                    "seed_checks", "cover_depth", "patches", "unit_box", "flips", "angle_relax",
                    "circle_normalization", "split_ears", "largest_component", "pictures")
 
