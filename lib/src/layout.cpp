@@ -35,6 +35,7 @@ using Cx = std::complex<double>;
 using V3 = std::array<double, 3>;
 constexpr double kPi = std::numbers::pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // E layouts whose propagation misses the metric by more than this (above the rounding floor) are
 // also computed from the triangles' shapes by one least-squares solve (LayoutOptions::polish_steps).
 constexpr double kShapeLayoutAbove = 1e-8;
@@ -179,6 +180,10 @@ struct Positions {
         // with the area by Kahan's stable Heron formula (relative error about ε), no trigonometry.
         const Cx P = z(pv), d = z(qv) - P;
         const double s = euclidean_norm(d);
+        if (!(s > 0) || !std::isfinite(s)) {  // the edge's ends coincide in double: no frame
+          set(v, Cx(kNaN, kNaN));
+          break;
+        }
         const double along = ((rp - rq) * (rp + rq) + s * s) / (2 * s);
         const double across = 2 * heron_area(s, rp, rq) / s;
         set(v, P + (d / s) * Cx(along, across));

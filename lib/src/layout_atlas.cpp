@@ -6,7 +6,10 @@
 #include <cmath>
 #include <complex>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
+#include <numbers>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,8 +53,9 @@ struct AtlasBuild {
   double rounding_drift(Cx a, Cx b) const {
     constexpr double u = 0x1p-53;
     if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(a) + std::abs(b));
-    const double ra = std::abs(a), rb = std::abs(b);
-    return 2 * u * std::sqrt(2.0) * (ra / ((1 - ra) * (1 + ra)) + rb / ((1 - rb) * (1 + rb)));
+    const double ra = std::abs(a), rb = std::abs(b), da = (1 - ra) * (1 + ra), db = (1 - rb) * (1 + rb);
+    if (!(da > 0 && db > 0)) return std::numeric_limits<double>::infinity();
+    return 2 * u * std::sqrt(2.0) * (ra / da + rb / db);
   }
 
   /// The face's max relative edge error in its chart's coordinates, and its rounding floor.

@@ -315,9 +315,11 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // every digit: its faces grow with their distance from the tip.
 //
 // layout_atlas() starts from a layout (chart 0, the root: its positions as given) and repeats,
-// chart by chart in the order they are made: the faces of a chart that miss an edge length by
-// more than AtlasOptions::limit form groups connected across edges; each group becomes a new
-// chart, laid out by propagation from its smallest face (least longest edge; placed as
+// chart by chart in the order they are made: each face of a chart that misses an edge length by
+// more than AtlasOptions::limit starts a group, which takes every face connected to it across
+// edges that misses the limit too or whose coordinates resolve it to less than 1e-2 × the limit
+// (so that the collar below lies where the parent is good to well below the limit); each group
+// becomes a new chart, laid out by propagation from its smallest face (least longest edge; placed as
 // layout_disk()'s seed: corner 0 at the origin, corner 1 along +x) together with a collar of
 // the parent's resolved faces around it (collar_rings rings across edges). The transition map
 // into the parent is the isometry fitted on the collar's vertices (align_layouts(): closed form,
