@@ -623,6 +623,7 @@ Json report_json(const Run& run) {
                           {"degenerate_faces", in.degenerate_faces},
                           {"max_angle_sum_error", real(in.max_angle_sum_error)},
                           {"refined", in.refined},
+                          {"doubled", in.doubled},
                           {"refinement_faces", in.refined ? Json(run.refinement_faces) : Json(nullptr)},
                           {"input_flipped_faces", in.refined ? Json(run.input_flipped_faces) : Json(0)}};
   } else {

@@ -7,12 +7,14 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <random>
 #include <cmath>
 #include <string>
 #include <vector>
 
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
+#include "shapes.h"
 #include "stress_shapes.h"
 
 using namespace ricci;
@@ -78,4 +80,43 @@ TEST_CASE("property: random surfaces of genus 0-12 with 0-8 boundary loops map w
              << "did not converge), " << named << " ended with a named status");
   // Measured: 20 of the 24 draws map; the failures are listed in tools/SWEEP-random-surfaces.md.
   CHECK(ok >= kDraws * 3 / 4);
+}
+
+TEST_CASE("uniformize: bordered surfaces whose triangles lean on the boundary are solved with flips on their double") {
+  // pretzel_grid(2, 1, 3) with three holes: as it is, vertex scaling with flips converges on the
+  // surface; with 30 % of its faces split (or stretched 10:1) triangles lean on the boundary —
+  // their angle opposite a boundary edge, which never flips, grows to π — and the solve stops. On
+  // the double (the mirror glued along the boundary) those edges flip like any other.
+  for (const int variant : {0, 1}) {
+    CAPTURE(variant);
+    std::mt19937_64 rng(1);
+    Mesh m = ricci_shapes::pretzel_grid(2, 1, 3);
+    if (variant == 0) m = ricci_shapes::split_random_faces(m, rng, 0.3);
+    m = ricci_shapes::remove_vertex_stars(m, {11, 7930 % m.num_vertices(), 15849 % m.num_vertices()});
+    if (variant == 1)
+      for (Index v = 0; v < m.num_vertices(); ++v) m.positions[3 * v] *= 10;
+    ValidateOptions vo;
+    vo.split_ears = true;
+    const ValidateResult v = validate_mesh(m, vo);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    REQUIRE(v.topology.num_boundary_loops() == 3);
+    const UniformizeResult r = uniformize(v.mesh, v.topology);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    MESSAGE(r.brief_report() << "; angle distortion " << r.angles.mean_abs_log);
+    CHECK(r.intrinsic.doubled);
+    CHECK(r.intrinsic.used);
+    CHECK(r.intrinsic.fallback.empty());
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    // Geodesic boundary: every boundary vertex's angle is π (K = 0), halved back from the double.
+    REQUIRE(r.flow.K.size() == static_cast<std::size_t>(v.topology.num_vertices));
+    for (Index b : v.topology.boundary_vertices) CHECK(std::abs(r.flow.K[b]) < 1e-12);
+    CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
+    // More conformal than the paper's circle packing on the same surface.
+    UniformizeOptions cp;
+    cp.metric.scheme = Scheme::CirclePacking;
+    const UniformizeResult c = uniformize(v.mesh, v.topology, cp);
+    REQUIRE_MESSAGE(c.status == Status::Ok, c.message);
+    MESSAGE("circle packing: angle distortion " << c.angles.mean_abs_log);
+    CHECK(r.angles.mean_abs_log < 0.5 * c.angles.mean_abs_log);
+  }
 }

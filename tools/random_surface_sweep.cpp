@@ -10,7 +10,9 @@
 // seed. Columns: the surface; how the run ended (ok, or the status and failing stage); Newton
 // iterations and max |K̄ − K|; the layout's max relative edge error (over its charts, with their
 // number when there is an atlas) and flipped faces; closed genus ≥ 1: the relation error; the
-// seconds of uniformize(). Failures are listed after the table with their messages.
+// seconds of uniformize(). "ok (on the double)": vertex scaling with flips solved on the surface's
+// double after the solve on the surface stopped; "ok (circle packing)": the fallback. Failures
+// are listed after the table with their messages.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -97,7 +99,7 @@ int main(int argc, char** argv) {
         curv = sci(r.flow.max_curvature_error);
       }
       if (r.status == ricci::Status::Ok) {
-        result = r.intrinsic.fallback.empty() ? "ok" : "ok (circle packing)";
+        result = !r.intrinsic.fallback.empty() ? "ok (circle packing)" : r.intrinsic.doubled ? "ok (on the double)" : "ok";
         if (r.has_atlas) {
           lay = sci(r.atlas.max_edge_length_error) + " (" + std::to_string(r.atlas.num_charts()) + " charts)";
           flipped = std::to_string(r.atlas.flipped_faces);

@@ -207,6 +207,188 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
   return false;
 }
 
+// The double of a bordered surface: the mesh and its mirror image (faces reversed) glued along the
+// boundary, boundary vertices shared, the mirror's other vertices appended in order. A boundary
+// condition that is local — geodesic (K̄ per boundary vertex: 2K̄ in the double, whose angle
+// there is twice the surface's) or fixed lengths (u held) — makes its target symmetric, and the
+// unique solution of the double is the surface's, mirrored. Vertex scaling with flips needs this
+// where triangles lean on the boundary: a boundary edge never flips, so a triangle whose angle
+// opposite it grows towards π cannot be mended on the surface, while in the double that edge is
+// an ordinary one (the Delaunay condition of the theory with boundary is the double's).
+constexpr std::int64_t kMaxDoubleCrossings = 16;
+
+struct DoubledSurface {
+  Mesh mesh;
+  Topology topology;
+  Target target;
+  std::vector<Index> mirror;  // #V: each vertex's mirror copy (itself on the boundary)
+};
+
+bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& target, DoubledSurface& d) {
+  if (topology.is_closed() || !target.loop_total.empty() ||
+      (target.boundary != BoundaryMode::Geodesic && target.boundary != BoundaryMode::FixedLengths))
+    return false;
+  const Index nv = topology.num_vertices;
+  d.mesh = mesh;
+  d.mesh.texcoords.clear();
+  d.mesh.corner_texcoords.clear();
+  d.mirror.resize(static_cast<std::size_t>(nv));
+  for (Index v = 0; v < nv; ++v) {
+    if (topology.is_boundary_vertex(v)) {
+      d.mirror[v] = v;
+      continue;
+    }
+    d.mirror[v] = d.mesh.num_vertices();
+    d.mesh.positions.insert(d.mesh.positions.end(), mesh.positions.begin() + 3 * v, mesh.positions.begin() + 3 * v + 3);
+  }
+  for (Index f = 0; f < topology.num_faces; ++f)
+    d.mesh.faces.insert(d.mesh.faces.end(), {d.mirror[mesh.faces[3 * f]], d.mirror[mesh.faces[3 * f + 2]],
+                                             d.mirror[mesh.faces[3 * f + 1]]});
+  TopologyResult tr = build_topology(d.mesh.faces, d.mesh.num_vertices());
+  if (tr.status != Status::Ok || !tr.topology.is_closed()) return false;
+  d.topology = std::move(tr.topology);
+  const Index nd = d.topology.num_vertices;
+  d.target.boundary = BoundaryMode::Free;
+  d.target.K.assign(static_cast<std::size_t>(nd), 0.0);
+  if (!target.fixed_u.empty()) d.target.fixed_u.assign(static_cast<std::size_t>(nd), 0);
+  for (Index v = 0; v < nv; ++v) {
+    const bool b = topology.is_boundary_vertex(v);
+    d.target.K[v] = b ? 2 * target.K[v] : target.K[v];
+    d.target.K[d.mirror[v]] = d.target.K[v];
+    if (!target.fixed_u.empty()) d.target.fixed_u[v] = d.target.fixed_u[d.mirror[v]] = target.fixed_u[v];
+  }
+  return true;
+}
+
+// The part of the double's common subdivision that lies in the surface (its input faces come
+// first in the double): the surface's vertices keep their indices, the crossings on its input
+// edges follow in order; lengths and input edges carried over corner by corner.
+CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Mesh& mesh, const Topology& topology,
+                                      const DoubledSurface& d) {
+  CommonSubdivision out;
+  const Index nv = topology.num_vertices, nf = topology.num_faces;
+  std::vector<Index> renumber(static_cast<std::size_t>(cs.topology.num_vertices), kInvalid);
+  for (Index v = 0; v < nv; ++v) renumber[v] = v;
+  Index next = nv;
+  std::vector<Index> kept;
+  for (Index f = 0; f < cs.topology.num_faces; ++f) {
+    if (cs.face_input[f] >= nf) continue;
+    kept.push_back(f);
+    for (int c = 0; c < 3; ++c) {
+      const Index v = cs.mesh.faces[3 * f + c];
+      if (renumber[v] == kInvalid) renumber[v] = next++;
+    }
+  }
+  // The double's input edge of each of the surface's edges (corner by corner: faces come first).
+  std::vector<Index> edge_of_double(static_cast<std::size_t>(d.topology.num_edges), kInvalid);
+  for (Index c = 0; c < 3 * nf; ++c) edge_of_double[d.topology.corner_edge[c]] = topology.corner_edge[c];
+  out.mesh.positions.resize(3 * static_cast<std::size_t>(next));
+  out.vertex_input_edge.assign(static_cast<std::size_t>(next), kInvalid);
+  for (Index v = 0; v < cs.topology.num_vertices; ++v) {
+    const Index w = renumber[v];
+    if (w == kInvalid) continue;
+    for (int k = 0; k < 3; ++k) out.mesh.positions[3 * w + k] = cs.mesh.positions[3 * v + k];
+    if (v >= d.topology.num_vertices) {
+      const Index e = edge_of_double[cs.vertex_input_edge[v]];
+      if (e == kInvalid) {
+        out.status = Status::NumericalFailure;
+        out.message = "a crossing of the double's common subdivision in the surface lies on the mirror's edge";
+        return out;
+      }
+      out.vertex_input_edge[w] = e;
+    }
+  }
+  for (Index f : kept) {
+    for (int c = 0; c < 3; ++c) out.mesh.faces.push_back(renumber[cs.mesh.faces[3 * f + c]]);
+    out.face_input.push_back(cs.face_input[f]);
+  }
+  (void)mesh;
+  TopologyResult tr = build_topology(out.mesh.faces, next);
+  if (tr.status != Status::Ok) {
+    out.status = Status::NumericalFailure;
+    out.message = "the surface's part of the double's common subdivision is not a valid mesh: " + tr.message;
+    return out;
+  }
+  out.topology = std::move(tr.topology);
+  out.l.assign(static_cast<std::size_t>(out.topology.num_edges), 0.0);
+  for (std::size_t i = 0; i < kept.size(); ++i)
+    for (int c = 0; c < 3; ++c)
+      out.l[out.topology.corner_edge[3 * i + c]] = cs.l[cs.topology.corner_edge[3 * kept[i] + c]];
+  out.status = Status::Ok;
+  out.message = "ok";
+  return out;
+}
+
+// Vertex scaling with flips on the double of a bordered surface (doubled_surface()): the
+// solution restricted to the surface — u at its vertices, its boundary curvatures halved — and
+// the lengths of its edges made straight in that metric; where the straight input triangles of
+// the double do not tile it, `refinement` is the surface's part of the double's common
+// subdivision. False when any step fails (the caller falls back as before). r.flow, r.intrinsic
+// and the notes are filled in on success.
+bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
+                    UniformizeResult& r, CommonSubdivision& refinement) {
+  DoubledSurface d;
+  if (!doubled_surface(mesh, topology, r.target, d)) return false;
+  IntrinsicResult ir = mesh_intrinsic_triangulation(d.mesh, d.topology, r.geometry, mollify_margin);
+  if (ir.status != Status::Ok) return false;
+  IntrinsicTriangulation tri = std::move(ir.triangulation);
+  FlowOptions capped = fo;
+  capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
+  const std::vector<double> u0(static_cast<std::size_t>(d.topology.num_vertices), 0.0);
+  FlowResult f = solve_flow_with_flips(tri, u0, d.target, capped);
+  if (f.status != Status::Ok) return false;
+  // The input's edges cross the final triangulation this many times (their normal coordinates):
+  // tracing and subdividing cost that much. Past kMaxDoubleCrossings per face of the double the
+  // caller's fallback is the better deal (measured: a 7.4k-face surface stretched 54:1 whose
+  // double's edges cross hundreds of times per face grew past 24 GB in the subdivision).
+  std::int64_t crossings = 0;
+  for (const std::int64_t n : tri.normal) crossings += std::max<std::int64_t>(n, 0);
+  if (crossings > kMaxDoubleCrossings * static_cast<std::int64_t>(d.topology.num_faces)) return false;
+  const InputEdgePaths paths = trace_input_edges(tri, d.topology);
+  if (paths.status != Status::Ok) return false;
+  const StraightInputMetric straight = straight_input_metric(tri, f.u, d.topology, paths);
+  if (straight.status != Status::Ok) return false;
+  if (!straight.tiles()) {
+    const std::vector<double> t =
+        straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, f.u, paths));
+    const CommonSubdivision cs = common_subdivision(tri, f.u, d.mesh, d.topology, paths, t);
+    if (cs.status != Status::Ok) return false;
+    refinement = restrict_to_surface(cs, mesh, topology, d);
+    if (refinement.status != Status::Ok) return false;
+  }
+  // Back to the surface: its vertices keep their indices in the double, its faces come first.
+  const Index nv = topology.num_vertices;
+  FlowResult g = f;
+  g.u.assign(f.u.begin(), f.u.begin() + nv);
+  g.K.assign(f.K.begin(), f.K.begin() + nv);
+  g.K_target.assign(f.K_target.begin(), f.K_target.begin() + nv);
+  g.max_curvature_error = 0;
+  for (Index v = 0; v < nv; ++v) {
+    if (topology.is_boundary_vertex(v)) {
+      g.K[v] /= 2;
+      g.K_target[v] /= 2;
+    }
+    g.max_curvature_error = std::max(g.max_curvature_error, std::abs(g.K[v] - g.K_target[v]));
+  }
+  g.l.assign(static_cast<std::size_t>(topology.num_edges), 0.0);
+  for (Index c = 0; c < 3 * topology.num_faces; ++c) g.l[topology.corner_edge[c]] = straight.l[d.topology.corner_edge[c]];
+  r.flow = std::move(g);
+  r.intrinsic.used = true;
+  r.intrinsic.delaunay_flips = ir.delaunay_flips;
+  r.intrinsic.flow_flips = f.flips;
+  r.intrinsic.crossings = static_cast<Index>(paths.crossed_edge.size());
+  r.intrinsic.inconsistent_vertices = straight.inconsistent_vertices;
+  r.intrinsic.degenerate_faces = straight.degenerate_faces;
+  r.intrinsic.max_angle_sum_error = straight.max_angle_sum_error;
+  r.intrinsic.straight_tiles = straight.tiles();
+  r.intrinsic.doubled = true;
+  r.flow.notes.push_back("vertex scaling with intrinsic flips was solved on the surface's double (" +
+                         std::to_string(d.topology.num_faces) + " faces, its mirror glued along the boundary), "
+                         "where triangles leaning on the boundary can flip: " + std::to_string(f.iterations) +
+                         " Newton steps");
+  return true;
+}
+
 // Cut weights on the common subdivision: the 3D length, 100 times that off the input's edges (an
 // edge of the subdivision lies on an input edge when its ends are two input vertices, two crossings
 // of the same input edge, or a crossing and an end of its input edge).
@@ -316,6 +498,10 @@ struct MetricStages {
   IntrinsicTriangulation tri;
   InputEdgePaths paths;
   StraightInputMetric straight;
+  // Solved on the surface's double (flow_on_double()): tri and paths are not the surface's, and
+  // where its straight triangles do not tile, this is the common subdivision.
+  bool doubled = false;
+  CommonSubdivision double_refinement;
 };
 
 // The stages initial_metric, target, flow and (with flips) the input's edges traced and made
@@ -359,7 +545,31 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    if (flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri)) {
+    bool solved = flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri);
+    if (!solved && !r.intrinsic.fallback.empty()) {
+      // A bordered surface whose solve stopped: its double, where boundary edges can flip.
+      std::vector<std::string> notes = r.flow.notes;
+      const std::string fallback = r.intrinsic.fallback;
+      r.intrinsic.fallback.clear();
+      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement)) {
+        notes.pop_back();  // "… circle packing was solved instead"
+        notes.push_back(fallback);
+        r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
+        stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips, on the double");
+        m.straight.status = Status::Ok;
+        m.straight.l = r.flow.l;
+        m.straight.max_angle_sum_error = r.intrinsic.max_angle_sum_error;
+        m.straight.inconsistent_vertices = r.intrinsic.straight_tiles ? 0 : std::max<Index>(1, r.intrinsic.inconsistent_vertices);
+        m.doubled = true;
+        m.flips = true;
+        m.ok = true;
+        return m;
+      }
+      r.intrinsic.used = false;
+      r.intrinsic.fallback = fallback;
+      r.flow.notes = notes;
+    }
+    if (solved) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
       m.paths = trace_input_edges(m.tri, topology);
       if (m.paths.status != Status::Ok) return fail(m.paths.status, "straighten", m.paths.message);
@@ -434,9 +644,13 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
     layout_stages(mesh, topology, options, r.flow.l, r, start);
     return r;
   }
-  const std::vector<double> t =
-      straightest_crossings(m.tri, m.paths, m.straight.crossings, input_edge_crossings(m.tri, r.flow.u, m.paths));
-  r.refinement = common_subdivision(m.tri, r.flow.u, mesh, topology, m.paths, t);
+  if (m.doubled) {
+    r.refinement = std::move(m.double_refinement);
+  } else {
+    const std::vector<double> t =
+        straightest_crossings(m.tri, m.paths, m.straight.crossings, input_edge_crossings(m.tri, r.flow.u, m.paths));
+    r.refinement = common_subdivision(m.tri, r.flow.u, mesh, topology, m.paths, t);
+  }
   if (r.refinement.status != Status::Ok) {
     r.status = r.refinement.status;
     r.failed_stage = "straighten";
@@ -572,6 +786,18 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
                            std::to_string(r.flow.resolution_vertices) + " near-coincident vertices (max |K̄ − K| " +
                            sci(r.flow.max_curvature_error) + ", resolution " + sci(r.flow.curvature_resolution) +
                            "), and then failed at " + r.message;
+    p.flow.notes.insert(p.flow.notes.begin(), p.intrinsic.fallback + "; the paper's circle packing was solved instead");
+    r = std::move(p);
+  } else if (r.status != Status::Ok && r.intrinsic.doubled && r.intrinsic.refined) {
+    // Solved on the double, whose straight input triangles fold: where a stage after the flow
+    // fails on that common subdivision (the straighten stage's own limits with hundreds of folds,
+    // as on the surface itself), circle packing instead, as before the double.
+    UniformizeOptions packing = options;
+    packing.metric.scheme = Scheme::CirclePacking;
+    UniformizeResult p = uniformize_unit(*u.mesh, topology, packing, target);
+    p.intrinsic.fallback = "vertex scaling with intrinsic flips, solved on the surface's double (" +
+                           std::to_string(r.intrinsic.inconsistent_vertices) +
+                           " vertices where its straight input triangles fold), failed at " + r.message;
     p.flow.notes.insert(p.flow.notes.begin(), p.intrinsic.fallback + "; the paper's circle packing was solved instead");
     r = std::move(p);
   }
