@@ -253,7 +253,7 @@ struct AtlasBuild {
     return u.real() * w.imag() - u.imag() * w.real();
   }
 
-  /// Every chart's figures from its faces.
+  /// Every chart's figures from its faces (face_error and face_floor are each face's in its chart).
   void summarise() {
     for (LayoutChart& ch : out.charts) {
       ch.faces = 0;
@@ -262,8 +262,7 @@ struct AtlasBuild {
     }
     for (Index f = 0; f < t.num_faces; ++f) {
       LayoutChart& ch = out.charts[static_cast<std::size_t>(out.face_chart[f])];
-      double err = 0, floor = 0;
-      measure_face(f, err, floor);
+      const double err = face_error[f], floor = face_floor[f];
       if (!(orientation(f) > 0) && out.flipped_faces++ == 0) out.first_flipped_face = f;
       ++ch.faces;
       ch.rounding_floor = std::max(ch.rounding_floor, floor);

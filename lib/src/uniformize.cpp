@@ -215,8 +215,6 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
 // where triangles lean on the boundary: a boundary edge never flips, so a triangle whose angle
 // opposite it grows towards π cannot be mended on the surface, while in the double that edge is
 // an ordinary one (the Delaunay condition of the theory with boundary is the double's).
-constexpr std::int64_t kMaxDoubleCrossings = 16;
-
 struct DoubledSurface {
   Mesh mesh;
   Topology topology;
@@ -263,8 +261,7 @@ bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& t
 // The part of the double's common subdivision that lies in the surface (its input faces come
 // first in the double): the surface's vertices keep their indices, the crossings on its input
 // edges follow in order; lengths and input edges carried over corner by corner.
-CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Mesh& mesh, const Topology& topology,
-                                      const DoubledSurface& d) {
+CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Topology& topology, const DoubledSurface& d) {
   CommonSubdivision out;
   const Index nv = topology.num_vertices, nf = topology.num_faces;
   std::vector<Index> renumber(static_cast<std::size_t>(cs.topology.num_vertices), kInvalid);
@@ -302,7 +299,6 @@ CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Mesh& m
     for (int c = 0; c < 3; ++c) out.mesh.faces.push_back(renumber[cs.mesh.faces[3 * f + c]]);
     out.face_input.push_back(cs.face_input[f]);
   }
-  (void)mesh;
   TopologyResult tr = build_topology(out.mesh.faces, next);
   if (tr.status != Status::Ok) {
     out.status = Status::NumericalFailure;
@@ -318,6 +314,9 @@ CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Mesh& m
   out.message = "ok";
   return out;
 }
+
+// Input-edge crossings per face of the double past which flow_on_double() gives up (below).
+constexpr std::int64_t kMaxDoubleCrossings = 16;
 
 // Vertex scaling with flips on the double of a bordered surface (doubled_surface()): the
 // solution restricted to the surface — u at its vertices, its boundary curvatures halved — and
@@ -353,7 +352,7 @@ bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOption
         straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, f.u, paths));
     const CommonSubdivision cs = common_subdivision(tri, f.u, d.mesh, d.topology, paths, t);
     if (cs.status != Status::Ok) return false;
-    refinement = restrict_to_surface(cs, mesh, topology, d);
+    refinement = restrict_to_surface(cs, topology, d);
     if (refinement.status != Status::Ok) return false;
   }
   // Back to the surface: its vertices keep their indices in the double, its faces come first.
