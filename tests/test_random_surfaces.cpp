@@ -72,8 +72,11 @@ TEST_CASE("property: random surfaces of genus 0-12 with 0-8 boundary loops map w
       CHECK(r.layout.flipped_faces == 0);
     }
     if (v.topology.is_closed() && s.genus >= 1) {
-      REQUIRE(r.has_deck);
-      CHECK(r.deck.relation_error <= 1e-12);
+      // The deck group, or (no canonical generators at all: a long grid's polygon beyond double
+      // range) the compact domain's side pairings, with the polygon stage saying why.
+      INFO(r.polygon_note);
+      REQUIRE((r.has_deck || (!r.domain_maps.empty() && !r.polygon_note.empty())));
+      if (r.has_deck) CHECK(r.deck.relation_error <= 1e-12);
     }
   }
   MESSAGE(ok << " of " << kDraws << " mapped (" << fallbacks << " by circle packing after vertex scaling with flips "

@@ -394,6 +394,9 @@ void cleanup_nodes(const Surface& S, State& st, Index keep) {
 
 // ---- paths inside the disk, and refinement ------------------------------------------------------
 
+/// The most vertices a cut's refinement adds per input face (refine()).
+constexpr std::size_t kMaxRefinedPerFace = 64;
+
 struct PathSearch {
   double cost = kInf;        ///< weighted length (with the refinement penalty)
   Index virtual_points = 0;  ///< points a refinement would add
@@ -410,6 +413,15 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
             std::vector<Index>& centroid, std::vector<Index>& mid, std::string* why) {
   centroid.clear();
   mid.clear();
+  // Each path refines the faces it crosses; paths that keep crossing refined faces (many moves at a
+  // high genus) would grow the surface without bound. Past kMaxRefinedPerFace added vertices per
+  // input face the cut stops with a message instead.
+  const std::size_t input_faces = S.input != nullptr ? static_cast<std::size_t>(S.input->num_faces()) : S.faces.size() / 3;
+  if (S.rec_face.size() + fan_faces.size() + split_corners.size() > kMaxRefinedPerFace * input_faces + 65536) {
+    *why = "refinement: the paths would add more than " + std::to_string(kMaxRefinedPerFace) +
+           " vertices per input face (" + std::to_string(S.rec_face.size()) + " added so far)";
+    return false;
+  }
   std::unordered_map<Index, Index> mid_of_edge;  // surface edge -> midpoint vertex
   for (Index c : split_corners) {
     const Index f = corner_face(c);

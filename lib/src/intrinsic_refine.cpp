@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "layout_internal.h"
 #include "model_geometry.h"
 #include "ricci/intrinsic_trace.h"
 
@@ -116,7 +117,11 @@ CommonSubdivision common_subdivision(const IntrinsicTriangulation& tri, std::spa
     P3 pos[3];
     pos[0] = pole(g);
     pos[1] = polar(g, l[t.corner_edge[c0 + 2]], 0);
-    pos[2] = polar(g, l[t.corner_edge[c0 + 1]], theta[c0]);
+    // Corner 0's angle as the layout's frames take it (FaceFrames: the same function of the same
+    // lengths, so the pieces' points sit exactly where the frames put the face's corners).
+    pos[2] = polar(g, l[t.corner_edge[c0 + 1]],
+                   detail::angle_from_lengths(g, l[t.corner_edge[c0]], l[t.corner_edge[c0 + 1]], l[t.corner_edge[c0 + 2]]));
+    for (Index k = 0; k < 3; ++k) r.frames.frame_lengths.push_back(l[t.corner_edge[c0 + k]]);
     // The cycle: corner x, then the crossings on the side from x to next(x) (opposite prev(x)).
     cycle_id.clear();
     cycle_pos.clear();
@@ -221,6 +226,8 @@ CommonSubdivision common_subdivision(const IntrinsicTriangulation& tri, std::spa
       for (std::size_t m = 1; m + 1 < piece.size(); ++m) {
         const Index a = piece[0], b = piece[m], c = piece[m + 1];
         faces.insert(faces.end(), {cycle_id[a], cycle_id[b], cycle_id[c]});
+        r.frames.face_frame.push_back(f);
+        for (const Index q : {a, b, c}) r.frames.corner_model.insert(r.frames.corner_model.end(), cycle_pos[q].begin(), cycle_pos[q].end());
         face_sides.insert(face_sides.end(), {distance(g, cycle_pos[b], cycle_pos[c]),
                                              distance(g, cycle_pos[c], cycle_pos[a]),
                                              distance(g, cycle_pos[a], cycle_pos[b])});
@@ -275,6 +282,7 @@ CommonSubdivision common_subdivision(const IntrinsicTriangulation& tri, std::spa
     if (r.topology.edge_corners[2 * e] == c) r.l[e] = face_sides[c];
   }
   r.face_input = std::move(face_input);
+  r.frames.frame_opposite = t.opposite;
   r.status = Status::Ok;
   r.message = "ok";
   return r;

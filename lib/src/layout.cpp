@@ -89,9 +89,11 @@ double side_function(Geometry g, double x) {
   }
 }
 
+}  // namespace
+
 /// Angle between sides b and c of a triangle whose third side (opposite the angle) is a, by the
 /// half-angle formula; differences clamped at 0 so that rounding never produces NaN.
-double angle_from_lengths(Geometry g, double a, double b, double c) {
+double detail::angle_from_lengths(Geometry g, double a, double b, double c) {
   const double s = (a + b + c) / 2;
   const double fs = side_function(g, s);
   const double fa = side_function(g, std::max(0.0, s - a));
@@ -99,6 +101,10 @@ double angle_from_lengths(Geometry g, double a, double b, double c) {
   const double fc = side_function(g, std::max(0.0, s - c));
   return 2 * std::atan2(std::sqrt(std::max(0.0, fb * fc)), std::sqrt(std::max(0.0, fs * fa)));
 }
+
+namespace {
+
+using detail::angle_from_lengths;
 
 using model::disk_distance;    // Poincaré disk; +∞ on or outside the unit circle
 using model::sphere_distance;  // great circle of two unit vectors
@@ -388,17 +394,21 @@ Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w)
   return poincare(C);
 }
 
-/// Returns the hyperbolic distance the centre of mass was moved by.
-double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, Layout& out) {
+/// Returns the hyperbolic distance the centre of mass was moved by; *map (when not null) is the
+/// Lorentz matrix of the disk map applied (z ↦ rot·(z − c)/(1 − c̄ z)).
+double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, Layout& out,
+                            detail::M3* map = nullptr) {
   const Index nv = t.num_vertices;
   const Cx c = hyperbolic_centre(P, nv, &w);
   for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
   Cx ref = P.z(t.corner_vertex[3 * seed]);
   if (std::abs(ref) < 1e-12) ref = P.z(t.corner_vertex[3 * seed + 1]);
+  Cx rot(1, 0);
   if (std::abs(ref) > 0) {
-    const Cx rot = std::conj(ref) / std::abs(ref);
+    rot = std::conj(ref) / std::abs(ref);
     for (Index v = 0; v < nv; ++v) P.set(v, rot * P.z(v));
   }
+  if (map != nullptr) *map = detail::disk_map_matrix(c, rot);
   out.centre_of_mass = std::abs(hyperbolic_centre(P, nv, &w));
   return 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
 }
@@ -1121,8 +1131,65 @@ void finish_layout(const Topology& t, Geometry g, std::span<const double> l, con
   if (flipped > 0) out.first_flipped_face = first;
 }
 
-/// Validation, the seed, one propagation (H: repeated in the final frame), the refinement where
-/// it is needed, and the finish (normalisation, unit box, flipped faces).
+/// The seed and one propagation over the faces (H: repeated in the final frame); false with `out`
+/// naming the vertex that left double range.
+bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
+               const std::vector<double>& area, Index seed, const LayoutOptions& options, Positions& P, Layout& out) {
+  Propagation propagation(t, g, l, theta, seed, options.keep_unresolved);
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
+  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
+  if (!propagation.run(P, out)) return false;
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    // Second pass in the final frame: the seed face keeps its normalised position and the
+    // propagation runs again there, so no vertex is ever computed farther from the origin than
+    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
+    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    const std::vector<double> w = vertex_weights(t, area);
+    for (int pass = 0; pass < 4; ++pass) {
+      const double moved = normalize_hyperbolic(t, P, w, seed, out);
+      if (!propagation.run(P, out)) return false;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  out.unplaced_vertices = propagation.unplaced();
+  return true;
+}
+
+/// The development by coarse frames (options.frames; layout_frames.cpp), H repeated in the final
+/// frame as propagate() does: the seed's coarse face takes the normalising map, composed.
+bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>& area, Index seed,
+                       const LayoutOptions& options, Positions& P, Layout& out) {
+  const std::string why = detail::check_frames(t, *options.frames);
+  if (!why.empty()) {
+    out.status = Status::InvalidArgument;
+    out.message = why;
+    return false;
+  }
+  detail::FrameDevelopment dev(t, g, *options.frames, seed, options.keep_unresolved);
+  detail::M3 seed_map = dev.seed_map();
+  if (!dev.run(P.x, seed_map, out)) return false;
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    const std::vector<double> w = vertex_weights(t, area);
+    for (int pass = 0; pass < 4; ++pass) {
+      detail::M3 map{};
+      const double moved = normalize_hyperbolic(t, P, w, seed, out, &map);
+      detail::M3 next{};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          next[3 * i + j] = map[3 * i] * seed_map[j] + map[3 * i + 1] * seed_map[3 + j] + map[3 * i + 2] * seed_map[6 + j];
+      seed_map = next;
+      if (!dev.run(P.x, seed_map, out)) return false;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  out.unplaced_vertices = dev.unplaced();
+  return true;
+}
+
+/// Validation, the seed, one propagation or development by frames, the refinement where it is
+/// needed, and the finish (normalisation, unit box, flipped faces).
 Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
                   Clock::time_point start) {
   Layout out;
@@ -1138,24 +1205,12 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   if (g == Geometry::Spherical)
     for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
   Positions P{g, out.dims, x};
-  Propagation propagation(t, g, l, theta, seed, options.keep_unresolved);
-  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
-  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
-  if (!propagation.run(P, out)) return out;
-  if (g == Geometry::Hyperbolic && options.normalize) {
-    // Second pass in the final frame: the seed face keeps its normalised position and the
-    // propagation runs again there, so no vertex is ever computed farther from the origin than
-    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
-    // Repeated while the frame still moves noticeably (a seed far from the centre).
-    const std::vector<double> w = vertex_weights(t, area);
-    for (int pass = 0; pass < 4; ++pass) {
-      const double moved = normalize_hyperbolic(t, P, w, seed, out);
-      if (!propagation.run(P, out)) return out;
-      ++out.propagation_passes;
-      if (moved < 1e-6) break;
-    }
+  if (options.frames) {
+    if (!develop_by_frames(t, g, area, seed, options, P, out)) return out;
+    out.by_frames = true;
+  } else if (!propagate(t, g, l, theta, area, seed, options, P, out)) {
+    return out;
   }
-  out.unplaced_vertices = propagation.unplaced();
   Layout now;
   measure_edges(t, g, l, P, now);
   // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global

@@ -1,8 +1,12 @@
-// Layout internals shared with the atlas (layout_atlas.cpp); not part of the public API.
+// Layout internals shared with the atlas (layout_atlas.cpp) and the development by coarse frames
+// (layout_frames.cpp); not part of the public API.
 #pragma once
 
+#include <array>
 #include <complex>
+#include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "ricci/layout.h"
@@ -21,5 +25,54 @@ double rounding_drift_planar(Geometry g, std::complex<double> a, std::complex<do
 bool propagate_faces(const Topology& t, Geometry g, std::span<const double> l, Index seed,
                      std::span<const Index> owner, Index label, std::vector<double>& positions,
                      std::vector<Index>& touched, Layout& out);
+
+/// Angle between sides b and c of a triangle of geometry g whose third side (opposite the
+/// angle) is a (half-angle formula, never NaN for lengths that round past the triangle inequality).
+double angle_from_lengths(Geometry g, double a, double b, double c);
+
+/// An isometry of the model as a 3×3 row-major matrix (layout_frames.cpp: E affine on (x, y, 1),
+/// H Lorentz, S a rotation).
+using M3 = std::array<double, 9>;
+
+/// Empty when `frames` fit the faces of t (sizes, coarse face indices, finite model points);
+/// otherwise why not.
+std::string check_frames(const Topology& t, const FaceFrames& frames);
+
+/// The Lorentz matrix of the Poincaré disk map z ↦ rot·(z − c)/(1 − c̄ z) (|rot| = 1, |c| < 1).
+M3 disk_map_matrix(std::complex<double> c, std::complex<double> rot);
+
+/// One development of a surface by its coarse frames (layout.h, FaceFrames): from the seed face,
+/// whose coarse face is placed by `seed_map`, every face reached across an edge takes the isometry
+/// of its coarse face — its neighbour's when both lie in one coarse face, else the neighbour's
+/// composed with the transition across the coarse edge between them — and places its corners not
+/// placed yet. Faces are taken in the order of the fewest coarse edges crossed (Layout::depth: the
+/// most), first in first out. Positions as layout_disk() writes them (E, H: 2 per vertex, the
+/// plane and the Poincaré disk; S: 3). Precondition: check_frames() is empty.
+class FrameDevelopment {
+ public:
+  FrameDevelopment(const Topology& t, Geometry g, const FaceFrames& frames, Index seed, bool keep_going);
+  /// The seed's map: the seed face's corner 0 at the base point, the farthest corner of its coarse
+  /// face along +x.
+  M3 seed_map() const;
+  /// Develops every face reachable from the seed into x (#V×dims). False with `out` naming the
+  /// element when a vertex leaves double range (unless keep_going: then it sits at a resolved
+  /// corner of its face and is counted in out.unresolved_vertices) or two adjacent faces lie in
+  /// coarse faces that share no coarse edge.
+  bool run(std::vector<double>& x, const M3& seed_map, Layout& out);
+  Index unplaced() const;  ///< vertices no face placed (none on a connected surface)
+
+ private:
+  M3 transition(Index from_corner, Index to_face) const;
+  bool place(Index f, std::vector<double>& x, Layout& out);
+
+  const Topology& t_;
+  Geometry g_;
+  const FaceFrames& fr_;
+  Index seed_;
+  bool keep_going_;
+  std::vector<M3> map_;
+  std::vector<Index> dist_, via_;  // via_[f]: the corner of the face before f across whose opposite edge f was reached
+  std::vector<std::uint8_t> taken_, placed_;
+};
 
 }  // namespace ricci::detail

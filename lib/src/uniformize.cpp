@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <queue>
@@ -147,7 +148,8 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
 }
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start);
+                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start,
+                   const FaceFrames* frames = nullptr);
 
 // AngleDistortion of the metric's corner angles tm (#F×3) against the mesh's 3D angles.
 AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology, std::span<const double> tm) {
@@ -295,9 +297,16 @@ CommonSubdivision restrict_to_surface(const CommonSubdivision& cs, const Topolog
       out.vertex_input_edge[w] = e;
     }
   }
+  // Frames: the double's current triangulation stays the coarse one (the surface's faces are
+  // adjacent only where their current faces are).
+  out.frames.frame_lengths = cs.frames.frame_lengths;
+  out.frames.frame_opposite = cs.frames.frame_opposite;
   for (Index f : kept) {
     for (int c = 0; c < 3; ++c) out.mesh.faces.push_back(renumber[cs.mesh.faces[3 * f + c]]);
     out.face_input.push_back(cs.face_input[f]);
+    out.frames.face_frame.push_back(cs.frames.face_frame[f]);
+    out.frames.corner_model.insert(out.frames.corner_model.end(), cs.frames.corner_model.begin() + 9 * f,
+                                   cs.frames.corner_model.begin() + 9 * (f + 1));
   }
   TopologyResult tr = build_topology(out.mesh.faces, next);
   if (tr.status != Status::Ok) {
@@ -663,7 +672,7 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
                                std::to_string(r.refinement.topology.num_faces) + " faces");
   UniformizeOptions ro = options;
   ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology);
-  layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start);
+  layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start, &r.refinement.frames);
   if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
   return r;
 }
@@ -826,6 +835,60 @@ namespace {
 // false once a stage failed (r.status, failed_stage and message set).
 struct SeedCheck;
 
+// The frames of a cut disk (its faces are the cut's surface faces, slot by slot) from those of
+// the surface it was cut from (`surface`, whose faces `topology` holds): each disk face lies in the
+// coarse face of the surface face it refines; a vertex the cut added inside a face or on an edge
+// is the combination of the face's corners that refined_edge_lengths() takes (its corners' model
+// points, combined and put back on the model). Null when a record names a vertex that is not a
+// corner of the face (the layout then develops the faces themselves).
+std::shared_ptr<const FaceFrames> disk_frames(const CutResult& cut, const Topology& topology, const FaceFrames& surface,
+                                              Geometry g) {
+  auto out = std::make_shared<FaceFrames>();
+  out->frame_lengths = surface.frame_lengths;
+  out->frame_opposite = surface.frame_opposite;
+  const Index nf = static_cast<Index>(cut.surface_faces.size() / 3), nin = cut.num_input_vertices;
+  if (static_cast<Index>(cut.surface_face_to_input.size()) != nf ||
+      surface.corner_model.size() != 9 * static_cast<std::size_t>(topology.num_faces))
+    return nullptr;
+  out->face_frame.resize(static_cast<std::size_t>(nf));
+  out->corner_model.resize(9 * static_cast<std::size_t>(nf));
+  for (Index f = 0; f < nf; ++f) {
+    const Index s = cut.surface_face_to_input[f];
+    out->face_frame[f] = surface.face_frame[s];
+    auto model_of = [&](Index v, double* m) {  // v's model point in s's frame; false when v is not on s
+      for (int k = 0; k < 3; ++k)
+        if (topology.corner_vertex[3 * s + k] == v) {
+          std::copy_n(&surface.corner_model[9 * static_cast<std::size_t>(s) + 3 * k], 3, m);
+          return true;
+        }
+      return false;
+    };
+    for (int k = 0; k < 3; ++k) {
+      const Index v = cut.surface_faces[3 * f + k];
+      double* m = &out->corner_model[9 * static_cast<std::size_t>(f) + 3 * k];
+      if (v < nin) {
+        if (!model_of(v, m)) return nullptr;
+        continue;
+      }
+      const std::size_t rec = static_cast<std::size_t>(v - nin);
+      double sum[3] = {0, 0, 0};
+      for (int j = 0; j < 3; ++j) {
+        const double beta = cut.refined_vertex_bary[3 * rec + j];
+        if (beta == 0) continue;
+        double corner[3];
+        if (!model_of(cut.refined_vertex_corners[3 * rec + j], corner)) return nullptr;
+        for (int d = 0; d < 3; ++d) sum[d] += beta * corner[d];
+      }
+      double n = 1;
+      if (g == Geometry::Hyperbolic) n = std::sqrt(sum[2] * sum[2] - sum[0] * sum[0] - sum[1] * sum[1]);
+      if (g == Geometry::Spherical) n = std::sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+      if (!(n > 0)) return nullptr;
+      for (int d = 0; d < 3; ++d) m[d] = sum[d] / n;
+    }
+  }
+  return out;
+}
+
 struct LayoutRun {
   const Mesh& mesh;
   const Topology& topology;
@@ -838,6 +901,11 @@ struct LayoutRun {
   bool closed_h = false;   // closed genus >= 2 in H: the compact domain and a canonical polygon
   std::vector<Index> cones;  // interior vertices with target K̄ ≠ 0
   SeedCheck* seed_check = nullptr;  // started beside the layout (options.seed_checks > 0)
+  // A common subdivision's frames (its current faces), and the same for what is laid out (the
+  // surface itself, or the cut disk): the layouts develop those coarse faces (FaceFrames).
+  const FaceFrames* surface_frames = nullptr;
+  std::shared_ptr<const FaceFrames> layout_frames{};
+  LayoutOptions layout_options{};  // what the layout itself ran with (start_layout())
 
   bool fail(Status s, const std::string& stage, const std::string& message) {
     r.status = s;
@@ -910,6 +978,7 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
         o.seed_face = sc.seeds[k];
         o.unit_box = false;
         o.keep_unresolved = run.options.use_atlas && !sphere;
+        o.frames = run.layout_frames;
         sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
                                : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
       }
@@ -931,9 +1000,11 @@ LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
   LayoutOptions lo = run.options.layout;
   // With an atlas, vertices beyond one chart's range are left to it (not for the sphere).
   if (run.options.use_atlas && !run.sphere) lo.keep_unresolved = true;
+  lo.frames = run.layout_frames;
   if (lo.seed_face < 0) lo.seed_face = central_face(faces);
   if (run.seed_check != nullptr && lo.seed_face >= 0 && lo.seed_face < faces.num_faces)
     start_seed_check(run, *run.seed_check, faces, lo.seed_face);
+  run.layout_options = lo;
   return lo;
 }
 
@@ -972,6 +1043,7 @@ bool cut_and_lay_out(LayoutRun& run) {
 
   // ---- cut and layout ----
   if (sphere) {
+    if (run.surface_frames != nullptr) run.layout_frames = std::make_shared<const FaceFrames>(*run.surface_frames);
     r.layout = layout_sphere(topology, metric_l, start_layout(run, topology));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
@@ -990,6 +1062,7 @@ bool cut_and_lay_out(LayoutRun& run) {
     r.disk_lengths = disk_edge_lengths(r.cut, r.cut_metric.surface, r.cut_metric.l, r.disk);
     stage_done("cut", "compact domain: " + std::to_string(r.cut.num_sides()) + " sides, " +
                           std::to_string(r.cut.num_generators()) + " side pairings");
+    if (run.surface_frames != nullptr) run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
     r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
@@ -1002,6 +1075,7 @@ bool cut_and_lay_out(LayoutRun& run) {
     r.disk_lengths = std::move(d.lengths);
     if (d.status != Status::Ok) return fail(d.status, d.stage, d.message);
     stage_done("cut", r.cut.brief_report());
+    if (run.surface_frames != nullptr) run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
     r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
@@ -1015,24 +1089,40 @@ bool cut_and_lay_out(LayoutRun& run) {
   // length one layout's coordinates resolve only to about ε·l/s, but not a region that the
   // conformal factor shrinks below what coordinates resolve (a long strip's far end), which is
   // large in 3D. The sphere's positions are Möbius-centred, not isometric: no excuse there.
-  bool excused = false;
-  if (r.layout.max_edge_length_error > options.max_layout_error && std::isfinite(r.layout.max_edge_length_error) &&
-      !sphere) {
+  auto excuse = [&](const Layout& layout) {
+    if (!(layout.max_edge_length_error > options.max_layout_error && std::isfinite(layout.max_edge_length_error) &&
+          !sphere))
+      return false;
     const std::vector<double> area = cut_face_areas(r.cut);
-    const LayoutMisses m =
-        layout_misses(r.disk, r.geometry, r.disk_lengths, r.layout.positions, area, options.max_layout_error);
-    excused = m.worst_unexplained <= 0 && m.area_fraction <= options.max_layout_error;
-    if (excused) r.layout_excused = m;
+    const LayoutMisses m = layout_misses(r.disk, r.geometry, r.disk_lengths, layout.positions, area, options.max_layout_error);
+    if (!(m.worst_unexplained <= 0 && m.area_fraction <= options.max_layout_error)) return false;
+    r.layout_excused = m;
+    return true;
+  };
+  auto misses = [&](const Layout& layout) {
+    return layout.max_edge_length_error > options.max_layout_error || !std::isfinite(layout.max_edge_length_error);
+  };
+  bool excused = excuse(r.layout);
+  // The coarse frames carry whatever their triangulation's angle sums miss (a solve that converged
+  // only to its curvature resolution at near-coincident vertices): where their layout fails the
+  // gate, the development through the faces themselves is tried and kept when it passes.
+  if (r.layout.by_frames && !excused && misses(r.layout)) {
+    LayoutOptions lo = run.layout_options;
+    lo.frames = nullptr;
+    Layout faces = sphere ? layout_sphere(topology, metric_l, lo) : layout_disk(r.disk, r.geometry, r.disk_lengths, lo);
+    if (faces.status == Status::Ok && (!misses(faces) || excuse(faces))) {
+      excused = misses(faces);
+      r.layout = std::move(faces);
+      stage_done("layout", "through the faces: " + r.layout.brief_report());
+    }
   }
   // Faces the root chart's coordinates cannot resolve get charts of their own.
-  if (!excused && options.use_atlas && !sphere && (r.layout.max_edge_length_error > options.max_layout_error ||
-                                                   !std::isfinite(r.layout.max_edge_length_error))) {
+  if (!excused && options.use_atlas && !sphere && misses(r.layout)) {
     r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, options.atlas);
     r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error;
     stage_done("atlas", r.atlas.message);
   }
-  if (!excused && !r.has_atlas && (r.layout.max_edge_length_error > options.max_layout_error ||
-                                   !std::isfinite(r.layout.max_edge_length_error))) {
+  if (!excused && !r.has_atlas && misses(r.layout)) {
     r.layout.status = Status::NumericalFailure;
     return fail(Status::NumericalFailure, "layout",
                       "the layout reproduces the metric only to a relative edge-length error of " +
@@ -1352,9 +1442,11 @@ bool mesh_canonical_polygon(LayoutRun& run) {
 }
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start) {
+                   std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start,
+                   const FaceFrames* frames) {
   StageClock stage_done{r, options};
   LayoutRun run{mesh, topology, options, metric_l, r, start, stage_done, false, false, {}};
+  run.surface_frames = frames;
   run.sphere = topology.is_closed() && topology.euler_characteristic() == 2;
   run.closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
   for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)

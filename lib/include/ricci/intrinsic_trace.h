@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "ricci/intrinsic.h"
+#include "ricci/layout.h"
 #include "ricci/mesh.h"
 #include "ricci/status.h"
 #include "ricci/topology.h"
@@ -165,6 +166,10 @@ struct CommonSubdivision {
   std::vector<double> l;            ///< #E: lengths in the metric at u (the triangulation's geometry)
   std::vector<Index> face_input;    ///< #F: the input face each face lies in
   std::vector<Index> vertex_input_edge;  ///< #V: kInvalid for input vertices, else the crossing's input edge
+  /// Each face's current face and its corners there (FaceFrames of layout.h): the current
+  /// triangulation at u is intrinsic Delaunay and well shaped where the subdivision has slivers
+  /// (crossings a hair apart on one current edge), so layouts develop it instead (uniformize()).
+  FaceFrames frames;
 };
 
 /// The exact common subdivision of the input triangulation (its edges as `paths` and `crossings`,

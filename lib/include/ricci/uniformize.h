@@ -53,7 +53,12 @@
 //     common subdivision of the two triangulations (common_subdivision(); `refined` is true and
 //     `refinement` holds it: cut, layout, polygon and deck refer to its vertices and faces, the
 //     input's vertices first). Its cut prefers the pieces of input edges (weights 100× on the
-//     other edges), so seams mostly run along input edges.
+//     other edges), so seams mostly run along input edges. Its layout (and seed check) develops
+//     the final intrinsic Delaunay triangulation's faces, in which the subdivision's pieces lie
+//     (CommonSubdivision::frames, LayoutOptions::frames): crossings a hair apart on one edge and
+//     the slivers between them never place a vertex. Should that layout fail the accuracy gate
+//     (a solve converged only to its curvature resolution: the coarse faces carry its residual),
+//     the development through the pieces themselves is tried and kept when it passes.
 // Should the solve with flips fail, the paper's circle packing is solved instead and
 // `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
 // solve converged only to the curvature resolution of near-coincident vertices

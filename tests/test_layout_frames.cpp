@@ -1,0 +1,172 @@
+// Layouts by coarse frames (layout.h, FaceFrames): a fine triangulation whose faces lie in the
+// faces of a coarse one is laid out by developing the coarse faces; the fine triangulation's own
+// slivers do not enter.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "ricci/layout.h"
+#include "ricci/metric.h"
+#include "ricci/topology.h"
+#include "shapes.h"
+
+using namespace ricci;
+
+namespace {
+
+using P3 = std::array<double, 3>;
+
+P3 polar(Geometry g, double r, double phi) {
+  const double c = std::cos(phi), s = std::sin(phi);
+  if (g == Geometry::Euclidean) return {r * c, r * s, 0};
+  if (g == Geometry::Hyperbolic) return {std::sinh(r) * c, std::sinh(r) * s, std::cosh(r)};
+  return {std::sin(r) * c, std::sin(r) * s, std::cos(r)};
+}
+
+double distance(Geometry g, const P3& p, const P3& q) {
+  const double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+  if (g == Geometry::Euclidean) return std::hypot(dx, dy);
+  if (g == Geometry::Hyperbolic) return 2 * std::asinh(0.5 * std::sqrt(std::max(0.0, dx * dx + dy * dy - dz * dz)));
+  return 2 * std::asin(std::min(1.0, 0.5 * std::sqrt(dx * dx + dy * dy + dz * dz)));
+}
+
+// β-combination of points, put back on the model.
+P3 combine(Geometry g, const P3 (&x)[3], const double (&beta)[3]) {
+  P3 p{0, 0, 0};
+  for (int k = 0; k < 3; ++k)
+    for (int d = 0; d < 3; ++d) p[d] += beta[k] * x[k][d];
+  double n = 1;
+  if (g == Geometry::Hyperbolic) n = std::sqrt(p[2] * p[2] - p[0] * p[0] - p[1] * p[1]);
+  if (g == Geometry::Spherical) n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+  for (double& v : p) v /= n;
+  return p;
+}
+
+struct Fine {
+  Topology topology;
+  std::vector<double> l;
+  FaceFrames frames;
+  Index slivers = 0;  // fine corners with an angle below 1e-4
+};
+
+// Every coarse face split at one inner point into three, the point at barycentric `beta` (a hair
+// from a side: two of the three pieces are slivers); each piece's frame is its coarse face.
+Fine split_faces(const Topology& coarse, Geometry g, const std::vector<double>& lc, const double (&beta)[3]) {
+  Fine out;
+  std::vector<Index> faces;
+  out.frames.frame_opposite = coarse.opposite;
+  for (Index f = 0; f < coarse.num_faces; ++f) {
+    double L[3];
+    for (int k = 0; k < 3; ++k) L[k] = lc[coarse.corner_edge[3 * f + k]];
+    for (double x : L) out.frames.frame_lengths.push_back(x);
+    // The coarse frame: corner 0 at the pole, corner 1 along +x, corner 2 at corner 0's angle.
+    std::vector<double> theta(3);
+    const Topology one = build_topology(std::vector<Index>{0, 1, 2}, 3).topology;
+    std::vector<double> l1(3);
+    for (int k = 0; k < 3; ++k) l1[one.corner_edge[k]] = L[k];
+    corner_angles(one, g, l1, theta);
+    const P3 x[3] = {polar(g, 0, 0), polar(g, L[2], 0), polar(g, L[1], theta[0])};
+    const P3 m = combine(g, x, beta);
+    const Index mid = coarse.num_vertices + f;
+    for (int k = 0; k < 3; ++k) {
+      const Index a = coarse.corner_vertex[3 * f + k], b = coarse.corner_vertex[3 * f + (k + 1) % 3];
+      faces.insert(faces.end(), {a, b, mid});
+      out.frames.face_frame.push_back(f);
+      for (const P3& p : {x[k], x[(k + 1) % 3], m}) out.frames.corner_model.insert(out.frames.corner_model.end(), p.begin(), p.end());
+    }
+  }
+  out.topology = build_topology(faces, coarse.num_vertices + coarse.num_faces).topology;
+  out.l.assign(static_cast<std::size_t>(out.topology.num_edges), 0.0);
+  for (Index c = 0; c < out.topology.num_corners(); ++c) {
+    const Index fine_face = c / 3;
+    const double* cm = &out.frames.corner_model[9 * static_cast<std::size_t>(fine_face)];
+    const int k = static_cast<int>(c % 3);
+    const P3 p{cm[3 * ((k + 1) % 3)], cm[3 * ((k + 1) % 3) + 1], cm[3 * ((k + 1) % 3) + 2]};
+    const P3 q{cm[3 * ((k + 2) % 3)], cm[3 * ((k + 2) % 3) + 1], cm[3 * ((k + 2) % 3) + 2]};
+    out.l[out.topology.corner_edge[c]] = distance(g, p, q);
+  }
+  std::vector<double> theta(static_cast<std::size_t>(out.topology.num_corners()));
+  corner_angles(out.topology, g, out.l, theta);
+  for (double t : theta) out.slivers += t < 1e-4 ? 1 : 0;
+  return out;
+}
+
+// A metric of the disk's planar positions (z dropped): E their distances; H the same points
+// shrunk into the Poincaré disk (radius 0.6), their hyperbolic distances.
+std::vector<double> coarse_lengths(const Mesh& m, const Topology& t, Geometry g) {
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  double r = 0;
+  for (Index v = 0; v < m.num_vertices(); ++v) r = std::max(r, std::hypot(m.positions[3 * v], m.positions[3 * v + 1]));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    const double ax = m.positions[3 * a], ay = m.positions[3 * a + 1], bx = m.positions[3 * b], by = m.positions[3 * b + 1];
+    if (g == Geometry::Euclidean) {
+      l[e] = std::hypot(ax - bx, ay - by);
+    } else {
+      const double s = 0.6 / r, za = s * s * (ax * ax + ay * ay), zb = s * s * (bx * bx + by * by);
+      l[e] = 2 * std::asinh(s * std::hypot(ax - bx, ay - by) / std::sqrt((1 - za) * (1 - zb)));
+    }
+  }
+  return l;
+}
+
+}  // namespace
+
+TEST_CASE("layout by frames: slivers inside well-shaped coarse faces lay out to rounding in E and H") {
+  const Mesh m = ricci_shapes::disk(6);
+  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
+  // The inner point a hair (1e-5 of the face) from side 0–1: one of the three pieces is a sliver
+  // with angles near 1e-5 (thinner ones round past the triangle inequality in their lengths).
+  const double beta[3] = {0.5 - 0.5e-5, 0.5 - 0.5e-5, 1e-5};
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {  // a disk; S: the sphere below
+    INFO(geometry_name(g));
+    const Fine fine = split_faces(coarse, g, coarse_lengths(m, coarse, g), beta);
+    REQUIRE(fine.topology.euler_characteristic() == 1);
+    CHECK(fine.slivers >= coarse.num_faces);
+    LayoutOptions o;
+    o.frames = std::make_shared<const FaceFrames>(fine.frames);
+    o.refine_above = 1e300;  // the development alone, no refinement
+    const Layout by_frames = layout_disk(fine.topology, g, fine.l, o);
+    REQUIRE_MESSAGE(by_frames.status == Status::Ok, by_frames.message);
+    CHECK(by_frames.by_frames);
+    CHECK(by_frames.flipped_faces == 0);
+    // Every fine edge, the slivers' too, to what its coordinates resolve (rounding floor ≥ ε).
+    CHECK(by_frames.max_edge_length_error <= std::max(1e-9, 8 * by_frames.rounding_floor));
+    LayoutOptions plain = o;
+    plain.frames = nullptr;
+    const Layout by_faces = layout_disk(fine.topology, g, fine.l, plain);
+    MESSAGE(geometry_name(g) << ": by frames " << by_frames.max_edge_length_error << " (floor " << by_frames.rounding_floor
+                             << "), depth " << by_frames.depth << "; through the faces " << by_faces.max_edge_length_error);
+  }
+}
+
+TEST_CASE("layout by frames: a split icosphere on the unit sphere, and frames that do not fit are refused") {
+  const Mesh m = ricci_shapes::icosphere(2);
+  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
+  std::vector<double> l = mesh_edge_lengths(m, coarse);
+  for (double& x : l) x = 2 * std::asin(0.5 * x);  // chords of the unit sphere → arcs
+  const double beta[3] = {0.25, 0.25, 0.5};
+  const Fine fine = split_faces(coarse, Geometry::Spherical, l, beta);
+  LayoutOptions o;
+  o.frames = std::make_shared<const FaceFrames>(fine.frames);
+  o.sphere_mobius = false;
+  const Layout s = layout_sphere(fine.topology, fine.l, o);
+  REQUIRE_MESSAGE(s.status == Status::Ok, s.message);
+  CHECK(s.by_frames);
+  CHECK(s.max_edge_length_error < 1e-12);
+  CHECK(s.flipped_faces == 0);
+
+  FaceFrames bad = fine.frames;
+  bad.face_frame.pop_back();
+  o.frames = std::make_shared<const FaceFrames>(bad);
+  const Layout refused = layout_sphere(fine.topology, fine.l, o);
+  CHECK(refused.status == Status::InvalidArgument);
+  CHECK(refused.message.find("frames") != std::string::npos);
+  bad = fine.frames;
+  bad.face_frame[0] = coarse.num_faces;  // no such coarse face
+  o.frames = std::make_shared<const FaceFrames>(bad);
+  CHECK(layout_sphere(fine.topology, fine.l, o).status == Status::InvalidArgument);
+}
