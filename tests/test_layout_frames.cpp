@@ -140,6 +140,27 @@ TEST_CASE("layout by frames: slivers inside well-shaped coarse faces lay out to 
     const Layout by_faces = layout_disk(fine.topology, g, fine.l, plain);
     MESSAGE(geometry_name(g) << ": by frames " << by_frames.max_edge_length_error << " (floor " << by_frames.rounding_floor
                              << "), depth " << by_frames.depth << "; through the faces " << by_faces.max_edge_length_error);
+    // An atlas over the frames' layout with the ring of vertices around vertex 0 put onto vertex 0
+    // (as a layout that keeps unresolved vertices leaves them): its chart, developed by the frames
+    // from its smallest face, resolves every face again.
+    std::vector<double> x = by_frames.positions;
+    const Topology& ft = fine.topology;
+    for (Index i = ft.vertex_corner_offsets[0]; i < ft.vertex_corner_offsets[1]; ++i) {
+      const Index c = ft.vertex_corners[i];
+      for (const Index w : {ft.corner_vertex[next_corner(c)], ft.corner_vertex[prev_corner(c)]}) {
+        x[2 * static_cast<std::size_t>(w)] = x[0];
+        x[2 * static_cast<std::size_t>(w) + 1] = x[1];
+      }
+    }
+    AtlasOptions ao;
+    ao.frames = o.frames;
+    const LayoutAtlas a = layout_atlas(ft, g, fine.l, x, ao);
+    REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
+    CHECK(a.num_charts() >= 2);
+    CHECK(a.max_edge_length_error <= ao.limit);
+    CHECK(a.flipped_faces == 0);
+    ao.frames = std::make_shared<const FaceFrames>();  // frames that do not fit: refused
+    CHECK(layout_atlas(ft, g, fine.l, x, ao).status == Status::InvalidArgument);
   }
 }
 

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md]\n");
     return 2;
   }
-  std::ostringstream table, failures;
+  std::ostringstream table, failures, fallbacks;
   table << "| seed | genus | loops | faces | aspect | result | Newton | max \\|K̄ − K\\| | layout error | flipped | relation | s |\n"
         << "|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|\n";
   std::map<std::string, int> ended;
@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
       }
       if (r.status == ricci::Status::Ok) {
         result = !r.intrinsic.fallback.empty() ? "ok (circle packing)" : r.intrinsic.doubled ? "ok (on the double)" : "ok";
+        if (!r.intrinsic.fallback.empty()) fallbacks << "- seed " << seed << ": " << r.intrinsic.fallback << "\n";
         if (r.has_atlas) {
           lay = sci(r.atlas.max_edge_length_error) + " (" + std::to_string(r.atlas.num_charts()) + " charts)";
           flipped = std::to_string(r.atlas.flipped_faces);
@@ -131,6 +132,8 @@ int main(int argc, char** argv) {
   for (const auto& [k, n] : ended) doc << "- " << k << ": " << n << "\n";
   doc << "\n" << table.str();
   if (!failures.str().empty()) doc << "\nFailures:\n\n" << failures.str();
+  if (!fallbacks.str().empty())
+    doc << "\nWhy vertex scaling with flips gave way to circle packing (`intrinsic.fallback`):\n\n" << fallbacks.str();
   if (a.out.empty()) {
     std::cout << doc.str();
   } else {

@@ -174,7 +174,9 @@ struct AtlasBuild {
     std::vector<double> x;
     std::vector<Index> touched;
     Layout pl;
-    const bool ok = detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
+    const bool ok = options.frames
+                        ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c, x, touched, pl)
+                        : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
     for (Index f : group) owner[f] = -1;
     for (Index f : ring) owner[f] = -1;
     if (!ok) return fail(pl.element, pl.element_index, pl.message);
@@ -303,6 +305,13 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
                   : g == Geometry::Spherical ? std::string("an atlas is made in E and H only")
                                              : "sizes: #E lengths and #V×2 positions are required";
     return out;
+  }
+  if (options.frames) {
+    if (const std::string w = detail::check_frames(disk, *options.frames); !w.empty()) {
+      out.status = Status::InvalidArgument;
+      out.message = w;
+      return out;
+    }
   }
   const Index nf = disk.num_faces;
   out.face_chart.assign(static_cast<std::size_t>(nf), 0);

@@ -22,6 +22,7 @@
 #include <complex>
 #include <deque>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -282,6 +283,7 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
       }
     }
     placed_[v] = 1;
+    touched_.push_back(v);
     if (ok) {
       resolved = v;
       continue;
@@ -311,6 +313,7 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
   std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
   out.unresolved_vertices = 0;
   out.depth = 0;
+  touched_.clear();
   // Breadth-first in the number of coarse edges crossed (0–1 BFS): a face in the same coarse face
   // costs nothing, so every coarse face copy is developed from the fewest transitions.
   std::deque<Index> queue{seed_};
@@ -342,7 +345,7 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
       const Index o = t.opposite[3 * f + k];
       if (o == kInvalid) continue;
       const Index nb = corner_face(o);
-      if (taken_[nb]) continue;
+      if (taken_[nb] || (!owner_.empty() && owner_[nb] != label_)) continue;
       const bool same = fr_.face_frame[nb] == fr_.face_frame[f];
       const Index d = dist_[f] + (same ? 0 : 1);
       if (d >= dist_[nb]) continue;
@@ -353,6 +356,18 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
     }
   }
   return true;
+}
+
+bool propagate_faces_by_frames(const Topology& t, Geometry g, const FaceFrames& frames, Index seed,
+                               std::span<const Index> owner, Index label, std::vector<double>& positions,
+                               std::vector<Index>& touched, Layout& out) {
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  positions.assign(static_cast<std::size_t>(dims) * static_cast<std::size_t>(t.num_vertices), 0.0);
+  FrameDevelopment dev(t, g, frames, seed, false);
+  dev.restrict_to(owner, label);
+  const bool ok = dev.run(positions, dev.seed_map(), out);
+  touched = dev.touched();
+  return ok;
 }
 
 Index FrameDevelopment::unplaced() const {

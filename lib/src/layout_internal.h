@@ -34,6 +34,12 @@ double angle_from_lengths(Geometry g, double a, double b, double c);
 /// H Lorentz, S a rotation).
 using M3 = std::array<double, 9>;
 
+/// propagate_faces() by coarse frames (FrameDevelopment restricted to the faces of `label`, the seed
+/// face's corner 0 at the base point).
+bool propagate_faces_by_frames(const Topology& t, Geometry g, const FaceFrames& frames, Index seed,
+                               std::span<const Index> owner, Index label, std::vector<double>& positions,
+                               std::vector<Index>& touched, Layout& out);
+
 /// Empty when `frames` fit the faces of t (sizes, coarse face indices, finite model points);
 /// otherwise why not.
 std::string check_frames(const Topology& t, const FaceFrames& frames);
@@ -60,6 +66,13 @@ class FrameDevelopment {
   /// coarse faces that share no coarse edge.
   bool run(std::vector<double>& x, const M3& seed_map, Layout& out);
   Index unplaced() const;  ///< vertices no face placed (none on a connected surface)
+  /// Develops only the faces f with owner[f] == label (connected across edges to the seed).
+  void restrict_to(std::span<const Index> owner, Index label) {
+    owner_ = owner;
+    label_ = label;
+  }
+  /// The vertices the last run placed, in the order it placed them.
+  const std::vector<Index>& touched() const { return touched_; }
 
  private:
   M3 transition(Index from_corner, Index to_face) const;
@@ -70,6 +83,9 @@ class FrameDevelopment {
   const FaceFrames& fr_;
   Index seed_;
   bool keep_going_;
+  std::span<const Index> owner_;
+  Index label_ = 0;
+  std::vector<Index> touched_;
   std::vector<M3> map_;
   std::vector<Index> dist_, via_;  // via_[f]: the corner of the face before f across whose opposite edge f was reached
   std::vector<std::uint8_t> taken_, placed_;

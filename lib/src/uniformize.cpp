@@ -1118,7 +1118,9 @@ bool cut_and_lay_out(LayoutRun& run) {
   }
   // Faces the root chart's coordinates cannot resolve get charts of their own.
   if (!excused && options.use_atlas && !sphere && misses(r.layout)) {
-    r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, options.atlas);
+    AtlasOptions ao = options.atlas;
+    if (r.layout.by_frames) ao.frames = run.layout_frames;
+    r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, ao);
     r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error;
     stage_done("atlas", r.atlas.message);
   }

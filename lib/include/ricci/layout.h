@@ -386,6 +386,9 @@ struct AtlasOptions {
   /// does not lie where its parent's does, so the two charts are not layouts of one metric
   /// (each face always fits its own chart; only the collars tie the charts together).
   double max_transition_error = 1e-6;
+  /// The disk's coarse frames (LayoutOptions::frames): new charts are developed by them. Null:
+  /// through the faces.
+  std::shared_ptr<const FaceFrames> frames;
 
   /// True when limit and max_transition_error are finite and > 0, collar_rings in 1..16 and
   /// max_depth in 1..64; otherwise false, with the reason in *why (when why is not null).
