@@ -22,6 +22,7 @@
 #include <complex>
 #include <deque>
 #include <limits>
+#include <numbers>
 #include <span>
 #include <string>
 #include <vector>
@@ -131,7 +132,7 @@ CoarseFace coarse_face(Geometry g, const FaceFrames& fr, Index f) {
 // The frame at corner k of coarse face `face` (in its own frame), pointing along its side to
 // corner next(k) (towards_next) or prev(k).
 M3 corner_frame(Geometry g, const CoarseFace& c, int k, bool towards_next) {
-  const double pi = 3.14159265358979323846;
+  constexpr double pi = std::numbers::pi;
   switch (k) {
     case 0: return towards_next ? M3{1, 0, 0, 0, 1, 0, 0, 0, 1} : rotation(c.theta[0]);
     case 1: return multiply(translation(g, c.l[2]), rotation(towards_next ? pi - c.theta[1] : pi));
