@@ -1174,11 +1174,7 @@ bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>&
     for (int pass = 0; pass < 4; ++pass) {
       detail::M3 map{};
       const double moved = normalize_hyperbolic(t, P, w, seed, out, &map);
-      detail::M3 next{};
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          next[3 * i + j] = map[3 * i] * seed_map[j] + map[3 * i + 1] * seed_map[3 + j] + map[3 * i + 2] * seed_map[6 + j];
-      seed_map = next;
+      seed_map = detail::multiply(map, seed_map);
       if (!dev.run(P.x, seed_map, out)) return false;
       ++out.propagation_passes;
       if (moved < 1e-6) break;

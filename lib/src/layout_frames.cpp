@@ -37,13 +37,6 @@ namespace {
 using model::P3;
 using Cx = std::complex<double>;
 
-M3 multiply(const M3& a, const M3& b) {
-  M3 c{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) c[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];
-  return c;
-}
-
 P3 apply(Geometry g, const M3& a, P3 m) {
   if (g == Geometry::Euclidean) m[2] = 1;
   return {a[0] * m[0] + a[1] * m[1] + a[2] * m[2], a[3] * m[0] + a[4] * m[1] + a[5] * m[2],
@@ -162,6 +155,13 @@ double off_side(Geometry g, const P3& p, const P3& q, const P3& a, const P3& b) 
 }
 
 }  // namespace
+
+M3 multiply(const M3& a, const M3& b) {
+  M3 c{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) c[3 * i + j] = a[3 * i] * b[j] + a[3 * i + 1] * b[3 + j] + a[3 * i + 2] * b[6 + j];
+  return c;
+}
 
 std::string check_frames(const Topology& t, const FaceFrames& fr) {
   const auto nf = static_cast<std::size_t>(t.num_faces);

@@ -40,6 +40,9 @@ bool propagate_faces_by_frames(const Topology& t, Geometry g, const FaceFrames& 
                                std::span<const Index> owner, Index label, std::vector<double>& positions,
                                std::vector<Index>& touched, Layout& out);
 
+/// The product a·b of two isometries (apply b first).
+M3 multiply(const M3& a, const M3& b);
+
 /// Empty when `frames` fit the faces of t (sizes, coarse face indices, finite model points);
 /// otherwise why not.
 std::string check_frames(const Topology& t, const FaceFrames& frames);
