@@ -22,6 +22,8 @@
 #include <numeric>
 #include <queue>
 #include <random>
+#include <string>
+#include <string_view>
 #include <unordered_map>
 #include <utility>
 
@@ -396,6 +398,8 @@ void cleanup_nodes(const Surface& S, State& st, Index keep) {
 
 /// The most vertices a cut's refinement adds per input face (refine()).
 constexpr std::size_t kMaxRefinedPerFace = 64;
+/// How refine() says so (CutResult::refinement_bound is read from the reason).
+constexpr std::string_view kRefinementBound = "refinement: the paths would add more than ";
 
 struct PathSearch {
   double cost = kInf;        ///< weighted length (with the refinement penalty)
@@ -418,7 +422,7 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
   // input face the cut stops with a message instead.
   const std::size_t input_faces = S.input != nullptr ? static_cast<std::size_t>(S.input->num_faces()) : S.faces.size() / 3;
   if (S.rec_face.size() + fan_faces.size() + split_corners.size() > kMaxRefinedPerFace * input_faces + 65536) {
-    *why = "refinement: the paths would add more than " + std::to_string(kMaxRefinedPerFace) +
+    *why = std::string(kRefinementBound) + std::to_string(kMaxRefinedPerFace) +
            " vertices per input face (" + std::to_string(S.rec_face.size()) + " added so far)";
     return false;
   }
@@ -1516,6 +1520,7 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   }
   r.canonical = word_canonical && reason.empty();
   r.reason = r.canonical ? std::string() : reason;
+  r.refinement_bound = !r.canonical && reason.find(kRefinementBound) != std::string::npos;
   r.status = Status::Ok;
   r.message = "cut into a disk with " + std::to_string(r.num_sides()) + " sides";
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -1333,6 +1333,9 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     };
     if (pc.status != Status::Ok || !pc.canonical) {
       reject(pc.status != Status::Ok ? pc.message : "the cut is not canonical: " + pc.reason);
+      // Loops past the refinement bound: the canonical system crosses the surface that often from
+      // any base (measured: every base of the genus 8–9 grids), and each try costs seconds.
+      if (pc.status == Status::Ok && pc.refinement_bound) break;
       continue;
     }
     bc.base_vertex = pc.base_vertex;
@@ -1401,8 +1404,10 @@ bool mesh_canonical_polygon(LayoutRun& run) {
                            sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
   } else if (!std::isfinite(best_score)) {
     // The layout and the domain's side pairings stand; only the canonical view is missing.
-    r.polygon_note = "no canonical polygon: none of " + std::to_string(r.candidates.size()) +
-                     " base vertices gave one that double precision can lay out (last: " + last_error +
+    const std::size_t tried = r.candidates.size();
+    const std::string which = tried == 1 ? "the one base vertex tried gave none"
+                                         : "none of the " + std::to_string(tried) + " base vertices tried gave one";
+    r.polygon_note = "no canonical polygon: " + which + " that double precision can lay out (last: " + last_error +
                      "); the deck group is given by the compact domain's side pairings";
     r.deck = DeckResult{};
     {

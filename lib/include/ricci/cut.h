@@ -113,6 +113,9 @@ struct CutResult {
   bool compact = false;
   /// Why canonical is false (empty when true).
   std::string reason;
+  /// canonical is false because the loops' refinement would pass its bound (more than 64 added
+  /// vertices per input face): loops that long cross the surface many times from any base vertex.
+  bool refinement_bound = false;
   /// The side labels in disk-boundary order, space-separated (format in the header comment).
   std::string word;
 
