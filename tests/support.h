@@ -13,6 +13,20 @@
 
 namespace ricci_test {
 
+/// Whether this build runs under AddressSanitizer (GCC defines __SANITIZE_ADDRESS__, clang has
+/// __has_feature): the sanitizer build runs some property loops on fewer or smaller draws.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 namespace fs = std::filesystem;
 
 /// The repository's fixtures/ folder.

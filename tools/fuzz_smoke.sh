@@ -21,7 +21,8 @@ if ! command -v "$cxx" >/dev/null 2>&1; then
   exit 1
 fi
 
-cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
+# -g1: line tables only (reports keep file and line; the build is faster than with -g).
+cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" \
   -DRICCI_SANITIZE=address,undefined -DRICCI_FUZZ=ON -DRICCI_BUILD_CLI=OFF -DRICCI_BUILD_TESTS=OFF \
   -DRICCI_BUILD_TOOLS=ON >/dev/null
 cmake --build "$build" -j"$(nproc)" --target ricci_fuzzers
