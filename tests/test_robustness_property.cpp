@@ -89,7 +89,8 @@ bool all_finite(const std::vector<double>& x) {
 TEST_CASE("property: random surfaces, similarities, near-degenerate faces and options map or end with a named status") {
   std::mt19937_64 rng(20261126);
   int ok = 0, named = 0, refused = 0, excused = 0, resolution_fallbacks = 0;
-  for (int i = 0; i < 160; ++i) {
+  const int draws = ricci_test::kSanitized ? 80 : 160;  // the sanitizer build: the same paths, less time
+  for (int i = 0; i < draws; ++i) {
     Mesh m = base_surface(rng);
     m = ricci_shapes::permute_vertices(m, rng);
     std::string what = "surface " + std::to_string(m.num_faces()) + " faces";
@@ -156,7 +157,7 @@ TEST_CASE("property: random surfaces, similarities, near-degenerate faces and op
   MESSAGE(ok << " mapped (" << excused << " with short edges excused by the layout gate, " << resolution_fallbacks
              << " by circle packing after vertex scaling's resolution-limited solution failed later), " << named
              << " named failures, " << refused << " refused by validation");
-  CHECK(ok >= 60);  // every draw with the defaults, and more
+  CHECK(ok >= draws * 3 / 8);  // every draw with the defaults, and more
 }
 
 TEST_CASE("property (CLI): a random run leaves a complete output directory or none, and prints ok only on success") {

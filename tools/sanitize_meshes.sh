@@ -5,12 +5,12 @@
 #     "ricci: error:" message on stderr and no OUTDIR left behind;
 #   - no sanitizer report on stderr, no timeout, no crash (exit 1, 2, 124 or a signal fail).
 # It builds nothing. Usage:
-#   tools/sanitize_meshes.sh BUILD_DIR [--max-faces N [--large-build DIR2 | --large-args "ARGS"]]
+#   tools/sanitize_meshes.sh BUILD_DIR [--max-faces N [--large-build DIR2] [--large-args "ARGS"]]
 #                            [--pictures-max-faces N] [--timeout S] [MESHES_DIR]
 # --max-faces N: meshes with more than N faces (counted from the file; default: no limit) are
-# skipped, or run with DIR2's ricci (a Release build) when --large-build is given, or with the
-# same build and the extra uniformize options ARGS (e.g. "--seed-checks 0 --base-candidates 2",
-# fewer repeats of the same code paths) when --large-args is given;
+# skipped unless --large-build or --large-args is given: then they run with DIR2's ricci (a
+# Release build) and/or with the extra uniformize options ARGS (e.g. "--seed-checks 0
+# --base-candidates 2", fewer repeats of the same code paths);
 # meshes with at most --pictures-max-faces faces (default 6000) also draw the pictures and
 # report.html, the others run with --no-pictures. --timeout is per mesh (default 600 s).
 # Prints one line per mesh (time, faces, outcome) and the summary
@@ -19,7 +19,7 @@
 set -uo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 if [[ $# -lt 1 ]]; then
-  echo "usage: $0 BUILD_DIR [--max-faces N [--large-build DIR2]] [--pictures-max-faces N] [--timeout S] [MESHES_DIR]" >&2
+  echo "usage: $0 BUILD_DIR [--max-faces N [--large-build DIR2] [--large-args "ARGS"]] [--pictures-max-faces N] [--timeout S] [MESHES_DIR]" >&2
   exit 2
 fi
 build="$1"
@@ -79,16 +79,18 @@ while IFS= read -r mesh; do
   tag=""
   extra=()
   if [[ -n "$max_faces" && "$faces" -gt "$max_faces" ]]; then
-    if [[ -n "$large_build" ]]; then
-      exe="$large_build/ricci"
-      tag=" [$large_build]"
-    elif [[ -n "$large_args" ]]; then
-      read -r -a extra <<<"$large_args"
-      tag=" [$large_args]"
-    else
+    if [[ -z "$large_build" && -z "$large_args" ]]; then
       printf '%-48s %8s faces  skipped (more than %s faces)\n' "$name" "$faces" "$max_faces"
       skipped=$((skipped + 1))
       continue
+    fi
+    if [[ -n "$large_build" ]]; then
+      exe="$large_build/ricci"
+      tag+=" [$large_build]"
+    fi
+    if [[ -n "$large_args" ]]; then
+      read -r -a extra <<<"$large_args"
+      tag+=" [$large_args]"
     fi
   fi
   total=$((total + 1))
@@ -138,8 +140,9 @@ done < <(find -L "$meshes" -type f \( -iname '*.obj' -o -iname '*.off' -o -iname
 
 summary="$total meshes: $ok ok, $refused refused with a message, $failed failed"
 [[ $skipped -gt 0 ]] && summary+=" ($skipped skipped: more than $max_faces faces)"
-[[ -n "$large_build" && -n "$max_faces" ]] && summary+=" (above $max_faces faces with $large_build)"
-[[ -z "$large_build" && -n "$large_args" && -n "$max_faces" ]] && summary+=" (above $max_faces faces with $large_args)"
+if [[ -n "$max_faces" && ( -n "$large_build" || -n "$large_args" ) ]]; then
+  summary+=" (above $max_faces faces with ${large_build:-$build}${large_args:+ $large_args})"
+fi
 echo "$summary"
 for f in "${failures[@]}"; do echo "  failed: $f"; done
 [[ $failed -eq 0 ]]
