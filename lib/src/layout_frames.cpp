@@ -269,8 +269,10 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
         ok = std::isfinite(X[0]) && std::isfinite(X[1]);
         break;
       case Geometry::Hyperbolic: {
-        const double n = std::sqrt(std::max(X[2] * X[2] - X[0] * X[0] - X[1] * X[1], 0.0));
-        const double den = X[2] + n;
+        // z = (x, y)/(1 + t) on the hyperboloid t² − x² − y² = 1, where the point lies up to the
+        // rounding of its isometry: the form itself, evaluated, loses ε·t² to cancellation (far
+        // out that is more than 1), and z would carry ε·e^{2d} of its local scale instead of ε·e^d.
+        const double den = X[2] + 1;
         xv[0] = X[0] / den;
         xv[1] = X[1] / den;
         ok = std::isfinite(xv[0]) && std::isfinite(xv[1]) && std::hypot(xv[0], xv[1]) < 1;
