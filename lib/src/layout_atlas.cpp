@@ -181,13 +181,19 @@ struct AtlasBuild {
     for (Index f : ring) owner[f] = -1;
     if (!ok) return fail(pl.element, pl.element_index, pl.message);
     // Fit points: each collar vertex once, with its parent and its own position, and the shortest
-    // collar edge at it.
+    // collar edge at it — with frames, the shortest side of the coarse faces at it: both charts
+    // put every point of a coarse face by that face's one isometry, so their rounding moves the
+    // coarse face rigidly, at its own scale, however short the fine edges inside it.
     std::vector<double> parent_pts, own_pts, scale;
     std::vector<Index> index_of(static_cast<std::size_t>(t.num_vertices), kInvalid);
+    const FaceFrames* fr = options.frames.get();
     for (Index f : ring) {
+      const std::size_t cf = fr ? 3 * static_cast<std::size_t>(fr->face_frame[f]) : 0;
       for (int cc = 0; cc < 3; ++cc) {
         const Index v = t.corner_vertex[3 * f + cc];
-        const double le = std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
+        const double le =
+            fr ? std::min({fr->frame_lengths[cf], fr->frame_lengths[cf + 1], fr->frame_lengths[cf + 2]})
+               : std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
         if (index_of[v] == kInvalid) {
           index_of[v] = static_cast<Index>(scale.size());
           const Cx p = corner(f, cc);

@@ -1334,7 +1334,7 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     if (pc.status != Status::Ok || !pc.canonical) {
       reject(pc.status != Status::Ok ? pc.message : "the cut is not canonical: " + pc.reason);
       // Loops past the refinement bound: the canonical system crosses the surface that often from
-      // any base (measured: every base of the genus 8–9 grids), and each try costs seconds.
+      // any base (measured: all three bases tried on a genus-9 grid), and each try costs seconds.
       if (pc.status == Status::Ok && pc.refinement_bound) break;
       continue;
     }

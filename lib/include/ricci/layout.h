@@ -367,7 +367,9 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // The charts are consistent: a face's three edges always fit one chart, so what ties the charts to
 // one metric is the collar, whose vertices both charts place; transition_error is the largest
 // distance between a collar vertex's two positions after the fitted map, relative to the shortest
-// collar edge at that vertex.
+// collar edge at that vertex (with frames, to the shortest side of the coarse faces at it: both
+// charts place all of a coarse face by its one isometry, so rounding moves it rigidly, at the
+// coarse face's scale).
 //
 // Maps into the root chart compose the transition maps: H in 113-bit arithmetic (to_root +
 // to_root_low, as DeckGenerator's map + map_low), E as rigid motions in double.
