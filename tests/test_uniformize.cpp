@@ -299,6 +299,7 @@ TEST_CASE("uniformize: genus 4 and 5 through the compact domain, mesh-path canon
   // vertex cycles by less than their fit residuals, make the canonical relation hold in quad; the
   // same words in the pairings as fitted hold it to the fit's accuracy.
   for (int g : {4, 5}) {
+    if (g == 5 && ricci_test::kSanitized) continue;  // the sanitizer build: genus 4 (the same paths)
     CAPTURE(g);
     const ValidateResult v = validate_mesh(ricci_shapes::pretzel(g, 4));
     REQUIRE(v.status == Status::Ok);

@@ -4,7 +4,8 @@
 #
 #   tools/fuzz_smoke.sh [SECONDS] [BUILD_DIR]     defaults: 30 seconds per target, build-fuzz
 #
-# Environment: RICCI_FUZZ_CXX (default clang++-14), RICCI_FUZZ_TARGETS (default: all of obj off
+# Environment: RICCI_FUZZ_CXX (default clang++-14), RICCI_FUZZ_CXXFLAGS (default "-g1 -O1"; -g1:
+# line tables only, reports keep file and line), RICCI_FUZZ_TARGETS (default: all of obj off
 # ply ply_body target load stl freesurfer gifti). Exits non-zero when a target fails to build or finds a
 # crash, a sanitizer report, an invariant violation, a timeout (> 10 s) or an input using more
 # than 2 GB; the input is kept in BUILD_DIR/fuzz-artifacts/ and the log in BUILD_DIR/fuzz-logs/.
@@ -14,6 +15,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 build="${2:-build-fuzz}"
 cxx="${RICCI_FUZZ_CXX:-clang++-14}"
+flags="${RICCI_FUZZ_CXXFLAGS:--g1 -O1}"
 targets=(${RICCI_FUZZ_TARGETS:-obj off ply ply_body target load stl freesurfer gifti})
 
 if ! command -v "$cxx" >/dev/null 2>&1; then
@@ -21,8 +23,7 @@ if ! command -v "$cxx" >/dev/null 2>&1; then
   exit 1
 fi
 
-# -g1: line tables only (reports keep file and line; the build is faster than with -g).
-cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" \
+cmake -S . -B "$build" -DCMAKE_CXX_COMPILER="$cxx" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="$flags" \
   -DRICCI_SANITIZE=address,undefined -DRICCI_FUZZ=ON -DRICCI_BUILD_CLI=OFF -DRICCI_BUILD_TESTS=OFF \
   -DRICCI_BUILD_TOOLS=ON >/dev/null
 cmake --build "$build" -j"$(nproc)" --target ricci_fuzzers
