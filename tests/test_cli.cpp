@@ -422,8 +422,8 @@ TEST_CASE("cli: info on the shared meshes matches the README table") {
     MESSAGE("shared meshes folder absent; skipping");
     return;
   }
-  // A check of the table's figures, run in Release; the sanitizer build reads every shared file in
-  // tools/sanitize_meshes.sh.
+  // A check of the table's figures, run in Release; the sanitizer build fuzzes the readers and maps
+  // the shared files up to 30k faces (tools/sanitize_meshes.sh).
   if (ricci_test::kSanitized) {
     MESSAGE("sanitizer build: skipped (run in Release)");
     return;

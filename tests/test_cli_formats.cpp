@@ -218,8 +218,7 @@ TEST_CASE("cli formats: the shared brain maps to the same sphere from GIFTI, Fre
     MESSAGE("../shared/meshes absent: skipped");
     return;
   }
-  // Three maps of 65k faces, run in Release; the sanitizer build fuzzes these readers and maps the
-  // OFF in tools/sanitize_meshes.sh.
+  // Three maps of 65k faces, run in Release; the sanitizer build fuzzes these three readers.
   if (ricci_test::kSanitized) {
     MESSAGE("sanitizer build: skipped (run in Release)");
     return;
