@@ -166,27 +166,40 @@ TEST_CASE("layout by frames: slivers inside well-shaped coarse faces lay out to 
 }
 
 TEST_CASE("layout by frames: a hyperbolic disk developed away from the origin keeps its points on the model") {
-  // The development starts with the disk moved 4 from the origin (its points 2.7 to 5.5 out).
-  // Poincaré coordinates taken as (x, y)/(1 + t) keep its edges to 3e-11; read off the
-  // hyperboloid's form t² − x² − y², which cancels out there, they were 6e-9 off.
+  // The development starts with the disk moved 4 and 6 from the origin (its points up to 7.5 out).
+  // Its edges stay at the rounding floor of their Poincaré coordinates: the disk map's Lorentz
+  // matrix is in closed form (built from frames of points that far out, it was off the Lorentz
+  // group by ε·e^{2r}: 3.6e3 × the floor at 6), and Poincaré points are taken as (x, y)/(1 + t)
+  // (the hyperboloid's form t² − x² − y² cancels out there).
   const Mesh m = ricci_shapes::disk(6);
   const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
   const double beta[3] = {0.3, 0.3, 0.4};
   const Fine fine = split_faces(coarse, Geometry::Hyperbolic, coarse_lengths(m, coarse, Geometry::Hyperbolic), beta);
   const Index seed = central_face(fine.topology);
-  detail::FrameDevelopment dev(fine.topology, Geometry::Hyperbolic, fine.frames, seed, false);
-  const detail::M3 away = detail::disk_map_matrix({-std::tanh(2.0), 0}, 1);  // the origin to tanh(2)
-  std::vector<double> x(2 * static_cast<std::size_t>(fine.topology.num_vertices));
-  Layout out;
-  REQUIRE(dev.run(x, detail::multiply(away, dev.seed_map()), out));
-  const Layout measured = measure_layout(fine.topology, Geometry::Hyperbolic, fine.l, x);
-  REQUIRE(measured.status == Status::Ok);
-  double reach = 1;
-  for (std::size_t i = 0; i < x.size(); i += 2) reach = std::min(reach, std::hypot(x[i], x[i + 1]));
-  MESSAGE("nearest point at " << 2 * std::atanh(reach) << ", edge error " << measured.max_edge_length_error << " (floor "
-                              << measured.rounding_floor << ")");
-  CHECK(2 * std::atanh(reach) > 2.5);
-  CHECK(measured.max_edge_length_error <= std::max(1e-9, 8 * measured.rounding_floor));
+  for (const double moved : {4.0, 6.0}) {
+    CAPTURE(moved);
+    detail::FrameDevelopment dev(fine.topology, Geometry::Hyperbolic, fine.frames, seed, false);
+    const detail::M3 away = detail::disk_map_matrix({-std::tanh(moved / 2), 0}, 1);  // the origin to tanh(moved/2)
+    // The map is a Lorentz transformation to rounding: Mᵀ J M = J.
+    const double J[3] = {1, 1, -1};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double s = 0;
+        for (int k = 0; k < 3; ++k) s += away[3 * k + i] * J[k] * away[3 * k + j];
+        CHECK(std::abs(s - (i == j ? J[i] : 0)) <= 1e-15 * std::cosh(moved) * std::cosh(moved));
+      }
+    std::vector<double> x(2 * static_cast<std::size_t>(fine.topology.num_vertices));
+    Layout out;
+    REQUIRE(dev.run(x, detail::multiply(away, dev.seed_map()), out));
+    const Layout measured = measure_layout(fine.topology, Geometry::Hyperbolic, fine.l, x);
+    REQUIRE(measured.status == Status::Ok);
+    double reach = 1;
+    for (std::size_t i = 0; i < x.size(); i += 2) reach = std::min(reach, std::hypot(x[i], x[i + 1]));
+    MESSAGE("nearest point at " << 2 * std::atanh(reach) << ", edge error " << measured.max_edge_length_error
+                                << " (floor " << measured.rounding_floor << ")");
+    CHECK(2 * std::atanh(reach) > moved - 1.5);
+    CHECK(measured.max_edge_length_error <= 8 * measured.rounding_floor);
+  }
 }
 
 TEST_CASE("layout by frames: a split icosphere on the unit sphere, and frames that do not fit are refused") {

@@ -185,16 +185,13 @@ std::string check_frames(const Topology& t, const FaceFrames& fr) {
 }
 
 M3 disk_map_matrix(Cx c, Cx rot) {
-  // z ↦ rot·(z − c)/(1 − c̄ z): takes c to the origin and the point at 0.5 from c along the
-  // direction +x there (from_origin(c, 0.5)) to rot·0.5.
-  auto hyperboloid = [](Cx z) {
-    const double a = std::abs(z), d = (1 - a) * (1 + a);
-    return P3{2 * z.real() / d, 2 * z.imag() / d, (1 + std::norm(z)) / d};
-  };
-  const Cx far = (Cx(0.5, 0) + c) / (1.0 + std::conj(c) * 0.5);
-  const M3 from = frame_of(Geometry::Hyperbolic, hyperboloid(c), hyperboloid(far));
-  const M3 to = frame_of(Geometry::Hyperbolic, P3{0, 0, 1}, hyperboloid(rot * 0.5));
-  return multiply(to, frame_inverse(Geometry::Hyperbolic, from));
+  // z ↦ (z − c)/(1 − c̄ z) is the translation along the line through 0 and c that takes c to the
+  // origin: R(arg c)·T(−r)·R(−arg c) with r = 2 atanh|c|, cosh r = (1 + a²)/(1 − a²) and
+  // sinh r = 2a/(1 − a²) (a = |c|); then the rotation by rot. Closed form: frames of hyperboloid
+  // points far out would cancel their t² − x² − y² = 1 (ε·e^{2r} off the Lorentz group).
+  const double a = std::abs(c), d = (1 - a) * (1 + a), phi = std::arg(c);
+  const M3 move{(1 + a * a) / d, 0, -2 * a / d, 0, 1, 0, -2 * a / d, 0, (1 + a * a) / d};
+  return multiply(rotation(std::arg(rot) + phi), multiply(move, rotation(-phi)));
 }
 
 FrameDevelopment::FrameDevelopment(const Topology& t, Geometry g, const FaceFrames& frames, Index seed,
