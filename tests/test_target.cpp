@@ -853,6 +853,78 @@ TEST_CASE("target: the Theorem 4 bound is the limit of a shrinking circle and re
   }
 }
 
+TEST_CASE("target: Theorem 4 on the level sets of u finds the sets single vertices and loops miss") {
+  // A torus of tangent circles (Φ = 0): two adjacent vertices of valence 6 each pass the
+  // single-vertex bound K̄ > 2π − 6π = −4π at −3.5π, but together they must exceed
+  // 4π − π·2 − 8π = −6π (2 faces with both, 8 faces with one of them): −7π is infeasible.
+  const Surface s = find_fixture("torus");
+  const Topology& t = s.topology;
+  ConformalStructure st = metric_for(s, Geometry::Euclidean).structure;
+  std::fill(st.eta.begin(), st.eta.end(), 1.0);
+  const Index v = t.edge_vertices[0], w = t.edge_vertices[1];
+  REQUIRE(t.valence(v) == 6);
+  REQUIRE(t.valence(w) == 6);
+  Target target = uniform_target(t);
+  for (Index x = 0; x < t.num_vertices; ++x) target.K[x] = 7 * kPi / (t.num_vertices - 2);
+  target.K[v] = target.K[w] = -3.5 * kPi;
+  const TargetCheck before = check_target(t, st, target);
+  REQUIRE_MESSAGE(before.status == Status::Ok, before.message);
+
+  // The pair at the bottom of u: the sublevel set of 2 is violated.
+  std::vector<double> u(static_cast<std::size_t>(t.num_vertices), 0.0);
+  u[v] = -5;
+  u[w] = -4;
+  const TargetCheck pair = check_theorem4_levels(t, st, target, u);
+  CHECK(pair.status == Status::InfeasibleTarget);
+  CHECK(pair.element_index == v);
+  CHECK(pair.message.find("the 2 vertices whose radii shrank") != std::string::npos);
+  CHECK(pair.message.find("vertex scaling") != std::string::npos);
+  // Inversive distance with these η is the same circle pattern; Yamabe, S, and a weight outside
+  // [0, 1] have no such bound.
+  ConformalStructure other = st;
+  other.scheme = Scheme::InversiveDistance;
+  CHECK(check_theorem4_levels(t, other, target, u).status == Status::InfeasibleTarget);
+  other.eta[5] = 1.5;
+  CHECK(check_theorem4_levels(t, other, target, u).status == Status::Ok);
+  other = st;
+  other.scheme = Scheme::Yamabe;
+  CHECK(check_theorem4_levels(t, other, target, u).status == Status::Ok);
+  other = st;
+  other.geometry = Geometry::Spherical;
+  CHECK(check_theorem4_levels(t, other, target, u).status == Status::Ok);
+  // The solve itself stalls there, and says why.
+  FlowOptions fo;
+  fo.max_iterations = 60;
+  const FlowResult r = solve_flow(t, st, std::vector<double>(static_cast<std::size_t>(t.num_vertices), 0.0), target, fo);
+  CHECK_MESSAGE(r.status == Status::InfeasibleTarget, r.message);
+  CHECK(r.message.find("Theorem 4") != std::string::npos);
+  CHECK(r.message.find("shrank") != std::string::npos);
+  CHECK(!r.notes.empty());
+  CHECK(r.u.size() == static_cast<std::size_t>(t.num_vertices));
+  MESSAGE("stalled torus: " << r.iterations << " Newton steps; " << r.message);
+
+  // Never on a realised curvature: the curvatures of random packings satisfy (T4) on every set,
+  // so no level set of any u — theirs or a shuffled one — is violated (E, H, every fixture).
+  for (const auto& f : fixtures()) {
+    for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
+      for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+        INFO(f.name << " " << geometry_name(g));
+        CAPTURE(seed);
+        std::mt19937_64 rng(seed);
+        const InitialMetric m = metric_for(f, g);
+        std::vector<double> ur = m.u;
+        for (double& x : ur) x -= 3 * ricci_shapes::unit_double(rng);
+        const Evaluation e = evaluate(f.topology, m.structure, ur);
+        const Target realised = free_target(e.K);
+        CHECK_MESSAGE(check_theorem4_levels(f.topology, m.structure, realised, ur).status == Status::Ok,
+                      check_theorem4_levels(f.topology, m.structure, realised, ur).message);
+        std::shuffle(ur.begin(), ur.end(), rng);
+        CHECK(check_theorem4_levels(f.topology, m.structure, realised, ur).status == Status::Ok);
+      }
+    }
+  }
+}
+
 TEST_CASE("target: check_target rejects a boundary loop that violates Theorem 4") {
   const Surface s = find_fixture("disk with a hole");
   const Topology& t = s.topology;

@@ -2511,7 +2511,21 @@ FlowResult solve_flow_ordered(const Topology& topology, const ConformalStructure
 
 FlowResult solve_flow(const Topology& topology, const ConformalStructure& structure,
                       std::span<const double> u0, const Target& target, const FlowOptions& options) {
-  return solve_flow_ordered(topology, structure, u0, target, options, nullptr, nullptr);
+  FlowResult r = solve_flow_ordered(topology, structure, u0, target, options, nullptr, nullptr);
+  // A circle-packing (or inversive-distance) solve that stalled: where its radii went, Theorem 4
+  // may fail on a set of vertices that the checks before the solve (single vertices, single loops)
+  // do not look at.
+  const bool stalled = r.status == Status::LineSearchFailed || r.status == Status::NotConverged ||
+                       r.status == Status::TriangleInequality;
+  if (stalled && r.u.size() == static_cast<std::size_t>(topology.num_vertices)) {
+    const TargetCheck why = check_theorem4_levels(topology, structure, target, r.u);
+    if (why.status == Status::InfeasibleTarget) {
+      r.notes.push_back(std::string(status_name(r.status)) + ": " + r.message);
+      r.status = Status::InfeasibleTarget;
+      r.message = why.message;
+    }
+  }
+  return r;
 }
 
 FlowResult solve_flow_with_flips(IntrinsicTriangulation& triangulation, std::span<const double> u0,

@@ -763,7 +763,125 @@ std::optional<TargetCheck> check_theorem4_loops(const TargetView& tv, const std:
   return std::nullopt;
 }
 
+// Theorem 4 on the level sets of u: the sets a stalled circle-packing solve points at (the radii
+// that shrink towards 0 or grow without bound together). Units enter the set whole: a vertex with
+// an explicit condition, or (loop totals) a boundary loop with its total; held vertices never.
+// (T4b) is kept incrementally as the set grows, per face by the number of its vertices in I.
+struct LevelSetScan {
+  const TargetView& tv;
+  std::vector<std::vector<Index>> units;  // each unit's vertices
+  std::vector<double> unit_K;             // its total target curvature
+  double worst_slack = 0;                 // Σ K̄ − bound of the worst set (≤ 0: violated)
+  Index worst_size = 0, worst_vertex = kInvalid;
+  double worst_sum = 0, worst_bound = 0, worst_level = 0;
+  bool worst_below = true, found = false;
+
+  // Adds the units in `order` one by one, checking (T4b) after each (E: proper subsets only).
+  void scan(const std::vector<Index>& order, std::span<const double> u, bool below) {
+    const Topology& t = tv.t;
+    std::vector<std::uint8_t> in(static_cast<std::size_t>(t.num_vertices), 0), count(static_cast<std::size_t>(t.num_faces), 0);
+    double sum = 0, link = 0;
+    Index n_int = 0, n_bd = 0, two = 0, size = 0;
+    auto term = [&](Index corner) { return link_term(tv.structure.eta[t.corner_edge[corner]]); };
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      const Index unit = order[i];
+      for (Index v : units[static_cast<std::size_t>(unit)]) {
+        in[v] = 1;
+        ++size;
+        (t.is_boundary_vertex(v) ? n_bd : n_int) += 1;
+        for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+          const Index c = t.vertex_corners[k], f = corner_face(c);
+          const std::uint8_t before = count[f]++;
+          if (before == 0) {
+            link += term(c);
+          } else if (before == 1) {
+            for (Index m = 3 * f; m < 3 * f + 3; ++m)
+              if (m != c && in[t.corner_vertex[m]] && t.corner_vertex[m] != v) link -= term(m);
+            ++two;
+          }
+        }
+      }
+      sum += unit_K[static_cast<std::size_t>(unit)];
+      if (size >= t.num_vertices && tv.structure.geometry == Geometry::Euclidean) break;
+      const double bound = kTwoPi * n_int + kPi * n_bd - kPi * two - link;
+      const double slack = sum - bound, tol = 1e-9 * (1 + std::abs(bound));
+      if (slack <= tol && (!found || slack < worst_slack)) {
+        found = true;
+        worst_slack = slack;
+        worst_size = size;
+        worst_sum = sum;
+        worst_bound = bound;
+        worst_below = below;
+        const std::vector<Index>& first = units[static_cast<std::size_t>(order.front())];
+        worst_vertex = first.front();
+        worst_level = u[units[static_cast<std::size_t>(unit)].front()];
+      }
+    }
+  }
+};
+
 }  // namespace
+
+TargetCheck check_theorem4_levels(const Topology& t, const ConformalStructure& structure, const Target& target,
+                                  std::span<const double> u) {
+  const TargetView tv{t, structure, target, uses_loop_totals(target.boundary)};
+  const Geometry g = structure.geometry;
+  // Inversive distance with every η in [0, 1] is a circle packing with Φ = arccos η.
+  if (structure.scheme == Scheme::Yamabe || g == Geometry::Spherical)
+    return make_check(Status::Ok, "no admissibility bound applies");
+  if (check_sizes(tv) || u.size() != static_cast<std::size_t>(t.num_vertices))
+    return make_check(Status::InvalidArgument, "the sizes of the target or of u do not fit the mesh");
+  for (Index e = 0; e < t.num_edges; ++e)
+    if (link_term(structure.eta[e]) < 0) return make_check(Status::Ok, "an edge weight is outside [0, 1]: no bound known");
+  for (Index v = 0; v < t.num_vertices; ++v)
+    if (!std::isfinite(u[v])) return make_check(Status::InvalidArgument, "u is not finite");
+  LevelSetScan scan{tv, {}, {}};
+  // Units, and each unit's lowest and highest u.
+  std::vector<double> low, high;
+  for (Index v = 0; v < t.num_vertices; ++v)
+    if (tv.explicit_condition(v) && t.valence(v) > 0) {
+      scan.units.push_back({v});
+      scan.unit_K.push_back(target.K[v]);
+    }
+  if (tv.with_totals)
+    for (Index i = 0; i < t.num_boundary_loops(); ++i) {
+      std::vector<Index> loop(t.boundary_vertices.begin() + t.boundary_offsets[i],
+                              t.boundary_vertices.begin() + t.boundary_offsets[i + 1]);
+      if (std::any_of(loop.begin(), loop.end(), [&](Index v) { return tv.is_fixed(v); })) continue;
+      scan.units.push_back(std::move(loop));
+      scan.unit_K.push_back(target.loop_total[static_cast<std::size_t>(i)]);
+    }
+  if (scan.units.empty()) return make_check(Status::Ok, "no vertex carries a curvature condition");
+  for (const std::vector<Index>& unit : scan.units) {
+    double lo = u[unit.front()], hi = lo;
+    for (Index v : unit) {
+      lo = std::min(lo, u[v]);
+      hi = std::max(hi, u[v]);
+    }
+    low.push_back(lo);
+    high.push_back(hi);
+  }
+  std::vector<Index> order(scan.units.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return low[a] < low[b]; });
+  scan.scan(order, u, true);
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return high[a] > high[b]; });
+  scan.scan(order, u, false);
+  if (!scan.found) return make_check(Status::Ok, "Theorem 4 holds on every sublevel and superlevel set of u");
+  const std::string where = "Theorem 4 (" + std::string(scheme_name(structure.scheme)) + ", " +
+                            std::string(geometry_name(g)) + ")";
+  return make_check(
+      Status::InfeasibleTarget,
+      where + " fails on the " + std::to_string(scan.worst_size) + " vertices whose radii " +
+          (scan.worst_below ? "shrank" : "grew") + " most (u " + (scan.worst_below ? "≤ " : "≥ ") +
+          fmt(scan.worst_level) + ", from vertex " + std::to_string(scan.worst_vertex) +
+          "): their total target curvature " + fmt(scan.worst_sum) +
+          " must exceed −Σ_Lk(π − Φ) + 2πχ(F_I) − πχ(F_I ∩ ∂) = " + fmt(scan.worst_bound) +
+          ", so no circle pattern with these weights reaches the target (a necessary condition, whatever "
+          "the solver does); vertex scaling (scheme yamabe, with flips) has no such bound: its conditions are "
+          "Gauss–Bonnet and positive cone angles",
+      Element::Vertex, scan.worst_vertex);
+}
 
 TargetCheck check_target(const Topology& t, const ConformalStructure& structure, const Target& target) {
   const TargetView tv{t, structure, target, uses_loop_totals(target.boundary)};
