@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <numbers>
 #include <random>
 #include <cmath>
 #include <string>
@@ -121,4 +122,31 @@ TEST_CASE("uniformize: bordered surfaces whose triangles lean on the boundary ar
     MESSAGE("circle packing: angle distortion " << c.angles.mean_abs_log);
     CHECK(r.angles.mean_abs_log < 0.5 * c.angles.mean_abs_log);
   }
+}
+
+TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is solved on the double too") {
+  // The sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1) with the free boundary:
+  // the solve with flips on the surface stops (a boundary edge never flips); on the double, where
+  // each boundary vertex's target is twice the surface's, it converges.
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  const ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  REQUIRE(v.topology.num_boundary_loops() == 2);
+  UniformizeOptions o;
+  o.boundary = BoundaryMode::Free;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(s.description << ": " << r.brief_report());
+  CHECK(r.intrinsic.doubled);
+  CHECK(r.intrinsic.used);
+  CHECK(r.intrinsic.fallback.empty());
+  CHECK(r.flow.max_curvature_error < 1e-12);
+  // The free target: the boundary vertices share 2πχ equally; halved back from the double.
+  const double share = 2 * std::numbers::pi * static_cast<double>(v.topology.euler_characteristic()) /
+                       static_cast<double>(v.topology.boundary_vertices.size());
+  for (Index b : v.topology.boundary_vertices) CHECK(std::abs(r.flow.K[b] - share) < 1e-12);
+  CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
 }
