@@ -132,6 +132,27 @@ Target free_target(const std::vector<double>& K) {
   return target;
 }
 
+// Random circle packings of every fixture in E and H (seeds 1–3): each vertex's u shrunk from the
+// initial metric's by up to `shrink` (H needs u < 0: only shrink); fn(surface, metric, u, the
+// packing's lengths, angles and curvatures, the seed's generator).
+template <class Fn>
+void for_each_random_packing(double shrink, Fn&& fn) {
+  for (const auto& f : fixtures()) {
+    for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
+      for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+        INFO(f.name << " " << geometry_name(g));
+        CAPTURE(seed);
+        std::mt19937_64 rng(seed);
+        const InitialMetric m = metric_for(f, g);
+        std::vector<double> u = m.u;
+        for (double& x : u) x -= shrink * ricci_shapes::unit_double(rng);
+        const Evaluation e = evaluate(f.topology, m.structure, u);
+        fn(f, m, u, e, rng);
+      }
+    }
+  }
+}
+
 std::string write_target(const ricci_test::TempDir& dir, const std::string& name, const std::string& text) {
   const auto path = dir / name;
   ricci_test::write_bytes(path, text);
@@ -836,21 +857,11 @@ TEST_CASE("target: the Theorem 4 bound is the limit of a shrinking circle and re
   }
 
   // Curvatures of random circle packings pass on every fixture (free boundary: explicit K̄).
-  for (const auto& f : fixtures()) {
-    for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
-      for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-        INFO(f.name << " " << geometry_name(g));
-        CAPTURE(seed);
-        std::mt19937_64 rng(seed);
-        const InitialMetric m = metric_for(f, g);
-        std::vector<double> u = m.u;
-        for (double& x : u) x -= 2 * ricci_shapes::unit_double(rng);  // H needs u < 0: only shrink
-        const Evaluation e = evaluate(f.topology, m.structure, u);
-        const TargetCheck c = check_target(f.topology, m.structure, free_target(e.K));
-        CHECK_MESSAGE(c.status == Status::Ok, c.message);
-      }
-    }
-  }
+  for_each_random_packing(2, [](const Surface& f, const InitialMetric& m, std::vector<double>&, const Evaluation& e,
+                                std::mt19937_64&) {
+    const TargetCheck c = check_target(f.topology, m.structure, free_target(e.K));
+    CHECK_MESSAGE(c.status == Status::Ok, c.message);
+  });
 }
 
 TEST_CASE("target: Theorem 4 on the level sets of u finds the sets single vertices and loops miss") {
@@ -905,24 +916,14 @@ TEST_CASE("target: Theorem 4 on the level sets of u finds the sets single vertic
 
   // Never on a realised curvature: the curvatures of random packings satisfy (T4) on every set,
   // so no level set of any u — theirs or a shuffled one — is violated (E, H, every fixture).
-  for (const auto& f : fixtures()) {
-    for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
-      for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-        INFO(f.name << " " << geometry_name(g));
-        CAPTURE(seed);
-        std::mt19937_64 rng(seed);
-        const InitialMetric m = metric_for(f, g);
-        std::vector<double> ur = m.u;
-        for (double& x : ur) x -= 3 * ricci_shapes::unit_double(rng);
-        const Evaluation e = evaluate(f.topology, m.structure, ur);
-        const Target realised = free_target(e.K);
-        CHECK_MESSAGE(check_theorem4_levels(f.topology, m.structure, realised, ur).status == Status::Ok,
-                      check_theorem4_levels(f.topology, m.structure, realised, ur).message);
-        std::shuffle(ur.begin(), ur.end(), rng);
-        CHECK(check_theorem4_levels(f.topology, m.structure, realised, ur).status == Status::Ok);
-      }
-    }
-  }
+  for_each_random_packing(3, [](const Surface& f, const InitialMetric& m, std::vector<double>& ur, const Evaluation& e,
+                                std::mt19937_64& rng) {
+    const Target realised = free_target(e.K);
+    const TargetCheck c = check_theorem4_levels(f.topology, m.structure, realised, ur);
+    CHECK_MESSAGE(c.status == Status::Ok, c.message);
+    std::shuffle(ur.begin(), ur.end(), rng);
+    CHECK(check_theorem4_levels(f.topology, m.structure, realised, ur).status == Status::Ok);
+  });
 }
 
 TEST_CASE("target: check_target rejects a boundary loop that violates Theorem 4") {
