@@ -150,3 +150,26 @@ TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is 
   for (Index b : v.topology.boundary_vertices) CHECK(std::abs(r.flow.K[b] - share) < 1e-12);
   CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
 }
+
+TEST_CASE("uniformize: a circle domain that neither solve reaches says so and names the fixed-target modes") {
+  // The sweep's seed 44: with circle boundaries both vertex scaling with flips and circle packing
+  // stop; the failure says why circles are harder and which boundary modes are fixed targets —
+  // and the fixed boundary the message names maps this surface.
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  const ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult circles = uniformize(v.mesh, v.topology, o);
+  REQUIRE(circles.status != Status::Ok);
+  CHECK(circles.failed_stage == "flow");
+  CHECK(circles.message.find("circle boundaries make each loop's target follow its lengths") != std::string::npos);
+  CHECK(circles.message.find("--boundary fixed") != std::string::npos);
+  MESSAGE(circles.message);
+  o.boundary = BoundaryMode::FixedLengths;
+  const UniformizeResult fixed = uniformize(v.mesh, v.topology, o);
+  CHECK_MESSAGE(fixed.status == Status::Ok, fixed.message);
+  CHECK((fixed.has_atlas ? fixed.atlas.flipped_faces : fixed.layout.flipped_faces) == 0);
+}

@@ -627,6 +627,14 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
                         "of " + sci(resolvable) + " to the layout limit " + sci(options.max_layout_error) +
                         "; long thin parts crowd exponentially (a 100 × 1 strip: e^(−π·50)); --boundary fixed "
                         "needs no circle (the flow stopped: " + r.flow.message + ")");
+      // Otherwise say what the circles ask, and what else is solved with guarantees.
+      if (!r.intrinsic.fallback.empty())
+        return fail(r.flow.status, "flow",
+                    r.flow.message + "; circle boundaries make each loop's target follow its lengths (the "
+                    "polygon inscribed in a circle), a problem without the convexity of a fixed target, and neither "
+                    "vertex scaling with flips (" + r.intrinsic.fallback + ") nor circle packing solved it here; "
+                    "--boundary fixed (boundary lengths held) and --boundary free (a given K̄ per boundary vertex) "
+                    "are fixed targets, solved with flips, on the surface's double where the surface's own solve stops");
     }
     return fail(r.flow.status, "flow", r.flow.message);
   }
