@@ -30,6 +30,17 @@ bool all_finite(const std::vector<double>& x) {
 // The sanitizer build runs fewer draws (the same code paths, less time).
 constexpr int kDraws = ricci_test::kSanitized ? 6 : 24;
 
+// tools/random_surface_sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1), validated
+// as the CLI does (ears split).
+ValidateResult sweep_seed_44() {
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  return v;
+}
+
 }  // namespace
 
 TEST_CASE("property: random surfaces of genus 0-12 with 0-8 boundary loops map with every guarantee or end with a named status") {
@@ -128,18 +139,14 @@ TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is 
   // The sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1) with the free boundary:
   // the solve with flips on the surface stops (a boundary edge never flips); on the double, where
   // each boundary vertex's target is twice the surface's, it converges.
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
-  ValidateOptions vo;
-  vo.split_ears = true;
-  const ValidateResult v = validate_mesh(s.mesh, vo);
-  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  const ValidateResult v = sweep_seed_44();
   REQUIRE(v.topology.num_boundary_loops() == 2);
   UniformizeOptions o;
   o.boundary = BoundaryMode::Free;
   o.seed_checks = 0;
   const UniformizeResult r = uniformize(v.mesh, v.topology, o);
   REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
-  MESSAGE(s.description << ": " << r.brief_report());
+  MESSAGE(r.brief_report());
   CHECK(r.intrinsic.doubled);
   CHECK(r.intrinsic.used);
   CHECK(r.intrinsic.fallback.empty());
@@ -155,11 +162,7 @@ TEST_CASE("uniformize: a circle domain that neither solve reaches says so and na
   // The sweep's seed 44: with circle boundaries both vertex scaling with flips and circle packing
   // stop; the failure says why circles are harder and which boundary modes are fixed targets —
   // and the fixed boundary the message names maps this surface.
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
-  ValidateOptions vo;
-  vo.split_ears = true;
-  const ValidateResult v = validate_mesh(s.mesh, vo);
-  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  const ValidateResult v = sweep_seed_44();
   UniformizeOptions o;
   o.seed_checks = 0;
   const UniformizeResult circles = uniformize(v.mesh, v.topology, o);
