@@ -212,8 +212,8 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
 // The double of a bordered surface: the mesh and its mirror image (faces reversed) glued along the
 // boundary, boundary vertices shared, the mirror's other vertices appended in order. A boundary
 // condition that is local — geodesic or free (K̄ per boundary vertex: 2K̄ in the double, whose
-// angle there is twice the surface's) or fixed lengths (u held) — makes its target symmetric, and the
-// unique solution of the double is the surface's, mirrored. Vertex scaling with flips needs this
+// angle there is twice the surface's) or fixed lengths (u held) — makes its target symmetric, and
+// the unique solution of the double is the surface's, mirrored. Vertex scaling with flips needs this
 // where triangles lean on the boundary: a boundary edge never flips, so a triangle whose angle
 // opposite it grows towards π cannot be mended on the surface, while in the double that edge is
 // an ordinary one (the Delaunay condition of the theory with boundary is the double's).

@@ -121,7 +121,9 @@ TargetCheck check_target(const Topology& topology, const ConformalStructure& str
 /// exists — over the vertices with a curvature condition (a Circle / LoopTotals loop enters whole,
 /// with its total; held vertices never; in E proper subsets only). InfeasibleTarget naming the
 /// most violated set (its size, its level of u, its first vertex), else Ok. A violated set proves
-/// the target infeasible for these weights whatever u the solve reached.
+/// the target infeasible for these weights whatever u the solve reached; a sum within
+/// 1e-9·(1 + |bound|) above its bound counts as violated (its radii would have to shrink past
+/// what double precision holds).
 TargetCheck check_theorem4_levels(const Topology& topology, const ConformalStructure& structure, const Target& target,
                                   std::span<const double> u);
 
