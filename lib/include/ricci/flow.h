@@ -116,14 +116,15 @@ struct TargetCheck {
 TargetCheck check_target(const Topology& topology, const ConformalStructure& structure, const Target& target);
 
 /// Theorem 4 where a stalled circle-packing solve points (E and H, every η in [0, 1] — inversive
-/// distance too, which is then a circle packing with Φ = arccos η; otherwise Ok, "no bound"): (T4b) of check_target()'s notes on every sublevel set {u ≤ s} and superlevel
-/// set {u ≥ s} of the last u (#V) — the radii that shrink or grow together when no packing
-/// exists — over the vertices with a curvature condition (a Circle / LoopTotals loop enters whole,
-/// with its total; held vertices never; in E proper subsets only). InfeasibleTarget naming the
-/// most violated set (its size, its level of u, its first vertex), else Ok. A violated set proves
-/// the target infeasible for these weights whatever u the solve reached; a sum within
-/// 1e-9·(1 + |bound|) above its bound counts as violated (its radii would have to shrink past
-/// what double precision holds).
+/// distance too, which is then a circle packing with Φ = arccos η; otherwise Ok, "no bound"):
+/// (T4b) of check_target()'s notes on every sublevel set {u ≤ s} and superlevel set {u ≥ s} of
+/// the last u (#V) — the radii that shrink or grow together when no packing exists — over the
+/// vertices with a curvature condition (a Circle / LoopTotals loop enters whole, with its total;
+/// held vertices never; in E proper subsets only). InfeasibleTarget naming the most violated set
+/// (its size, its level of u, its first vertex), else Ok. A violated set proves the target
+/// infeasible for these weights whatever u the solve reached; a sum within 1e-9·(1 + |bound|)
+/// above its bound counts as violated (its radii would have to shrink past what double precision
+/// holds).
 TargetCheck check_theorem4_levels(const Topology& topology, const ConformalStructure& structure, const Target& target,
                                   std::span<const double> u);
 
@@ -202,9 +203,9 @@ struct FlowResult {
   /// Ok (converged), NotConverged, LineSearchFailed, InfeasibleTarget, TriangleInequality,
   /// NumericalFailure, InvalidArgument. u, l, K are the last iterate in every case but
   /// InvalidArgument and a target refused before the solve (then empty). solve_flow(): a
-  /// circle-packing or inversive-distance solve that stalls (LineSearchFailed, NotConverged, TriangleInequality) where
-  /// check_theorem4_levels() finds a violated set is InfeasibleTarget with that set in `message`
-  /// (the stall in `notes`), and keeps its last iterate.
+  /// circle-packing or inversive-distance solve that stalls (LineSearchFailed, NotConverged,
+  /// TriangleInequality) where check_theorem4_levels() finds a violated set is InfeasibleTarget
+  /// with that set in `message` (the stall in `notes`), and keeps its last iterate.
   Status status = Status::NotRun;
   std::string message = "not run";
   std::vector<double> u;         ///< #V

@@ -214,8 +214,9 @@ struct IntrinsicSummary {
   bool straight_tiles = false;
   bool refined = false;              ///< the later stages ran on the common subdivision
   /// The solve on the surface stopped and was solved on its double instead (a bordered surface
-  /// with geodesic, free or fixed-length boundary: the mesh and its mirror glued along the boundary,
-  /// where triangles leaning on the boundary can flip), its straight input triangles tiling it.
+  /// with geodesic, free or fixed-length boundary: the mesh and its mirror glued along the
+  /// boundary, where triangles leaning on the boundary can flip), its straight input triangles
+  /// tiling it.
   bool doubled = false;
   /// Non-empty when the solve with flips failed, or converged only to its curvature resolution
   /// and a later stage failed on it: why (circle packing was solved instead).
