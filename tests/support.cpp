@@ -218,4 +218,14 @@ std::string nibabel_python() {
   return {};
 }
 
+bool same_topology(const ricci::Topology& a, const ricci::Topology& b) {
+  return a.num_vertices == b.num_vertices && a.num_edges == b.num_edges && a.num_faces == b.num_faces &&
+         a.corner_vertex == b.corner_vertex && a.opposite == b.opposite && a.corner_edge == b.corner_edge &&
+         a.edge_vertices == b.edge_vertices && a.edge_corners == b.edge_corners &&
+         a.vertex_corner_offsets == b.vertex_corner_offsets && a.vertex_corners == b.vertex_corners &&
+         a.boundary_offsets == b.boundary_offsets && a.boundary_vertices == b.boundary_vertices &&
+         a.boundary_corners == b.boundary_corners && a.face_component == b.face_component &&
+         a.num_components == b.num_components;
+}
+
 }  // namespace ricci_test

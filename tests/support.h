@@ -77,4 +77,8 @@ std::string nibabel_python();
 /// Returns an empty string when all hold, else a description of the first violation.
 std::string check_topology(const ricci::Topology& topo, const std::vector<ricci::Index>& faces);
 
+/// Every field of two topologies compared exactly (a topology built another way must equal
+/// build_topology()'s bit for bit).
+bool same_topology(const ricci::Topology& a, const ricci::Topology& b);
+
 }  // namespace ricci_test

@@ -168,3 +168,97 @@ TEST_CASE("topology: refusals name the status and the element") {
     CHECK(r.element_index == 0);
   }
 }
+
+namespace {
+
+// Cut flags along the edges of a random spanning forest grown from `roots` vertices, so that
+// most cut edges join long paths (the cuts a disk is made of).
+std::vector<char> tree_cut(const Topology& t, std::mt19937_64& rng, int roots, double keep) {
+  std::vector<char> cut(static_cast<std::size_t>(t.num_edges), 0), seen(static_cast<std::size_t>(t.num_vertices), 0);
+  std::vector<Index> stack;
+  for (int i = 0; i < roots; ++i) {
+    const Index r = static_cast<Index>(rng() % static_cast<std::uint64_t>(t.num_vertices));
+    if (!seen[r]) stack.push_back(r);
+    seen[r] = 1;
+  }
+  std::uniform_real_distribution<double> u(0, 1);
+  while (!stack.empty()) {
+    const Index v = stack.back();
+    stack.pop_back();
+    for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+      const Index c = t.vertex_corners[k];
+      const Index w = t.corner_vertex[next_corner(c)];
+      if (seen[w] || u(rng) > keep) continue;
+      seen[w] = 1;
+      cut[t.corner_edge[prev_corner(c)]] = 1;
+      stack.push_back(w);
+    }
+  }
+  return cut;
+}
+
+}  // namespace
+
+TEST_CASE("topology: cut_open equals build_topology of the cut faces, bit for bit") {
+  using namespace ricci_shapes;
+  Index refused = 0, glued = 0, opened = 0;
+  for (const auto& s : surfaces()) {
+    const Topology t = build_topology(s.mesh.faces, s.mesh.num_vertices()).topology;
+    for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+      INFO(s.name);
+      CAPTURE(seed);
+      std::mt19937_64 rng(seed);
+      std::vector<char> cut;
+      if (seed <= 3) {
+        cut = tree_cut(t, rng, static_cast<int>(seed), seed == 3 ? 0.5 : 1.0);
+      } else {
+        // isolated edges and short pieces: two copies of an edge may join the same two copies
+        cut.assign(static_cast<std::size_t>(t.num_edges), 0);
+        for (Index e = 0; e < t.num_edges; ++e) cut[e] = rng() % (seed == 6 ? 2 : 7) == 0;
+      }
+      const CutOpenResult o = cut_open(t, cut);
+      const TopologyResult b = build_topology(o.faces, static_cast<Index>(o.to_surface.size()));
+      CHECK(o.status == b.status);
+      CHECK(o.message == b.message);
+      if (b.status != Status::Ok) {
+        ++refused;
+        continue;
+      }
+      ++opened;
+      CHECK(ricci_test::same_topology(o.topology, b.topology));
+      CHECK(ricci_test::check_topology(o.topology, o.faces) == "");
+      // Copies: each is a corner's vertex; copies of one vertex are consecutive.
+      REQUIRE(o.faces.size() == t.corner_vertex.size());
+      for (std::size_t c = 0; c < o.faces.size(); ++c) CHECK(o.to_surface[o.faces[c]] == t.corner_vertex[c]);
+      CHECK(std::is_sorted(o.to_surface.begin(), o.to_surface.end()));
+      // Cut edges become boundary, except where both sides of one join the same two copies
+      // (an isolated cut edge, say): build_topology() glues those back.
+      for (Index e = 0; e < t.num_edges; ++e) {
+        if (!cut[e] || t.edge_corners[2 * e + 1] == kInvalid) continue;
+        const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+        const bool same_ends = o.faces[next_corner(c0)] == o.faces[prev_corner(c1)] &&
+                               o.faces[prev_corner(c0)] == o.faces[next_corner(c1)];
+        CHECK(o.topology.opposite[c0] == (same_ends ? c1 : kInvalid));
+        glued += same_ends ? 1 : 0;
+      }
+    }
+  }
+  CHECK(opened > 20);
+  CHECK(glued > 0);  // the isolated edges take build_topology()'s path
+  MESSAGE("cut_open: " << opened << " cuts opened, " << glued << " edges glued back, " << refused << " refused");
+  // No cut: the surface itself.
+  const Mesh m = torus(12, 8, 2.0, 0.7);
+  const Topology t = build_topology(m.faces, m.num_vertices()).topology;
+  const CutOpenResult none = cut_open(t, std::vector<char>(static_cast<std::size_t>(t.num_edges), 0));
+  REQUIRE(none.status == Status::Ok);
+  CHECK(ricci_test::same_topology(none.topology, t));
+  CHECK(is_topology_of(none.topology, m.faces, m.num_vertices()));
+  CHECK_FALSE(is_topology_of(none.topology, m.faces, m.num_vertices() + 1));
+  std::vector<Index> other = m.faces;
+  std::swap(other[0], other[1]);
+  CHECK_FALSE(is_topology_of(none.topology, other, m.num_vertices()));
+  // Wrong size.
+  const CutOpenResult bad = cut_open(t, std::vector<char>(3, 0));
+  CHECK(bad.status == Status::InvalidArgument);
+  CHECK(bad.message.find("3 cut flags") != std::string::npos);
+}

@@ -1,5 +1,6 @@
 #include "ricci/topology.h"
 
+#include <algorithm>
 #include <string>
 
 #include "edge_table.h"
@@ -171,6 +172,142 @@ TopologyResult build_topology(std::span<const Index> faces, Index num_vertices) 
   }
   trace_boundary_loops(t, faces);
   label_components(t);
+  r.status = Status::Ok;
+  r.message = "ok";
+  return r;
+}
+
+namespace {
+
+// cut_open()'s vertex copies: the cut faces, the copies' surface vertices and their fans (CSR,
+// each fan in the order build_topology() gives it).
+void cut_open_fans(const Topology& t, std::span<const char> cut, CutOpenResult& r) {
+  Topology& d = r.topology;
+  const Index V = t.num_vertices;
+  r.faces.assign(static_cast<std::size_t>(t.num_corners()), kInvalid);
+  r.to_surface.clear();
+  d.vertex_corners.resize(static_cast<std::size_t>(t.num_corners()));
+  d.vertex_corner_offsets.assign(1, 0);
+  Index pos = 0;
+  for (Index v = 0; v < V; ++v) {
+    const Index o0 = t.vertex_corner_offsets[v], m = t.valence(v);
+    if (m == 0) continue;
+    auto corner = [&](Index j) { return t.vertex_corners[o0 + j % m]; };
+    // the edge crossed from fan corner j-1 to fan corner j
+    auto cut_before = [&](Index j) { return cut[t.corner_edge[next_corner(corner(j + m - 1))]] != 0; };
+    Index j0 = 0;
+    if (!t.is_boundary_vertex(v))
+      for (Index j = 0; j < m; ++j)
+        if (cut_before(j)) {
+          j0 = j;
+          break;
+        }
+    Index copy = kInvalid;
+    for (Index k = 0; k < m; ++k) {
+      const Index j = j0 + k;
+      if (k == 0 || cut_before(j)) {
+        if (k > 0) d.vertex_corner_offsets.push_back(pos);
+        copy = static_cast<Index>(r.to_surface.size());
+        r.to_surface.push_back(v);
+      }
+      r.faces[corner(j)] = copy;
+      d.vertex_corners[pos++] = corner(j);
+    }
+    d.vertex_corner_offsets.push_back(pos);
+  }
+}
+
+// cut_open()'s edges, numbered as build_topology() numbers them: by (smaller, larger) vertex
+// copy. Copies are numbered in surface-vertex order, so the order differs from the surface's only
+// inside a run of surface edges with the same smaller vertex, which is sorted. False when two
+// edges join the same two copies.
+bool cut_open_edges(const Topology& t, std::span<const char> cut, CutOpenResult& r) {
+  Topology& d = r.topology;
+  const std::vector<Index>& f = r.faces;
+  struct Rec {
+    Index lo, hi, c0, c1;
+  };
+  std::vector<Rec> run;
+  d.edge_vertices.clear();
+  d.edge_corners.clear();
+  d.edge_vertices.reserve(2 * static_cast<std::size_t>(t.num_edges) + 64);
+  d.edge_corners.reserve(2 * static_cast<std::size_t>(t.num_edges) + 64);
+  auto add = [&](Index c0, Index c1) {
+    const Index a = f[next_corner(c0)], b = f[prev_corner(c0)];
+    run.push_back({std::min(a, b), std::max(a, b), c0, c1});
+  };
+  auto flush = [&]() {
+    std::sort(run.begin(), run.end(), [](const Rec& x, const Rec& y) {
+      return x.lo != y.lo ? x.lo < y.lo : x.hi < y.hi;
+    });
+    for (std::size_t i = 0; i < run.size(); ++i) {
+      if (i > 0 && run[i].lo == run[i - 1].lo && run[i].hi == run[i - 1].hi) return false;
+      const Index e = static_cast<Index>(d.edge_corners.size() / 2), c0 = run[i].c0, c1 = run[i].c1;
+      d.edge_corners.push_back(c0);
+      d.edge_corners.push_back(c1);
+      d.edge_vertices.push_back(f[next_corner(c0)]);
+      d.edge_vertices.push_back(f[prev_corner(c0)]);
+      d.corner_edge[c0] = e;
+      if (c1 != kInvalid) {
+        d.corner_edge[c1] = e;
+        d.opposite[c0] = c1;
+        d.opposite[c1] = c0;
+      }
+    }
+    run.clear();
+    return true;
+  };
+  Index run_lo = kInvalid;
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index lo = std::min(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]);
+    if (lo != run_lo && !flush()) return false;
+    run_lo = lo;
+    const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+    if (c1 != kInvalid && cut[e]) {
+      add(c0, kInvalid);
+      add(c1, kInvalid);
+    } else {
+      add(c0, c1);
+    }
+  }
+  if (!flush()) return false;
+  d.num_edges = static_cast<Index>(d.edge_corners.size() / 2);
+  return true;
+}
+
+}  // namespace
+
+bool is_topology_of(const Topology& t, std::span<const Index> faces, Index num_vertices) {
+  return t.num_vertices == num_vertices && t.corner_vertex.size() == faces.size() &&
+         std::equal(faces.begin(), faces.end(), t.corner_vertex.begin());
+}
+
+CutOpenResult cut_open(const Topology& t, std::span<const char> cut) {
+  CutOpenResult r;
+  if (cut.size() != static_cast<std::size_t>(t.num_edges)) {
+    r.status = Status::InvalidArgument;
+    r.message = "cut_open: " + std::to_string(cut.size()) + " cut flags for " + std::to_string(t.num_edges) + " edges";
+    return r;
+  }
+  cut_open_fans(t, cut, r);
+  const Index nc = t.num_corners();
+  const Index copies = static_cast<Index>(r.to_surface.size());
+  Topology& d = r.topology;
+  d.num_vertices = copies;
+  d.num_faces = t.num_faces;
+  d.corner_vertex = r.faces;
+  d.opposite.assign(static_cast<std::size_t>(nc), kInvalid);
+  d.corner_edge.assign(static_cast<std::size_t>(nc), kInvalid);
+  if (!cut_open_edges(t, cut, r)) {
+    // Two copies of a cut edge join the same two copies: build_topology() decides.
+    TopologyResult tr = build_topology(r.faces, copies);
+    r.status = tr.status;
+    r.message = tr.message;
+    r.topology = std::move(tr.topology);
+    return r;
+  }
+  trace_boundary_loops(d, r.faces);
+  label_components(d);
   r.status = Status::Ok;
   r.message = "ok";
   return r;

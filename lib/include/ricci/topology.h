@@ -98,4 +98,26 @@ struct TopologyResult {
 /// range is empty; they count in V). Linear time and memory; deterministic.
 TopologyResult build_topology(std::span<const Index> faces, Index num_vertices);
 
+/// True when `t` holds the connectivity of `faces` over `num_vertices` vertices (the same vertex
+/// count and the same corners), so that a stage may take it instead of building it again.
+bool is_topology_of(const Topology& t, std::span<const Index> faces, Index num_vertices);
+
+/// What cut_open() returns.
+struct CutOpenResult {
+  Status status = Status::NotRun;  ///< Ok, InvalidArgument (sizes), or build_topology()'s status
+  std::string message = "not run";
+  std::vector<Index> faces;       ///< #F×3: corner → vertex copy
+  std::vector<Index> to_surface;  ///< #copies: copy → vertex of the surface (non-decreasing)
+  Topology topology;              ///< the connectivity of `faces` (valid only when status is Ok)
+};
+
+/// The surface `t` cut open along the edges with cut[e] != 0 (#E flags; boundary edges are open
+/// already). Every vertex used by a face gets one copy per wedge of its fan between cut or
+/// boundary edges; copies are numbered by vertex, then by wedge counter-clockwise, an interior
+/// vertex's first wedge starting at the first cut edge of its fan (at its fan's start when none
+/// is cut). Unused vertices get no copy. `topology` equals build_topology(faces, #copies) bit for
+/// bit, derived from `t` in linear time without sorting; where two copies of a cut edge would
+/// join the same two vertex copies, build_topology() itself decides (it glues or refuses them).
+CutOpenResult cut_open(const Topology& t, std::span<const char> cut);
+
 }  // namespace ricci
