@@ -91,6 +91,11 @@ void check_cut(const Mesh& mesh, const Topology& topo, const CutResult& r, bool 
   }
   const TopologyResult st = build_topology(r.surface_faces, Vs);
   REQUIRE(st.status == Status::Ok);
+  // The connectivities the cut hands on are the ones build_topology() gives.
+  CHECK(ricci_test::same_topology(r.surface_topology, st.topology));
+  const TopologyResult dt = build_topology(r.cut_faces, r.num_cut_vertices());
+  REQUIRE(dt.status == Status::Ok);
+  CHECK(ricci_test::same_topology(r.disk_topology, dt.topology));
   CHECK(st.topology.genus() == g);
   CHECK(st.topology.num_boundary_loops() == b);
   CHECK(st.topology.num_boundary_edges() == topo.num_boundary_edges());

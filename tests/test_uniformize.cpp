@@ -53,6 +53,10 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
     if (r.has_cut) {
       CHECK(r.layout.positions.size() == 2 * static_cast<std::size_t>(r.cut.num_cut_vertices()));
       CHECK(r.disk.num_faces == static_cast<Index>(r.cut.cut_faces.size() / 3));
+      // The cut's connectivities were handed on (moved), not built again.
+      CHECK(ricci_test::same_topology(r.disk, build_topology(r.cut.cut_faces, r.cut.num_cut_vertices()).topology));
+      CHECK(r.cut.disk_topology.num_faces == 0);
+      CHECK(r.cut.surface_topology.num_faces == 0);
     }
     // Seed independence: the face farthest from the seed, aligned by the fitted isometry.
     CHECK(r.seed_faces_checked.size() == 1);

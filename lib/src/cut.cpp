@@ -18,8 +18,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <queue>
 #include <random>
 #include <string>
@@ -159,37 +161,12 @@ struct Disk {
 };
 
 Disk build_disk(const Surface& S, const std::vector<char>& cut) {
-  const Topology& t = S.topo;
+  CutOpenResult o = cut_open(S.topo, cut);
   Disk R;
-  R.faces.assign(S.faces.size(), kInvalid);
-  for (Index v = 0; v < t.num_vertices; ++v) {
-    const Index o0 = t.vertex_corner_offsets[v], m = t.valence(v);
-    if (m == 0) continue;
-    const bool bnd = t.is_boundary_vertex(v);
-    auto corner = [&](Index j) { return t.vertex_corners[o0 + ((j % m) + m) % m]; };
-    // edge between fan corners j-1 and j
-    auto cut_before = [&](Index j) { return cut[t.corner_edge[next_corner(corner(j - 1))]] != 0; };
-    Index j0 = 0;
-    if (!bnd) {
-      for (Index j = 0; j < m; ++j)
-        if (cut_before(j)) {
-          j0 = j;
-          break;
-        }
-    }
-    Index copy = kInvalid;
-    for (Index k = 0; k < m; ++k) {
-      const Index j = j0 + k;
-      if (k == 0 || cut_before(j)) {
-        copy = static_cast<Index>(R.to_surface.size());
-        R.to_surface.push_back(v);
-      }
-      R.faces[corner(j)] = copy;
-    }
-  }
-  TopologyResult tr = build_topology(R.faces, static_cast<Index>(R.to_surface.size()));
-  R.ok = tr.status == Status::Ok;
-  R.topo = std::move(tr.topology);
+  R.faces = std::move(o.faces);
+  R.to_surface = std::move(o.to_surface);
+  R.ok = o.status == Status::Ok;
+  R.topo = std::move(o.topology);
   return R;
 }
 
@@ -404,7 +381,10 @@ constexpr std::string_view kRefinementBound = "refinement: the paths would add m
 struct PathSearch {
   double cost = kInf;        ///< weighted length (with the refinement penalty)
   Index virtual_points = 0;  ///< points a refinement would add
-  std::vector<Index> path;   ///< surface vertices
+  /// The path's nodes in the disk's search graph: R vertices (< #V_R), then face centroids
+  /// (#V_R + f), then edge midpoints (#V_R + #F_R + e).
+  std::vector<Index> nodes;
+  std::vector<Index> path;   ///< surface vertices (after realize_path())
   bool refined = false;
   bool ok = false;
   std::string why;
@@ -500,19 +480,38 @@ std::vector<Index> boundary_hops(const Disk& R) {
   return hops;
 }
 
-/// A path inside the disk R from one of `sources` to a vertex with target[v] set (R vertices),
-/// touching R's boundary only at its ends. First the shortest edge path; only when none exists,
-/// the shortest path in the graph extended by face centroids and edge midpoints (each extra
-/// point costs a penalty, so as few faces as possible are refined), after which S is refined
-/// exactly there (which invalidates R).
-PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& sources,
-                     const std::vector<char>& target, bool dry_run = false,
-                     const std::vector<Index>* hops_in = nullptr, double bound = kInf) {
+/// Buffers of search_path(), kept from one search to the next: a search touches only the nodes
+/// it reaches and resets them before it returns, so large meshes get no fresh pages per search.
+struct SearchWork {
+  std::vector<double> dist;  ///< kInf between searches
+  std::vector<Index> prev;   ///< kInvalid between searches
+  std::vector<Index> touched;
+  std::vector<char> is_source;  ///< 0 between searches
+  std::vector<std::pair<double, Index>> heap;
+};
+
+/// The cheapest path inside the disk R from one of `sources` to a vertex with target[v] set (R
+/// vertices), touching R's boundary only at its ends; S and R are not changed. First the
+/// shortest edge path; only when none exists, the shortest path in the graph extended by face
+/// centroids and edge midpoints (each extra point costs a penalty, so as few faces as possible
+/// are refined). The search stops past `bound` (then ok is false). realize_path() turns the
+/// result into surface vertices.
+PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>& sources,
+                       const std::vector<char>& target, const std::vector<Index>& hops, SearchWork& work,
+                       double bound = kInf) {
   PathSearch out;
   const Topology& rt = R.topo;
   const Index n = rt.num_vertices, nf = rt.num_faces;
-  std::vector<char> is_source(static_cast<std::size_t>(n), 0);
+  std::vector<char>& is_source = work.is_source;
+  if (is_source.size() < static_cast<std::size_t>(n)) is_source.resize(static_cast<std::size_t>(n), 0);
   for (Index a : sources) is_source[a] = 1;
+  struct ClearSources {
+    std::vector<char>& flags;
+    const std::vector<Index>& sources;
+    ~ClearSources() {
+      for (Index a : sources) flags[a] = 0;
+    }
+  } clear_sources{is_source, sources};
   auto vpos = [&](Index u, int d) { return S.pos[3 * R.to_surface[u] + d]; };
   auto node_point = [&](Index node, std::array<double, 3>& p) {
     p = {0, 0, 0};
@@ -531,12 +530,6 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
     }
   };
   const double penalty = 20 * S.mean_length;
-  std::vector<Index> own_hops;
-  if (!hops_in) {
-    own_hops = boundary_hops(R);
-    hops_in = &own_hops;
-  }
-  const std::vector<Index>& hops = *hops_in;
   // Virtual points (centroids, midpoints) sit half a hop further in than their vertices.
   auto factor = [&](Index w) {
     double h = 0;
@@ -576,13 +569,28 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
   for (int phase = edge_possible ? 0 : 1; phase < 2; ++phase) {
     const bool extended = phase == 1;
     const Index total = extended ? n + nf + rt.num_edges : n;
-    std::vector<double> dist(static_cast<std::size_t>(total), kInf);
-    std::vector<Index> prev(static_cast<std::size_t>(total), kInvalid);
+    if (work.dist.size() < static_cast<std::size_t>(total)) {
+      work.dist.resize(static_cast<std::size_t>(total), kInf);
+      work.prev.resize(static_cast<std::size_t>(total), kInvalid);
+    }
+    std::vector<double>& dist = work.dist;
+    std::vector<Index>& prev = work.prev;
+    std::vector<Index>& touched = work.touched;
+    touched.clear();
+    // A binary heap of (distance, node), smallest first (as std::priority_queue keeps it).
     using Item = std::pair<double, Index>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+    std::vector<Item>& heap = work.heap;
+    heap.clear();
+    const std::greater<Item> later;
+    auto push = [&](double d, Index v) {
+      heap.push_back({d, v});
+      std::push_heap(heap.begin(), heap.end(), later);
+    };
     for (Index a : sources) {
+      if (dist[a] == kInf) touched.push_back(a);
       dist[a] = 0;
-      pq.push({0.0, a});
+      prev[a] = kInvalid;
+      push(0.0, a);
     }
     Index found = kInvalid;
     std::array<double, 3> pu, pw;
@@ -595,20 +603,23 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
       }
       const double nd = d + len * factor(w) + (w >= n ? penalty : 0);
       if (nd < dist[w]) {
+        if (dist[w] == kInf) touched.push_back(w);
         dist[w] = nd;
         prev[w] = u;
-        pq.push({nd, w});
+        push(nd, w);
       }
     };
-    auto vertex_ok = [&](Index w) { return !is_source[w] && (target[w] || !rt.is_boundary_vertex(w)); };
+    // hops[w] == 0: w lies on R's boundary.
+    auto vertex_ok = [&](Index w) { return !is_source[w] && (target[w] || hops[w] != 0); };
     // Only faces touching the boundary get virtual points: a face whose corners are all
     // interior is crossed through its corners just as well (this keeps the search small).
     auto touches_boundary = [&](Index f) {
       return hops[R.faces[3 * f]] == 0 || hops[R.faces[3 * f + 1]] == 0 || hops[R.faces[3 * f + 2]] == 0;
     };
-    while (!pq.empty()) {
-      const auto [d, u] = pq.top();
-      pq.pop();
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end(), later);
+      const auto [d, u] = heap.back();
+      heap.pop_back();
       if (d > dist[u]) continue;
       if (d > bound) break;
       if (S.has_pos) node_point(u, pu);
@@ -617,13 +628,13 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
           found = u;
           break;
         }
-        if (!is_source[u] && rt.is_boundary_vertex(u)) continue;
+        if (!is_source[u] && hops[u] == 0) continue;
+        // Every interior edge at u is the clockwise edge (u, next(c)) of exactly one corner c
+        // of u's fan; ties pop in (distance, node) order, so the order of relaxation is moot.
         for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
           const Index c = rt.vertex_corners[k];
           if (rt.opposite[prev_corner(c)] != kInvalid && vertex_ok(R.faces[next_corner(c)]))
             relax(u, R.faces[next_corner(c)], d);
-          if (rt.opposite[next_corner(c)] != kInvalid && vertex_ok(R.faces[prev_corner(c)]))
-            relax(u, R.faces[prev_corner(c)], d);
           if (extended && touches_boundary(corner_face(c))) relax(u, n + corner_face(c), d);
         }
       } else if (u < n + nf) {
@@ -640,43 +651,52 @@ PathSearch find_path(Surface& S, const Disk& R, const std::vector<Index>& source
         relax(u, n + corner_face(rt.edge_corners[2 * e + 1]), d);
       }
     }
-    if (found == kInvalid) continue;
-    std::vector<Index> nodes;
-    for (Index v = found; v != kInvalid; v = prev[v]) nodes.push_back(v);
-    std::reverse(nodes.begin(), nodes.end());
-    out.cost = dist[found];
-    for (Index v : nodes) out.virtual_points += v >= n ? 1 : 0;
-    if (dry_run) {
+    if (found != kInvalid) {
+      for (Index v = found; v != kInvalid; v = prev[v]) out.nodes.push_back(v);
+      std::reverse(out.nodes.begin(), out.nodes.end());
+      out.cost = dist[found];
+      for (Index v : out.nodes) out.virtual_points += v >= n ? 1 : 0;
       out.ok = true;
-      return out;
     }
-    if (!extended) {
-      for (Index v : nodes) out.path.push_back(R.to_surface[v]);
-      out.ok = true;
-      return out;
+    for (Index v : touched) {
+      dist[v] = kInf;
+      prev[v] = kInvalid;
     }
-    std::vector<Index> fan_faces, split_corners;
-    for (Index v : nodes) {
-      if (v >= n && v < n + nf) fan_faces.push_back(v - n);
-      if (v >= n + nf) split_corners.push_back(rt.edge_corners[2 * (v - n - nf)]);
-    }
-    std::vector<Index> centroid, mid;
-    if (!refine(S, fan_faces, split_corners, centroid, mid, &out.why)) return out;
-    std::size_t fi = 0, ei = 0;
-    for (Index v : nodes) {
-      if (v < n)
-        out.path.push_back(R.to_surface[v]);
-      else if (v < n + nf)
-        out.path.push_back(centroid[fi++]);
-      else
-        out.path.push_back(mid[ei++]);
-    }
-    out.refined = true;
-    out.ok = true;
-    return out;
+    if (out.ok) return out;
   }
   out.why = "no path inside the disk";
   return out;
+}
+
+/// The surface vertices of a found path (ps.path). A path through face centroids or edge
+/// midpoints refines S exactly there first (which invalidates R); `snapshot` then receives S as
+/// it was, so that a caller can undo the refinement.
+bool realize_path(Surface& S, const Disk& R, PathSearch& ps, std::optional<Surface>& snapshot) {
+  const Index n = R.topo.num_vertices, nf = R.topo.num_faces;
+  ps.path.clear();
+  if (ps.virtual_points == 0) {
+    for (Index v : ps.nodes) ps.path.push_back(R.to_surface[v]);
+    return true;
+  }
+  std::vector<Index> fan_faces, split_corners;
+  for (Index v : ps.nodes) {
+    if (v >= n && v < n + nf) fan_faces.push_back(v - n);
+    if (v >= n + nf) split_corners.push_back(R.topo.edge_corners[2 * (v - n - nf)]);
+  }
+  snapshot = S;
+  std::vector<Index> centroid, mid;
+  if (!refine(S, fan_faces, split_corners, centroid, mid, &ps.why)) return false;
+  std::size_t fi = 0, ei = 0;
+  for (Index v : ps.nodes) {
+    if (v < n)
+      ps.path.push_back(R.to_surface[v]);
+    else if (v < n + nf)
+      ps.path.push_back(centroid[fi++]);
+    else
+      ps.path.push_back(mid[ei++]);
+  }
+  ps.refined = true;
+  return true;
 }
 
 /// Sets the cut flags from vertex pairs (after a refinement renumbered the edges).
@@ -708,6 +728,7 @@ struct Cutter {
   std::string error;  ///< internal failure
 
   std::vector<Index> hops;  ///< boundary_hops(R)
+  SearchWork work;
 
   bool rebuild() {
     R = build_disk(S, st.cut);
@@ -733,23 +754,32 @@ struct Cutter {
   }
 
   /// Cut along a path from `sources` to `targets` (R vertices) and un-cut the edges `glue`
-  /// (surface vertex pairs). On failure the state is restored and false returned.
+  /// (surface vertex pairs). `found`: the search's result when the caller has it already (the
+  /// same sources and targets on the current disk). On failure the state is restored and false
+  /// returned.
   bool cut_paste(const std::vector<Index>& sources, const std::vector<Index>& targets,
-                 const std::vector<Pair>& glue, std::vector<Index>* path_out, std::string* why) {
-    const Surface S_saved = S;
+                 const std::vector<Pair>& glue, std::vector<Index>* path_out, std::string* why,
+                 PathSearch* found = nullptr) {
     const State st_saved = st;
-    std::vector<char> is_target(static_cast<std::size_t>(R.topo.num_vertices), 0);
-    for (Index t : targets) is_target[t] = 1;
-    const std::vector<Pair> before = cut_pairs(S, st);
-    PathSearch ps = find_path(S, R, sources, is_target, false, &hops);
+    std::optional<Surface> S_saved;  // S before a refinement
     auto restore = [&](const std::string& m) {
-      S = S_saved;
+      if (S_saved) S = std::move(*S_saved);
       st = st_saved;
       *why = m;
       rebuild();
       return false;
     };
+    PathSearch own;
+    if (!found) {
+      std::vector<char> is_target(static_cast<std::size_t>(R.topo.num_vertices), 0);
+      for (Index t : targets) is_target[t] = 1;
+      own = search_path(S, R, sources, is_target, hops, work);
+      found = &own;
+    }
+    PathSearch& ps = *found;
     if (!ps.ok) return restore(ps.why);
+    const std::vector<Pair> before = cut_pairs(S, st);
+    if (!realize_path(S, R, ps, S_saved)) return restore(ps.why);
     if (ps.refined) {
       ++refinements;
       st.cut.assign(static_cast<std::size_t>(S.topo.num_edges), 0);
@@ -771,12 +801,10 @@ struct Cutter {
 
   /// Removes a spur branch (cancellation x x^-1).
   bool cancel(Index token, std::string* why) {
-    const Surface S_saved = S;
-    const State st_saved = st;
+    const State st_saved = st;  // S does not change
     set_cut(S, st, side_pairs(P.tok_side[token]), false);
     cleanup_nodes(S, st, base);
     if (!rebuild()) {
-      S = S_saved;
       st = st_saved;
       *why = "cancellation broke the disk: " + error;
       rebuild();
@@ -1211,8 +1239,9 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
       auto path_cost = [&](Index alpha, Index beta) {
         std::vector<char> is_target(static_cast<std::size_t>(C.R.topo.num_vertices), 0);
         for (Index v : Pg.corner_anchor[beta]) is_target[v] = 1;
-        return find_path(S, C.R, Pg.corner_anchor[alpha], is_target, /*dry_run=*/true, &C.hops, best).cost;
+        return search_path(S, C.R, Pg.corner_anchor[alpha], is_target, C.hops, C.work, best);
       };
+      PathSearch best_path;  // the chosen move's path, cut by cut_paste() without a new search
       // Candidates are tried in order of a cheap proxy (the length of the sides the path
       // replaces), so that the first bound is tight and later searches stop early.
       constexpr Index kCandidates = 12;
@@ -1238,9 +1267,10 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
                        [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
       for (const Candidate& cd : cands) {
         if (evaluated++ >= kCandidates) break;
-        const double cost = path_cost((cd.t + n - 1) % n, (cd.t + 1) % n);
-        if (cost < best) {
-          best = cost;
+        PathSearch ps = path_cost((cd.t + n - 1) % n, (cd.t + 1) % n);
+        if (ps.cost < best) {
+          best = ps.cost;
+          best_path = std::move(ps);
           bad = cd.t;
           glue_after = cd.after;
         }
@@ -1255,7 +1285,7 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
         const Index glue_tok = glue_after ? bad : (bad + n - 1) % n;
         const std::vector<Pair> glue = C.side_pairs(Pg.tok_side[glue_tok]);
         const std::vector<Index> src = Pg.corner_anchor[alpha], dst = Pg.corner_anchor[beta];
-        if (!C.cut_paste(src, dst, glue, nullptr, &why)) {
+        if (!C.cut_paste(src, dst, glue, nullptr, &why, &best_path)) {
           reason = "cut-and-paste failed: " + why;
           break;
         }
@@ -1295,9 +1325,10 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
                        [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
       for (const Candidate& cd : cands) {
         if (evaluated++ >= kCandidates) break;
-        const double cost = path_cost(cd.t, (cd.ja + 1) % n);
-        if (cost < best) {
-          best = cost;
+        PathSearch ps = path_cost(cd.t, (cd.ja + 1) % n);
+        if (ps.cost < best) {
+          best = ps.cost;
+          best_path = std::move(ps);
           i0 = cd.t;
           j0 = cd.ja;
           tb = cd.tb;
@@ -1313,7 +1344,7 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
       std::vector<Index> path;
       {
         const std::vector<Index> src = Pg.corner_anchor[i0], dst = Pg.corner_anchor[(j0 + 1) % n];
-        if (!C.cut_paste(src, dst, glue_b, &path, &why)) {
+        if (!C.cut_paste(src, dst, glue_b, &path, &why, &best_path)) {
           reason = "cut-and-paste failed: " + why;
           break;
         }
@@ -1518,6 +1549,8 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
       reason = "the intersection numbers of the loops are not canonical";
     }
   }
+  r.surface_topology = std::move(S.topo);
+  r.disk_topology = std::move(C.R.topo);
   r.canonical = word_canonical && reason.empty();
   r.reason = r.canonical ? std::string() : reason;
   r.refinement_bound = !r.canonical && reason.find(kRefinementBound) != std::string::npos;

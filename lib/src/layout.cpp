@@ -1306,9 +1306,9 @@ Layout layout_sphere(const Topology& surface, std::span<const double> l, const L
 
 namespace {
 
-/// The checks of refined_edge_lengths() and its surface's connectivity (the input's own when the
-/// cut added nothing: same faces, same corners, copied rather than built again). False with `r`
-/// failed.
+/// The checks of refined_edge_lengths() and its surface's connectivity (the cut's own, or the
+/// input's when the cut added nothing: same faces, same corners, copied rather than built
+/// again). False with `r` failed.
 bool refined_surface(const CutResult& cut, const Topology& input, Geometry g, std::span<const double> input_lengths,
                      RefinedMetric& r) {
   auto fail = [&](Status s, const std::string& m) {
@@ -1330,8 +1330,9 @@ bool refined_surface(const CutResult& cut, const Topology& input, Geometry g, st
     r.l.clear();
     return false;
   }
-  if (nadd == 0 && std::equal(cut.surface_faces.begin(), cut.surface_faces.end(), input.corner_vertex.begin(),
-                              input.corner_vertex.end())) {
+  if (is_topology_of(cut.surface_topology, cut.surface_faces, nin + nadd)) {
+    r.surface = cut.surface_topology;
+  } else if (is_topology_of(input, cut.surface_faces, nin + nadd)) {
     r.surface = input;
   } else {
     TopologyResult st = build_topology(cut.surface_faces, nin + nadd);

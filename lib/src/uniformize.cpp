@@ -121,16 +121,18 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
     return d;
   }
   d.metric = refined_edge_lengths(d.cut, topology, g, l);
+  d.cut.surface_topology = Topology{};  // d.metric.surface has it
   if (d.metric.status != Status::Ok) {
     d.status = d.metric.status;
     d.message = d.metric.message;
     d.stage = "cut_metric";
     return d;
   }
-  // A disk is not cut: its disk is the surface itself, whose connectivity is copied.
-  if (d.cut.num_cut_vertices() == d.metric.surface.num_vertices &&
-      std::equal(d.cut.cut_faces.begin(), d.cut.cut_faces.end(), d.metric.surface.corner_vertex.begin(),
-                 d.metric.surface.corner_vertex.end())) {
+  // The cut's own disk connectivity; a disk that is not cut is the surface itself.
+  if (is_topology_of(d.cut.disk_topology, d.cut.cut_faces, d.cut.num_cut_vertices())) {
+    d.disk = std::move(d.cut.disk_topology);
+    d.cut.disk_topology = Topology{};
+  } else if (is_topology_of(d.metric.surface, d.cut.cut_faces, d.cut.num_cut_vertices())) {
     d.disk = d.metric.surface;
   } else {
     TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
@@ -1350,11 +1352,19 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     bc.base_vertex = pc.base_vertex;
     bc.refined_vertices = pc.num_refined_vertices();
     RefinedMetric pm = refined_edge_lengths(pc, topology, r.geometry, metric_l);
+    pc.surface_topology = Topology{};  // pm.surface has it
     if (pm.status != Status::Ok) {
       reject(pm.message);
       continue;
     }
-    TopologyResult pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
+    TopologyResult pt;
+    if (is_topology_of(pc.disk_topology, pc.cut_faces, pc.num_cut_vertices())) {
+      pt.status = Status::Ok;
+      pt.topology = std::move(pc.disk_topology);
+      pc.disk_topology = Topology{};
+    } else {
+      pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
+    }
     if (pt.status != Status::Ok) {
       reject("the canonical disk is not a valid mesh");
       continue;

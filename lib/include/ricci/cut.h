@@ -147,6 +147,14 @@ struct CutResult {
   /// #Vc.
   Index num_cut_vertices() const { return static_cast<Index>(cut_to_surface.size()); }
 
+  /// The connectivity of surface_faces and of cut_faces as cut_surface() built them (each equal
+  /// to build_topology() of that buffer), so that later stages need not build them again:
+  /// refined_edge_lengths() takes the first when it matches surface_faces. uniformize() moves
+  /// them into its `cut_metric.surface` and `disk`, so there they are empty. Empty from
+  /// cut_compact().
+  Topology surface_topology;
+  Topology disk_topology;
+
   /// Sides, CSR: side s runs along cut vertices side_vertices[side_offsets[s] .. side_offsets[s+1])
   /// (both end corners included), in disk-boundary order (disk on the left). #S+1, …
   std::vector<Index> side_offsets;   ///< #S+1: CSR offsets into side_vertices
