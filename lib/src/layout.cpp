@@ -1023,8 +1023,8 @@ class Propagation {
 /// patch count, or always with an explicit count ≥ 2; kept when not less accurate); in E, the
 /// layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
 /// triangles placed from short bases can grow an error geometrically along a chain), kept when
-/// closer; the Gauss–Seidel sweeps (E, S; in rounds of 1, 2, 4, … sweeps, each round only while
-/// still above the threshold); global Gauss–Newton steps (E, H, S; layout_polish.h).
+/// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps, each round only
+/// while still above the threshold); global Gauss–Newton steps (E, H, S; layout_polish.h).
 /// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
 /// anything moved it. `now` describes the positions on return.
@@ -1065,13 +1065,18 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
       }
     }
   }
-  // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round.
-  for (int round = 1; g != Geometry::Hyperbolic && out.polish_sweeps < options.polish_sweeps && coarse(); round *= 2) {
+  // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round;
+  // once started, they go on below the threshold while a round still halves the error above
+  // the floor (cheap, and a layout nearer its floor gives the deck group more digits).
+  bool halving = false;
+  for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
     const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
+    const double before = now.max_error_above_rounding;
     detail::polish_by_sweeps(t, g, l, x, n);
     out.polish_sweeps += n;
     measure_edges(t, g, l, P, now);
     moved = true;
+    halving = now.max_error_above_rounding > 0 && now.max_error_above_rounding <= 0.5 * before;
   }
   if (steps && coarse()) {
     out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;

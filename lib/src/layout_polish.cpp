@@ -118,7 +118,8 @@ void for_each_incident_edge(const Topology& t, Index v, F&& f) {
 }  // namespace
 
 // Each vertex in turn takes one Gauss–Newton step on Σ_j ((d(x, x_j) − l_j)/l_j)² over its
-// incident edges — E in the plane; S in its tangent plane, then back onto the sphere.
+// incident edges — E in the plane; H in the Poincaré disk; S in its tangent plane, then back
+// onto the sphere.
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps) {
   const Index nv = t.num_vertices;
@@ -127,6 +128,24 @@ void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, 
     for (Index v = 0; v < nv; ++v) {
       GaussNewton2 gn;
       double a = 0, b = 0;
+      if (g == Geometry::Hyperbolic) {
+        // In the Poincaré disk: ∂d/∂z is disk_gradient(), the step stays inside the disk.
+        const Cx z = disk_point(x, v);
+        for_each_incident_edge(t, v, [&](Index j, Index e) {
+          const Cx w = disk_point(x, j);
+          const double d = disk_distance(z, w);
+          double gx = 0, gy = 0;
+          if (!(d > 0) || !std::isfinite(d)) return;
+          disk_gradient(z, w, gx, gy);
+          gn.add(1 / (l[e] * l[e]), d - l[e], gx, gy);
+        });
+        if (!gn.step(a, b)) continue;
+        const Cx moved = z + Cx(a, b);
+        if (!(std::abs(moved) < 1)) continue;
+        x[2 * v] = moved.real();
+        x[2 * v + 1] = moved.imag();
+        continue;
+      }
       if (!sphere) {
         for_each_incident_edge(t, v, [&](Index j, Index e) {
           const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];

@@ -1,16 +1,17 @@
 // ricci (internal) — polishing a developed layout so that it reproduces its metric more closely.
 //
 // Takes: a disk (E, H) or closed genus-0 surface (S) in corner-table form, its edge lengths l, and
-// positions x from the face-by-face propagation of layout.cpp (E: #V×2 plane coordinates; H: #V×2
-// Poincaré-disk coordinates; S: #V×3 unit vectors). Gives: the same array, moved so that the relative edge-length errors
-// (d(x_i, x_j) − l_ij) / l_ij shrink. Two tools, used in this order:
+// positions x from the face-by-face propagation of layout.cpp (E: #V×2 plane coordinates; H:
+// #V×2 Poincaré-disk coordinates; S: #V×3 unit vectors). Gives: the same array, moved so that
+// the relative edge-length errors (d(x_i, x_j) − l_ij) / l_ij shrink. Two tools, used in this
+// order:
 //
-// - polish_by_sweeps() (E and S): nonlinear Gauss–Seidel, each vertex in turn taking one 2×2 Gauss–Newton
-//   step over its own edges. Cheap, and it removes the short-range error that the propagation
-//   leaves where its fronts meet.
+// - polish_by_sweeps(): nonlinear Gauss–Seidel, each vertex in turn taking one 2×2 Gauss–Newton
+//   step over its own edges. Cheap (one pass over the edges per sweep), and it removes the
+//   short-range error that the propagation leaves where its fronts meet.
 // - polish_globally(): Gauss–Newton on all positions at once, min Σ_e ((d_e − l_e) / l_e)², with
 //   one sparse Cholesky factorization of JᵀJ (CHOLMOD, through SymmetricSolver) reused by every
-//   step. The
+//   step; at 2·#V unknowns that factorization costs several of the flow's Newton steps. The
 //   long-range part of the error (a drift accumulated along hundreds of faces, which local sweeps
 //   reduce only by a factor close to 1 each) goes in one or two steps. A step is kept only when
 //   it lowers the largest relative error.
@@ -26,7 +27,8 @@
 
 namespace ricci::detail {
 
-/// `sweeps` Gauss–Seidel sweeps over the vertices in index order (E or S only).
+/// `sweeps` Gauss–Seidel sweeps over the vertices in index order (H: a vertex whose step would
+/// leave the unit disk stays).
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps);
 

@@ -183,9 +183,9 @@ struct LayoutOptions {
   /// of edges): about 1e-11 on 50k faces, 1e-8 on 400k; below this threshold one pass over the
   /// faces is the layout. 0: refine every layout down to its rounding floor.
   double refine_above = 1e-10;
-  /// E and S: sweeps of nonlinear Gauss–Seidel — each vertex in turn takes a Gauss–Newton step on
-  /// Σ ((d(x, x_j) − l_j)/l_j)² over its edges (S: in its tangent plane, then back onto the
-  /// sphere). The sweeps spread the seam's error over its neighbourhood, which matters on large
+  /// E, H and S: sweeps of nonlinear Gauss–Seidel — each vertex in turn takes a Gauss–Newton step
+  /// on Σ ((d(x, x_j) − l_j)/l_j)² over its edges (H: in the Poincaré disk; S: in its tangent
+  /// plane, then back onto the sphere). The sweeps spread the seam's error over its neighbourhood, which matters on large
   /// meshes (tools/sweep_uniformize --polish-sweeps compares; on the shared nefertiti's
   /// subdivision, 1.7e-7 → 4.4e-9). They run in rounds of 1, 2, 4, … sweeps, each only while the
   /// layout is still above refine_above; this is the most in all (Layout::polish_sweeps: how many
@@ -276,7 +276,7 @@ struct Layout {
   int normalization_iterations = 0;  ///< S: Möbius centring steps
   /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
   int propagation_passes = 0;
-  /// E and S: Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
+  /// Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
   int polish_sweeps = 0;
   /// E, H and S: global Gauss–Newton steps kept (LayoutOptions::polish_steps).
   int polish_steps = 0;
