@@ -23,7 +23,9 @@
 //     current disk between two polygon corners that touches the disk boundary only at its ends;
 //     the new cut is (cut ∪ c) ∖ (the reglued side). Each move is the cheapest of up to 12
 //     candidates; paths are shortest paths weighted by 1 + 30/h² (h: hops from the disk's
-//     boundary), so they keep away from the cut and leave room for later moves.
+//     boundary), so they keep away from the cut and leave room for later moves (found by A*
+//     with the 3D distance to the targets as its bound; the chosen candidate is cut as found).
+//     After each move the disk's connectivity is read off the surface's (cut_open()).
 //  3. Arcs t_i from the base corner to every hole (shortest paths inside the disk).
 //  When no edge path exists (coarse mesh, too few free edges at a corner, one-face-wide parts of
 //  the disk), the surface is refined locally and exactly: the path is the cheapest one in the
