@@ -490,6 +490,112 @@ struct SearchWork {
   std::vector<std::pair<double, Index>> heap;
 };
 
+/// The graph search_path() runs on: R's vertices (nodes < n), then face centroids (n + f), then
+/// edge midpoints (n + #F_R + e), with their 3D points and the cost factor near R's boundary.
+struct SearchGraph {
+  const Surface& S;
+  const Disk& R;
+  const std::vector<Index>& hops;  ///< boundary_hops(R); 0 on R's boundary
+
+  Index n() const { return R.topo.num_vertices; }
+  Index nf() const { return R.topo.num_faces; }
+  double vpos(Index u, int d) const { return S.pos[3 * R.to_surface[u] + d]; }
+  /// The 3D point of a node (zeros without positions).
+  void point(Index node, std::array<double, 3>& p) const {
+    p = {0, 0, 0};
+    if (!S.has_pos) return;
+    if (node < n()) {
+      for (int d = 0; d < 3; ++d) p[d] = vpos(node, d);
+    } else if (node < n() + nf()) {
+      const Index f = node - n();
+      for (int k = 0; k < 3; ++k)
+        for (int d = 0; d < 3; ++d) p[d] += vpos(R.faces[3 * f + k], d) / 3;
+    } else {
+      const Index e = node - n() - nf();
+      const Index c = R.topo.edge_corners[2 * e];
+      for (int d = 0; d < 3; ++d)
+        p[d] = 0.5 * (vpos(R.faces[next_corner(c)], d) + vpos(R.faces[prev_corner(c)], d));
+    }
+  }
+  /// 1 + 30/h² for a node h hops from the boundary; virtual points (centroids, midpoints) sit half
+  /// a hop further in than their vertices.
+  double factor(Index w) const {
+    double h = 0;
+    if (w < n()) {
+      h = hops[w];
+      if (h <= 0) return 1.0;
+    } else if (w < n() + nf()) {
+      for (int k = 0; k < 3; ++k) h = std::max(h, static_cast<double>(hops[R.faces[3 * (w - n()) + k]]));
+      h += 0.5;
+    } else {
+      const Index c = R.topo.edge_corners[2 * (w - n() - nf())];
+      h = 0.5 + std::max(hops[R.faces[next_corner(c)]], hops[R.faces[prev_corner(c)]]);
+    }
+    return 1.0 + 30.0 / (h * h);
+  }
+};
+
+/// Whether an edge path can exist: an interior edge leaves some source, and one enters some
+/// target (else only the extended graph can join them).
+bool edge_path_possible(const SearchGraph& G, const std::vector<Index>& sources, const std::vector<char>& target,
+                        const std::vector<char>& is_source) {
+  const Topology& rt = G.R.topo;
+  auto has_free_edge = [&](Index u, bool to_target) {
+    for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
+      const Index c = rt.vertex_corners[k];
+      for (int side = 0; side < 2; ++side) {
+        const Index ec = side == 0 ? prev_corner(c) : next_corner(c);
+        const Index w = G.R.faces[side == 0 ? next_corner(c) : prev_corner(c)];
+        if (rt.opposite[ec] == kInvalid) continue;
+        if (!rt.is_boundary_vertex(w) || (to_target ? is_source[w] : target[w] != 0)) return true;
+      }
+    }
+    return false;
+  };
+  bool out_of_sources = false;
+  for (Index a : sources) out_of_sources |= has_free_edge(a, false);
+  if (!out_of_sources) return false;
+  for (Index v = 0; v < G.n(); ++v)
+    if (target[v] && !is_source[v] && has_free_edge(v, true)) return true;
+  return false;
+}
+
+/// The ball A* aims at: the targets' centroid and their largest distance from it (a hair more).
+/// A path's cost is at least its 3D length (factors ≥ 1, penalties ≥ 0), so the distance to this
+/// ball never overestimates what is left. Without positions it is 0 everywhere (Dijkstra).
+struct TargetBall {
+  bool used = false;
+  std::array<double, 3> c = {0, 0, 0};
+  double r = 0;
+  double ahead(const std::array<double, 3>& p) const {
+    if (!used) return 0.0;
+    const double dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2];
+    return std::max(0.0, std::sqrt(dx * dx + dy * dy + dz * dz) - r);
+  }
+};
+
+TargetBall target_ball(const SearchGraph& G, const std::vector<char>& target) {
+  TargetBall ball;
+  if (!G.S.has_pos) return ball;
+  ball.used = true;
+  Index count = 0;
+  for (Index v = 0; v < G.n(); ++v)
+    if (target[v]) {
+      for (int d = 0; d < 3; ++d) ball.c[d] += G.vpos(v, d);
+      ++count;
+    }
+  if (count > 0)
+    for (double& x : ball.c) x /= count;
+  for (Index v = 0; v < G.n(); ++v)
+    if (target[v]) {
+      double r2 = 0;
+      for (int d = 0; d < 3; ++d) r2 += (G.vpos(v, d) - ball.c[d]) * (G.vpos(v, d) - ball.c[d]);
+      ball.r = std::max(ball.r, std::sqrt(r2));
+    }
+  ball.r *= 1 + 1e-12;
+  return ball;
+}
+
 /// The cheapest path inside the disk R from one of `sources` to a vertex with target[v] set (R
 /// vertices), touching R's boundary only at its ends; S and R are not changed. First the
 /// shortest edge path; only when none exists, the shortest path in the graph extended by face
@@ -515,86 +621,13 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
       for (Index a : sources) flags[a] = 0;
     }
   } clear_sources{is_source, sources};
-  auto vpos = [&](Index u, int d) { return S.pos[3 * R.to_surface[u] + d]; };
-  auto node_point = [&](Index node, std::array<double, 3>& p) {
-    p = {0, 0, 0};
-    if (!S.has_pos) return;
-    if (node < n) {
-      for (int d = 0; d < 3; ++d) p[d] = vpos(node, d);
-    } else if (node < n + nf) {
-      const Index f = node - n;
-      for (int k = 0; k < 3; ++k)
-        for (int d = 0; d < 3; ++d) p[d] += vpos(R.faces[3 * f + k], d) / 3;
-    } else {
-      const Index e = node - n - nf;
-      const Index c = rt.edge_corners[2 * e];
-      for (int d = 0; d < 3; ++d)
-        p[d] = 0.5 * (vpos(R.faces[next_corner(c)], d) + vpos(R.faces[prev_corner(c)], d));
-    }
-  };
+  const SearchGraph G{S, R, hops};
   const double penalty = 20 * S.mean_length;
-  // Virtual points (centroids, midpoints) sit half a hop further in than their vertices.
-  auto factor = [&](Index w) {
-    double h = 0;
-    if (w < n) {
-      h = hops[w];
-      if (h <= 0) return 1.0;
-    } else if (w < n + nf) {
-      for (int k = 0; k < 3; ++k) h = std::max(h, static_cast<double>(hops[R.faces[3 * (w - n) + k]]));
-      h += 0.5;
-    } else {
-      const Index c = rt.edge_corners[2 * (w - n - nf)];
-      h = 0.5 + std::max(hops[R.faces[next_corner(c)]], hops[R.faces[prev_corner(c)]]);
-    }
-    return 1.0 + 30.0 / (h * h);
-  };
-  // An edge path needs an interior edge from some source and into some target.
-  auto has_free_edge = [&](Index u, bool to_target) {
-    for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
-      const Index c = rt.vertex_corners[k];
-      for (int side = 0; side < 2; ++side) {
-        const Index ec = side == 0 ? prev_corner(c) : next_corner(c);
-        const Index w = R.faces[side == 0 ? next_corner(c) : prev_corner(c)];
-        if (rt.opposite[ec] == kInvalid) continue;
-        if (!rt.is_boundary_vertex(w) || (to_target ? is_source[w] : target[w] != 0)) return true;
-      }
-    }
-    return false;
-  };
-  bool edge_possible = false;
-  for (Index a : sources) edge_possible |= has_free_edge(a, false);
-  if (edge_possible) {
-    bool into = false;
-    for (Index v = 0; v < n && !into; ++v)
-      if (target[v] && !is_source[v]) into = has_free_edge(v, true);
-    edge_possible = into;
-  }
-  // A* towards the ball around the targets: a path's cost is at least its 3D length (factors
-  // >= 1, penalties >= 0), so the distance to that ball never overestimates what is left.
-  std::array<double, 3> ball_c = {0, 0, 0};
-  double ball_r = 0;
-  if (S.has_pos) {
-    Index count = 0;
-    for (Index v = 0; v < n; ++v)
-      if (target[v]) {
-        for (int d = 0; d < 3; ++d) ball_c[d] += vpos(v, d);
-        ++count;
-      }
-    if (count > 0)
-      for (double& x : ball_c) x /= count;
-    for (Index v = 0; v < n; ++v)
-      if (target[v]) {
-        double r2 = 0;
-        for (int d = 0; d < 3; ++d) r2 += (vpos(v, d) - ball_c[d]) * (vpos(v, d) - ball_c[d]);
-        ball_r = std::max(ball_r, std::sqrt(r2));
-      }
-    ball_r *= 1 + 1e-12;
-  }
-  auto ahead = [&](const std::array<double, 3>& p) {
-    if (!S.has_pos) return 0.0;
-    const double dx = p[0] - ball_c[0], dy = p[1] - ball_c[1], dz = p[2] - ball_c[2];
-    return std::max(0.0, std::sqrt(dx * dx + dy * dy + dz * dz) - ball_r);
-  };
+  const bool edge_possible = edge_path_possible(G, sources, target, is_source);
+  const TargetBall ball = target_ball(G, target);
+  auto node_point = [&](Index node, std::array<double, 3>& p) { G.point(node, p); };
+  auto factor = [&](Index w) { return G.factor(w); };
+  auto ahead = [&](const std::array<double, 3>& p) { return ball.ahead(p); };
   for (int phase = edge_possible ? 0 : 1; phase < 2; ++phase) {
     const bool extended = phase == 1;
     const Index total = extended ? n + nf + rt.num_edges : n;
@@ -1016,6 +1049,561 @@ std::string label(const std::string& name, int orientation) {
   return orientation < 0 ? name + "^-1" : name;
 }
 
+// ---- the stages of cut_surface() -----------------------------------------------------------------
+
+/// What the stages leave for the outputs: the side the word starts with (its first directed
+/// edge), the arcs' first edges and boundary loops, and whether the word is canonical (else why
+/// not).
+struct CutNames {
+  Pair anchor_edge{kInvalid, kInvalid};
+  std::vector<Pair> arc_first;
+  std::vector<Index> arc_loop;
+  bool word_canonical = false;
+  std::string reason;
+};
+
+/// The cutter before any cut: the surface is the input (its boundary loops and mean edge length
+/// noted), no edge is cut.
+void start_cutter(Cutter& C, const Mesh& mesh, const Topology& topo) {
+  const Index V = topo.num_vertices;
+  Surface& S = C.S;
+  S.input = &mesh;
+  S.n_input = V;
+  S.has_pos = !mesh.positions.empty();
+  S.pos = mesh.positions;
+  S.faces = mesh.faces;
+  S.face_origin.resize(static_cast<std::size_t>(topo.num_faces));
+  std::iota(S.face_origin.begin(), S.face_origin.end(), 0);
+  S.vertex_loop.assign(static_cast<std::size_t>(V), -1);
+  for (Index L = 0; L < topo.num_boundary_loops(); ++L)
+    for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
+      S.vertex_loop[topo.boundary_vertices[k]] = L;
+  S.topo = topo;
+  if (S.has_pos && topo.num_edges > 0) {
+    double sum = 0;
+    for (Index e = 0; e < topo.num_edges; ++e)
+      sum += S.length(topo.edge_vertices[2 * e], topo.edge_vertices[2 * e + 1]);
+    S.mean_length = sum > 0 ? sum / topo.num_edges : 1;
+  }
+  C.st.cut.assign(static_cast<std::size_t>(topo.num_edges), 0);
+  C.st.node.assign(static_cast<std::size_t>(V), 0);
+}
+
+/// Closed genus 0: a slit along two edges x–y–z from the base x (one edge would not open: its two
+/// sides would join the same two vertices), each the shortest available. False on an internal
+/// error (C.error).
+bool slit_sphere(Cutter& C, const CutOptions& options, Index x, CutNames& names) {
+  const Topology& topo = C.S.topo;
+  auto shortest = [&](Index from, Index avoid, Index* to) {
+    Index best = kInvalid;
+    double best_len = kInf;
+    for (Index k = topo.vertex_corner_offsets[from]; k < topo.vertex_corner_offsets[from + 1]; ++k) {
+      const Index c = topo.vertex_corners[k];
+      const Index e = topo.corner_edge[prev_corner(c)];
+      const Index z = topo.corner_vertex[next_corner(c)];
+      if (z == avoid) continue;
+      const double l = options.edge_weights.empty() ? C.S.length(from, z) : options.edge_weights[e];
+      if (l < best_len || (l == best_len && e < best)) {
+        best_len = l;
+        best = e;
+        *to = z;
+      }
+    }
+    return best;
+  };
+  Index other = kInvalid, third = kInvalid;
+  C.st.cut[shortest(x, kInvalid, &other)] = 1;
+  C.st.cut[shortest(other, x, &third)] = 1;
+  C.st.node[x] = 1;
+  C.st.node[third] = 1;
+  C.base = x;
+  if (!C.rebuild()) return false;
+  names.anchor_edge = {x, other};
+  names.word_canonical = true;
+  return true;
+}
+
+/// Genus 0 with boundary: the base moves to the boundary vertex nearest to it (Dijkstra on the
+/// surface), where the arcs to the other loops will start. False on an internal error (C.error).
+bool base_on_boundary(Cutter& C, const CutOptions& options, Index& x, CutNames& names) {
+  const Surface& S = C.S;
+  const Topology& topo = S.topo;
+  Index w0 = x;
+  if (S.vertex_loop[x] < 0) {
+    std::vector<double> d(static_cast<std::size_t>(topo.num_vertices), kInf);
+    using Item = std::pair<double, Index>;
+    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+    d[x] = 0;
+    pq.push({0.0, x});
+    w0 = kInvalid;
+    while (!pq.empty()) {
+      const auto [dd, u] = pq.top();
+      pq.pop();
+      if (dd > d[u]) continue;
+      if (S.vertex_loop[u] >= 0) {
+        w0 = u;
+        break;
+      }
+      for (Index k = topo.vertex_corner_offsets[u]; k < topo.vertex_corner_offsets[u + 1]; ++k) {
+        const Index c = topo.vertex_corners[k];
+        const Index z = topo.corner_vertex[next_corner(c)];
+        const double l = options.edge_weights.empty()
+                             ? S.length(u, z)
+                             : options.edge_weights[topo.corner_edge[prev_corner(c)]];
+        if (dd + l < d[z]) {
+          d[z] = dd + l;
+          pq.push({d[z], z});
+        }
+      }
+    }
+    if (w0 == kInvalid) {
+      C.error = "no boundary vertex reachable";
+      return false;
+    }
+  }
+  C.st.node[w0] = 1;
+  C.base = w0;
+  C.outer_hint = w0;
+  x = w0;
+  // the boundary edge leaving w0 along its loop
+  const Index L = S.vertex_loop[w0];
+  for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
+    if (topo.boundary_vertices[k] == w0) {
+      const Index nk = k + 1 < topo.boundary_offsets[L + 1] ? k + 1 : topo.boundary_offsets[L];
+      names.anchor_edge = {w0, topo.boundary_vertices[nk]};
+    }
+  if (!C.rebuild()) return false;
+  names.word_canonical = true;
+  return true;
+}
+
+/// The polygon's candidate moves are tried in order of a cheap proxy (the length of the sides the
+/// path replaces), so that the first bound is tight and later searches stop early; at most this
+/// many are searched per move.
+constexpr Index kCandidates = 12;
+
+struct Candidate {
+  Index proxy, t, ja, tb;
+  bool after;
+};
+
+/// The cheapest path between two corners of the polygon (by their anchors), or none past `bound`.
+PathSearch corner_path(Cutter& C, Index alpha, Index beta, double bound) {
+  const Polygon& Pg = C.P;
+  std::vector<char> is_target(static_cast<std::size_t>(C.R.topo.num_vertices), 0);
+  for (Index v : Pg.corner_anchor[beta]) is_target[v] = 1;
+  return search_path(C.S, C.R, Pg.corner_anchor[alpha], is_target, C.hops, C.work, bound);
+}
+
+enum class Move { Made, NoneNeeded, Failed };
+
+/// Step (B), one vertex class: among the corners of another class next to a base corner, the move
+/// whose path is cheapest (fewest refined points, then shortest) cuts that corner off and reglues
+/// it. NoneNeeded when every corner is in the base's class; Failed with `reason`.
+Move merge_corner_class(Cutter& C, std::string& reason) {
+  const Polygon& Pg = C.P;
+  const Index n = Pg.ntok();
+  auto tok_len = [&](Index t) { return Pg.side_len[Pg.tok_side[t]]; };
+  std::vector<Candidate> cands;
+  bool any_other = false;
+  for (Index t = 0; t < n; ++t) {
+    if (Pg.corner_class[t] == C.base) continue;
+    any_other = true;
+    for (int side = 0; side < 2; ++side) {
+      const bool after = side == 0;
+      if (Pg.corner_class[after ? (t + n - 1) % n : (t + 1) % n] != C.base) continue;
+      cands.push_back({tok_len((t + n - 1) % n) + tok_len(t), t, kInvalid, kInvalid, after});
+      break;  // both variants use the same path
+    }
+  }
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
+  double best = kInf;
+  PathSearch best_path;  // the chosen move's path, cut by cut_paste() without a new search
+  Index bad = kInvalid, evaluated = 0;
+  bool glue_after = true;
+  for (const Candidate& cd : cands) {
+    if (evaluated++ >= kCandidates) break;
+    PathSearch ps = corner_path(C, (cd.t + n - 1) % n, (cd.t + 1) % n, best);
+    if (ps.cost < best) {
+      best = ps.cost;
+      best_path = std::move(ps);
+      bad = cd.t;
+      glue_after = cd.after;
+    }
+  }
+  if (bad == kInvalid) {
+    if (!any_other) return Move::NoneNeeded;
+    reason = "no corner of another class is next to a base corner";
+    return Move::Failed;
+  }
+  // corner `bad` lies between token bad-1 (b) and token bad (a)
+  const Index alpha = (bad + n - 1) % n, beta = (bad + 1) % n;
+  const Index glue_tok = glue_after ? bad : (bad + n - 1) % n;
+  const std::vector<Pair> glue = C.side_pairs(Pg.tok_side[glue_tok]);
+  const std::vector<Index> src = Pg.corner_anchor[alpha], dst = Pg.corner_anchor[beta];
+  std::string why;
+  if (!C.cut_paste(src, dst, glue, nullptr, &why, &best_path)) {
+    reason = "cut-and-paste failed: " + why;
+    return Move::Failed;
+  }
+  return Move::Made;
+}
+
+/// Step (C), commutators: among linked pairs a…b…a^-1…b^-1 of letters not yet in a commutator,
+/// the one whose first path is cheapest becomes one by two cut-and-paste moves. NoneNeeded when
+/// the word is all commutators; Failed with `reason`.
+Move make_commutator(Cutter& C, std::string& reason) {
+  const Polygon& Pg = C.P;
+  const Index n = Pg.ntok();
+  auto tok_len = [&](Index t) { return Pg.side_len[Pg.tok_side[t]]; };
+  std::vector<char> done;
+  const Index blocks = commutator_blocks(Pg, done);
+  if (4 * blocks == n) return Move::NoneNeeded;  // canonical
+  auto partner_token = [&](Index t) {
+    for (Index q = 0; q < n; ++q)
+      if (q != t && Pg.tok_letter[q] == Pg.tok_letter[t]) return q;
+    return kInvalid;
+  };
+  std::vector<Candidate> cands;
+  Index total = 0;
+  for (Index t = 0; t < n; ++t) total += tok_len(t);
+  for (Index ta = 0; ta < n; ++ta) {
+    if (done[ta]) continue;
+    const Index ja = partner_token(ta);
+    Index arc = 0;
+    for (Index k = 0; (ta + k) % n != (ja + 1) % n; ++k) arc += tok_len((ta + k) % n);
+    for (Index k = 1; (ta + k) % n != ja; ++k) {
+      const Index t = (ta + k) % n;
+      if (done[t]) continue;
+      const Index other = partner_token(t);
+      if ((other - ta + n) % n < (ja - ta + n) % n) continue;  // not linked
+      cands.push_back({std::min(arc, total - arc), ta, ja, t, false});
+      break;  // the path does not depend on b
+    }
+  }
+  std::stable_sort(cands.begin(), cands.end(),
+                   [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
+  Index i0 = kInvalid, j0 = kInvalid, tb = kInvalid, evaluated = 0;
+  double best = kInf;
+  PathSearch best_path;
+  for (const Candidate& cd : cands) {
+    if (evaluated++ >= kCandidates) break;
+    PathSearch ps = corner_path(C, cd.t, (cd.ja + 1) % n, best);
+    if (ps.cost < best) {
+      best = ps.cost;
+      best_path = std::move(ps);
+      i0 = cd.t;
+      j0 = cd.ja;
+      tb = cd.tb;
+    }
+  }
+  if (j0 == kInvalid || tb == kInvalid) {
+    reason = "no linked pair of letters";
+    return Move::Failed;
+  }
+  std::string why;
+  // Move 1: from the corner before a to the corner after a^-1, reglue along b.
+  const Pair a_inv_first = side_first_edge(Pg, C.R, Pg.tok_side[j0]);
+  const std::vector<Pair> glue_b = C.side_pairs(Pg.tok_side[tb]);
+  std::vector<Index> path;
+  {
+    const std::vector<Index> src = Pg.corner_anchor[i0], dst = Pg.corner_anchor[(j0 + 1) % n];
+    if (!C.cut_paste(src, dst, glue_b, &path, &why, &best_path)) {
+      reason = "cut-and-paste failed: " + why;
+      return Move::Failed;
+    }
+  }
+  // Move 2: from the corner after a^-1 to the corner after c, reglue along a.
+  {
+    const Polygon& P1 = C.P;
+    const Index sa = side_with_first_edge(P1, C.R, a_inv_first);
+    const Index sc = side_with_first_edge(P1, C.R, Pair{path[0], path[1]});
+    const Index ta = sa == kInvalid ? kInvalid : token_of_side(P1, sa);
+    const Index tc = sc == kInvalid ? kInvalid : token_of_side(P1, sc);
+    if (ta == kInvalid || tc == kInvalid) {
+      reason = "lost track of a side after a move";
+      return Move::Failed;
+    }
+    const Index n1 = P1.ntok();
+    const std::vector<Pair> glue_a = C.side_pairs(P1.tok_side[ta]);
+    const std::vector<Index> src = P1.corner_anchor[(ta + 1) % n1], dst = P1.corner_anchor[(tc + 1) % n1];
+    if (!C.cut_paste(src, dst, glue_a, nullptr, &why)) {
+      reason = "cut-and-paste failed: " + why;
+      return Move::Failed;
+    }
+  }
+  std::vector<char> done2;
+  if (commutator_blocks(C.P, done2) <= blocks) {
+    reason = "a commutator move did not make progress";
+    return Move::Failed;
+  }
+  return Move::Made;
+}
+
+/// Genus ≥ 1: the cut graph by tree–cotree (the loops based at its interior vertex nearest to x in
+/// Ŝ, which becomes x), then, when asked, cut-and-paste to the canonical word: (A) cancel
+/// x x^-1, (B) one vertex class, (C) commutators, until canonical or `max_moves`. False on an
+/// internal error (C.error); a word left non-canonical is not one (names.reason says why).
+bool loops_by_tree_cotree(Cutter& C, const CutOptions& options, Index g, Index max_moves, Index& x,
+                          CutNames& names) {
+  Surface& S = C.S;
+  const Index V = S.nv();
+  std::string& reason = names.reason;
+  std::vector<double> dhat;
+  if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &C.error)) return false;
+  const std::vector<Index> deg = cut_degree(S, C.st);
+  Index P = kInvalid;
+  for (Index v = 0; v < V; ++v) {
+    if (deg[v] == 0) continue;
+    if (S.vertex_loop[v] >= 0 || deg[v] != 2) C.st.node[v] = 1;
+    if (S.vertex_loop[v] < 0 && (P == kInvalid || dhat[v] < dhat[P])) P = v;
+  }
+  if (P == kInvalid) {
+    // Every cut vertex lies on the boundary: the loops cannot be based at an interior point.
+    reason = "the cut graph has no interior vertex to base the loops at";
+    for (Index v = 0; v < V; ++v)
+      if (deg[v] > 0) {
+        P = v;
+        break;
+      }
+  }
+  C.st.node[P] = 1;
+  C.base = P;
+  x = P;
+  if (!C.rebuild()) return false;
+
+  if (!options.canonicalize) reason = "canonicalisation was not requested";
+  bool stop = !options.canonicalize || !reason.empty();
+  Index guard = 0;
+  while (!stop) {
+    if (++guard > 4 * max_moves + 16 || C.moves >= max_moves) {
+      reason = "move limit reached";
+      break;
+    }
+    const Polygon& Pg = C.P;
+    const Index n = Pg.ntok();
+    // (A) cancel x x^-1
+    Index cancel = kInvalid;
+    for (Index t = 0; t < n && n > 2; ++t) {
+      const Index u = (t + 1) % n;
+      if (Pg.tok_letter[t] == Pg.tok_letter[u] && Pg.tok_sign[t] == -Pg.tok_sign[u]) {
+        cancel = t;
+        break;
+      }
+    }
+    if (cancel != kInvalid) {
+      std::string why;
+      if (!C.cancel(cancel, &why)) {
+        reason = why;
+        break;
+      }
+      if (!C.st.node[C.base]) {
+        reason = "the base vertex left the cut graph";
+        break;
+      }
+      continue;
+    }
+    const Move b = merge_corner_class(C, reason);
+    if (b == Move::Failed) break;
+    if (b == Move::Made) continue;
+    if (make_commutator(C, reason) != Move::Made) break;
+  }
+  x = C.base;
+  const Index rotation_token = canonical_rotation(C.P);
+  names.word_canonical = rotation_token >= 0 && 4 * g == C.P.ntok();
+  if (!names.word_canonical && reason.empty()) reason = "the polygon word is not canonical";
+  const Index anchor_tok = names.word_canonical ? rotation_token : 0;
+  names.anchor_edge = side_first_edge(C.P, C.R, C.P.tok_side[anchor_tok]);
+  return true;
+}
+
+/// Arcs from the base corner to every hole (the one with the smallest input loop first),
+/// shortest paths inside the disk. False on an internal error (C.error).
+bool cut_arcs(Cutter& C, CutNames& names) {
+  while (!C.P.holes.empty()) {
+    const Polygon& Pg = C.P;
+    const Index s0 = side_with_first_edge(Pg, C.R, names.anchor_edge);
+    if (s0 == kInvalid) {
+      C.error = "lost the anchor side";
+      return false;
+    }
+    Index best_hole = kInvalid, best_loop = kInvalid;
+    for (Index h : Pg.holes) {
+      const Index L = C.S.vertex_loop[C.R.to_surface[C.R.topo.boundary_vertices[C.R.topo.boundary_offsets[h]]]];
+      if (best_loop == kInvalid || L < best_loop) {
+        best_loop = L;
+        best_hole = h;
+      }
+    }
+    std::vector<Index> targets;
+    for (Index k = C.R.topo.boundary_offsets[best_hole]; k < C.R.topo.boundary_offsets[best_hole + 1]; ++k)
+      targets.push_back(C.R.topo.boundary_vertices[k]);
+    std::vector<Index> path;
+    const std::vector<Index> src = {Pg.at(Pg.side_begin[s0])};
+    std::string why;
+    if (!C.cut_paste(src, targets, {}, &path, &why)) {
+      C.error = "arc to boundary loop " + std::to_string(best_loop) + ": " + why;
+      return false;
+    }
+    names.arc_first.push_back({path[0], path[1]});
+    names.arc_loop.push_back(best_loop);
+  }
+  return true;
+}
+
+/// The word's letters as the user reads them: arcs t_i, the slit s1, and the loops, a_k b_k in
+/// commutator order when the word is canonical (else x1, x2, … in side order from s_start).
+struct Letters {
+  std::vector<std::string> name;
+  std::vector<int> dir;  ///< token sign of the + occurrence
+  std::vector<SideKind> kind;
+  std::vector<Index> loop;        ///< the boundary loop of an arc
+  std::vector<Index> order;       ///< letters in generator order
+  std::vector<Index> generator;   ///< letter → generator
+};
+
+/// "t3", "a1", …
+std::string letter_name(const char* prefix, Index k) {
+  std::string s = prefix;
+  s += std::to_string(k);
+  return s;
+}
+
+/// Names the letters of the final polygon. False on an internal error (C.error).
+bool name_letters(Cutter& C, const CutNames& names, Index g, Index b, Index s_start, Letters& out) {
+  const Polygon& Pg = C.P;
+  const Disk& R = C.R;
+  const std::size_t nl = static_cast<std::size_t>(Pg.num_letters);
+  out.name.assign(nl, std::string());
+  out.dir.assign(nl, 0);
+  out.kind.assign(nl, SideKind::Loop);
+  out.loop.assign(nl, kInvalid);
+  out.order.clear();
+  for (std::size_t i = 0; i < names.arc_first.size(); ++i) {
+    const Index s = side_with_first_edge(Pg, R, names.arc_first[i]);
+    if (s == kInvalid) {
+      C.error = "lost an arc";
+      return false;
+    }
+    const Index t = token_of_side(Pg, s);
+    const Index L = Pg.tok_letter[t];
+    out.name[L] = letter_name("t", names.arc_loop[i] + 1);
+    out.dir[L] = Pg.tok_sign[t];
+    out.kind[L] = SideKind::Arc;
+    out.loop[L] = names.arc_loop[i];
+  }
+  if (g == 0 && b == 0) {
+    out.name[Pg.tok_letter[0]] = "s1";
+    out.kind[Pg.tok_letter[0]] = SideKind::Slit;
+    const Index t = token_of_side(Pg, s_start);
+    out.dir[Pg.tok_letter[0]] = Pg.tok_sign[t];
+  }
+  Index next_x = 1, handle = 1;
+  // Walk sides from s_start; name loop letters in order.
+  const Index ns = static_cast<Index>(Pg.side_begin.size());
+  for (Index k = 0; k < ns; ++k) {
+    const Index s = (s_start + k) % ns;
+    if (!Pg.side_cut[s]) continue;
+    const Index t = token_of_side(Pg, s);
+    const Index L = Pg.tok_letter[t];
+    if (!out.name[L].empty()) continue;
+    if (names.word_canonical && g > 0) {
+      // in a commutator block u v u^-1 v^-1 starting at this token
+      const Index n = Pg.ntok();
+      const Index v = Pg.tok_letter[(t + 1) % n];
+      out.name[L] = letter_name("a", handle);
+      out.dir[L] = Pg.tok_sign[t];
+      out.name[v] = letter_name("b", handle);
+      out.dir[v] = Pg.tok_sign[(t + 1) % n];
+      out.order.push_back(L);
+      out.order.push_back(v);
+      ++handle;
+    } else {
+      out.name[L] = letter_name("x", next_x++);
+      out.dir[L] = Pg.tok_sign[t];
+      out.order.push_back(L);
+    }
+  }
+  for (Index L = 0; L < Pg.num_letters; ++L)
+    if (out.kind[L] != SideKind::Loop) out.order.push_back(L);
+  out.generator.assign(nl, kInvalid);
+  for (std::size_t i = 0; i < out.order.size(); ++i) out.generator[out.order[i]] = static_cast<Index>(i);
+  return true;
+}
+
+/// The sides in order from s_start (their vertices, kinds, generators, partners, labels and the
+/// word), and the generators' surface vertices (each from its + occurrence).
+void write_sides(const Cutter& C, Index s_start, const Letters& letters, CutResult& r) {
+  const Polygon& Pg = C.P;
+  const Disk& R = C.R;
+  const Index ns = static_cast<Index>(Pg.side_begin.size());
+  std::vector<Index> new_index(static_cast<std::size_t>(ns));
+  for (Index k = 0; k < ns; ++k) new_index[(s_start + k) % ns] = k;
+  r.side_offsets.push_back(0);
+  std::vector<std::string> words;
+  for (Index k = 0; k < ns; ++k) {
+    const Index s = (s_start + k) % ns;
+    for (Index i = 0; i <= Pg.side_len[s]; ++i) r.side_vertices.push_back(Pg.at(Pg.side_begin[s] + i));
+    r.side_offsets.push_back(static_cast<Index>(r.side_vertices.size()));
+    if (!Pg.side_cut[s]) {
+      r.side_kind.push_back(SideKind::Boundary);
+      r.side_generator.push_back(kInvalid);
+      r.side_orientation.push_back(0);
+      r.side_partner.push_back(kInvalid);
+      r.side_boundary_loop.push_back(Pg.side_loop[s]);
+      r.side_label.push_back("∂" + std::to_string(Pg.side_loop[s] + 1));
+    } else {
+      const Index t = token_of_side(Pg, s);
+      const Index L = Pg.tok_letter[t];
+      const int o = Pg.tok_sign[t] == letters.dir[L] ? +1 : -1;
+      r.side_kind.push_back(letters.kind[L]);
+      r.side_generator.push_back(letters.generator[L]);
+      r.side_orientation.push_back(o);
+      r.side_partner.push_back(new_index[Pg.side_partner[s]]);
+      r.side_boundary_loop.push_back(letters.loop[L]);
+      r.side_label.push_back(label(letters.name[L], o));
+    }
+    words.push_back(r.side_label.back());
+  }
+  for (std::size_t i = 0; i < words.size(); ++i) r.word += (i ? " " : "") + words[i];
+  // Generators: the + occurrence's surface vertices.
+  r.generator_offsets.push_back(0);
+  for (Index L : letters.order) {
+    Index side = kInvalid;
+    for (Index k = 0; k < ns && side == kInvalid; ++k)
+      if (r.side_generator[k] == letters.generator[L] && r.side_orientation[k] == +1) side = k;
+    for (Index i = r.side_offsets[side]; i < r.side_offsets[side + 1]; ++i)
+      r.generator_vertices.push_back(R.to_surface[r.side_vertices[i]]);
+    r.generator_offsets.push_back(static_cast<Index>(r.generator_vertices.size()));
+    r.generator_kind.push_back(letters.kind[L]);
+    r.generator_name.push_back(letters.name[L]);
+    r.generator_boundary_loop.push_back(letters.loop[L]);
+  }
+}
+
+/// The independent check of a canonical word: the loops' algebraic intersection numbers, counted
+/// on the surface, must be a_i·b_j = δ_ij and a_i·a_j = b_i·b_j = 0 (r.intersection holds them).
+/// False when they are not.
+bool intersections_canonical(const Topology& surface, Index g, CutResult& r) {
+  const Index n2 = 2 * g;
+  r.intersection.assign(static_cast<std::size_t>(n2 * n2), 0);
+  bool ok = true;
+  for (Index i = 0; i < n2; ++i)
+    for (Index j = 0; j < n2; ++j) {
+      const std::span<const Index> gi(r.generator_vertices.data() + r.generator_offsets[i],
+                                      static_cast<std::size_t>(r.generator_offsets[i + 1] - r.generator_offsets[i]));
+      const std::span<const Index> gj(r.generator_vertices.data() + r.generator_offsets[j],
+                                      static_cast<std::size_t>(r.generator_offsets[j + 1] - r.generator_offsets[j]));
+      const int val = i == j ? 0 : intersection_number(surface, gi, gj);
+      r.intersection[static_cast<std::size_t>(i * n2 + j)] = val;
+      // loops are ordered a1 b1 a2 b2 …: a_k = 2k, b_k = 2k+1
+      const int expect = (i / 2 == j / 2 && i != j) ? (i % 2 == 0 ? +1 : -1) : 0;
+      if (val != expect) ok = false;
+    }
+  return ok;
+}
+
 }  // namespace
 
 // ---- intersection numbers -------------------------------------------------------------------------
@@ -1098,348 +1686,21 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   r.boundary_loops = b;
   r.num_input_vertices = V;
 
-  Cutter C;
-  Surface& S = C.S;
-  S.input = &mesh;
-  S.n_input = V;
-  S.has_pos = !mesh.positions.empty();
-  S.pos = mesh.positions;
-  S.faces = mesh.faces;
-  S.face_origin.resize(static_cast<std::size_t>(topo.num_faces));
-  std::iota(S.face_origin.begin(), S.face_origin.end(), 0);
-  S.vertex_loop.assign(static_cast<std::size_t>(V), -1);
-  for (Index L = 0; L < b; ++L)
-    for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
-      S.vertex_loop[topo.boundary_vertices[k]] = L;
-  S.topo = topo;
-  if (S.has_pos && topo.num_edges > 0) {
-    double sum = 0;
-    for (Index e = 0; e < topo.num_edges; ++e)
-      sum += S.length(topo.edge_vertices[2 * e], topo.edge_vertices[2 * e + 1]);
-    S.mean_length = sum > 0 ? sum / topo.num_edges : 1;
-  }
-  C.st.cut.assign(static_cast<std::size_t>(topo.num_edges), 0);
-  C.st.node.assign(static_cast<std::size_t>(V), 0);
-  const Index max_moves = options.max_moves > 0 ? options.max_moves : 64 + 40 * g;
-
-  // Names of the final word, filled per case.
-  std::vector<Pair> arc_first;  // first directed edge of arc i (to loop arc_loop[i])
-  std::vector<Index> arc_loop;
-  Pair anchor_edge{kInvalid, kInvalid};  // first directed edge of the side the word starts with
-  Index rotation_token = kInvalid;
-  bool word_canonical = false;
-  std::string reason;
-
   auto internal = [&](const std::string& m) {
     return fail(Status::NumericalFailure, "cut: internal error: " + m);
   };
-
-  if (g == 0 && b == 0) {
-    // Closed genus 0: a slit along two edges x–y–z (one edge would not open: its two sides
-    // would join the same two vertices), each the shortest available.
-    auto shortest = [&](Index from, Index avoid, Index* to) {
-      Index best = kInvalid;
-      double best_len = kInf;
-      for (Index k = topo.vertex_corner_offsets[from]; k < topo.vertex_corner_offsets[from + 1]; ++k) {
-        const Index c = topo.vertex_corners[k];
-        const Index e = topo.corner_edge[prev_corner(c)];
-        const Index z = topo.corner_vertex[next_corner(c)];
-        if (z == avoid) continue;
-        const double l = options.edge_weights.empty() ? S.length(from, z) : options.edge_weights[e];
-        if (l < best_len || (l == best_len && e < best)) {
-          best_len = l;
-          best = e;
-          *to = z;
-        }
-      }
-      return best;
-    };
-    Index other = kInvalid, third = kInvalid;
-    C.st.cut[shortest(x, kInvalid, &other)] = 1;
-    C.st.cut[shortest(other, x, &third)] = 1;
-    C.st.node[x] = 1;
-    C.st.node[third] = 1;
-    C.base = x;
-    if (!C.rebuild()) return internal(C.error);
-    anchor_edge = {x, other};
-    word_canonical = true;
-  } else if (g == 0) {
-    // Genus 0 with boundary: arcs from the boundary loop nearest to the base.
-    Index w0 = x;
-    if (S.vertex_loop[x] < 0) {
-      // nearest boundary vertex by Dijkstra on the surface
-      std::vector<double> d(static_cast<std::size_t>(V), kInf);
-      using Item = std::pair<double, Index>;
-      std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
-      d[x] = 0;
-      pq.push({0.0, x});
-      w0 = kInvalid;
-      while (!pq.empty()) {
-        const auto [dd, u] = pq.top();
-        pq.pop();
-        if (dd > d[u]) continue;
-        if (S.vertex_loop[u] >= 0) {
-          w0 = u;
-          break;
-        }
-        for (Index k = topo.vertex_corner_offsets[u]; k < topo.vertex_corner_offsets[u + 1]; ++k) {
-          const Index c = topo.vertex_corners[k];
-          const Index z = topo.corner_vertex[next_corner(c)];
-          const double l = options.edge_weights.empty()
-                               ? S.length(u, z)
-                               : options.edge_weights[topo.corner_edge[prev_corner(c)]];
-          if (dd + l < d[z]) {
-            d[z] = dd + l;
-            pq.push({d[z], z});
-          }
-        }
-      }
-      if (w0 == kInvalid) return internal("no boundary vertex reachable");
-    }
-    C.st.node[w0] = 1;
-    C.base = w0;
-    C.outer_hint = w0;
-    x = w0;
-    // the boundary edge leaving w0 along its loop
-    const Index L = S.vertex_loop[w0];
-    for (Index k = topo.boundary_offsets[L]; k < topo.boundary_offsets[L + 1]; ++k)
-      if (topo.boundary_vertices[k] == w0) {
-        const Index nk = k + 1 < topo.boundary_offsets[L + 1] ? k + 1 : topo.boundary_offsets[L];
-        anchor_edge = {w0, topo.boundary_vertices[nk]};
-      }
-    if (!C.rebuild()) return internal(C.error);
-    word_canonical = true;
-  } else {
-    std::vector<double> dhat;
-    if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &why)) return internal(why);
-    const std::vector<Index> deg = cut_degree(S, C.st);
-    Index P = kInvalid;
-    for (Index v = 0; v < V; ++v) {
-      if (deg[v] == 0) continue;
-      if (S.vertex_loop[v] >= 0 || deg[v] != 2) C.st.node[v] = 1;
-      if (S.vertex_loop[v] < 0 && (P == kInvalid || dhat[v] < dhat[P])) P = v;
-    }
-    if (P == kInvalid) {
-      // Every cut vertex lies on the boundary: the loops cannot be based at an interior point.
-      reason = "the cut graph has no interior vertex to base the loops at";
-      for (Index v = 0; v < V; ++v)
-        if (deg[v] > 0) {
-          P = v;
-          break;
-        }
-    }
-    C.st.node[P] = 1;
-    C.base = P;
-    x = P;
-    if (!C.rebuild()) return internal(C.error);
-
-    if (!options.canonicalize) reason = "canonicalisation was not requested";
-    bool stop = !options.canonicalize || !reason.empty();
-    Index guard = 0;
-    while (!stop) {
-      if (++guard > 4 * max_moves + 16 || C.moves >= max_moves) {
-        reason = "move limit reached";
-        break;
-      }
-      const Polygon& Pg = C.P;
-      const Index n = Pg.ntok();
-      // (A) cancel x x^-1
-      Index cancel = kInvalid;
-      for (Index t = 0; t < n && n > 2; ++t) {
-        const Index u = (t + 1) % n;
-        if (Pg.tok_letter[t] == Pg.tok_letter[u] && Pg.tok_sign[t] == -Pg.tok_sign[u]) {
-          cancel = t;
-          break;
-        }
-      }
-      if (cancel != kInvalid) {
-        if (!C.cancel(cancel, &why)) {
-          reason = why;
-          break;
-        }
-        if (!C.st.node[C.base]) {
-          reason = "the base vertex left the cut graph";
-          break;
-        }
-        continue;
-      }
-      // (B) one vertex class: among the corners of another class next to a base corner, the
-      // move whose path is cheapest (fewest refined points, then shortest).
-      double best = kInf;
-      auto path_cost = [&](Index alpha, Index beta) {
-        std::vector<char> is_target(static_cast<std::size_t>(C.R.topo.num_vertices), 0);
-        for (Index v : Pg.corner_anchor[beta]) is_target[v] = 1;
-        return search_path(S, C.R, Pg.corner_anchor[alpha], is_target, C.hops, C.work, best);
-      };
-      PathSearch best_path;  // the chosen move's path, cut by cut_paste() without a new search
-      // Candidates are tried in order of a cheap proxy (the length of the sides the path
-      // replaces), so that the first bound is tight and later searches stop early.
-      constexpr Index kCandidates = 12;
-      auto tok_len = [&](Index t) { return Pg.side_len[Pg.tok_side[t]]; };
-      struct Candidate {
-        Index proxy, t, ja, tb;
-        bool after;
-      };
-      std::vector<Candidate> cands;
-      Index bad = kInvalid, evaluated = 0;
-      bool glue_after = true, any_other = false;
-      for (Index t = 0; t < n; ++t) {
-        if (Pg.corner_class[t] == C.base) continue;
-        any_other = true;
-        for (int side = 0; side < 2; ++side) {
-          const bool after = side == 0;
-          if (Pg.corner_class[after ? (t + n - 1) % n : (t + 1) % n] != C.base) continue;
-          cands.push_back({tok_len((t + n - 1) % n) + tok_len(t), t, kInvalid, kInvalid, after});
-          break;  // both variants use the same path
-        }
-      }
-      std::stable_sort(cands.begin(), cands.end(),
-                       [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
-      for (const Candidate& cd : cands) {
-        if (evaluated++ >= kCandidates) break;
-        PathSearch ps = path_cost((cd.t + n - 1) % n, (cd.t + 1) % n);
-        if (ps.cost < best) {
-          best = ps.cost;
-          best_path = std::move(ps);
-          bad = cd.t;
-          glue_after = cd.after;
-        }
-      }
-      if (bad == kInvalid && any_other) {
-        reason = "no corner of another class is next to a base corner";
-        break;
-      }
-      if (bad != kInvalid) {
-        // corner `bad` lies between token bad-1 (b) and token bad (a)
-        const Index alpha = (bad + n - 1) % n, beta = (bad + 1) % n;
-        const Index glue_tok = glue_after ? bad : (bad + n - 1) % n;
-        const std::vector<Pair> glue = C.side_pairs(Pg.tok_side[glue_tok]);
-        const std::vector<Index> src = Pg.corner_anchor[alpha], dst = Pg.corner_anchor[beta];
-        if (!C.cut_paste(src, dst, glue, nullptr, &why, &best_path)) {
-          reason = "cut-and-paste failed: " + why;
-          break;
-        }
-        continue;
-      }
-      // (C) commutators: among linked pairs a…b…a^-1…b^-1 of letters not yet in a commutator,
-      // the one whose first path is cheapest.
-      std::vector<char> done;
-      const Index blocks = commutator_blocks(Pg, done);
-      if (4 * blocks == n) break;  // canonical
-      auto partner_token = [&](Index t) {
-        for (Index q = 0; q < n; ++q)
-          if (q != t && Pg.tok_letter[q] == Pg.tok_letter[t]) return q;
-        return kInvalid;
-      };
-      Index i0 = kInvalid, j0 = kInvalid, tb = kInvalid;
-      best = kInf;
-      evaluated = 0;
-      cands.clear();
-      Index total = 0;
-      for (Index t = 0; t < n; ++t) total += tok_len(t);
-      for (Index ta = 0; ta < n; ++ta) {
-        if (done[ta]) continue;
-        const Index ja = partner_token(ta);
-        Index arc = 0;
-        for (Index k = 0; (ta + k) % n != (ja + 1) % n; ++k) arc += tok_len((ta + k) % n);
-        for (Index k = 1; (ta + k) % n != ja; ++k) {
-          const Index t = (ta + k) % n;
-          if (done[t]) continue;
-          const Index other = partner_token(t);
-          if ((other - ta + n) % n < (ja - ta + n) % n) continue;  // not linked
-          cands.push_back({std::min(arc, total - arc), ta, ja, t, false});
-          break;  // the path does not depend on b
-        }
-      }
-      std::stable_sort(cands.begin(), cands.end(),
-                       [](const Candidate& p, const Candidate& q) { return p.proxy < q.proxy; });
-      for (const Candidate& cd : cands) {
-        if (evaluated++ >= kCandidates) break;
-        PathSearch ps = path_cost(cd.t, (cd.ja + 1) % n);
-        if (ps.cost < best) {
-          best = ps.cost;
-          best_path = std::move(ps);
-          i0 = cd.t;
-          j0 = cd.ja;
-          tb = cd.tb;
-        }
-      }
-      if (j0 == kInvalid || tb == kInvalid) {
-        reason = "no linked pair of letters";
-        break;
-      }
-      // Move 1: from the corner before a to the corner after a^-1, reglue along b.
-      const Pair a_inv_first = side_first_edge(Pg, C.R, Pg.tok_side[j0]);
-      const std::vector<Pair> glue_b = C.side_pairs(Pg.tok_side[tb]);
-      std::vector<Index> path;
-      {
-        const std::vector<Index> src = Pg.corner_anchor[i0], dst = Pg.corner_anchor[(j0 + 1) % n];
-        if (!C.cut_paste(src, dst, glue_b, &path, &why, &best_path)) {
-          reason = "cut-and-paste failed: " + why;
-          break;
-        }
-      }
-      // Move 2: from the corner after a^-1 to the corner after c, reglue along a.
-      {
-        const Polygon& P1 = C.P;
-        const Index sa = side_with_first_edge(P1, C.R, a_inv_first);
-        const Index sc = side_with_first_edge(P1, C.R, Pair{path[0], path[1]});
-        const Index ta = sa == kInvalid ? kInvalid : token_of_side(P1, sa);
-        const Index tc = sc == kInvalid ? kInvalid : token_of_side(P1, sc);
-        if (ta == kInvalid || tc == kInvalid) {
-          reason = "lost track of a side after a move";
-          break;
-        }
-        const Index n1 = P1.ntok();
-        const std::vector<Pair> glue_a = C.side_pairs(P1.tok_side[ta]);
-        const std::vector<Index> src = P1.corner_anchor[(ta + 1) % n1], dst = P1.corner_anchor[(tc + 1) % n1];
-        if (!C.cut_paste(src, dst, glue_a, nullptr, &why)) {
-          reason = "cut-and-paste failed: " + why;
-          break;
-        }
-      }
-      std::vector<char> done2;
-      if (commutator_blocks(C.P, done2) <= blocks) {
-        reason = "a commutator move did not make progress";
-        break;
-      }
-    }
-    x = C.base;
-    rotation_token = canonical_rotation(C.P);
-    word_canonical = rotation_token >= 0 && 4 * g == C.P.ntok();
-    if (!word_canonical && reason.empty()) reason = "the polygon word is not canonical";
-    const Index anchor_tok = word_canonical ? rotation_token : 0;
-    anchor_edge = side_first_edge(C.P, C.R, C.P.tok_side[anchor_tok]);
-  }
-
-  // Arcs to every hole.
-  while (!C.P.holes.empty()) {
-    const Polygon& Pg = C.P;
-    const Index s0 = side_with_first_edge(Pg, C.R, anchor_edge);
-    if (s0 == kInvalid) return internal("lost the anchor side");
-    // The hole with the smallest input loop.
-    Index best_hole = kInvalid, best_loop = kInvalid;
-    for (Index h : Pg.holes) {
-      const Index L = S.vertex_loop[C.R.to_surface[C.R.topo.boundary_vertices[C.R.topo.boundary_offsets[h]]]];
-      if (best_loop == kInvalid || L < best_loop) {
-        best_loop = L;
-        best_hole = h;
-      }
-    }
-    std::vector<Index> targets;
-    for (Index k = C.R.topo.boundary_offsets[best_hole]; k < C.R.topo.boundary_offsets[best_hole + 1]; ++k)
-      targets.push_back(C.R.topo.boundary_vertices[k]);
-    std::vector<Index> path;
-    const std::vector<Index> src = {Pg.at(Pg.side_begin[s0])};
-    if (!C.cut_paste(src, targets, {}, &path, &why))
-      return internal("arc to boundary loop " + std::to_string(best_loop) + ": " + why);
-    arc_first.push_back({path[0], path[1]});
-    arc_loop.push_back(best_loop);
-  }
+  Cutter C;
+  start_cutter(C, mesh, topo);
+  CutNames names;
+  const bool cut = g == 0 && b == 0 ? slit_sphere(C, options, x, names)
+                   : g == 0         ? base_on_boundary(C, options, x, names)
+                                    : loops_by_tree_cotree(C, options, g, options.max_moves > 0 ? options.max_moves : 64 + 40 * g, x, names);
+  if (!cut || !cut_arcs(C, names)) return internal(C.error);
 
   // ---- outputs ----
   const Polygon& Pg = C.P;
   const Disk& R = C.R;
+  const Surface& S = C.S;
   if (R.topo.num_boundary_loops() != 1 || R.topo.euler_characteristic() != 1 || R.topo.num_components != 1)
     return internal("the result is not a disk");
   r.base_vertex = x;
@@ -1455,135 +1716,20 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   r.cut_faces = R.faces;
   r.cut_to_surface = R.to_surface;
 
-  const Index ns = static_cast<Index>(Pg.side_begin.size());
-  Index s_start = side_with_first_edge(Pg, R, anchor_edge);
+  Index s_start = side_with_first_edge(Pg, R, names.anchor_edge);
   if (s_start == kInvalid) s_start = 0;
-  // Side names.
-  std::vector<std::string> name(static_cast<std::size_t>(ns));
-  std::vector<std::string> letter_name(static_cast<std::size_t>(Pg.num_letters));
-  std::vector<int> letter_dir(static_cast<std::size_t>(Pg.num_letters), 0);  // token sign of the + occurrence
-  std::vector<SideKind> letter_kind(static_cast<std::size_t>(Pg.num_letters), SideKind::Loop);
-  std::vector<Index> letter_loop(static_cast<std::size_t>(Pg.num_letters), kInvalid);
-  std::vector<Index> letter_order;
-  for (std::size_t i = 0; i < arc_first.size(); ++i) {
-    const Index s = side_with_first_edge(Pg, R, arc_first[i]);
-    if (s == kInvalid) return internal("lost an arc");
-    const Index t = token_of_side(Pg, s);
-    const Index L = Pg.tok_letter[t];
-    letter_name[L] = "t" + std::to_string(arc_loop[i] + 1);
-    letter_dir[L] = Pg.tok_sign[t];
-    letter_kind[L] = SideKind::Arc;
-    letter_loop[L] = arc_loop[i];
+  Letters letters;
+  if (!name_letters(C, names, g, b, s_start, letters)) return internal(C.error);
+  write_sides(C, s_start, letters, r);
+  if (g > 0 && names.word_canonical && !intersections_canonical(S.topo, g, r)) {
+    names.word_canonical = false;
+    names.reason = "the intersection numbers of the loops are not canonical";
   }
-  if (g == 0 && b == 0) {
-    letter_name[Pg.tok_letter[0]] = "s1";
-    letter_kind[Pg.tok_letter[0]] = SideKind::Slit;
-    const Index t = token_of_side(Pg, s_start);
-    letter_dir[Pg.tok_letter[0]] = Pg.tok_sign[t];
-  }
-  Index next_x = 1, handle = 1;
-  // Walk sides from s_start; name loop letters in order.
-  for (Index k = 0; k < ns; ++k) {
-    const Index s = (s_start + k) % ns;
-    if (!Pg.side_cut[s]) continue;
-    const Index t = token_of_side(Pg, s);
-    const Index L = Pg.tok_letter[t];
-    if (!letter_name[L].empty()) continue;
-    if (word_canonical && g > 0) {
-      // in a commutator block u v u^-1 v^-1 starting at this token
-      const Index n = Pg.ntok();
-      const Index v = Pg.tok_letter[(t + 1) % n];
-      letter_name[L] = "a" + std::to_string(handle);
-      letter_dir[L] = Pg.tok_sign[t];
-      letter_name[v] = "b" + std::to_string(handle);
-      letter_dir[v] = Pg.tok_sign[(t + 1) % n];
-      letter_order.push_back(L);
-      letter_order.push_back(v);
-      ++handle;
-    } else {
-      letter_name[L] = "x" + std::to_string(next_x++);
-      letter_dir[L] = Pg.tok_sign[t];
-      letter_order.push_back(L);
-    }
-  }
-  for (Index L = 0; L < Pg.num_letters; ++L)
-    if (letter_kind[L] != SideKind::Loop) letter_order.push_back(L);
-  std::vector<Index> gen_of_letter(static_cast<std::size_t>(Pg.num_letters), kInvalid);
-  for (std::size_t i = 0; i < letter_order.size(); ++i)
-    gen_of_letter[letter_order[i]] = static_cast<Index>(i);
-
-  // Sides in order from s_start.
-  std::vector<Index> new_index(static_cast<std::size_t>(ns));
-  for (Index k = 0; k < ns; ++k) new_index[(s_start + k) % ns] = k;
-  r.side_offsets.push_back(0);
-  std::vector<std::string> words;
-  for (Index k = 0; k < ns; ++k) {
-    const Index s = (s_start + k) % ns;
-    for (Index i = 0; i <= Pg.side_len[s]; ++i) r.side_vertices.push_back(Pg.at(Pg.side_begin[s] + i));
-    r.side_offsets.push_back(static_cast<Index>(r.side_vertices.size()));
-    if (!Pg.side_cut[s]) {
-      r.side_kind.push_back(SideKind::Boundary);
-      r.side_generator.push_back(kInvalid);
-      r.side_orientation.push_back(0);
-      r.side_partner.push_back(kInvalid);
-      r.side_boundary_loop.push_back(Pg.side_loop[s]);
-      r.side_label.push_back("∂" + std::to_string(Pg.side_loop[s] + 1));
-    } else {
-      const Index t = token_of_side(Pg, s);
-      const Index L = Pg.tok_letter[t];
-      const int o = Pg.tok_sign[t] == letter_dir[L] ? +1 : -1;
-      r.side_kind.push_back(letter_kind[L]);
-      r.side_generator.push_back(gen_of_letter[L]);
-      r.side_orientation.push_back(o);
-      r.side_partner.push_back(new_index[Pg.side_partner[s]]);
-      r.side_boundary_loop.push_back(letter_loop[L]);
-      r.side_label.push_back(label(letter_name[L], o));
-    }
-    words.push_back(r.side_label.back());
-  }
-  for (std::size_t i = 0; i < words.size(); ++i) r.word += (i ? " " : "") + words[i];
-  // Generators: the + occurrence's surface vertices.
-  r.generator_offsets.push_back(0);
-  for (Index L : letter_order) {
-    Index side = kInvalid;
-    for (Index k = 0; k < ns && side == kInvalid; ++k)
-      if (r.side_generator[k] == gen_of_letter[L] && r.side_orientation[k] == +1) side = k;
-    for (Index i = r.side_offsets[side]; i < r.side_offsets[side + 1]; ++i)
-      r.generator_vertices.push_back(R.to_surface[r.side_vertices[i]]);
-    r.generator_offsets.push_back(static_cast<Index>(r.generator_vertices.size()));
-    r.generator_kind.push_back(letter_kind[L]);
-    r.generator_name.push_back(letter_name[L]);
-    r.generator_boundary_loop.push_back(letter_loop[L]);
-  }
-  // Independent check of the loops' intersection numbers.
-  if (g > 0 && word_canonical) {
-    const Index n2 = 2 * g;
-    r.intersection.assign(static_cast<std::size_t>(n2 * n2), 0);
-    bool ok = true;
-    for (Index i = 0; i < n2; ++i)
-      for (Index j = 0; j < n2; ++j) {
-        const std::span<const Index> gi(
-            r.generator_vertices.data() + r.generator_offsets[i],
-            static_cast<std::size_t>(r.generator_offsets[i + 1] - r.generator_offsets[i]));
-        const std::span<const Index> gj(
-            r.generator_vertices.data() + r.generator_offsets[j],
-            static_cast<std::size_t>(r.generator_offsets[j + 1] - r.generator_offsets[j]));
-        const int val = i == j ? 0 : intersection_number(S.topo, gi, gj);
-        r.intersection[static_cast<std::size_t>(i * n2 + j)] = val;
-        // loops are ordered a1 b1 a2 b2 …: a_k = 2k, b_k = 2k+1
-        const int expect = (i / 2 == j / 2 && i != j) ? (i % 2 == 0 ? +1 : -1) : 0;
-        if (val != expect) ok = false;
-      }
-    if (!ok) {
-      word_canonical = false;
-      reason = "the intersection numbers of the loops are not canonical";
-    }
-  }
-  r.surface_topology = std::move(S.topo);
+  r.surface_topology = std::move(C.S.topo);
   r.disk_topology = std::move(C.R.topo);
-  r.canonical = word_canonical && reason.empty();
-  r.reason = r.canonical ? std::string() : reason;
-  r.refinement_bound = !r.canonical && reason.find(kRefinementBound) != std::string::npos;
+  r.canonical = names.word_canonical && names.reason.empty();
+  r.reason = r.canonical ? std::string() : names.reason;
+  r.refinement_bound = !r.canonical && names.reason.find(kRefinementBound) != std::string::npos;
   r.status = Status::Ok;
   r.message = "cut into a disk with " + std::to_string(r.num_sides()) + " sides";
   r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
