@@ -1067,16 +1067,25 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   }
   // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round;
   // once started, they go on below the threshold while a round still halves the error above
-  // the floor (cheap, and a layout nearer its floor gives the deck group more digits).
+  // the floor (cheap, and a layout nearer its floor gives the deck group more digits). A round
+  // that raises the max error is undone and ends the sweeps.
   bool halving = false;
+  std::vector<double> kept;
   for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
     const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
-    const double before = now.max_error_above_rounding;
+    const Layout before = now;
+    kept = x;
     detail::polish_by_sweeps(t, g, l, x, n);
-    out.polish_sweeps += n;
     measure_edges(t, g, l, P, now);
+    if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
+      x.swap(kept);
+      now = before;
+      break;
+    }
+    out.polish_sweeps += n;
     moved = true;
-    halving = now.max_error_above_rounding > 0 && now.max_error_above_rounding <= 0.5 * before;
+    halving = now.max_error_above_rounding > 0 &&
+              now.max_error_above_rounding <= 0.5 * before.max_error_above_rounding;
   }
   if (steps && coarse()) {
     out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;

@@ -276,7 +276,7 @@ struct Layout {
   int normalization_iterations = 0;  ///< S: Möbius centring steps
   /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
   int propagation_passes = 0;
-  /// Gauss–Seidel sweeps applied (LayoutOptions::polish_sweeps).
+  /// Gauss–Seidel sweeps kept (LayoutOptions::polish_sweeps; a round that raises the max error is undone).
   int polish_sweeps = 0;
   /// E, H and S: global Gauss–Newton steps kept (LayoutOptions::polish_steps).
   int polish_steps = 0;
