@@ -1,14 +1,18 @@
 // ricci — cutting a surface open: tree–cotree cut graph, cut-and-paste canonicalisation of the
 // polygon schema realised on the mesh (with exact local refinement when no edge path exists),
 // arcs to the boundary loops, labelled sides and an independent intersection check. See cut.h.
+// cut_surface() runs its stages in this order: start_cutter; slit_sphere (closed genus 0),
+// base_on_boundary (genus 0 with boundary) or loops_by_tree_cotree (genus ≥ 1); cut_arcs;
+// name_letters, write_sides, intersections_canonical.
 //
 // Vocabulary used below:
 //   S      the (refined) surface: faces, positions, topology; starts as the input mesh.
 //   cut    flags on S's interior edges: the cut graph C.
 //   node   flags on S's vertices: the polygon corners N (every vertex of C ∪ ∂S whose degree
 //          there is not 2 is a node; the base and the ends of cut paths are nodes too).
-//   R      the disk (with holes while boundary loops are detached): S cut open along C. Its
-//          faces are S's faces (same indices and corners) over cut-vertex copies.
+//   R      the disk (with holes while boundary loops are detached): S cut open along C
+//          (cut_open()). Its faces are S's faces (same indices and corners) over cut-vertex
+//          copies.
 //   Ŝ      S with every boundary loop collapsed to one point B_i. The polygon schema is read in
 //          Ŝ: a run of boundary sides between two cut sides is one corner of class B_i.
 #include "ricci/cut.h"
