@@ -488,7 +488,7 @@ std::vector<Index> boundary_hops(const Disk& R) {
 /// it reaches and resets them before it returns, so large meshes get no fresh pages per search.
 struct SearchWork {
   std::vector<double> dist;  ///< kInf between searches
-  std::vector<Index> prev;   ///< kInvalid between searches
+  std::vector<Index> prev;   ///< set wherever dist is (sources: kInvalid), read only there
   std::vector<Index> touched;
   std::vector<char> is_source;  ///< 0 between searches
   std::vector<std::pair<double, Index>> heap;
@@ -629,9 +629,6 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
   const double penalty = 20 * S.mean_length;
   const bool edge_possible = edge_path_possible(G, sources, target, is_source);
   const TargetBall ball = target_ball(G, target);
-  auto node_point = [&](Index node, std::array<double, 3>& p) { G.point(node, p); };
-  auto factor = [&](Index w) { return G.factor(w); };
-  auto ahead = [&](const std::array<double, 3>& p) { return ball.ahead(p); };
   for (int phase = edge_possible ? 0 : 1; phase < 2; ++phase) {
     const bool extended = phase == 1;
     const Index total = extended ? n + nf + rt.num_edges : n;
@@ -663,16 +660,16 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
     auto relax = [&](Index u, Index w, double d) {
       double len = 1;
       if (S.has_pos) {
-        node_point(w, pw);
+        G.point(w, pw);
         len = std::sqrt((pu[0] - pw[0]) * (pu[0] - pw[0]) + (pu[1] - pw[1]) * (pu[1] - pw[1]) +
                         (pu[2] - pw[2]) * (pu[2] - pw[2]));
       }
-      const double nd = d + len * factor(w) + (w >= n ? penalty : 0);
+      const double nd = d + len * G.factor(w) + (w >= n ? penalty : 0);
       if (nd < dist[w]) {
         if (dist[w] == kInf) touched.push_back(w);
         dist[w] = nd;
         prev[w] = u;
-        push(nd + ahead(pw), w);
+        push(nd + ball.ahead(pw), w);
       }
     };
     // hops[w] == 0: w lies on R's boundary.
@@ -686,9 +683,9 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
       std::pop_heap(heap.begin(), heap.end(), later);
       const auto [key, u] = heap.back();
       heap.pop_back();
-      if (S.has_pos) node_point(u, pu);
+      if (S.has_pos) G.point(u, pu);
       const double d = dist[u];
-      if (key > d + ahead(pu)) continue;  // a stale entry
+      if (key > d + ball.ahead(pu)) continue;  // a stale entry
       if (key > bound) break;
       if (u < n) {
         if (target[u] && !is_source[u]) {
@@ -725,10 +722,7 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
       for (Index v : out.nodes) out.virtual_points += v >= n ? 1 : 0;
       out.ok = true;
     }
-    for (Index v : touched) {
-      dist[v] = kInf;
-      prev[v] = kInvalid;
-    }
+    for (Index v : touched) dist[v] = kInf;
     if (out.ok) return out;
   }
   out.why = "no path inside the disk";
