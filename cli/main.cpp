@@ -3,8 +3,10 @@
 #include <iostream>
 
 #include "commands.h"
+#include "huge_pages.h"
 
 int main(int argc, char** argv) {
+  ricci_cli::prefer_huge_pages(argv);
   try {
     return ricci_cli::run(argc, argv);
   } catch (const std::exception& e) {

@@ -46,6 +46,7 @@
 #include "ricci/validate.h"
 #include "report_html.h"
 #include "gltf.h"
+#include "huge_pages.h"
 #include "uniformize_outputs.h"
 #include "uniformize_pictures.h"
 #include "uniformize_run.h"
@@ -212,8 +213,13 @@ std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& fi
     const OutFile& f = files[i];
     g_nfiles = static_cast<std::sig_atomic_t>(i + 1);  // before the file exists
     std::ofstream os(staging / f.name, std::ios::binary);
-    os.write(f.data.data(), static_cast<std::streamsize>(f.data.size()));
+    const bool made = f.stream ? f.stream([&os](std::string_view piece) {
+      os.write(piece.data(), static_cast<std::streamsize>(piece.size()));
+      return static_cast<bool>(os);
+    })
+                               : static_cast<bool>(os.write(f.data.data(), static_cast<std::streamsize>(f.data.size())));
     os.close();
+    if (!made && os) return abandon("could not serialise " + f.name + "; nothing was written");
     if (!os) return abandon("cannot write " + (out / f.name).string());
     if (pause_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(pause_ms));
   }
@@ -707,6 +713,7 @@ Json report_json(const Run& run) {
   if (run.pictures_seconds > 0) timings["pictures"] = run.pictures_seconds;
   j["timings"] = std::move(timings);
   j["total_seconds"] = run.total_seconds;
+  j["malloc_huge_pages"] = malloc_huge_pages();
   j["output_dir"] = run.output_dir.empty() ? Json(nullptr) : Json(run.output_dir);
   j["outputs"] = run.outputs;
   Json history = Json::array();
@@ -1051,10 +1058,14 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
                                       r.has_atlas ? charted.corner_texcoords : r.cut.cut_faces)});
     }
   }
-  files.push_back({"mesh.obj", r.has_atlas ? obj_with_chart_groups(ricci::serialize_mesh(surface, ricci::FileFormat::Obj),
-                                                                   r.intrinsic.refined ? through.face_chart
-                                                                                       : r.atlas.face_chart)
-                                           : ricci::serialize_mesh(surface, ricci::FileFormat::Obj)});
+  if (r.has_atlas) {
+    files.push_back({"mesh.obj", obj_with_chart_groups(ricci::serialize_mesh(surface, ricci::FileFormat::Obj),
+                                                       r.intrinsic.refined ? through.face_chart : r.atlas.face_chart)});
+  } else {
+    files.push_back({"mesh.obj", {}, [&surface](const ricci::ByteSink& sink) {
+                       return ricci::serialize_mesh_to(surface, ricci::FileFormat::Obj, sink);
+                     }});
+  }
   if (sphere) {
     ricci::Mesh s;
     s.positions = run.sphere_positions;
@@ -1085,8 +1096,11 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
     cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), cover_options(r, o.cover_depth));
     if (cover.status == Status::Ok) {
       files.push_back({"cover.svg", ricci::cover_svg(r.cut, r.layout.positions, cover)});
-      files.push_back({"cover.obj", ricci::serialize_mesh(ricci::cover_mesh(r.cut, r.layout.positions, cover),
-                                                          ricci::FileFormat::Obj)});
+      // Made as it is written, so the tiling's mesh exists only meanwhile.
+      files.push_back({"cover.obj", {}, [&r, &cover](const ricci::ByteSink& sink) {
+                         const ricci::Mesh tiling = ricci::cover_mesh(r.cut, r.layout.positions, cover);
+                         return tiling.num_faces() > 0 && ricci::serialize_mesh_to(tiling, ricci::FileFormat::Obj, sink);
+                       }});
     } else {
       add_note(o, run, "no cover written: " + cover.message);
     }
@@ -1170,7 +1184,7 @@ int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Cloc
     print_note(o.quiet, std::string(cmd) + ": " + std::to_string(pics.size()) + " pictures (" + sci(run.pictures_seconds) + " s)");
   }
   for (const OutFile& f : files)
-    if (f.data.empty()) {
+    if (f.data.empty() && !f.stream) {
       fail(run, Status::WriteFailed, "could not serialise " + f.name + "; nothing was written");
       return finish(o, run, start);
     }
@@ -1185,6 +1199,7 @@ int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Cloc
   const Json report = report_json(run);
   files.push_back({"report.json", report.dump(2) + '\n'});
   if (!o.no_pictures) files.push_back({"report.html", report_html(report, images, "ricci uniformize: " + run.file)});
+  const Clock::time_point tw = Clock::now();
   const std::string werr = write_output_dir(o.output, files);
   if (!werr.empty()) {
     run.outputs.clear();
@@ -1192,7 +1207,8 @@ int write_run(const UniformizeCommandOptions& o, const char* cmd, Run& run, Cloc
     fail(run, Status::WriteFailed, werr + "; nothing was written");
     return finish(o, run, start);
   }
-  print_note(o.quiet, std::string(cmd) + ": wrote " + std::to_string(files.size()) + " files to " + o.output);
+  print_note(o.quiet, std::string(cmd) + ": wrote " + std::to_string(files.size()) + " files to " + o.output + " (" +
+                          sci(std::chrono::duration<double>(Clock::now() - tw).count()) + " s)");
   print_note(o.quiet, std::string(cmd) + " done: " + r.brief_report());
   return finish(o, run, start);
 }

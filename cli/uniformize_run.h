@@ -9,6 +9,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -25,10 +26,13 @@
 
 namespace ricci_cli {
 
-/// One file of OUTDIR, in memory.
+/// One file of OUTDIR: its bytes in memory, or made piece by piece as it is written.
 struct OutFile {
   std::string name;
   std::string data;
+  /// When set, the file's bytes are what this hands its sink (and `data` is not used): large
+  /// meshes are written without ever being one string. False: it could not make them.
+  std::function<bool(const ricci::ByteSink&)> stream = {};
 };
 
 /// What the command's options say: the library's options and the target and boundary specs.

@@ -15,12 +15,14 @@
 #include <cmath>
 #include <numbers>
 #include <complex>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
+#include "huge_pages.h"
 #include "ricci/deck.h"
 #include "pictures.h"
 #include "ricci/io.h"
@@ -46,6 +48,57 @@ std::vector<std::string> listing(const fs::path& dir) {
 }
 
 }  // namespace
+
+namespace {
+
+/// report.json's malloc_huge_pages after `ricci uniformize` on the torus fixture with GLIBC_TUNABLES
+/// and RICCI_HUGE_PAGES set to the given values (null: unset) in its environment.
+Json huge_pages_reported(const char* tunables, const char* ricci_huge_pages) {
+  struct Env {
+    const char* name;
+    std::optional<std::string> saved;
+    Env(const char* n, const char* value) : name(n) {
+      if (const char* v = std::getenv(n)) saved = v;
+      if (value != nullptr) {
+        ::setenv(n, value, 1);
+      } else {
+        ::unsetenv(n);
+      }
+    }
+    ~Env() {
+      if (saved) {
+        ::setenv(name, saved->c_str(), 1);
+      } else {
+        ::unsetenv(name);
+      }
+    }
+  } a("GLIBC_TUNABLES", tunables), b("RICCI_HUGE_PAGES", ricci_huge_pages);
+  TempDir tmp;
+  const auto r = run_cli({"uniformize", (ricci_test::fixtures_dir() / "torus.obj").string(), "-o",
+                          (tmp / "out").string(), "--no-pictures", "--json", "-q"});
+  REQUIRE(r.exit_code == 0);
+  const Json j = parse(r.out);
+  REQUIRE(j.contains("malloc_huge_pages"));
+  return j["malloc_huge_pages"];
+}
+
+}  // namespace
+
+TEST_CASE("cli uniformize: malloc backs large blocks with huge pages where the kernel takes advice") {
+  // The CLI re-executes itself once with glibc.malloc.hugetlb=1 (cli/huge_pages.h) when glibc
+  // has the tunable, the build has glibc's allocator and the kernel's THP mode is "madvise".
+  bool expected = ricci_cli::transparent_huge_page_mode() == "madvise";
+#if !defined(__GLIBC__) || defined(RICCI_SANITIZED_ALLOCATOR) || (__GLIBC__ == 2 && __GLIBC_MINOR__ < 35)
+  expected = false;
+#endif
+  INFO("THP mode: " << ricci_cli::transparent_huge_page_mode());
+  CHECK(huge_pages_reported(nullptr, nullptr) == expected);
+  CHECK(huge_pages_reported(nullptr, "0") == false);  // turned off
+  CHECK(huge_pages_reported("glibc.malloc.hugetlb=0", nullptr) == false);  // the user's own setting wins
+  CHECK(huge_pages_reported("glibc.malloc.hugetlb=1", "0") == true);       // set by the user
+  // Other tunables are kept beside it.
+  CHECK(huge_pages_reported("glibc.malloc.check=0", nullptr) == expected);
+}
 
 TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writes every output") {
   TempDir tmp;

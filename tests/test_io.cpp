@@ -371,6 +371,62 @@ TEST_CASE("io: serialised formats have the documented layout") {
   CHECK(ricci::serialize_mesh(m, FileFormat::Auto).empty());
 }
 
+TEST_CASE("io: serialize_mesh_to hands over serialize_mesh()'s bytes in pieces and stops when told") {
+  // A grid of 300 x 300 quads with texture coordinates: about 8 MB of OBJ, several pieces.
+  Mesh m;
+  const int n = 300;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      m.positions.insert(m.positions.end(), {i / 7.0, j / 3.0, std::sin(i * 0.1) * std::cos(j * 0.2)});
+      m.texcoords.insert(m.texcoords.end(), {i / double(n), std::sqrt(j + 0.5)});
+    }
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const Index a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+      m.faces.insert(m.faces.end(), {a, b, d, a, d, c});
+    }
+  m.corner_texcoords = m.faces;
+  for (const FileFormat format : kAllFormats) {
+    CAPTURE(format_name(format));
+    const std::string whole = ricci::serialize_mesh(m, format);
+    std::string joined;
+    std::size_t pieces = 0, largest = 0;
+    REQUIRE(ricci::serialize_mesh_to(m, format, [&](std::string_view piece) {
+      joined += piece;
+      ++pieces;
+      largest = std::max(largest, piece.size());
+      return true;
+    }));
+    CHECK(joined == whole);
+    if (format == FileFormat::Obj) {
+      CHECK(whole.size() > 4 * (std::size_t{1} << 20));
+      CHECK(pieces >= 4);
+      CHECK(largest < (std::size_t{1} << 20) + 256);  // never the whole file at once
+    } else {
+      CHECK(pieces == 1);
+    }
+    // A sink that stops at its first piece: false, no second call, and what it got is a prefix.
+    std::string prefix;
+    int calls = 0;
+    CHECK_FALSE(ricci::serialize_mesh_to(m, format, [&](std::string_view piece) {
+      prefix += piece;
+      ++calls;
+      return false;
+    }));
+    CHECK(calls == 1);
+    CHECK(whole.compare(0, prefix.size(), prefix) == 0);
+    if (format == FileFormat::Obj) CHECK(prefix.size() < whole.size());
+  }
+  CHECK_FALSE(ricci::serialize_mesh_to(m, FileFormat::Auto, [](std::string_view) { return true; }));
+  // write_mesh streams the same bytes to the file.
+  TempDir dir;
+  const ricci::WriteResult w = ricci::write_mesh((dir / "grid.obj").string(), m);
+  REQUIRE(w.status == Status::Ok);
+  const std::string written = ricci_test::read_bytes(dir / "grid.obj");
+  CHECK(w.bytes_written == written.size());
+  CHECK(written == ricci::serialize_mesh(m, FileFormat::Obj));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Syntax variants.
 

@@ -155,12 +155,39 @@ def write_obj(path, points, triangles):
 
 # ---------------------------------------------------------------- processes
 
-def run_process(cmd):
+def thp_mode():
+    """The kernel's transparent huge page mode ("always", "madvise", "never"), or "" when unknown."""
+    try:
+        with open("/sys/kernel/mm/transparent_hugepage/enabled") as f:
+            line = f.read()
+    except OSError:
+        return ""
+    return line[line.find("[") + 1:line.find("]")] if "[" in line and "]" in line else ""
+
+
+def peer_environment():
+    """The peers' environment: glibc's malloc on huge pages as ricci runs (cli/huge_pages.h), so that
+    neither side pays 4 kB page faults the other does not."""
+    env = dict(os.environ)
+    tunables = env.get("GLIBC_TUNABLES", "")
+    if thp_mode() == "madvise" and "glibc.malloc.hugetlb" not in tunables and env.get("RICCI_HUGE_PAGES") != "0":
+        env["GLIBC_TUNABLES"] = (tunables + ":" if tunables else "") + "glibc.malloc.hugetlb=1"
+    return env
+
+
+def allocator_line():
+    env = peer_environment()
+    tunables = env.get("GLIBC_TUNABLES", "")
+    return "glibc.malloc.hugetlb=1 for every process (ricci sets it itself; the peers get it from this script)" \
+        if "glibc.malloc.hugetlb=1" in tunables else "glibc's default (4 kB pages unless the kernel's THP mode is always)"
+
+
+def run_process(cmd, env=None):
     """Runs cmd to its end: {rc, wall (s, perf_counter around the process), rss_kb (ru_maxrss), out, err}."""
     with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
         start = time.perf_counter()
         try:
-            p = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=out, stderr=err)
+            p = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=out, stderr=err, env=env)
         except OSError as e:
             return {"rc": None, "wall": None, "rss_kb": None, "out": "", "err": str(e)}
         _, status, usage = os.wait4(p.pid, 0)
@@ -219,7 +246,7 @@ def peer_cmd(peer, name, mesh, k):
 
 
 def peer_round(peer, name, mesh, k, counts):
-    run = run_process(peer_cmd(peer, name, mesh, k))
+    run = run_process(peer_cmd(peer, name, mesh, k), env=peer_environment())
     j = parse_json(run["out"])
     r = {"wall": run["wall"], "rss_kb": run["rss_kb"], "ok": False}
     if not j or not j.get("peers"):
@@ -440,6 +467,7 @@ def header(args, cases, peer_built):
         "- ricci: `%s` (MESH: the original for K = 0, else a subdivided OBJ this script writes)"
         % shlex.join(ricci_cmd(shown(args.ricci), "MESH", "OUTDIR")),
         "- peers: %s" % peer_line,
+        "- allocator: %s; THP mode %s" % (allocator_line(), thp_mode() or "unknown"),
     ])
 
 

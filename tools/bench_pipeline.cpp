@@ -46,6 +46,7 @@
 
 #include "bench_common.h"
 #include "hessian.h"
+#include "huge_pages.h"
 #include "ricci/flow.h"
 #include "ricci/io.h"
 #include "ricci/metric.h"
@@ -615,6 +616,7 @@ int usage(const char* argv0) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  ricci_cli::prefer_huge_pages(argv);
   Settings s;
   s.meshes = fs::path(RICCI_SOURCE_DIR).parent_path() / "shared" / "meshes";
   for (int i = 1; i < argc; ++i) {
@@ -666,7 +668,8 @@ int main(int argc, char** argv) {
          " hardware threads; compiler: " + compiler_name() + "; OpenMP threads: " +
          (s.threads > 0 ? std::to_string(s.threads) : std::string("default")) + "; OMP_WAIT_POLICY " +
          (std::getenv("OMP_WAIT_POLICY") ? std::string(std::getenv("OMP_WAIT_POLICY")) : std::string("unset")) +
-         (s.flow_only ? "; --flow-only" : "") +
+         (s.flow_only ? "; --flow-only" : "") + "; malloc " +
+         (ricci_cli::malloc_huge_pages() ? "on huge pages (glibc.malloc.hugetlb=1, as the CLI)" : "on 4 kB pages") +
          ".\n\n";
   doc += "Uniformization with `uniformize()` defaults (geometry by topology, vertex scaling with intrinsic "
          "flips, circle boundary in E, geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "

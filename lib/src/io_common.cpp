@@ -580,6 +580,21 @@ void append_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords, std:
 
 }  // namespace
 
+bool serialize_mesh_to(const Mesh& mesh, FileFormat format, const ByteSink& sink, bool write_texcoords) {
+  if (format == FileFormat::Auto) return false;
+  try {
+    std::string out;
+    if (format == FileFormat::Obj) {
+      if (!io_detail::append_obj(mesh, write_texcoords, out, &sink)) return false;
+    } else {
+      append_mesh(mesh, format, write_texcoords, out);
+    }
+    return out.empty() || sink(out);
+  } catch (const std::exception&) {
+    return false;  // out of memory
+  }
+}
+
 std::string serialize_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords) {
   std::string out;
   try {
@@ -764,9 +779,10 @@ void sync_directory(const fs::path& dir) {
   ::close(fd);
 }
 
-/// Writes `data` to a temporary file beside `path`, then renames it over `path`. On failure the
-/// temporary is removed and `path` is untouched.
-WriteResult write_atomically(const std::string& path, std::string_view data) {
+/// Writes the bytes `produce` hands its sink to a temporary file beside `path`, then renames it
+/// over `path`. On failure (of a write, or `produce` returning false) the temporary is removed
+/// and `path` is untouched.
+WriteResult write_atomically(const std::string& path, const std::function<bool(const ByteSink&)>& produce) {
   const fs::path target(path);
   std::string temp;
   FileDescriptor fd(create_temporary(target, temp));
@@ -777,7 +793,15 @@ WriteResult write_atomically(const std::string& path, std::string_view data) {
     ::unlink(temp.c_str());
     return write_failure(Status::WriteFailed, path, what + ": " + errno_text(err));
   };
-  if (const int err = write_all(fd.get(), data)) return abandon("cannot write", err);
+  int write_error = 0;
+  std::uint64_t written = 0;
+  const bool produced = produce([&](std::string_view piece) {
+    write_error = write_all(fd.get(), piece);
+    written += piece.size();
+    return write_error == 0;
+  });
+  if (write_error != 0) return abandon("cannot write", write_error);
+  if (!produced) return abandon("cannot serialise the data", ENOMEM);
   struct stat st {};
   if (::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::fchmod(fd.get(), st.st_mode & 07777);
   if (::fsync(fd.get()) != 0 && errno != EINVAL && errno != ENOTSUP) {  // those: fsync unsupported here
@@ -788,9 +812,8 @@ WriteResult write_atomically(const std::string& path, std::string_view data) {
   sync_directory(target.parent_path());
   WriteResult r;
   r.status = Status::Ok;
-  r.bytes_written = data.size();
-  r.message =
-      path + ": wrote " + io_detail::count_of(static_cast<std::int64_t>(data.size()), "byte", "bytes");
+  r.bytes_written = written;
+  r.message = path + ": wrote " + io_detail::count_of(static_cast<std::int64_t>(written), "byte", "bytes");
   return r;
 }
 
@@ -837,7 +860,7 @@ WriteResult write_file_atomic(const std::string& path, std::string_view data,
   try {
     WriteResult r;
     if (!check_target(path, protected_paths, r)) return r;
-    return write_atomically(path, data);
+    return write_atomically(path, [&](const ByteSink& sink) { return sink(data); });
   } catch (const std::exception& e) {
     return write_failure(Status::WriteFailed, path, std::string("cannot write: ") + e.what());
   }
@@ -865,9 +888,8 @@ WriteResult write_mesh(const std::string& path, const Mesh& mesh, const WriteOpt
         }
       }
     }
-    std::string bytes;
-    append_mesh(mesh, format, texcoords, bytes);
-    return write_atomically(path, bytes);
+    return write_atomically(path,
+                            [&](const ByteSink& sink) { return serialize_mesh_to(mesh, format, sink, texcoords); });
   } catch (const std::exception& e) {
     return write_failure(Status::WriteFailed, path, std::string("cannot write: ") + e.what());
   }

@@ -257,8 +257,10 @@ bool read_off(std::string_view data, ReadContext& ctx);
 bool read_ply(std::string_view data, ReadContext& ctx);
 
 /// Appends the mesh as OBJ; texture coordinates when `texcoords` and the mesh has consistent
-/// ones (corner_texcoords.size() == faces.size()).
-void append_obj(const Mesh& mesh, bool texcoords, std::string& out);
+/// ones (corner_texcoords.size() == faces.size()). With a `sink`, `out` is handed to it and
+/// emptied whenever it holds about 1 MB (what is left at the end stays in `out`); false when the
+/// sink stops.
+bool append_obj(const Mesh& mesh, bool texcoords, std::string& out, const ByteSink* sink = nullptr);
 void append_off(const Mesh& mesh, std::string& out);
 /// Appends the mesh as PLY, ascii or binary little-endian.
 void append_ply(const Mesh& mesh, bool binary, std::string& out);

@@ -4,6 +4,7 @@
 // `v/vt/vn` tokens. Everything else (vn, vp, g, o, s, usemtl, mtllib, l, p, unknown statements)
 // is skipped. Indices are 1-based; negative indices count back from the last element read so far;
 // positive indices may refer forward and are checked once the whole file has been read.
+#include <algorithm>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -267,30 +268,41 @@ bool read_obj(std::string_view data, ReadContext& ctx, const ReadOptions& option
   return ObjReader(data, ctx, options).run();
 }
 
-void append_obj(const Mesh& mesh, bool texcoords, std::string& out) {
+bool append_obj(const Mesh& mesh, bool texcoords, std::string& out, const ByteSink* sink) {
   const std::size_t nv = mesh.positions.size() / 3;
   const std::size_t nf = mesh.faces.size() / 3;
   const bool with_texcoords =
       texcoords && !mesh.corner_texcoords.empty() && mesh.corner_texcoords.size() == mesh.faces.size();
   const std::size_t nt = with_texcoords ? mesh.texcoords.size() / 2 : 0;
-  out.reserve(out.size() + 64 + nv * 64 + nt * 44 + nf * (with_texcoords ? 48 : 28));
+  constexpr std::size_t kPiece = std::size_t{1} << 20;
+  const std::size_t whole = 64 + nv * 64 + nt * 44 + nf * (with_texcoords ? 48 : 28);
+  out.reserve(out.size() + (sink != nullptr ? std::min(whole, kPiece + 256) : whole));
+  bool ok = true;
+  // Hands a full piece to the sink (after a whole line, so each piece ends with '\n').
+  auto flush = [&] {
+    if (sink == nullptr || out.size() < kPiece) return;
+    ok = ok && (*sink)(out);
+    out.clear();
+  };
   out += "# written by ricci\n";
-  for (std::size_t v = 0; v < nv; ++v) {
+  for (std::size_t v = 0; v < nv && ok; ++v) {
     out += "v";
     for (int d = 0; d < 3; ++d) {
       out += ' ';
       append_real(out, mesh.positions[3 * v + d]);
     }
     out += '\n';
+    flush();
   }
-  for (std::size_t t = 0; t < nt; ++t) {
+  for (std::size_t t = 0; t < nt && ok; ++t) {
     out += "vt ";
     append_real(out, mesh.texcoords[2 * t]);
     out += ' ';
     append_real(out, mesh.texcoords[2 * t + 1]);
     out += '\n';
+    flush();
   }
-  for (std::size_t f = 0; f < nf; ++f) {
+  for (std::size_t f = 0; f < nf && ok; ++f) {
     out += 'f';
     for (int k = 0; k < 3; ++k) {
       out += ' ';
@@ -301,7 +313,9 @@ void append_obj(const Mesh& mesh, bool texcoords, std::string& out) {
       }
     }
     out += '\n';
+    flush();
   }
+  return ok;
 }
 
 }  // namespace ricci::io_detail

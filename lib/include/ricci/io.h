@@ -41,6 +41,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <functional>
 #include <string_view>
 #include <vector>
 
@@ -169,8 +170,17 @@ WriteResult write_file_atomic(const std::string& path, std::string_view data,
                               const std::vector<std::string>& protected_paths = {});
 
 /// Serialises a mesh to bytes in the given format. Returns an empty string (never a valid
-/// output) for FileFormat::Auto or when memory runs out. Used by write_mesh().
+/// output) for FileFormat::Auto or when memory runs out.
 std::string serialize_mesh(const Mesh& mesh, FileFormat format, bool write_texcoords = true);
+
+/// Receives a serialisation piece by piece, in order; returns false to stop it (a failed write).
+using ByteSink = std::function<bool(std::string_view)>;
+
+/// The bytes of serialize_mesh(), handed to `sink` as they are made: OBJ in pieces of about 1 MB,
+/// so that a large mesh is never one string in memory; the other formats in one piece. Returns
+/// false for FileFormat::Auto, when memory runs out or when `sink` returns false (the bytes handed
+/// over until then are a prefix of serialize_mesh()'s). Used by write_mesh().
+bool serialize_mesh_to(const Mesh& mesh, FileFormat format, const ByteSink& sink, bool write_texcoords = true);
 
 // ---------------------------------------------------------------------------------------------
 // Per-vertex overlays: one value per vertex of a surface, as neuroimaging viewers (Connectome
