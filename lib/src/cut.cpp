@@ -21,6 +21,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <limits>
@@ -484,41 +485,60 @@ std::vector<Index> boundary_hops(const Disk& R) {
   return hops;
 }
 
+/// What a search reads of one R vertex, in one place (one cache line): its 3D point (zeros
+/// without positions) and its hops from R's boundary (boundary_hops(); 0 on the boundary).
+struct SearchVertex {
+  double p[3];
+  Index hops;
+};
+
+/// The search vertices of R (rebuilt with R).
+std::vector<SearchVertex> search_vertices(const Surface& S, const Disk& R) {
+  const std::vector<Index> hops = boundary_hops(R);
+  std::vector<SearchVertex> out(hops.size());
+  for (std::size_t v = 0; v < hops.size(); ++v) {
+    SearchVertex& x = out[v];
+    for (int d = 0; d < 3; ++d) x.p[d] = S.has_pos ? S.pos[3 * static_cast<std::size_t>(R.to_surface[v]) + d] : 0.0;
+    x.hops = hops[v];
+  }
+  return out;
+}
+
 /// Buffers of search_path(), kept from one search to the next: a search touches only the nodes
 /// it reaches and resets them before it returns, so large meshes get no fresh pages per search.
 struct SearchWork {
   std::vector<double> dist;  ///< kInf between searches
   std::vector<Index> prev;   ///< set wherever dist is (sources: kInvalid), read only there
   std::vector<Index> touched;
-  std::vector<char> is_source;  ///< 0 between searches
+  std::vector<std::uint8_t> flags;  ///< per R vertex: kSource | kTarget; 0 between searches
   std::vector<std::pair<double, Index>> heap;
+  static constexpr std::uint8_t kSource = 1, kTarget = 2;
 };
 
 /// The graph search_path() runs on: R's vertices (nodes < n), then face centroids (n + f), then
 /// edge midpoints (n + #F_R + e), with their 3D points and the cost factor near R's boundary.
 struct SearchGraph {
-  const Surface& S;
   const Disk& R;
-  const std::vector<Index>& hops;  ///< boundary_hops(R); 0 on R's boundary
+  const std::vector<SearchVertex>& V;  ///< search_vertices(S, R)
+  bool has_pos = false;
 
   Index n() const { return R.topo.num_vertices; }
   Index nf() const { return R.topo.num_faces; }
-  double vpos(Index u, int d) const { return S.pos[3 * R.to_surface[u] + d]; }
+  bool on_boundary(Index v) const { return V[v].hops == 0; }
   /// The 3D point of a node (zeros without positions).
   void point(Index node, std::array<double, 3>& p) const {
     p = {0, 0, 0};
-    if (!S.has_pos) return;
+    if (!has_pos) return;
     if (node < n()) {
-      for (int d = 0; d < 3; ++d) p[d] = vpos(node, d);
+      for (int d = 0; d < 3; ++d) p[d] = V[node].p[d];
     } else if (node < n() + nf()) {
       const Index f = node - n();
       for (int k = 0; k < 3; ++k)
-        for (int d = 0; d < 3; ++d) p[d] += vpos(R.faces[3 * f + k], d) / 3;
+        for (int d = 0; d < 3; ++d) p[d] += V[R.faces[3 * f + k]].p[d] / 3;
     } else {
       const Index e = node - n() - nf();
       const Index c = R.topo.edge_corners[2 * e];
-      for (int d = 0; d < 3; ++d)
-        p[d] = 0.5 * (vpos(R.faces[next_corner(c)], d) + vpos(R.faces[prev_corner(c)], d));
+      for (int d = 0; d < 3; ++d) p[d] = 0.5 * (V[R.faces[next_corner(c)]].p[d] + V[R.faces[prev_corner(c)]].p[d]);
     }
   }
   /// 1 + 30/h² for a node h hops from the boundary; virtual points (centroids, midpoints) sit half
@@ -526,23 +546,23 @@ struct SearchGraph {
   double factor(Index w) const {
     double h = 0;
     if (w < n()) {
-      h = hops[w];
+      h = V[w].hops;
       if (h <= 0) return 1.0;
     } else if (w < n() + nf()) {
-      for (int k = 0; k < 3; ++k) h = std::max(h, static_cast<double>(hops[R.faces[3 * (w - n()) + k]]));
+      for (int k = 0; k < 3; ++k) h = std::max(h, static_cast<double>(V[R.faces[3 * (w - n()) + k]].hops));
       h += 0.5;
     } else {
       const Index c = R.topo.edge_corners[2 * (w - n() - nf())];
-      h = 0.5 + std::max(hops[R.faces[next_corner(c)]], hops[R.faces[prev_corner(c)]]);
+      h = 0.5 + std::max(V[R.faces[next_corner(c)]].hops, V[R.faces[prev_corner(c)]].hops);
     }
     return 1.0 + 30.0 / (h * h);
   }
 };
 
 /// Whether an edge path can exist: an interior edge leaves some source, and one enters some
-/// target (else only the extended graph can join them).
-bool edge_path_possible(const SearchGraph& G, const std::vector<Index>& sources, const std::vector<char>& target,
-                        const std::vector<char>& is_source) {
+/// target (else only the extended graph can join them). `flags`: SearchWork::flags of this search.
+bool edge_path_possible(const SearchGraph& G, const std::vector<Index>& sources, const std::vector<Index>& targets,
+                        const std::vector<std::uint8_t>& flags) {
   const Topology& rt = G.R.topo;
   auto has_free_edge = [&](Index u, bool to_target) {
     for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
@@ -551,7 +571,7 @@ bool edge_path_possible(const SearchGraph& G, const std::vector<Index>& sources,
         const Index ec = side == 0 ? prev_corner(c) : next_corner(c);
         const Index w = G.R.faces[side == 0 ? next_corner(c) : prev_corner(c)];
         if (rt.opposite[ec] == kInvalid) continue;
-        if (!rt.is_boundary_vertex(w) || (to_target ? is_source[w] : target[w] != 0)) return true;
+        if (!G.on_boundary(w) || (flags[w] & (to_target ? SearchWork::kSource : SearchWork::kTarget)) != 0) return true;
       }
     }
     return false;
@@ -559,8 +579,8 @@ bool edge_path_possible(const SearchGraph& G, const std::vector<Index>& sources,
   bool out_of_sources = false;
   for (Index a : sources) out_of_sources |= has_free_edge(a, false);
   if (!out_of_sources) return false;
-  for (Index v = 0; v < G.n(); ++v)
-    if (target[v] && !is_source[v] && has_free_edge(v, true)) return true;
+  for (Index v : targets)
+    if ((flags[v] & SearchWork::kSource) == 0 && has_free_edge(v, true)) return true;
   return false;
 }
 
@@ -578,30 +598,26 @@ struct TargetBall {
   }
 };
 
-TargetBall target_ball(const SearchGraph& G, const std::vector<char>& target) {
+/// `targets`: distinct R vertices in increasing order.
+TargetBall target_ball(const SearchGraph& G, const std::vector<Index>& targets) {
   TargetBall ball;
-  if (!G.S.has_pos) return ball;
+  if (!G.has_pos) return ball;
   ball.used = true;
-  Index count = 0;
-  for (Index v = 0; v < G.n(); ++v)
-    if (target[v]) {
-      for (int d = 0; d < 3; ++d) ball.c[d] += G.vpos(v, d);
-      ++count;
-    }
-  if (count > 0)
-    for (double& x : ball.c) x /= count;
-  for (Index v = 0; v < G.n(); ++v)
-    if (target[v]) {
-      double r2 = 0;
-      for (int d = 0; d < 3; ++d) r2 += (G.vpos(v, d) - ball.c[d]) * (G.vpos(v, d) - ball.c[d]);
-      ball.r = std::max(ball.r, std::sqrt(r2));
-    }
+  for (Index v : targets)
+    for (int d = 0; d < 3; ++d) ball.c[d] += G.V[v].p[d];
+  if (!targets.empty())
+    for (double& x : ball.c) x /= static_cast<double>(targets.size());
+  for (Index v : targets) {
+    double r2 = 0;
+    for (int d = 0; d < 3; ++d) r2 += (G.V[v].p[d] - ball.c[d]) * (G.V[v].p[d] - ball.c[d]);
+    ball.r = std::max(ball.r, std::sqrt(r2));
+  }
   ball.r *= 1 + 1e-12;
   return ball;
 }
 
-/// The cheapest path inside the disk R from one of `sources` to a vertex with target[v] set (R
-/// vertices), touching R's boundary only at its ends; S and R are not changed. First the
+/// The cheapest path inside the disk R from one of `sources` to one of `targets` (R vertices;
+/// search_vertices() in V), touching R's boundary only at its ends; R is not changed. First the
 /// shortest edge path; only when none exists, the shortest path in the graph extended by face
 /// centroids and edge midpoints (each extra point costs a penalty, so as few faces as possible
 /// are refined). The search stops past `bound` (then ok is false). It is A* towards the smallest
@@ -609,26 +625,31 @@ TargetBall target_ball(const SearchGraph& G, const std::vector<char>& target) {
 /// so the 3D distance to that ball never overestimates what is left and the path found is a
 /// cheapest one, only sooner (on a genus-1 grid of 1M faces it touches 0.3–0.6 of the nodes
 /// Dijkstra's order touched). realize_path() turns the result into surface vertices.
-PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>& sources,
-                       const std::vector<char>& target, const std::vector<Index>& hops, SearchWork& work,
+PathSearch search_path(const Surface& S, const Disk& R, const std::vector<SearchVertex>& V,
+                       const std::vector<Index>& sources, std::vector<Index> targets, SearchWork& work,
                        double bound = kInf) {
   PathSearch out;
   const Topology& rt = R.topo;
   const Index n = rt.num_vertices, nf = rt.num_faces;
-  std::vector<char>& is_source = work.is_source;
-  if (is_source.size() < static_cast<std::size_t>(n)) is_source.resize(static_cast<std::size_t>(n), 0);
-  for (Index a : sources) is_source[a] = 1;
-  struct ClearSources {
-    std::vector<char>& flags;
+  std::sort(targets.begin(), targets.end());
+  targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+  std::vector<std::uint8_t>& flags = work.flags;
+  if (flags.size() < static_cast<std::size_t>(n)) flags.resize(static_cast<std::size_t>(n), 0);
+  for (Index a : sources) flags[a] |= SearchWork::kSource;
+  for (Index t : targets) flags[t] |= SearchWork::kTarget;
+  struct ClearFlags {
+    std::vector<std::uint8_t>& flags;
     const std::vector<Index>& sources;
-    ~ClearSources() {
+    const std::vector<Index>& targets;
+    ~ClearFlags() {
       for (Index a : sources) flags[a] = 0;
+      for (Index t : targets) flags[t] = 0;
     }
-  } clear_sources{is_source, sources};
-  const SearchGraph G{S, R, hops};
+  } clear_flags{flags, sources, targets};
+  const SearchGraph G{R, V, S.has_pos};
   const double penalty = 20 * S.mean_length;
-  const bool edge_possible = edge_path_possible(G, sources, target, is_source);
-  const TargetBall ball = target_ball(G, target);
+  const bool edge_possible = edge_path_possible(G, sources, targets, flags);
+  const TargetBall ball = target_ball(G, targets);
   for (int phase = edge_possible ? 0 : 1; phase < 2; ++phase) {
     const bool extended = phase == 1;
     const Index total = extended ? n + nf + rt.num_edges : n;
@@ -659,7 +680,7 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
     std::array<double, 3> pu, pw;
     auto relax = [&](Index u, Index w, double d) {
       double len = 1;
-      if (S.has_pos) {
+      if (G.has_pos) {
         G.point(w, pw);
         len = std::sqrt((pu[0] - pw[0]) * (pu[0] - pw[0]) + (pu[1] - pw[1]) * (pu[1] - pw[1]) +
                         (pu[2] - pw[2]) * (pu[2] - pw[2]));
@@ -672,27 +693,31 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Index>
         push(nd + ball.ahead(pw), w);
       }
     };
-    // hops[w] == 0: w lies on R's boundary.
-    auto vertex_ok = [&](Index w) { return !is_source[w] && (target[w] || hops[w] != 0); };
+    // Not a source, and a target or off R's boundary.
+    auto vertex_ok = [&](Index w) {
+      const std::uint8_t f = flags[w];
+      return (f & SearchWork::kSource) == 0 && ((f & SearchWork::kTarget) != 0 || !G.on_boundary(w));
+    };
     // Only faces touching the boundary get virtual points: a face whose corners are all
     // interior is crossed through its corners just as well (this keeps the search small).
     auto touches_boundary = [&](Index f) {
-      return hops[R.faces[3 * f]] == 0 || hops[R.faces[3 * f + 1]] == 0 || hops[R.faces[3 * f + 2]] == 0;
+      return G.on_boundary(R.faces[3 * f]) || G.on_boundary(R.faces[3 * f + 1]) || G.on_boundary(R.faces[3 * f + 2]);
     };
     while (!heap.empty()) {
       std::pop_heap(heap.begin(), heap.end(), later);
       const auto [key, u] = heap.back();
       heap.pop_back();
-      if (S.has_pos) G.point(u, pu);
+      if (G.has_pos) G.point(u, pu);
       const double d = dist[u];
       if (key > d + ball.ahead(pu)) continue;  // a stale entry
       if (key > bound) break;
       if (u < n) {
-        if (target[u] && !is_source[u]) {
+        const std::uint8_t fu = flags[u];
+        if ((fu & SearchWork::kTarget) != 0 && (fu & SearchWork::kSource) == 0) {
           found = u;
           break;
         }
-        if (!is_source[u] && hops[u] == 0) continue;
+        if ((fu & SearchWork::kSource) == 0 && G.on_boundary(u)) continue;
         // Every interior edge at u is the clockwise edge (u, next(c)) of exactly one corner c
         // of u's fan; ties pop in (distance, node) order, so the order of relaxation is moot.
         for (Index k = rt.vertex_corner_offsets[u]; k < rt.vertex_corner_offsets[u + 1]; ++k) {
@@ -788,7 +813,7 @@ struct Cutter {
   Index moves = 0, refinements = 0;
   std::string error;  ///< internal failure
 
-  std::vector<Index> hops;  ///< boundary_hops(R)
+  std::vector<SearchVertex> verts;  ///< search_vertices(S, R)
   SearchWork work;
 
   bool rebuild() {
@@ -797,7 +822,7 @@ struct Cutter {
       error = "the cut surface is not a manifold";
       return false;
     }
-    hops = boundary_hops(R);
+    verts = search_vertices(S, R);
     P = read_polygon(S, st, R, outer_hint);
     if (!P.ok) {
       error = P.why;
@@ -832,9 +857,7 @@ struct Cutter {
     };
     PathSearch own;
     if (!found) {
-      std::vector<char> is_target(static_cast<std::size_t>(R.topo.num_vertices), 0);
-      for (Index t : targets) is_target[t] = 1;
-      own = search_path(S, R, sources, is_target, hops, work);
+      own = search_path(S, R, verts, sources, targets, work);
       found = &own;
     }
     PathSearch& ps = *found;
@@ -1188,9 +1211,7 @@ struct Candidate {
 /// The cheapest path between two corners of the polygon (by their anchors), or none past `bound`.
 PathSearch corner_path(Cutter& C, Index alpha, Index beta, double bound) {
   const Polygon& Pg = C.P;
-  std::vector<char> is_target(static_cast<std::size_t>(C.R.topo.num_vertices), 0);
-  for (Index v : Pg.corner_anchor[beta]) is_target[v] = 1;
-  return search_path(C.S, C.R, Pg.corner_anchor[alpha], is_target, C.hops, C.work, bound);
+  return search_path(C.S, C.R, C.verts, Pg.corner_anchor[alpha], Pg.corner_anchor[beta], C.work, bound);
 }
 
 enum class Move { Made, NoneNeeded, Failed };
