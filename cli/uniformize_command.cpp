@@ -1430,10 +1430,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
       ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box [0,1]^2. Default: off.");
   cmd->add_option("--patches", o.patches,
-                  "Euclidean and hyperbolic layouts: divide and conquer with this many patches, laid out "
-                  "separately and glued by isometries fitted with Ceres over every shared vertex (kept only "
-                  "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000), only where one "
-                  "propagation misses its metric by more than 1e-10 above its rounding floor. Default: -1.")
+                  "Layouts in E, H and S: divide and conquer with this many patches, laid out separately and "
+                  "glued by isometries (S: rotations) fitted with Ceres over every shared vertex (kept only "
+                  "when not less accurate); 0: one propagation; -1: automatic, min(32, faces/4000) and one per "
+                  "10k faces above 320k faces (at most 256), only where one propagation misses its metric by "
+                  "more than 1e-10 above its rounding floor. Default: -1.")
       ->check(CLI::Range(-1, 256));
   cmd->add_option("--layout-refine-above", o.layout_refine_above,
                   "Refine the layout (patches, Gauss-Seidel sweeps, global Gauss-Newton steps) only while its "

@@ -21,6 +21,7 @@
 #include "ricci/layout.h"
 #include "ricci/validate.h"
 #include "shapes.h"
+#include "stress_shapes.h"
 #include "support.h"
 
 using namespace ricci;
@@ -501,6 +502,47 @@ TEST_CASE("layout: divide and conquer matches the metric, the single propagation
   CHECK_FALSE(bad.is_valid(nullptr));
 }
 
+TEST_CASE("layout: divide and conquer on the sphere: rotations fitted over the seams, deterministic") {
+  // A squashed sphere (20k faces): its spherical metric is far from the input's, and one
+  // propagation over it is 20 faces deep and more.
+  const Mesh mesh = ricci_shapes::pancake(5, 0.35);
+  const TopologyResult tr = build_topology(mesh.faces, mesh.num_vertices());
+  REQUIRE(tr.status == Status::Ok);
+  const Uniformized u = uniformize(mesh, tr.topology);
+  REQUIRE(u.geometry == Geometry::Spherical);
+  LayoutOptions single;
+  single.patches = 0;
+  single.polish_sweeps = 0;
+  single.polish_steps = 0;
+  single.sphere_mobius = false;  // isometric: the edge error is that of the positions compared
+  LayoutOptions split = single;
+  split.patches = 12;
+  const Layout a = layout_sphere(u.topo, u.flow.l, single);
+  REQUIRE(a.status == Status::Ok);
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const Layout one = layout_sphere(u.topo, u.flow.l, split);
+  omp_set_num_threads(2);
+  const Layout b = layout_sphere(u.topo, u.flow.l, split);
+  omp_set_num_threads(saved);
+  REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+  CHECK(one.positions == b.positions);  // patches laid out in parallel, gathered in order
+  CHECK(a.patches == 0);
+  CHECK(b.patches == 12);  // kept: not worse than the single propagation
+  CHECK(b.patch_fit_iterations > 0);
+  CHECK(b.max_edge_length_error <= a.max_edge_length_error);
+  CHECK(b.max_edge_length_error < 1e-11);
+  CHECK(b.patch_seam_error < 1e-10);
+  CHECK(b.flipped_faces == 0);
+  CHECK(b.unplaced_vertices == 0);
+  CHECK(layout_alignment_error(Geometry::Spherical, a.positions, b.positions) < 1e-10);
+  for (Index v = 0; v < u.topo.num_vertices; ++v)
+    CHECK(std::abs(std::hypot(b.positions[3 * v], b.positions[3 * v + 1], b.positions[3 * v + 2]) - 1) < 1e-14);
+  MESSAGE("pancake sphere: " << u.topo.num_faces << " faces, single propagation " << a.max_edge_length_error
+                             << ", 12 patches " << b.max_edge_length_error << " (seams " << b.patch_seam_error
+                             << ", " << b.patch_fit_iterations << " Ceres iterations)");
+}
+
 TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threads, H breadth-first") {
   for (const LongCase& lc : long_propagation_cases()) {
     const Uniformized& u = lc.u;
@@ -534,7 +576,8 @@ TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threa
     REQUIRE(two.status == Status::Ok);
     CHECK(one.positions == two.positions);  // patches laid out in parallel, gathered in order
     CHECK(one.worst_edge == two.worst_edge);
-    const auto automatic = static_cast<int>(std::min<Index>(32, d.topo.num_faces / 4000));
+    const Index nf = d.topo.num_faces;
+    const auto automatic = static_cast<int>(std::min<Index>(256, std::max<Index>(std::min<Index>(32, nf / 4000), nf / 10000)));
     CHECK(one.patches == (automatic > 1 ? automatic : 0));
     CHECK(one.max_edge_length_error <= b.max_edge_length_error);
     if (u.geometry == Geometry::Euclidean) CHECK(one.polish_sweeps == 30);

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
+#include <ceres/rotation.h>
 
 #include <cfenv>
 
@@ -871,6 +872,158 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   return true;
 }
 
+// ---- divide and conquer on the sphere -------------------------------------------------------
+
+/// One vertex of one patch on the sphere: its position in the patch's propagation turned by the
+/// patch's starting rotation (so that the fit only corrects it).
+struct SphereCopy {
+  Index patch, vertex;
+  V3 y;
+};
+
+/// A vertex two patches share on the sphere: both copies, each turned by its patch's correction
+/// (an angle-axis vector), must agree.
+struct SphereSeamResidual {
+  V3 a, b;
+  double weight;  // 1/(the vertex's mean edge length)
+  template <typename T>
+  bool operator()(const T* da, const T* db, T* residual) const {
+    const T ya[3] = {T(a[0]), T(a[1]), T(a[2])}, yb[3] = {T(b[0]), T(b[1]), T(b[2])};
+    T pa[3], pb[3];
+    ceres::AngleAxisRotatePoint(da, ya, pa);
+    ceres::AngleAxisRotatePoint(db, yb, pb);
+    for (int k = 0; k < 3; ++k) residual[k] = T(weight) * (pa[k] - pb[k]);
+    return true;
+  }
+};
+
+/// The rotation taking the unit vectors L(v) onto X(v) best in least squares over `touched`
+/// (Kabsch: from the SVD of Σ L Xᵀ, a proper rotation).
+Eigen::Matrix3d kabsch_rotation(const Positions& L, const Positions& X, std::span<const Index> touched) {
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (Index v : touched) {
+    const V3 a = L.p(v), b = X.p(v);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) H(i, j) += a[i] * b[j];
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixV() * D * svd.matrixU().transpose();
+}
+
+/// Divide and conquer on the sphere, as lay_out_patches() in the plane and the disk: the patches
+/// of partition_faces() each laid out by its own propagation on the unit sphere (in parallel),
+/// each turned onto the current positions `x` (3 per vertex) by the best rotation (Kabsch), the
+/// rotations then corrected jointly by Ceres over every vertex two patches share (the seed's
+/// patch held), and every vertex put at the normalised mean of its copies. The sphere's
+/// isometries are its rotations, so the patches fit exactly as they do in E and H.
+bool lay_out_sphere_patches(const Topology& t, std::span<const double> l, Index seed, int count,
+                            std::vector<double>& x, Layout& out) {
+  const Geometry g = Geometry::Spherical;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  Patches parts = partition_faces(t, seed, std::min<Index>(count, nf));
+  const std::vector<Index>& owner = parts.owner;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  std::vector<std::vector<SphereCopy>> patch_copies(static_cast<std::size_t>(np));
+  std::vector<Layout> failures(static_cast<std::size_t>(np));
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(nf), 0);
+  const Positions X{g, 3, x};
+#pragma omp parallel
+  {
+    std::vector<double> lx(static_cast<std::size_t>(nv) * 3, 0.0);
+    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+    std::vector<Index> touched, pq;
+    Positions L{g, 3, lx};
+#pragma omp for schedule(dynamic, 1)
+    for (Index p = 0; p < np; ++p) {
+      const bool ok = lay_out_patch(t, l, p, parts.seeds[p], owner, visited, L, placed, touched, pq, failures[p]);
+      const Eigen::Matrix3d R = ok ? kabsch_rotation(L, X, touched) : Eigen::Matrix3d::Identity();
+      for (Index v : touched) {
+        if (ok) {
+          const V3 a = L.p(v);
+          const Eigen::Vector3d y = R * Eigen::Vector3d(a[0], a[1], a[2]);
+          patch_copies[p].push_back({p, v, V3{y[0], y[1], y[2]}});
+        }
+        placed[v] = 0;
+      }
+    }
+  }
+  for (const Layout& f : failures)
+    if (f.status == Status::NumericalFailure) {
+      out.status = f.status;
+      out.element = f.element;
+      out.element_index = f.element_index;
+      out.message = f.message;
+      return false;
+    }
+  std::vector<SphereCopy> copies;
+  for (const std::vector<SphereCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
+  std::vector<Index> first(static_cast<std::size_t>(nv) + 1, 0), order(copies.size());
+  for (const SphereCopy& c : copies) ++first[c.vertex + 1];
+  for (Index v = 0; v < nv; ++v) first[v + 1] += first[v];
+  {
+    std::vector<Index> fill(first.begin(), first.end() - 1);
+    for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) order[fill[copies[c].vertex]++] = c;
+  }
+  const std::vector<double> h = mean_edge_at_vertex(t, l);
+  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
+  {
+    ceres::Problem problem;
+    Index seams = 0;
+    for (Index v = 0; v < nv; ++v) {
+      if (first[v + 1] - first[v] < 2) continue;
+      const SphereCopy& a = copies[order[first[v]]];
+      for (Index j = first[v] + 1; j < first[v + 1]; ++j) {
+        const SphereCopy& b = copies[order[j]];
+        auto* cost = new ceres::AutoDiffCostFunction<SphereSeamResidual, 3, 3, 3>(
+            new SphereSeamResidual{a.y, b.y, h[v] > 0 ? 1 / h[v] : 1.0});
+        problem.AddResidualBlock(cost, nullptr, delta[a.patch].data(), delta[b.patch].data());
+        ++seams;
+      }
+    }
+    if (np >= 2 && seams > 0) {
+      const Index fixed = owner[seed];
+      if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
+      ceres::Solver::Options so;
+      so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+      so.max_num_iterations = 50;
+      so.function_tolerance = 1e-3;  // as in fit_patch_maps(): the starts leave a small, nearly linear correction
+      so.gradient_tolerance = 1e-30;
+      so.parameter_tolerance = 1e-20;
+      so.logging_type = ceres::SILENT;
+      so.num_threads = 1;
+      ceres::Solver::Summary summary;
+      detail::quiet_solve(so, &problem, &summary);
+      out.patch_fit_iterations = static_cast<int>(summary.iterations.size());
+    }
+  }
+  // Every vertex at the normalised mean of its turned copies; the seam error as in E and H.
+  double seam_error = 0;
+  std::vector<V3> w;
+  for (Index v = 0; v < nv; ++v) {
+    if (first[v + 1] == first[v]) continue;
+    w.clear();
+    V3 mean{0, 0, 0};
+    for (Index j = first[v]; j < first[v + 1]; ++j) {
+      const SphereCopy& c = copies[order[j]];
+      V3 q;
+      ceres::AngleAxisRotatePoint(delta[c.patch].data(), c.y.data(), q.data());
+      w.push_back(q);
+      for (int d = 0; d < 3; ++d) mean[d] += q[d];
+    }
+    mean = normalized(mean);
+    for (const V3& q : w) {
+      const double dist = sphere_distance(q, mean);
+      seam_error = std::max(seam_error, h[v] > 0 ? dist / h[v] : dist);
+    }
+    for (int d = 0; d < 3; ++d) x[3 * static_cast<std::size_t>(v) + d] = mean[d];
+  }
+  out.patches = static_cast<int>(np);
+  out.patch_seam_error = seam_error;
+  return true;
+}
+
 // ---- the propagation -----------------------------------------------------------------------
 
 // The costs of the propagation's cheapest-first order.
@@ -1019,7 +1172,7 @@ class Propagation {
 // ---- refining the propagation's layout -------------------------------------------------------
 
 /// After the propagation, only while the layout misses its metric by more than
-/// options.refine_above above the edges' rounding floors (`now`, kept up to date): the divide and conquer (E, H; automatic
+/// options.refine_above above the edges' rounding floors (`now`, kept up to date): the divide and conquer (E, H, S; automatic
 /// patch count, or always with an explicit count ≥ 2; kept when not less accurate); in E, the
 /// layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
 /// triangles placed from short bases can grow an error geometrically along a chain), kept when
@@ -1034,12 +1187,17 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
   auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
   bool moved = false;
-  const int automatic = coarse() ? static_cast<int>(std::min<Index>(32, t.num_faces / 4000)) : 0;
+  // Automatic: min(32, #F/4000) patches, and one per 10k faces above 320k faces, so that the
+  // propagation inside a patch stays about as deep as on a mesh of 10k faces (at most 256).
+  const Index by_size = std::max<Index>(std::min<Index>(32, t.num_faces / 4000), t.num_faces / 10000);
+  const int automatic = coarse() ? static_cast<int>(std::min<Index>(256, by_size)) : 0;
   const int patches = options.patches >= 0 ? options.patches : automatic;
-  if (patches > 1 && g != Geometry::Spherical) {
+  if (patches > 1) {
     std::vector<double> kept = x;
     Layout trial, after;
-    if (lay_out_patches(t, g, l, seed, patches, x, trial)) measure_edges(t, g, l, P, after);
+    const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, patches, x, trial)
+                                               : lay_out_patches(t, g, l, seed, patches, x, trial);
+    if (laid) measure_edges(t, g, l, P, after);
     if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
         after.max_edge_length_error <= now.max_edge_length_error) {
       out.patches = trial.patches;

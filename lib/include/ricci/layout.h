@@ -201,14 +201,15 @@ struct LayoutOptions {
   /// (z_j − z_i) per corner, one sparse linear least-squares solve — when that is closer
   /// (Layout::shape_solve). 0: none of this.
   int polish_steps = 3;
-  /// E and H: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
+  /// E, H and S: divide and conquer (paper §6.1 item 5). 0 or 1: one propagation over the whole
   /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
   /// over the dual graph, each patch is laid out by its own propagation (in parallel), and the
   /// patches' isometries into one frame are fitted jointly with Ceres over every vertex two patches
   /// share (each vertex then sits at the mean of its copies). The result is kept only when its max
   /// edge-length error is not above the single propagation's (Layout::patches says whether it
-  /// was). Ignored in S. -1 (default): automatic — min(32, #F / 4000) patches (none below 8000
-  /// faces), and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
+  /// was). S likewise, with rotations as the isometries. -1 (default): automatic — min(32, #F /
+  /// 4000) patches (none below 8000 faces) and one per 10k faces above 320k faces (at most 256),
+  /// and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
   int patches = -1;
   /// A vertex whose position leaves the range of double precision (E: placed from an edge whose
   /// ends rounded onto one point; H: at or beyond the unit circle) fails the layout
