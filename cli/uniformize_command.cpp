@@ -213,13 +213,18 @@ std::string write_output_dir(const fs::path& out, const std::vector<OutFile>& fi
     const OutFile& f = files[i];
     g_nfiles = static_cast<std::sig_atomic_t>(i + 1);  // before the file exists
     std::ofstream os(staging / f.name, std::ios::binary);
-    const bool made = f.stream ? f.stream([&os](std::string_view piece) {
-      os.write(piece.data(), static_cast<std::streamsize>(piece.size()));
-      return static_cast<bool>(os);
-    })
-                               : static_cast<bool>(os.write(f.data.data(), static_cast<std::streamsize>(f.data.size())));
+    bool made = false;
+    try {
+      made = f.stream ? f.stream([&os](std::string_view piece) {
+        os.write(piece.data(), static_cast<std::streamsize>(piece.size()));
+        return static_cast<bool>(os);
+      })
+                      : static_cast<bool>(os.write(f.data.data(), static_cast<std::streamsize>(f.data.size())));
+    } catch (const std::exception&) {
+      made = false;  // out of memory while making a streamed file
+    }
     os.close();
-    if (!made && os) return abandon("could not serialise " + f.name + "; nothing was written");
+    if (!made && os) return abandon("could not serialise " + f.name);
     if (!os) return abandon("cannot write " + (out / f.name).string());
     if (pause_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(pause_ms));
   }
