@@ -49,6 +49,7 @@ packages=(
 if [ "$peers" -eq 1 ]; then
   packages+=(
     libcgal-dev           # CGAL (header-only): tools/peer_cgal, cmake -DRICCI_PEERS=ON
+    python3-numpy         # tools/bench_peers.py: the subdivided meshes it writes
   )
 fi
 
