@@ -715,10 +715,11 @@ struct CopiesByVertex {
   std::vector<Index> first, order;
 };
 
-CopiesByVertex group_copies(const std::vector<PatchCopy>& copies, Index nv) {
+template <typename Copy>
+CopiesByVertex group_copies(const std::vector<Copy>& copies, Index nv) {
   CopiesByVertex out;
   out.first.assign(static_cast<std::size_t>(nv) + 1, 0);
-  for (const PatchCopy& c : copies) ++out.first[c.vertex + 1];
+  for (const Copy& c : copies) ++out.first[c.vertex + 1];
   for (Index v = 0; v < nv; ++v) out.first[v + 1] += out.first[v];
   out.order.resize(copies.size());
   std::vector<Index> fill(out.first.begin(), out.first.end() - 1);
@@ -737,6 +738,23 @@ std::vector<double> mean_edge_at_vertex(const Topology& t, std::span<const doubl
     }
   for (Index v = 0; v < t.num_vertices; ++v) h[v] /= std::max(1, hn[v]);
   return h;
+}
+
+/// Solves a joint fit of patch maps (E, H, S); returns Ceres' iteration count. The closed-form
+/// starts leave only a small, nearly linear correction: two or three steps reach the seams'
+/// rounding noise, where the cost moves by parts per thousand from step to step.
+int solve_patch_fit(ceres::Problem& problem) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = 50;
+  so.function_tolerance = 1e-3;
+  so.gradient_tolerance = 1e-30;
+  so.parameter_tolerance = 1e-20;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  detail::quiet_solve(so, &problem, &summary);
+  return static_cast<int>(summary.iterations.size());
 }
 
 /// The joint Ceres fit of the patch maps' corrections `delta` over every vertex two patches
@@ -764,19 +782,7 @@ int fit_patch_maps(Geometry g, const std::vector<PatchCopy>& copies, const Copie
   }
   if (maps.size() < 2 || seams == 0) return -1;
   if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
-  ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  so.max_num_iterations = 50;
-  // The closed-form starts leave only a small, nearly linear correction: two or three steps reach
-  // the seams' rounding noise, where the cost moves by parts per thousand from step to step.
-  so.function_tolerance = 1e-3;
-  so.gradient_tolerance = 1e-30;
-  so.parameter_tolerance = 1e-20;
-  so.logging_type = ceres::SILENT;
-  so.num_threads = 1;
-  ceres::Solver::Summary summary;
-  detail::quiet_solve(so, &problem, &summary);
-  return static_cast<int>(summary.iterations.size());
+  return solve_patch_fit(problem);
 }
 
 /// Each vertex at the mean of its mapped copies (H: on the hyperboloid); returns the seam error,
@@ -817,6 +823,40 @@ double average_copies(Geometry g, const std::vector<PatchCopy>& copies, const Co
   return seam_error;
 }
 
+/// Lays out every patch of `parts` by its own propagation, in parallel (each thread with its own
+/// buffers of `dims` coordinates per vertex), and hands each to `take(p, L, touched)`: patch p's
+/// positions and its vertices. False with `out` set when a patch's propagation left double range.
+template <typename Take>
+bool lay_out_each_patch(const Topology& t, Geometry g, int dims, std::span<const double> l, const Patches& parts,
+                        Layout& out, Take&& take) {
+  const Index nv = t.num_vertices;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  std::vector<Layout> failures(static_cast<std::size_t>(np));
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(t.num_faces), 0);
+#pragma omp parallel
+  {
+    std::vector<double> lx(static_cast<std::size_t>(nv) * static_cast<std::size_t>(dims), 0.0);
+    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+    std::vector<Index> touched, pq;
+    Positions L{g, dims, lx};
+#pragma omp for schedule(dynamic, 1)
+    for (Index p = 0; p < np; ++p) {
+      if (lay_out_patch(t, l, p, parts.seeds[p], parts.owner, visited, L, placed, touched, pq, failures[p]))
+        take(p, static_cast<const Positions&>(L), std::span<const Index>(touched));
+      for (Index v : touched) placed[v] = 0;
+    }
+  }
+  for (const Layout& f : failures)
+    if (f.status == Status::NumericalFailure) {
+      out.status = f.status;
+      out.element = f.element;
+      out.element_index = f.element_index;
+      out.message = f.message;
+      return false;
+    }
+  return true;
+}
+
 /// Divide and conquer (LayoutOptions::patches): the faces are split into `count` patches
 /// (partition_faces()); each patch is laid out on its own by the same propagation from its seed,
 /// in a frame of its own (lay_out_patch()); each patch's isometry into the common frame starts
@@ -833,33 +873,13 @@ bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, I
   // The patches are laid out in parallel, each in a frame of its own; their copies are gathered in
   // patch order, so the result does not depend on the threads.
   std::vector<std::vector<PatchCopy>> patch_copies(static_cast<std::size_t>(np));
-  std::vector<Layout> failures(static_cast<std::size_t>(np));
-  std::vector<std::uint8_t> visited(static_cast<std::size_t>(nf), 0);
   std::vector<PatchMap> maps(static_cast<std::size_t>(np));
-#pragma omp parallel
-  {
-    std::vector<double> lx(static_cast<std::size_t>(nv) * 2, 0.0);
-    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
-    std::vector<Index> touched, pq;
-    Positions L{g, 2, lx};
-#pragma omp for schedule(dynamic, 1)
-    for (Index p = 0; p < np; ++p) {
-      const bool ok = lay_out_patch(t, l, p, parts.seeds[p], owner, visited, L, placed, touched, pq, failures[p]);
-      if (ok) start_patch_map(g, L, x, touched, maps[p]);
-      for (Index v : touched) {
-        if (ok) patch_copies[p].push_back({p, v, L.z(v)});
-        placed[v] = 0;
-      }
-    }
-  }
-  for (const Layout& f : failures)
-    if (f.status == Status::NumericalFailure) {
-      out.status = f.status;
-      out.element = f.element;
-      out.element_index = f.element_index;
-      out.message = f.message;
-      return false;
-    }
+  const bool laid = lay_out_each_patch(t, g, 2, l, parts, out,
+                                       [&](Index p, const Positions& L, std::span<const Index> touched) {
+                                         start_patch_map(g, L, x, touched, maps[p]);
+                                         for (Index v : touched) patch_copies[p].push_back({p, v, L.z(v)});
+                                       });
+  if (!laid) return false;
   std::vector<PatchCopy> copies;
   for (const std::vector<PatchCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
   const CopiesByVertex by = group_copies(copies, nv);
@@ -926,46 +946,21 @@ bool lay_out_sphere_patches(const Topology& t, std::span<const double> l, Index 
   const std::vector<Index>& owner = parts.owner;
   const Index np = static_cast<Index>(parts.seeds.size());
   std::vector<std::vector<SphereCopy>> patch_copies(static_cast<std::size_t>(np));
-  std::vector<Layout> failures(static_cast<std::size_t>(np));
-  std::vector<std::uint8_t> visited(static_cast<std::size_t>(nf), 0);
   const Positions X{g, 3, x};
-#pragma omp parallel
-  {
-    std::vector<double> lx(static_cast<std::size_t>(nv) * 3, 0.0);
-    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
-    std::vector<Index> touched, pq;
-    Positions L{g, 3, lx};
-#pragma omp for schedule(dynamic, 1)
-    for (Index p = 0; p < np; ++p) {
-      const bool ok = lay_out_patch(t, l, p, parts.seeds[p], owner, visited, L, placed, touched, pq, failures[p]);
-      const Eigen::Matrix3d R = ok ? kabsch_rotation(L, X, touched) : Eigen::Matrix3d::Identity();
-      for (Index v : touched) {
-        if (ok) {
-          const V3 a = L.p(v);
-          const Eigen::Vector3d y = R * Eigen::Vector3d(a[0], a[1], a[2]);
-          patch_copies[p].push_back({p, v, V3{y[0], y[1], y[2]}});
-        }
-        placed[v] = 0;
-      }
-    }
-  }
-  for (const Layout& f : failures)
-    if (f.status == Status::NumericalFailure) {
-      out.status = f.status;
-      out.element = f.element;
-      out.element_index = f.element_index;
-      out.message = f.message;
-      return false;
-    }
+  const bool laid = lay_out_each_patch(t, g, 3, l, parts, out,
+                                       [&](Index p, const Positions& L, std::span<const Index> touched) {
+                                         const Eigen::Matrix3d R = kabsch_rotation(L, X, touched);
+                                         for (Index v : touched) {
+                                           const V3 a = L.p(v);
+                                           const Eigen::Vector3d y = R * Eigen::Vector3d(a[0], a[1], a[2]);
+                                           patch_copies[p].push_back({p, v, V3{y[0], y[1], y[2]}});
+                                         }
+                                       });
+  if (!laid) return false;
   std::vector<SphereCopy> copies;
   for (const std::vector<SphereCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
-  std::vector<Index> first(static_cast<std::size_t>(nv) + 1, 0), order(copies.size());
-  for (const SphereCopy& c : copies) ++first[c.vertex + 1];
-  for (Index v = 0; v < nv; ++v) first[v + 1] += first[v];
-  {
-    std::vector<Index> fill(first.begin(), first.end() - 1);
-    for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) order[fill[copies[c].vertex]++] = c;
-  }
+  const CopiesByVertex by = group_copies(copies, nv);
+  const std::vector<Index>&first = by.first, &order = by.order;
   const std::vector<double> h = mean_edge_at_vertex(t, l);
   std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
   {
@@ -985,17 +980,7 @@ bool lay_out_sphere_patches(const Topology& t, std::span<const double> l, Index 
     if (np >= 2 && seams > 0) {
       const Index fixed = owner[seed];
       if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
-      ceres::Solver::Options so;
-      so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-      so.max_num_iterations = 50;
-      so.function_tolerance = 1e-3;  // as in fit_patch_maps(): the starts leave a small, nearly linear correction
-      so.gradient_tolerance = 1e-30;
-      so.parameter_tolerance = 1e-20;
-      so.logging_type = ceres::SILENT;
-      so.num_threads = 1;
-      ceres::Solver::Summary summary;
-      detail::quiet_solve(so, &problem, &summary);
-      out.patch_fit_iterations = static_cast<int>(summary.iterations.size());
+      out.patch_fit_iterations = solve_patch_fit(problem);
     }
   }
   // Every vertex at the normalised mean of its turned copies; the seam error as in E and H.
