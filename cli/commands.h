@@ -2,7 +2,7 @@
 //
 // The CLI holds no geometry logic: it calls the library (io.h, validate.h, metric.h, flow.h) and
 // turns its results into text, JSON and exit codes. Messages go to stderr prefixed "ricci: ";
-// reports go to stdout. `info` and `convert` live in commands.cpp, `flow` in flow_command.cpp.
+// reports go to stdout. `info` and `convert` live in commands.cpp, each other subcommand in its folder (README.md).
 //
 // Exit codes (also listed in the --help footer):
 //   0  success

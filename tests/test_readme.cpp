@@ -1,6 +1,10 @@
 // README.md promises: its library example is this repository's tests/readme_example.cpp, it
-// builds and runs; its two commands are the ones the scripts and CI run.
+// builds and runs; its two commands are the ones the scripts and CI run; its repository map and
+// header table name every stage folder and public header.
 #include <doctest/doctest.h>
+
+#include <sstream>
+#include <string>
 
 #include "support.h"
 
@@ -43,4 +47,25 @@ TEST_CASE("readme: it opens with the two commands, and CI runs the second") {
   CHECK(check < text.find("\n## ", text.find("\n## ") + 1));
   const std::string ci = ricci_test::read_bytes(ricci_test::fs::path(RICCI_SOURCE_DIR) / ".ci/run");
   CHECK(ci.find("bash tools/check.sh") != std::string::npos);
+}
+
+TEST_CASE("readme: the repository map names every stage folder and every public header with its stage") {
+  const std::string text = readme();
+  const ricci_test::fs::path lib = ricci_test::fs::path(RICCI_SOURCE_DIR) / "lib";
+  std::istringstream stages(ricci_test::read_bytes(lib / "stages.txt"));
+  int count = 0, headers = 0;
+  for (std::string stage; std::getline(stages, stage);) {
+    if (stage.empty() || stage[0] < 'a' || stage[0] > 'z') continue;
+    ++count;
+    INFO("stage " << stage);
+    CHECK(text.find("| `lib/" + stage + "/` |") != std::string::npos);
+    CHECK(ricci_test::fs::is_regular_file(lib / stage / "README.md"));
+    for (const auto& h : ricci_test::fs::directory_iterator(lib / stage / "include" / "ricci")) {
+      ++headers;
+      INFO("header " << h.path().filename().string());
+      CHECK(text.find("| `" + h.path().filename().string() + "` | " + stage + " |") != std::string::npos);
+    }
+  }
+  CHECK(count >= 10);
+  CHECK(headers >= 15);
 }

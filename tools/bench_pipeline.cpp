@@ -1,6 +1,6 @@
 // bench_pipeline — the whole uniformization per input, stage by stage, against the least work a
 // linear conformal method does: one sparse Cholesky analysis + factorization + solve of the
-// cotangent Laplacian of the same mesh with the same solver (lib/src/sparse_solver.h, CHOLMOD).
+// cotangent Laplacian of the same mesh with the same solver (lib/core/sparse_solver.h, CHOLMOD).
 // A driver, not a test: it never fails on a slow or non-converging input, it reports it.
 //
 // How to run (Release build; the one command the README documents):

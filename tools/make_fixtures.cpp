@@ -1,5 +1,5 @@
 // make_fixtures OUTDIR — writes the small test meshes of fixtures/ (OBJ, deterministic: the same
-// bytes on every run; tests/test_fixtures.cpp checks that the committed files are reproduced).
+// bytes on every run; tests/whole/test_fixtures.cpp checks that the committed files are reproduced).
 //
 //   build/tools/make_fixtures fixtures
 #include <cstdio>

@@ -1,7 +1,7 @@
 // ricci_shapes — stress meshes for the hardening tests (issue 8, item 3): needles and caps,
 // high-valence vertices, extreme coordinate scales, nearly coplanar folds, long thin strips, tiny
 // and huge edges side by side, random vertex order. Used by tools/stress_meshes (which writes
-// them to files) and tests/test_stress.cpp (which builds small versions in memory).
+// them to files) and tests/whole/test_stress.cpp (which builds small versions in memory).
 //
 // Every generator is deterministic for its arguments (a seed where randomness is used, drawn from
 // raw std::mt19937_64 outputs only). Unlike shapes.h, some use std::sin/std::cos, so their bits

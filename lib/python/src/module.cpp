@@ -1,8 +1,8 @@
 // ricci Python module, compiled part (ricci._ricci; the package's public functions are in
 // lib/python/ricci/__init__.py, which documents them).
 //
-// flow() and uniformize() run the command-line tool's own drivers (cli/flow_run.h,
-// cli/uniformize_run.h) with nothing printed, so a result here has exactly the numbers, notes and
+// flow() and uniformize() run the command-line tool's own drivers (cli/flow/flow_run.h,
+// cli/uniformize/uniformize_run.h) with nothing printed, so a result here has exactly the numbers, notes and
 // report of `ricci flow` / `ricci uniformize` on the same mesh and options, and write() writes the
 // same OUTDIR. The GIL is released while the library works; a progress callback is called with the
 // GIL held after every flow iteration and pipeline stage.

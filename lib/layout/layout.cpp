@@ -1,0 +1,1839 @@
+// Layouts of discrete metrics in E, H and S; the metric on a cut's refined surface; alignment of
+// layouts up to isometries. See layout.h for the algorithms and conventions.
+#include "ricci/layout.h"
+
+#include "ceres_quiet.h"
+#include "layout_internal.h"
+#include "layout_polish.h"
+#include "model_geometry.h"
+
+#include <Eigen/Dense>
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <cfenv>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <functional>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace ricci {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Cx = std::complex<double>;
+using V3 = std::array<double, 3>;
+constexpr double kPi = std::numbers::pi;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// E layouts whose propagation misses the metric by more than this (above the rounding floor) are
+// also computed from the triangles' shapes by one least-squares solve (LayoutOptions::polish_steps).
+constexpr double kShapeLayoutAbove = 1e-8;
+// A placement whose vertex has an angle with sine below this costs more in the propagation (see
+// run_layout()).
+constexpr double kIllPlaced = 1e-4;
+
+std::string num(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// ---- small vector helpers ------------------------------------------------------------------
+
+V3 sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+V3 cross(const V3& a, const V3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+double norm(const V3& a) { return std::sqrt(dot(a, a)); }
+V3 scaled(const V3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+V3 normalized(const V3& a) {
+  const double n = norm(a);
+  return n > 0 ? scaled(a, 1 / n) : V3{0, 0, 1};
+}
+
+/// |z| without hypot's overflow guards (a few times faster); hypot only when the square overflows
+/// or underflows.
+double euclidean_norm(Cx z) {
+  const double n2 = z.real() * z.real() + z.imag() * z.imag();
+  return n2 > 1e-300 && n2 < 1e300 ? std::sqrt(n2) : std::abs(z);
+}
+
+/// Area of a euclidean triangle with sides a, b, c by Kahan's ordering of Heron's formula (exact
+/// to a few ulps however thin the triangle); 0 when rounding leaves the sides degenerate.
+double heron_area(double a, double b, double c) {
+  if (a < b) std::swap(a, b);
+  if (b < c) std::swap(b, c);
+  if (a < b) std::swap(a, b);
+  const double p = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c));
+  return p > 0 ? 0.25 * std::sqrt(p) : 0.0;
+}
+
+/// f of the half-angle formula: identity (E), sinh (H), sin (S).
+double side_function(Geometry g, double x) {
+  switch (g) {
+    case Geometry::Hyperbolic: return std::sinh(x);
+    case Geometry::Spherical: return std::sin(x);
+    default: return x;
+  }
+}
+
+}  // namespace
+
+namespace {
+
+using detail::angle_from_lengths;
+
+using model::disk_distance;    // Poincaré disk; +∞ on or outside the unit circle
+using model::sphere_distance;  // great circle of two unit vectors
+
+/// z ↦ (z − p)/(1 − p̄ z), the disk automorphism taking p to 0, and its inverse.
+Cx to_origin(Cx p, Cx z) { return model::disk_to_origin(p, z); }
+Cx from_origin(Cx p, Cx z) { return (z + p) / (1.0 + std::conj(p) * z); }
+
+/// Hyperboloid point (t, x, y) of a Poincaré disk point.
+V3 hyperboloid(Cx z) {
+  const double r2 = std::norm(z);
+  const double d = (1 - std::abs(z)) * (1 + std::abs(z));
+  return {(1 + r2) / d, 2 * z.real() / d, 2 * z.imag() / d};
+}
+
+/// Poincaré disk point of a future-timelike vector (t, x, y) (rescaled onto the hyperboloid).
+Cx poincare(const V3& X) {
+  const double n2 = X[0] * X[0] - X[1] * X[1] - X[2] * X[2];
+  const double n = std::sqrt(std::max(n2, 0.0));
+  const double t = X[0] + n;
+  return t > 0 ? Cx(X[1], X[2]) / t : Cx(0, 0);
+}
+
+// ---- positions of one layout ---------------------------------------------------------------
+
+struct Positions {
+  Geometry g = Geometry::Euclidean;
+  int dims = 2;
+  std::vector<double>& x;
+
+  Cx z(Index v) const { return {x[2 * v], x[2 * v + 1]}; }
+  void set(Index v, Cx w) {
+    x[2 * v] = w.real();
+    x[2 * v + 1] = w.imag();
+  }
+  V3 p(Index v) const { return {x[3 * v], x[3 * v + 1], x[3 * v + 2]}; }
+  void set(Index v, const V3& w) {
+    for (int d = 0; d < 3; ++d) x[3 * v + d] = w[d];
+  }
+  bool finite(Index v) const {
+    for (int d = 0; d < dims; ++d)
+      if (!std::isfinite(x[dims * v + d])) return false;
+    return g != Geometry::Hyperbolic || std::abs(z(v)) < 1;
+  }
+  double distance(Index a, Index b) const {
+    switch (g) {
+      case Geometry::Euclidean: return euclidean_norm(z(a) - z(b));
+      case Geometry::Hyperbolic: return disk_distance(z(a), z(b));
+      default: return sphere_distance(p(a), p(b));
+    }
+  }
+  /// Sign of the orientation of the geodesic triangle (a, b, c).
+  double orientation(Index a, Index b, Index c) const {
+    if (g == Geometry::Spherical) return dot(p(a), cross(p(b), p(c)));
+    Cx A = z(a), B = z(b), Cc = z(c);
+    if (g == Geometry::Hyperbolic) {
+      auto klein = [](Cx w) { return 2.0 * w / (1.0 + std::norm(w)); };
+      A = klein(A);
+      B = klein(B);
+      Cc = klein(Cc);
+    }
+    const Cx u = B - A, w = Cc - A;
+    return u.real() * w.imag() - u.imag() * w.real();
+  }
+  /// Places the vertex of corner o of t from the two ends of the edge opposite it (placed
+  /// already); returns that vertex.
+  Index place_corner(const Topology& t, std::span<const double> l, Index o) {
+    const Index v = t.corner_vertex[o];
+    place(v, t.corner_vertex[next_corner(o)], t.corner_vertex[prev_corner(o)], l[t.corner_edge[prev_corner(o)]],
+          l[t.corner_edge[next_corner(o)]]);
+    return v;
+  }
+  /// Places x so that d(p, x) = rp, d(q, x) = rq, x on the left of p → q.
+  void place(Index v, Index pv, Index qv, double rp, double rq) {
+    switch (g) {
+      case Geometry::Euclidean: {
+        // In the frame of the placed edge (P at 0, Q on +x at distance s, measured): x = along +
+        // i·across, along from the cosine law (absolute error about ε·max length), across = 2·area/s
+        // with the area by Kahan's stable Heron formula (relative error about ε), no trigonometry.
+        const Cx P = z(pv), d = z(qv) - P;
+        const double s = euclidean_norm(d);
+        if (!(s > 0) || !std::isfinite(s)) {  // the edge's ends coincide in double: no frame
+          set(v, Cx(kNaN, kNaN));
+          break;
+        }
+        const double along = ((rp - rq) * (rp + rq) + s * s) / (2 * s);
+        const double across = 2 * heron_area(s, rp, rq) / s;
+        set(v, P + (d / s) * Cx(along, across));
+        break;
+      }
+      case Geometry::Hyperbolic: {
+        const Cx P = z(pv);
+        const Cx w = to_origin(P, z(qv));
+        const double aw = std::abs(w);
+        const double s = aw < 1 ? 2 * std::atanh(aw) : kInf;
+        const double th = angle_from_lengths(g, rq, std::min(s, 1e300), rp);
+        const Cx local = std::polar(std::tanh(rp / 2), std::arg(w) + th);
+        set(v, from_origin(P, local));
+        break;
+      }
+      default: {
+        const V3 P = p(pv), Q = p(qv);
+        const V3 n = cross(P, Q);
+        const double s = std::atan2(norm(n), dot(P, Q));
+        const V3 U = normalized(cross(n, P));  // tangent at P towards Q
+        const V3 W = cross(P, U);
+        const double th = angle_from_lengths(g, rq, s, rp);
+        const double c = std::cos(th), sn = std::sin(th), cr = std::cos(rp), sr = std::sin(rp);
+        V3 X;
+        for (int d = 0; d < 3; ++d) X[d] = cr * P[d] + sr * (c * U[d] + sn * W[d]);
+        set(v, normalized(X));
+        break;
+      }
+    }
+  }
+  /// The seed face: corner 0 at the base point, corner 0 → 1 along +x.
+  void place_seed(Index v0, Index v1, Index v2, double l0, double l1, double l2) {
+    const double th = angle_from_lengths(g, l0, l1, l2);
+    switch (g) {
+      case Geometry::Euclidean:
+        set(v0, Cx(0, 0));
+        set(v1, Cx(l2, 0));
+        set(v2, std::polar(l1, th));
+        break;
+      case Geometry::Hyperbolic:
+        set(v0, Cx(0, 0));
+        set(v1, Cx(std::tanh(l2 / 2), 0));
+        set(v2, std::polar(std::tanh(l1 / 2), th));
+        break;
+      default:
+        set(v0, V3{0, 0, 1});
+        set(v1, V3{std::sin(l2), 0, std::cos(l2)});
+        set(v2, V3{std::sin(l1) * std::cos(th), std::sin(l1) * std::sin(th), std::cos(l1)});
+        break;
+    }
+  }
+};
+
+/// How far rounding the two ends' coordinates to double can move edge (a, b), in the geometry.
+double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
+  if (g == Geometry::Spherical) return 2 * 0x1p-53 * std::sqrt(3.0);
+  return detail::rounding_drift_planar(g, P.z(a), P.z(b));
+}
+
+/// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
+/// Parallel over edges; a NaN ranks above every number and ties go to the smaller edge index, so
+/// the result does not depend on the threads.
+void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o) {
+  auto rank = [](double x) { return std::isnan(x) ? kInf : x; };
+  double worst = 0, floor = 0, above = 0;
+  Index worst_edge = kInvalid;
+#pragma omp parallel
+  {
+    double my_worst = 0, my_floor = 0, my_above = 0;
+    Index my_edge = kInvalid;
+#pragma omp for schedule(static) nowait
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double d = P.distance(a, b);
+      const double err = std::abs(d - l[e]) / l[e];
+      const double drift = rounding_drift(g, P, a, b) / l[e];
+      my_floor = std::max(my_floor, drift);
+      if (rank(err - drift) > rank(my_above)) my_above = err - drift;
+      if (rank(err) > rank(my_worst)) {
+        my_worst = err;
+        my_edge = e;
+      }
+    }
+#pragma omp critical(ricci_measure_edges)
+    {
+      floor = std::max(floor, my_floor);
+      if (rank(my_above) > rank(above)) above = my_above;
+      if (my_edge != kInvalid && (rank(my_worst) > rank(worst) || (rank(my_worst) == rank(worst) &&
+                                                                   (worst_edge == kInvalid || my_edge < worst_edge)))) {
+        worst = my_worst;
+        worst_edge = my_edge;
+      }
+    }
+  }
+  o.max_edge_length_error = worst;
+  o.worst_edge = worst_edge;
+  o.rounding_floor = floor;
+  o.max_error_above_rounding = above;
+}
+
+// ---- validation ----------------------------------------------------------------------------
+
+template <class R>
+bool check_lengths(const Topology& t, Geometry g, std::span<const double> l, R& r) {
+  if (l.size() != static_cast<std::size_t>(t.num_edges)) {
+    r.status = Status::InvalidArgument;
+    r.message = "expected " + std::to_string(t.num_edges) + " edge lengths, got " + std::to_string(l.size());
+    return false;
+  }
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const bool bad = !(std::isfinite(l[e]) && l[e] > 0) || (g == Geometry::Spherical && !(l[e] < kPi));
+    if (!bad) continue;
+    r.status = Status::DegenerateFace;
+    r.element = Element::Edge;
+    r.element_index = e;
+    r.message = "edge " + std::to_string(e) + " (vertices " + std::to_string(t.edge_vertices[2 * e]) + "–" +
+                std::to_string(t.edge_vertices[2 * e + 1]) + ") has length " + num(l[e]) +
+                (g == Geometry::Spherical ? ", not in (0, π)" : ", not a positive finite number");
+    return false;
+  }
+  return true;
+}
+
+/// Angles and areas; false (with the first face named) on a triangle-inequality violation.
+template <class R>
+bool angles_and_areas(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& theta,
+                      std::vector<double>& area, R& r) {
+  theta.assign(static_cast<std::size_t>(t.num_corners()), 0.0);
+  area.assign(static_cast<std::size_t>(t.num_faces), 0.0);
+  const AngleReport rep = corner_angles(t, g, l, theta);
+  if (rep.violations > 0) {
+    const Index f = rep.first_violation;
+    r.status = Status::TriangleInequality;
+    r.element = Element::Face;
+    r.element_index = f;
+    r.message = "face " + std::to_string(f) + " (vertices " + std::to_string(t.corner_vertex[3 * f]) + ", " +
+                std::to_string(t.corner_vertex[3 * f + 1]) + ", " + std::to_string(t.corner_vertex[3 * f + 2]) +
+                ") with lengths " + num(l[t.corner_edge[3 * f]]) + ", " + num(l[t.corner_edge[3 * f + 1]]) + ", " +
+                num(l[t.corner_edge[3 * f + 2]]) + " violates the triangle inequality" +
+                (g == Geometry::Spherical ? " (or has perimeter ≥ 2π)" : "") + "; " +
+                std::to_string(rep.violations) + " faces do";
+    return false;
+  }
+  if (g != Geometry::Euclidean) face_areas(t, g, l, theta, area);  // E: no normalisation weights
+  return true;
+}
+
+// ---- seed ----------------------------------------------------------------------------------
+
+/// Breadth-first distances over the dual graph from face s; returns the farthest face (smallest
+/// index among the farthest).
+Index dual_bfs(const Topology& t, Index s, std::vector<Index>& dist) {
+  dist.assign(static_cast<std::size_t>(t.num_faces), -1);
+  std::vector<Index> queue;
+  queue.reserve(static_cast<std::size_t>(t.num_faces));
+  dist[s] = 0;
+  queue.push_back(s);
+  Index far = s;
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const Index f = queue[h];
+    if (dist[f] > dist[far] || (dist[f] == dist[far] && f < far)) far = f;
+    for (int k = 0; k < 3; ++k) {
+      const Index o = t.opposite[3 * f + k];
+      if (o == kInvalid || dist[corner_face(o)] >= 0) continue;
+      dist[corner_face(o)] = dist[f] + 1;
+      queue.push_back(corner_face(o));
+    }
+  }
+  return far;
+}
+
+Index central_face_of(const Topology& t) {
+  std::vector<Index> da, db;
+  const Index a = dual_bfs(t, dual_bfs(t, 0, da), da);
+  const Index b = dual_bfs(t, a, da);
+  dual_bfs(t, b, db);
+  Index best = 0;
+  auto key = [&](Index f) { return std::pair<Index, Index>(std::max(da[f], db[f]), da[f] + db[f]); };
+  for (Index f = 1; f < t.num_faces; ++f)
+    if (da[f] >= 0 && key(f) < key(best)) best = f;
+  return best;
+}
+
+// ---- normalisations ------------------------------------------------------------------------
+
+std::vector<double> vertex_weights(const Topology& t, const std::vector<double>& area) {
+  std::vector<double> w(static_cast<std::size_t>(t.num_vertices), 0.0);
+  for (Index v = 0; v < t.num_vertices; ++v)
+    for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i)
+      w[v] += area[corner_face(t.vertex_corners[i])] / 3;
+  return w;
+}
+
+/// Centre of the hyperboloid centre of mass (Poincaré point) of weighted disk points.
+Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w) {
+  V3 C{0, 0, 0};
+  for (Index v = 0; v < nv; ++v) {
+    const V3 X = hyperboloid(P.z(v));
+    const double wv = w ? (*w)[v] : 1.0;
+    for (int d = 0; d < 3; ++d) C[d] += wv * X[d];
+  }
+  return poincare(C);
+}
+
+/// Returns the hyperbolic distance the centre of mass was moved by; *map (when not null) is the
+/// Lorentz matrix of the disk map applied (z ↦ rot·(z − c)/(1 − c̄ z)).
+double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, Layout& out,
+                            detail::M3* map = nullptr) {
+  const Index nv = t.num_vertices;
+  const Cx c = hyperbolic_centre(P, nv, &w);
+  for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
+  Cx ref = P.z(t.corner_vertex[3 * seed]);
+  if (std::abs(ref) < 1e-12) ref = P.z(t.corner_vertex[3 * seed + 1]);
+  Cx rot(1, 0);
+  if (std::abs(ref) > 0) {
+    rot = std::conj(ref) / std::abs(ref);
+    for (Index v = 0; v < nv; ++v) P.set(v, rot * P.z(v));
+  }
+  if (map != nullptr) *map = detail::disk_map_matrix(c, rot);
+  out.centre_of_mass = std::abs(hyperbolic_centre(P, nv, &w));
+  return 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
+}
+
+void normalize_spherical(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, bool mobius,
+                         Layout& out) {
+  const Index nv = t.num_vertices;
+  double wsum = 0;
+  for (Index v = 0; v < nv; ++v) wsum += w[v];
+  if (!(wsum > 0)) wsum = 1;
+  auto centre = [&] {
+    V3 mu{0, 0, 0};
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 3; ++d) mu[d] += w[v] * P.x[3 * v + d];
+    return scaled(mu, 1 / wsum);
+  };
+  if (mobius) {
+    const std::vector<double> before = P.x;
+    int it = 0;
+    for (; it < 100; ++it) {
+      const V3 mu = centre();
+      if (norm(mu) < 1e-14) break;
+      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
+      for (Index v = 0; v < nv; ++v) {
+        const Eigen::Vector3d x(P.x[3 * v], P.x[3 * v + 1], P.x[3 * v + 2]);
+        J += w[v] * (Eigen::Matrix3d::Identity() - x * x.transpose());
+      }
+      J *= 2 / wsum;
+      const Eigen::Vector3d step = -J.ldlt().solve(Eigen::Vector3d(mu[0], mu[1], mu[2]));
+      V3 c{step[0], step[1], step[2]};
+      if (!std::isfinite(norm(c))) break;
+      if (norm(c) > 0.5) c = scaled(c, 0.5 / norm(c));
+      const double c2 = dot(c, c);
+      for (Index v = 0; v < nv; ++v) {
+        V3 x = P.p(v);
+        const V3 y{x[0] + c[0], x[1] + c[1], x[2] + c[2]};
+        const double d2 = dot(y, y);
+        if (!(d2 > 0)) continue;
+        for (int d = 0; d < 3; ++d) x[d] = (1 - c2) * y[d] / d2 + c[d];
+        P.set(v, normalized(x));
+      }
+    }
+    out.normalization_iterations = it;
+    std::vector<double> old = before;
+    Positions Q{Geometry::Spherical, 3, old};
+    double change = 0;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double d0 = Q.distance(a, b), d1 = P.distance(a, b);
+      if (d0 > 0) change = std::max(change, std::abs(d1 - d0) / d0);
+    }
+    out.mobius_length_change = change;
+  }
+  // Rotation: seed corner 0 → +z, corner 1 into the half-plane y = 0, x > 0.
+  const V3 a = P.p(t.corner_vertex[3 * seed]), b = P.p(t.corner_vertex[3 * seed + 1]);
+  V3 e1 = sub(b, scaled(a, dot(a, b)));
+  if (norm(e1) < 1e-300) e1 = std::abs(a[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0};
+  e1 = normalized(sub(e1, scaled(a, dot(a, e1))));
+  const V3 e2 = cross(a, e1);
+  for (Index v = 0; v < nv; ++v) {
+    const V3 x = P.p(v);
+    P.set(v, V3{dot(e1, x), dot(e2, x), dot(a, x)});
+  }
+  out.centre_of_mass = norm(centre());
+}
+
+// ---- divide and conquer (E, H) ---------------------------------------------------------------
+
+/// A disk automorphism z ↦ (a z + b)/(b̄ z + ā), |a|² − |b|² = 1 (E: unused).
+struct Su11 {
+  Cx a{1, 0}, b{0, 0};
+  Su11 operator*(const Su11& n) const { return {a * n.a + b * std::conj(n.b), a * n.b + b * std::conj(n.a)}; }
+  Cx apply(Cx z) const { return (a * z + b) / (std::conj(b) * z + std::conj(a)); }
+  static Su11 to_origin(Cx p) {
+    const double s = std::sqrt(1 - std::norm(p));
+    return {Cx(1 / s, 0), -p / s};
+  }
+  static Su11 rotation(double psi) { return {std::polar(1.0, psi / 2), Cx(0, 0)}; }
+  Su11 inverse() const { return {std::conj(a), -b}; }
+};
+
+/// Complex arithmetic on Ceres jets (std::complex<Jet> is not supported).
+template <typename T>
+struct Cj {
+  T r, i;
+};
+template <typename T>
+Cj<T> operator*(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r * y.r - x.i * y.i, x.r * y.i + x.i * y.r};
+}
+template <typename T>
+Cj<T> operator+(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r + y.r, x.i + y.i};
+}
+template <typename T>
+Cj<T> operator-(const Cj<T>& x, const Cj<T>& y) {
+  return {x.r - y.r, x.i - y.i};
+}
+template <typename T>
+Cj<T> operator/(const Cj<T>& x, const Cj<T>& y) {
+  const T d = y.r * y.r + y.i * y.i;
+  return {(x.r * y.r + x.i * y.i) / d, (x.i * y.r - x.r * y.i) / d};
+}
+template <typename T>
+Cj<T> cj(Cx z) {
+  return {T(z.real()), T(z.imag())};
+}
+
+/// The map of one patch into the common frame: T0 ∘ D(δ), D a small isometry near the identity
+/// (E: rotation by δ0 and translation L·(δ1, δ2); H: z ↦ e^{iδ0}(z − δ)/(1 − δ̄ z)), T0 the
+/// closed-form start (E: rotation rot0 then translation t0; H: the SU(1,1) map m0).
+struct PatchMap {
+  Geometry g = Geometry::Euclidean;
+  Cx rot0{1, 0}, t0{0, 0};
+  Su11 m0;
+  double scale = 1;
+
+  template <typename T>
+  Cj<T> apply(const T* d, Cx x) const {
+    const Cj<T> e{cos(d[0]), sin(d[0])};
+    if (g == Geometry::Euclidean) {
+      const Cj<T> y = e * cj<T>(x) + Cj<T>{T(scale) * d[1], T(scale) * d[2]};
+      return cj<T>(rot0) * y + cj<T>(t0);
+    }
+    const Cj<T> z0{d[1], d[2]};
+    const Cj<T> z0c{d[1], -d[2]};
+    const Cj<T> one{T(1), T(0)};
+    const Cj<T> y = e * (cj<T>(x) - z0) / (one - z0c * cj<T>(x));
+    return (cj<T>(m0.a) * y + cj<T>(m0.b)) / (cj<T>(std::conj(m0.b)) * y + cj<T>(std::conj(m0.a)));
+  }
+  Cx map(const double* d, Cx x) const {
+    const Cj<double> w = apply<double>(d, x);
+    return {w.r, w.i};
+  }
+};
+
+/// A vertex shared by two patches: both copies mapped to the common frame must agree.
+struct SeamResidual {
+  const PatchMap* p;
+  const PatchMap* q;
+  Cx xp, xq;
+  double weight;  // 1/(local edge length · the frame's length scale at the vertex)
+  template <typename T>
+  bool operator()(const T* dp, const T* dq, T* residual) const {
+    const Cj<T> a = p->template apply<T>(dp, xp), b = q->template apply<T>(dq, xq);
+    residual[0] = T(weight) * (a.r - b.r);
+    residual[1] = T(weight) * (a.i - b.i);
+    return true;
+  }
+};
+
+/// The faces split into patches: seeds by farthest-point sampling over the dual graph (the first
+/// is `seed`), then a simultaneous breadth-first growth; owner[f] is the patch of face f.
+struct Patches {
+  std::vector<Index> seeds, owner;
+};
+
+Patches partition_faces(const Topology& t, Index seed, Index count) {
+  const Index nf = t.num_faces;
+  Patches out;
+  out.seeds = {seed};
+  // near[f]: steps from f to the nearest seed (−1: not reached). Each new seed's breadth-first
+  // search goes only where it comes strictly nearer: distances to a set of seeds are 1-Lipschitz
+  // over the dual graph, so every face on a shortest path to a face that comes nearer comes nearer
+  // too, and the pruned search gives the same distances as a full one from every seed.
+  std::vector<Index> near, queue;
+  dual_bfs(t, seed, near);
+  queue.reserve(static_cast<std::size_t>(nf));
+  while (static_cast<Index>(out.seeds.size()) < count) {
+    // The farthest face (the smallest index among the farthest).
+    Index best = kInvalid;
+#pragma omp parallel
+    {
+      Index mine = kInvalid;
+#pragma omp for schedule(static) nowait
+      for (Index f = 0; f < nf; ++f)
+        if (near[f] > 0 && (mine == kInvalid || near[f] > near[mine])) mine = f;
+#pragma omp critical(ricci_partition_faces)
+      if (mine != kInvalid &&
+          (best == kInvalid || near[mine] > near[best] || (near[mine] == near[best] && mine < best)))
+        best = mine;
+    }
+    if (best == kInvalid) break;
+    out.seeds.push_back(best);
+    near[best] = 0;
+    queue.assign({best});
+    for (std::size_t h = 0; h < queue.size(); ++h) {
+      const Index f = queue[h];
+      for (int k = 0; k < 3; ++k) {
+        const Index o = t.opposite[3 * f + k];
+        if (o == kInvalid) continue;
+        const Index nb = corner_face(o);
+        if (near[nb] >= 0 && near[nb] <= near[f] + 1) continue;
+        near[nb] = near[f] + 1;
+        queue.push_back(nb);
+      }
+    }
+  }
+  out.owner.assign(static_cast<std::size_t>(nf), kInvalid);
+  queue.clear();
+  for (Index p = 0; p < static_cast<Index>(out.seeds.size()); ++p) {
+    out.owner[out.seeds[p]] = p;
+    queue.push_back(out.seeds[p]);
+  }
+  for (std::size_t h = 0; h < queue.size(); ++h) {
+    const Index f = queue[h];
+    for (int c = 0; c < 3; ++c) {
+      const Index o = t.opposite[3 * f + c];
+      if (o == kInvalid || out.owner[corner_face(o)] != kInvalid) continue;
+      out.owner[corner_face(o)] = out.owner[f];
+      queue.push_back(corner_face(o));
+    }
+  }
+  return out;
+}
+
+/// One vertex of one patch, in the patch's own frame.
+struct PatchCopy {
+  Index patch, vertex;
+  Cx z;
+};
+
+/// The closed-form start of a patch map: the isometry taking the patch's local positions `L` of
+/// `touched` onto the current positions `x` (E: Procrustes; H: centroids on the hyperboloid and a
+/// rotation).
+void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std::span<const Index> touched,
+                     PatchMap& m) {
+  const Positions X{g, 2, x};
+  m.g = g;
+  double extent = 0;
+  if (g == Geometry::Euclidean) {
+    Cx ca(0, 0), cb(0, 0);
+    for (Index v : touched) {
+      ca += X.z(v);
+      cb += L.z(v);
+    }
+    ca /= static_cast<double>(touched.size());
+    cb /= static_cast<double>(touched.size());
+    Cx acc(0, 0);
+    for (Index v : touched) {
+      acc += (X.z(v) - ca) * std::conj(L.z(v) - cb);
+      extent = std::max(extent, std::abs(L.z(v) - cb));
+    }
+    m.rot0 = std::abs(acc) > 0 ? acc / std::abs(acc) : Cx(1, 0);
+    m.t0 = ca - m.rot0 * cb;
+    m.scale = extent > 0 ? extent : 1;
+    return;
+  }
+  V3 CA{0, 0, 0}, CB{0, 0, 0};
+  for (Index v : touched) {
+    const V3 A = hyperboloid(X.z(v)), B = hyperboloid(L.z(v));
+    for (int dd = 0; dd < 3; ++dd) {
+      CA[dd] += A[dd];
+      CB[dd] += B[dd];
+    }
+  }
+  const Cx ca = poincare(CA), cb = poincare(CB);
+  Cx acc(0, 0);
+  for (Index v : touched) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
+  const double psi = std::abs(acc) > 0 ? std::arg(acc) : 0.0;
+  m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
+}
+
+/// Lays out patch p (seed face s; its faces: owner[f] == p) on its own by propagation into `L`,
+/// marking its faces in `visited` and listing its vertices in `touched` (each marked in
+/// `placed`). False with `out` set when a vertex leaves the range of double precision.
+bool lay_out_patch(const Topology& t, std::span<const double> l, Index p, Index s, std::span<const Index> owner,
+                   std::span<std::uint8_t> visited, Positions& L, std::vector<std::uint8_t>& placed,
+                   std::vector<Index>& touched, std::vector<Index>& pq, Layout& out) {
+  const Index s0 = t.corner_vertex[3 * s], s1 = t.corner_vertex[3 * s + 1], s2 = t.corner_vertex[3 * s + 2];
+  L.place_seed(s0, s1, s2, l[t.corner_edge[3 * s]], l[t.corner_edge[3 * s + 1]], l[t.corner_edge[3 * s + 2]]);
+  touched.assign({s0, s1, s2});
+  placed[s0] = placed[s1] = placed[s2] = 1;
+  pq.assign({s});
+  visited[s] = 1;
+  for (std::size_t h = 0; h < pq.size(); ++h) {
+    const Index f = pq[h];
+    for (int c = 0; c < 3; ++c) {
+      const Index o = t.opposite[3 * f + c];
+      if (o == kInvalid || owner[corner_face(o)] != p || visited[corner_face(o)]) continue;
+      const Index nb = corner_face(o);
+      visited[nb] = 1;
+      pq.push_back(nb);
+      if (placed[t.corner_vertex[o]]) continue;
+      const Index v = L.place_corner(t, l, o);
+      placed[v] = 1;
+      touched.push_back(v);
+      if (!L.finite(v)) {
+        out.status = Status::NumericalFailure;
+        out.element = Element::Vertex;
+        out.element_index = v;
+        out.message = "vertex " + std::to_string(v) + " left the range of double precision in the layout of patch " +
+                      std::to_string(p);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+/// Copies grouped by vertex: copies[order[first[v] … first[v+1])] are vertex v's.
+struct CopiesByVertex {
+  std::vector<Index> first, order;
+};
+
+template <typename Copy>
+CopiesByVertex group_copies(const std::vector<Copy>& copies, Index nv) {
+  CopiesByVertex out;
+  out.first.assign(static_cast<std::size_t>(nv) + 1, 0);
+  for (const Copy& c : copies) ++out.first[c.vertex + 1];
+  for (Index v = 0; v < nv; ++v) out.first[v + 1] += out.first[v];
+  out.order.resize(copies.size());
+  std::vector<Index> fill(out.first.begin(), out.first.end() - 1);
+  for (Index c = 0; c < static_cast<Index>(copies.size()); ++c) out.order[fill[copies[c].vertex]++] = c;
+  return out;
+}
+
+/// Mean length of the edges at each vertex.
+std::vector<double> mean_edge_at_vertex(const Topology& t, std::span<const double> l) {
+  std::vector<double> h(static_cast<std::size_t>(t.num_vertices), 0.0);
+  std::vector<int> hn(static_cast<std::size_t>(t.num_vertices), 0);
+  for (Index e = 0; e < t.num_edges; ++e)
+    for (Index v : {t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]}) {
+      h[v] += l[e];
+      ++hn[v];
+    }
+  for (Index v = 0; v < t.num_vertices; ++v) h[v] /= std::max(1, hn[v]);
+  return h;
+}
+
+/// Solves a joint fit of patch maps (E, H, S); returns Ceres' iteration count. The closed-form
+/// starts leave only a small, nearly linear correction: two or three steps reach the seams'
+/// rounding noise, where the cost moves by parts per thousand from step to step.
+int solve_patch_fit(ceres::Problem& problem) {
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.max_num_iterations = 50;
+  so.function_tolerance = 1e-3;
+  so.gradient_tolerance = 1e-30;
+  so.parameter_tolerance = 1e-20;
+  so.logging_type = ceres::SILENT;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  detail::quiet_solve(so, &problem, &summary);
+  return static_cast<int>(summary.iterations.size());
+}
+
+/// The joint Ceres fit of the patch maps' corrections `delta` over every vertex two patches
+/// share (patch `fixed` held), the seam residual being the relative distance of the two copies.
+/// Returns Ceres' iteration count, or −1 when there is nothing to fit (one patch, or no seam).
+int fit_patch_maps(Geometry g, const std::vector<PatchCopy>& copies, const CopiesByVertex& by,
+                   const std::vector<PatchMap>& maps, std::span<const double> h, std::span<const double> x, Index fixed,
+                   std::vector<std::array<double, 3>>& delta) {
+  ceres::Problem::Options popts;
+  ceres::Problem problem(popts);
+  Index seams = 0;
+  const auto nv = static_cast<Index>(by.first.size()) - 1;
+  for (Index v = 0; v < nv; ++v) {
+    if (by.first[v + 1] - by.first[v] < 2) continue;
+    const PatchCopy& a = copies[by.order[by.first[v]]];
+    double frame = 1;
+    if (g == Geometry::Hyperbolic) frame = 2 / (1 - std::norm(Cx(x[2 * v], x[2 * v + 1])));
+    for (Index j = by.first[v] + 1; j < by.first[v + 1]; ++j) {
+      const PatchCopy& b = copies[by.order[j]];
+      auto* cost = new ceres::AutoDiffCostFunction<SeamResidual, 2, 3, 3>(
+          new SeamResidual{&maps[a.patch], &maps[b.patch], a.z, b.z, frame / h[v]});
+      problem.AddResidualBlock(cost, nullptr, delta[a.patch].data(), delta[b.patch].data());
+      ++seams;
+    }
+  }
+  if (maps.size() < 2 || seams == 0) return -1;
+  if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
+  return solve_patch_fit(problem);
+}
+
+/// Each vertex at the mean of its mapped copies (H: on the hyperboloid); returns the seam error,
+/// the largest distance of a copy from that mean relative to the vertex's mean edge length.
+double average_copies(Geometry g, const std::vector<PatchCopy>& copies, const CopiesByVertex& by,
+                      const std::vector<PatchMap>& maps, const std::vector<std::array<double, 3>>& delta,
+                      std::span<const double> h, std::vector<double>& x) {
+  double seam_error = 0;
+  std::vector<Cx> w;
+  const auto nv = static_cast<Index>(by.first.size()) - 1;
+  for (Index v = 0; v < nv; ++v) {
+    const Index n = by.first[v + 1] - by.first[v];
+    if (n == 0) continue;
+    w.clear();
+    for (Index j = by.first[v]; j < by.first[v + 1]; ++j) {
+      const PatchCopy& c = copies[by.order[j]];
+      w.push_back(maps[c.patch].map(delta[c.patch].data(), c.z));
+    }
+    Cx mean(0, 0);
+    if (g == Geometry::Euclidean) {
+      for (const Cx& z : w) mean += z;
+      mean /= static_cast<double>(n);
+    } else {
+      V3 S{0, 0, 0};
+      for (const Cx& z : w) {
+        const V3 X = hyperboloid(z);
+        for (int dd = 0; dd < 3; ++dd) S[dd] += X[dd];
+      }
+      mean = poincare(S);
+    }
+    for (const Cx& z : w) {
+      const double dist = g == Geometry::Euclidean ? std::abs(z - mean) : disk_distance(z, mean);
+      seam_error = std::max(seam_error, h[v] > 0 ? dist / h[v] : dist);
+    }
+    x[2 * v] = mean.real();
+    x[2 * v + 1] = mean.imag();
+  }
+  return seam_error;
+}
+
+/// Lays out every patch of `parts` by its own propagation, in parallel (each thread with its own
+/// buffers of `dims` coordinates per vertex), and hands each to `take(p, L, touched)`: patch p's
+/// positions and its vertices. False with `out` set when a patch's propagation left double range.
+template <typename Take>
+bool lay_out_each_patch(const Topology& t, Geometry g, int dims, std::span<const double> l, const Patches& parts,
+                        Layout& out, Take&& take) {
+  const Index nv = t.num_vertices;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  std::vector<Layout> failures(static_cast<std::size_t>(np));
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(t.num_faces), 0);
+#pragma omp parallel
+  {
+    std::vector<double> lx(static_cast<std::size_t>(nv) * static_cast<std::size_t>(dims), 0.0);
+    std::vector<std::uint8_t> placed(static_cast<std::size_t>(nv), 0);
+    std::vector<Index> touched, pq;
+    Positions L{g, dims, lx};
+#pragma omp for schedule(dynamic, 1)
+    for (Index p = 0; p < np; ++p) {
+      if (lay_out_patch(t, l, p, parts.seeds[p], parts.owner, visited, L, placed, touched, pq, failures[p]))
+        take(p, static_cast<const Positions&>(L), std::span<const Index>(touched));
+      for (Index v : touched) placed[v] = 0;
+    }
+  }
+  for (const Layout& f : failures)
+    if (f.status == Status::NumericalFailure) {
+      out.status = f.status;
+      out.element = f.element;
+      out.element_index = f.element_index;
+      out.message = f.message;
+      return false;
+    }
+  return true;
+}
+
+/// Divide and conquer (LayoutOptions::patches): the faces are split into `count` patches
+/// (partition_faces()); each patch is laid out on its own by the same propagation from its seed,
+/// in a frame of its own (lay_out_patch()); each patch's isometry into the common frame starts
+/// from the closed-form fit to the current positions `x` (start_patch_map()) and all of them are
+/// then fitted jointly by Ceres over every vertex two patches share, the seed's patch fixed
+/// (fit_patch_maps()). Each vertex ends at the mean of its copies (average_copies()). Returns
+/// false with `out` set on a failed patch propagation.
+bool lay_out_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count,
+                     std::vector<double>& x, Layout& out) {
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  Patches parts = partition_faces(t, seed, std::min<Index>(count, nf));
+  const std::vector<Index>& owner = parts.owner;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  // The patches are laid out in parallel, each in a frame of its own; their copies are gathered in
+  // patch order, so the result does not depend on the threads.
+  std::vector<std::vector<PatchCopy>> patch_copies(static_cast<std::size_t>(np));
+  std::vector<PatchMap> maps(static_cast<std::size_t>(np));
+  const bool laid = lay_out_each_patch(t, g, 2, l, parts, out,
+                                       [&](Index p, const Positions& L, std::span<const Index> touched) {
+                                         start_patch_map(g, L, x, touched, maps[p]);
+                                         for (Index v : touched) patch_copies[p].push_back({p, v, L.z(v)});
+                                       });
+  if (!laid) return false;
+  std::vector<PatchCopy> copies;
+  for (const std::vector<PatchCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
+  const CopiesByVertex by = group_copies(copies, nv);
+  const std::vector<double> h = mean_edge_at_vertex(t, l);
+  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
+  const int iterations = fit_patch_maps(g, copies, by, maps, h, x, owner[seed], delta);
+  if (iterations >= 0) out.patch_fit_iterations = iterations;
+  out.patches = static_cast<int>(np);
+  out.patch_seam_error = average_copies(g, copies, by, maps, delta, h, x);
+  return true;
+}
+
+// ---- divide and conquer on the sphere -------------------------------------------------------
+
+/// One vertex of one patch on the sphere: its position in the patch's propagation turned by the
+/// patch's starting rotation (so that the fit only corrects it).
+struct SphereCopy {
+  Index patch, vertex;
+  V3 y;
+};
+
+/// A vertex two patches share on the sphere: both copies, each turned by its patch's correction
+/// (an angle-axis vector), must agree.
+struct SphereSeamResidual {
+  V3 a, b;
+  double weight;  // 1/(the vertex's mean edge length)
+  template <typename T>
+  bool operator()(const T* da, const T* db, T* residual) const {
+    const T ya[3] = {T(a[0]), T(a[1]), T(a[2])}, yb[3] = {T(b[0]), T(b[1]), T(b[2])};
+    T pa[3], pb[3];
+    ceres::AngleAxisRotatePoint(da, ya, pa);
+    ceres::AngleAxisRotatePoint(db, yb, pb);
+    for (int k = 0; k < 3; ++k) residual[k] = T(weight) * (pa[k] - pb[k]);
+    return true;
+  }
+};
+
+/// The rotation taking the unit vectors L(v) onto X(v) best in least squares over `touched`
+/// (Kabsch: from the SVD of Σ L Xᵀ, a proper rotation).
+Eigen::Matrix3d kabsch_rotation(const Positions& L, const Positions& X, std::span<const Index> touched) {
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (Index v : touched) {
+    const V3 a = L.p(v), b = X.p(v);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) H(i, j) += a[i] * b[j];
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixV() * D * svd.matrixU().transpose();
+}
+
+/// Divide and conquer on the sphere, as lay_out_patches() in the plane and the disk: the patches
+/// of partition_faces() each laid out by its own propagation on the unit sphere (in parallel),
+/// each turned onto the current positions `x` (3 per vertex) by the best rotation (Kabsch), the
+/// rotations then corrected jointly by Ceres over every vertex two patches share (the seed's
+/// patch held), and every vertex put at the normalised mean of its copies. The sphere's
+/// isometries are its rotations, so the patches fit exactly as they do in E and H.
+bool lay_out_sphere_patches(const Topology& t, std::span<const double> l, Index seed, int count,
+                            std::vector<double>& x, Layout& out) {
+  const Geometry g = Geometry::Spherical;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  Patches parts = partition_faces(t, seed, std::min<Index>(count, nf));
+  const std::vector<Index>& owner = parts.owner;
+  const Index np = static_cast<Index>(parts.seeds.size());
+  std::vector<std::vector<SphereCopy>> patch_copies(static_cast<std::size_t>(np));
+  const Positions X{g, 3, x};
+  const bool laid = lay_out_each_patch(t, g, 3, l, parts, out,
+                                       [&](Index p, const Positions& L, std::span<const Index> touched) {
+                                         const Eigen::Matrix3d R = kabsch_rotation(L, X, touched);
+                                         for (Index v : touched) {
+                                           const V3 a = L.p(v);
+                                           const Eigen::Vector3d y = R * Eigen::Vector3d(a[0], a[1], a[2]);
+                                           patch_copies[p].push_back({p, v, V3{y[0], y[1], y[2]}});
+                                         }
+                                       });
+  if (!laid) return false;
+  std::vector<SphereCopy> copies;
+  for (const std::vector<SphereCopy>& pc : patch_copies) copies.insert(copies.end(), pc.begin(), pc.end());
+  const CopiesByVertex by = group_copies(copies, nv);
+  const std::vector<Index>&first = by.first, &order = by.order;
+  const std::vector<double> h = mean_edge_at_vertex(t, l);
+  std::vector<std::array<double, 3>> delta(static_cast<std::size_t>(np), std::array<double, 3>{0, 0, 0});
+  {
+    ceres::Problem problem;
+    Index seams = 0;
+    for (Index v = 0; v < nv; ++v) {
+      if (first[v + 1] - first[v] < 2) continue;
+      const SphereCopy& a = copies[order[first[v]]];
+      for (Index j = first[v] + 1; j < first[v + 1]; ++j) {
+        const SphereCopy& b = copies[order[j]];
+        auto* cost = new ceres::AutoDiffCostFunction<SphereSeamResidual, 3, 3, 3>(
+            new SphereSeamResidual{a.y, b.y, h[v] > 0 ? 1 / h[v] : 1.0});
+        problem.AddResidualBlock(cost, nullptr, delta[a.patch].data(), delta[b.patch].data());
+        ++seams;
+      }
+    }
+    if (np >= 2 && seams > 0) {
+      const Index fixed = owner[seed];
+      if (problem.HasParameterBlock(delta[fixed].data())) problem.SetParameterBlockConstant(delta[fixed].data());
+      out.patch_fit_iterations = solve_patch_fit(problem);
+    }
+  }
+  // Every vertex at the normalised mean of its turned copies; the seam error as in E and H.
+  double seam_error = 0;
+  std::vector<V3> w;
+  for (Index v = 0; v < nv; ++v) {
+    if (first[v + 1] == first[v]) continue;
+    w.clear();
+    V3 mean{0, 0, 0};
+    for (Index j = first[v]; j < first[v + 1]; ++j) {
+      const SphereCopy& c = copies[order[j]];
+      V3 q;
+      ceres::AngleAxisRotatePoint(delta[c.patch].data(), c.y.data(), q.data());
+      w.push_back(q);
+      for (int d = 0; d < 3; ++d) mean[d] += q[d];
+    }
+    mean = normalized(mean);
+    for (const V3& q : w) {
+      const double dist = sphere_distance(q, mean);
+      seam_error = std::max(seam_error, h[v] > 0 ? dist / h[v] : dist);
+    }
+    for (int d = 0; d < 3; ++d) x[3 * static_cast<std::size_t>(v) + d] = mean[d];
+  }
+  out.patches = static_cast<int>(np);
+  out.patch_seam_error = seam_error;
+  return true;
+}
+
+// ---- the propagation -----------------------------------------------------------------------
+
+// The costs of the propagation's cheapest-first order.
+// Each face costs 1 plus how badly it conditions the vertex it places: −log sin of its smallest
+// angle (0.14 for an equilateral face, about 14 for an angle of 1e-6). The propagation develops
+// the faces cheapest-first from the seed (Dijkstra over the dual graph; breadth-first on
+// well-shaped meshes), so a vertex is placed from a sliver only when no better-shaped way of
+// similar depth reaches it: the angles a placement turns by are read from lengths, and the
+// error of a sliver's angles carries into every vertex placed after it. H keeps every face at
+// cost 1 (breadth-first): Poincaré coordinates lose precision as e^r away from the origin, and
+// the shortest chains from the central seed matter more there than the faces' shapes.
+// In every geometry, placing a vertex whose own angle is tiny costs −log sin of that angle more:
+// it lies where two circles meet at that angle, so the errors of the two vertices it is placed
+// from grow by 1/sin θ (the far vertex of a needle placed from its short side: by l/s). The same
+// needle entered so that it places an end of its short side costs nothing extra (that end is
+// placed at distance s along an angle known to about ε·l/s: an error of about ε·l). An angle whose
+// sine is above kIllPlaced adds nothing, so well-shaped meshes keep their order.
+struct PropagationCosts {
+  std::vector<double> entering;  // #F×3: the cost of entering corner_face(o) so that it places the vertex of o
+  double most = 1;               // the largest of them
+
+  PropagationCosts(Geometry g, std::span<const double> theta) {
+    const Index nf = static_cast<Index>(theta.size() / 3);
+    entering.resize(theta.size());
+    double top = 1;
+#pragma omp parallel for schedule(static) reduction(max : top)
+    for (Index f = 0; f < nf; ++f) {
+      const double smallest = std::min({theta[3 * f], theta[3 * f + 1], theta[3 * f + 2]});
+      const double face = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
+      for (int k = 0; k < 3; ++k) {
+        const double sn = std::sin(theta[3 * f + k]);
+        const double c = face + (sn < kIllPlaced ? -std::log(std::max(sn, 1e-300)) : 0.0);
+        entering[3 * f + k] = c;
+        top = std::max(top, c);
+      }
+    }
+    most = top;
+  }
+};
+
+/// One face-by-face development of a disk (or a closed genus-0 surface) from a seed face whose
+/// vertices are placed already: each face taken places the vertex opposite the edge it was
+/// reached across, when that vertex has no position yet.
+///
+/// The order is cheapest-first by Dial's buckets: every entering cost is at least 1, so a face
+/// taken from the bucket of costs [k, k+1) reaches only later buckets, and the costs reached are
+/// exactly Dijkstra's; within a bucket faces come out first in first out. With all costs 1 (H)
+/// the buckets are the breadth-first levels. The buckets form a ring longer than the largest
+/// entering cost, so the work is linear in the faces.
+class Propagation {
+ public:
+  Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed,
+              bool keep_going)
+      : t_(t), g_(g), l_(l), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
+    const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
+    placed_.resize(nv);
+    taken_.resize(nf);
+    depth_.resize(nf);
+    reached_.resize(nf);
+    via_.resize(nf);
+    buckets_.resize(static_cast<std::size_t>(costs_.most) + 2);
+  }
+
+  /// Develops every face reachable from the seed into P; false with `out` naming the vertex when
+  /// a position leaves double range. out.depth: the most faces between the seed and a face.
+  bool run(Positions& P, Layout& out) {
+    const Topology& t = t_;
+    std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
+    std::fill(taken_.begin(), taken_.end(), std::uint8_t{0});
+    std::fill(reached_.begin(), reached_.end(), kInf);
+    out.unresolved_vertices = 0;
+    for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
+    depth_[seed_] = 0;
+    reached_[seed_] = 0;
+    via_[seed_] = kInvalid;
+    out.depth = 0;
+    const std::size_t ring = buckets_.size();
+    for (auto& b : buckets_) b.clear();
+    buckets_[0].emplace_back(0.0, seed_);
+    std::size_t pending = 1;
+    for (std::uint64_t current = 0; pending > 0; ++current) {
+      std::vector<std::pair<double, Index>>& bucket = buckets_[current % ring];
+      for (std::size_t i = 0; i < bucket.size(); ++i) {
+        const auto [cost, f] = bucket[i];
+        if (taken_[f] || cost > reached_[f]) continue;
+        taken_[f] = 1;
+        out.depth = std::max(out.depth, depth_[f]);
+        if (via_[f] != kInvalid && !placed_[t.corner_vertex[via_[f]]] && !place(P, via_[f], out)) return false;
+        for (int k = 0; k < 3; ++k) {
+          const Index o = t.opposite[3 * f + k];
+          if (o == kInvalid) continue;
+          const Index nb = corner_face(o);
+          const double c = cost + costs_.entering[o];
+          if (taken_[nb] || !(c < reached_[nb])) continue;
+          reached_[nb] = c;
+          via_[nb] = o;
+          depth_[nb] = depth_[f] + 1;
+          buckets_[static_cast<std::uint64_t>(c) % ring].emplace_back(c, nb);
+          ++pending;
+        }
+      }
+      pending -= bucket.size();
+      bucket.clear();
+    }
+    return true;
+  }
+
+  /// Vertices that no face placed (none on a connected mesh).
+  Index unplaced() const {
+    return static_cast<Index>(std::count(placed_.begin(), placed_.end(), std::uint8_t{0}));
+  }
+
+ private:
+  bool place(Positions& P, Index o, Layout& out) {
+    const Index v = P.place_corner(t_, l_, o);
+    placed_[v] = 1;
+    if (P.finite(v)) return true;
+    if (keep_going_) {
+      // At the first end of the edge it was placed from: finite, and its faces measure as missed.
+      const Index from = t_.corner_vertex[next_corner(o)];
+      for (int d = 0; d < P.dims; ++d) P.x[static_cast<std::size_t>(P.dims * v + d)] = P.x[static_cast<std::size_t>(P.dims * from + d)];
+      ++out.unresolved_vertices;
+      return true;
+    }
+    out.status = Status::NumericalFailure;
+    out.element = Element::Vertex;
+    out.element_index = v;
+    out.message = "vertex " + std::to_string(v) + " left the range of double precision (" +
+                  std::string(g_ == Geometry::Hyperbolic ? "at the boundary of the Poincaré disk" : "not finite") +
+                  ") at propagation depth " + std::to_string(depth_[corner_face(o)]);
+    return false;
+  }
+
+  const Topology& t_;
+  Geometry g_;
+  std::span<const double> l_;
+  Index seed_;
+  bool keep_going_;
+  PropagationCosts costs_;
+  std::vector<std::uint8_t> placed_, taken_;
+  std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
+  std::vector<double> reached_;
+  std::vector<std::vector<std::pair<double, Index>>> buckets_;
+};
+
+// ---- refining the propagation's layout -------------------------------------------------------
+
+/// After the propagation, only while the layout misses its metric by more than
+/// options.refine_above above the edges' rounding floors (`now`, kept up to date): the divide and conquer (E, H, S; automatic
+/// patch count, or always with an explicit count ≥ 2; kept when not less accurate); in E, the
+/// layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
+/// triangles placed from short bases can grow an error geometrically along a chain), kept when
+/// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps, each round only
+/// while still above the threshold); global Gauss–Newton steps (E, H, S; layout_polish.h).
+/// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
+/// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
+/// anything moved it. `now` describes the positions on return.
+void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, Layout& out) {
+  std::vector<double>& x = P.x;
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
+  auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
+  bool moved = false;
+  // Automatic: min(32, #F/4000) patches, and one per 10k faces above 320k faces, so that the
+  // propagation inside a patch stays about as deep as on a mesh of 10k faces (at most 256).
+  const Index by_size = std::max<Index>(std::min<Index>(32, t.num_faces / 4000), t.num_faces / 10000);
+  const int automatic = coarse() ? static_cast<int>(std::min<Index>(256, by_size)) : 0;
+  const int patches = options.patches >= 0 ? options.patches : automatic;
+  if (patches > 1) {
+    std::vector<double> kept = x;
+    Layout trial, after;
+    const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, patches, x, trial)
+                                               : lay_out_patches(t, g, l, seed, patches, x, trial);
+    if (laid) measure_edges(t, g, l, P, after);
+    if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
+        after.max_edge_length_error <= now.max_edge_length_error) {
+      out.patches = trial.patches;
+      out.patch_fit_iterations = trial.patch_fit_iterations;
+      out.patch_seam_error = trial.patch_seam_error;
+      now = after;
+      moved = true;
+    } else {
+      x.swap(kept);
+    }
+  }
+  const bool steps = options.polish_steps > 0;
+  if (g == Geometry::Euclidean && steps && now.max_error_above_rounding > kShapeLayoutAbove) {
+    std::vector<double> trial = x;
+    if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
+      Layout shaped;
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped);
+      if (shaped.max_edge_length_error < now.max_edge_length_error) {
+        x.swap(trial);
+        out.shape_solve = true;
+        now = shaped;
+        moved = true;
+      }
+    }
+  }
+  // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round;
+  // once started, they go on below the threshold while a round still halves the error above
+  // the floor (cheap, and a layout nearer its floor gives the deck group more digits). A round
+  // that raises the max error is undone and ends the sweeps.
+  bool halving = false;
+  std::vector<double> kept;
+  for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
+    const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
+    const Layout before = now;
+    kept = x;
+    detail::polish_by_sweeps(t, g, l, x, n);
+    measure_edges(t, g, l, P, now);
+    if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
+      x.swap(kept);
+      now = before;
+      break;
+    }
+    out.polish_sweeps += n;
+    moved = true;
+    halving = now.max_error_above_rounding > 0 &&
+              now.max_error_above_rounding <= 0.5 * before.max_error_above_rounding;
+  }
+  if (steps && coarse()) {
+    out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
+    measure_edges(t, g, l, P, now);
+    moved = true;
+  }
+  if (g == Geometry::Euclidean && moved) {
+    const Cx o = P.z(s0), d = P.z(s1) - o;
+    const Cx rot = std::abs(d) > 0 ? std::conj(d) / std::abs(d) : Cx(1, 0);
+    for (Index v = 0; v < t.num_vertices; ++v) P.set(v, (P.z(v) - o) * rot);
+    measure_edges(t, g, l, P, now);
+  }
+}
+
+/// The normalisation of the geometry (layout.h), the unit box, and the flipped faces; the edge
+/// error of the final positions (S with Möbius centring: of the isometric positions before it),
+/// starting from `now`, the figures of the positions as refined.
+void finish_layout(const Topology& t, Geometry g, std::span<const double> l, const std::vector<double>& area,
+                   Index seed, const LayoutOptions& options, const Layout& now, Positions& P, Layout& out) {
+  std::vector<double>& x = P.x;
+  const Index nv = t.num_vertices;
+  out.max_edge_length_error = now.max_edge_length_error;
+  out.worst_edge = now.worst_edge;
+  out.rounding_floor = now.rounding_floor;
+  out.max_error_above_rounding = now.max_error_above_rounding;
+  if (options.normalize && g != Geometry::Euclidean) {
+    const std::vector<double> w = vertex_weights(t, area);
+    if (g == Geometry::Hyperbolic) {
+      normalize_hyperbolic(t, P, w, seed, out);
+      measure_edges(t, g, l, P, out);  // an isometry: the error is re-measured on the final positions
+    } else {
+      normalize_spherical(t, P, w, seed, options.sphere_mobius, out);
+      if (!options.sphere_mobius) measure_edges(t, g, l, P, out);
+    }
+  }
+  if (g == Geometry::Euclidean && options.unit_box && nv > 0) {
+    double lo[2] = {kInf, kInf}, hi[2] = {-kInf, -kInf};
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 2; ++d) {
+        lo[d] = std::min(lo[d], x[2 * v + d]);
+        hi[d] = std::max(hi[d], x[2 * v + d]);
+      }
+    const double extent = std::max(hi[0] - lo[0], hi[1] - lo[1]);
+    out.scale = extent > 0 ? 1 / extent : 1;
+    for (Index v = 0; v < nv; ++v)
+      for (int d = 0; d < 2; ++d) x[2 * v + d] = (x[2 * v + d] - lo[d]) * out.scale;
+  }
+  Index flipped = 0, first = std::numeric_limits<Index>::max();
+#pragma omp parallel for schedule(static) reduction(+ : flipped) reduction(min : first)
+  for (Index f = 0; f < t.num_faces; ++f) {
+    if (P.orientation(t.corner_vertex[3 * f], t.corner_vertex[3 * f + 1], t.corner_vertex[3 * f + 2]) < 0) {
+      first = std::min(first, f);
+      ++flipped;
+    }
+  }
+  out.flipped_faces = flipped;
+  if (flipped > 0) out.first_flipped_face = first;
+}
+
+/// The seed and one propagation over the faces (H: repeated in the final frame); false with `out`
+/// naming the vertex that left double range.
+bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
+               const std::vector<double>& area, Index seed, const LayoutOptions& options, Positions& P, Layout& out) {
+  Propagation propagation(t, g, l, theta, seed, options.keep_unresolved);
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1], s2 = t.corner_vertex[3 * seed + 2];
+  P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
+  if (!propagation.run(P, out)) return false;
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    // Second pass in the final frame: the seed face keeps its normalised position and the
+    // propagation runs again there, so no vertex is ever computed farther from the origin than
+    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
+    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    const std::vector<double> w = vertex_weights(t, area);
+    for (int pass = 0; pass < 4; ++pass) {
+      const double moved = normalize_hyperbolic(t, P, w, seed, out);
+      if (!propagation.run(P, out)) return false;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  out.unplaced_vertices = propagation.unplaced();
+  return true;
+}
+
+/// The development by coarse frames (options.frames; layout_frames.cpp), H repeated in the final
+/// frame as propagate() does: the seed's coarse face takes the normalising map, composed.
+bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>& area, Index seed,
+                       const LayoutOptions& options, Positions& P, Layout& out) {
+  const std::string why = detail::check_frames(t, *options.frames);
+  if (!why.empty()) {
+    out.status = Status::InvalidArgument;
+    out.message = why;
+    return false;
+  }
+  detail::FrameDevelopment dev(t, g, *options.frames, seed, options.keep_unresolved);
+  detail::M3 seed_map = dev.seed_map();
+  if (!dev.run(P.x, seed_map, out)) return false;
+  if (g == Geometry::Hyperbolic && options.normalize) {
+    const std::vector<double> w = vertex_weights(t, area);
+    for (int pass = 0; pass < 4; ++pass) {
+      detail::M3 map{};
+      const double moved = normalize_hyperbolic(t, P, w, seed, out, &map);
+      seed_map = detail::multiply(map, seed_map);
+      if (!dev.run(P.x, seed_map, out)) return false;
+      ++out.propagation_passes;
+      if (moved < 1e-6) break;
+    }
+  }
+  out.unplaced_vertices = dev.unplaced();
+  return true;
+}
+
+/// Validation, the seed, one propagation or development by frames, the refinement where it is
+/// needed, and the finish (normalisation, unit box, flipped faces).
+Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, const LayoutOptions& options,
+                  Clock::time_point start) {
+  Layout out;
+  out.geometry = g;
+  out.dims = g == Geometry::Spherical ? 3 : 2;
+  std::vector<double> theta, area;
+  if (!check_lengths(t, g, l, out)) return out;
+  if (!angles_and_areas(t, g, l, theta, area, out)) return out;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  const Index seed = options.seed_face >= 0 ? options.seed_face : central_face_of(t);
+  out.seed_face = seed;
+  std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
+  if (g == Geometry::Spherical)
+    for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
+  Positions P{g, out.dims, x};
+  if (options.frames) {
+    if (!develop_by_frames(t, g, area, seed, options, P, out)) return out;
+    out.by_frames = true;
+  } else if (!propagate(t, g, l, theta, area, seed, options, P, out)) {
+    return out;
+  }
+  Layout now;
+  measure_edges(t, g, l, P, now);
+  // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global
+  // steps would trade the resolved faces for them.
+  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, out);
+  finish_layout(t, g, l, area, seed, options, now, P, out);
+  out.positions = std::move(x);
+  out.status = Status::Ok;
+  out.message = "laid out " + std::to_string(nf) + " faces in " + std::string(geometry_name(g)) + " geometry";
+  out.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return out;
+}
+
+Layout invalid(const std::string& why, Geometry g) {
+  Layout out;
+  out.geometry = g;
+  out.status = Status::InvalidArgument;
+  out.message = why;
+  return out;
+}
+
+std::string shape(const Topology& t) {
+  return "χ = " + std::to_string(t.euler_characteristic()) + ", " + std::to_string(t.num_boundary_loops()) +
+         " boundary loops, " + std::to_string(t.num_components) + " components";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+bool LayoutOptions::is_valid(std::string* why) const {
+  if (patches < -1 || patches > 256) {
+    if (why) *why = "patches must be -1 (automatic) or in 0..256, got " + std::to_string(patches);
+    return false;
+  }
+  if (polish_sweeps < 0 || polish_sweeps > 10000) {
+    if (why) *why = "polish_sweeps must be in 0..10000, got " + std::to_string(polish_sweeps);
+    return false;
+  }
+  if (polish_steps < 0 || polish_steps > 20) {
+    if (why) *why = "polish_steps must be in 0..20, got " + std::to_string(polish_steps);
+    return false;
+  }
+  if (seed_face < -1) {
+    if (why) *why = "seed_face must be -1 (automatic) or a face index, got " + std::to_string(seed_face);
+    return false;
+  }
+  if (!(std::isfinite(refine_above) && refine_above >= 0)) {
+    if (why) *why = "refine_above must be a finite number >= 0, got " + num(refine_above);
+    return false;
+  }
+  return true;
+}
+
+std::string Layout::brief_report() const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "layout: %s, %s, seed face %d, depth %d, max edge-length error %.3g, %d flipped faces, %.3f s",
+                std::string(status_name(status)).c_str(), std::string(geometry_name(geometry)).c_str(),
+                static_cast<int>(seed_face), static_cast<int>(depth), max_edge_length_error,
+                static_cast<int>(flipped_faces), seconds);
+  return buf;
+}
+
+Layout layout_disk(const Topology& disk, Geometry g, std::span<const double> l, const LayoutOptions& options) {
+  const Clock::time_point start = Clock::now();
+  std::string why;
+  if (!options.is_valid(&why)) return invalid(why, g);
+  if (disk.num_faces == 0) return invalid("the mesh has no faces", g);
+  if (options.seed_face >= disk.num_faces)
+    return invalid("seed face " + std::to_string(options.seed_face) + " is out of range (" +
+                       std::to_string(disk.num_faces) + " faces)",
+                   g);
+  if (disk.num_components != 1 || disk.num_boundary_loops() != 1 || disk.euler_characteristic() != 1)
+    return invalid("layout_disk needs a topological disk (χ = 1, one boundary loop, connected); got " + shape(disk), g);
+  return run_layout(disk, g, l, options, start);
+}
+
+Layout layout_sphere(const Topology& surface, std::span<const double> l, const LayoutOptions& options) {
+  const Clock::time_point start = Clock::now();
+  const Geometry g = Geometry::Spherical;
+  std::string why;
+  if (!options.is_valid(&why)) return invalid(why, g);
+  if (surface.num_faces == 0) return invalid("the mesh has no faces", g);
+  if (options.seed_face >= surface.num_faces)
+    return invalid("seed face " + std::to_string(options.seed_face) + " is out of range (" +
+                       std::to_string(surface.num_faces) + " faces)",
+                   g);
+  if (surface.num_components != 1 || !surface.is_closed() || surface.euler_characteristic() != 2)
+    return invalid("layout_sphere needs a closed genus-0 surface (χ = 2, no boundary, connected); got " + shape(surface),
+                   g);
+  return run_layout(surface, g, l, options, start);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The metric on the refined surface.
+
+namespace {
+
+/// The checks of refined_edge_lengths() and its surface's connectivity (the cut's own, or the
+/// input's when the cut added nothing: same faces, same corners, copied rather than built
+/// again). False with `r` failed.
+bool refined_surface(const CutResult& cut, const Topology& input, Geometry g, std::span<const double> input_lengths,
+                     RefinedMetric& r) {
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = m;
+    r.l.clear();
+    return false;
+  };
+  if (cut.status != Status::Ok) return fail(Status::InvalidArgument, "the cut did not succeed: " + cut.message);
+  const Index nin = cut.num_input_vertices, nadd = cut.num_refined_vertices();
+  if (nin != input.num_vertices)
+    return fail(Status::InvalidArgument, "the cut has " + std::to_string(nin) + " input vertices, the topology " +
+                                             std::to_string(input.num_vertices));
+  if (cut.refined_vertex_bary.size() != static_cast<std::size_t>(nadd) * 3 ||
+      cut.refined_vertex_corners.size() != static_cast<std::size_t>(nadd) * 3 ||
+      cut.surface_face_to_input.size() * 3 != cut.surface_faces.size())
+    return fail(Status::InvalidArgument, "the cut's refinement records have inconsistent sizes");
+  if (!check_lengths(input, g, input_lengths, r)) {
+    r.l.clear();
+    return false;
+  }
+  if (is_topology_of(cut.surface_topology, cut.surface_faces, nin + nadd)) {
+    r.surface = cut.surface_topology;
+  } else if (is_topology_of(input, cut.surface_faces, nin + nadd)) {
+    r.surface = input;
+  } else {
+    TopologyResult st = build_topology(cut.surface_faces, nin + nadd);
+    if (st.status != Status::Ok)
+      return fail(Status::InvalidArgument, "the cut's refined surface is not a valid mesh: " + st.message);
+    r.surface = std::move(st.topology);
+  }
+  for (Index f : cut.surface_face_to_input)
+    if (f < 0 || f >= input.num_faces)
+      return fail(Status::InvalidArgument, "the cut names input face " + std::to_string(f) + ", out of range");
+  for (Index k = 0; k < nadd; ++k)
+    if (cut.refined_vertex_face[k] < 0 || cut.refined_vertex_face[k] >= input.num_faces)
+      return fail(Status::InvalidArgument, "added vertex " + std::to_string(nin + k) + " names input face " +
+                                               std::to_string(cut.refined_vertex_face[k]) + ", out of range");
+  return true;
+}
+
+}  // namespace
+
+RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, Geometry g,
+                                   std::span<const double> input_lengths) {
+  RefinedMetric r;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = m;
+    r.l.clear();
+    return r;
+  };
+  if (!refined_surface(cut, input, g, input_lengths, r)) return r;
+  const Index nin = cut.num_input_vertices;
+  const Topology& s = r.surface;
+  r.l.assign(static_cast<std::size_t>(s.num_edges), 0.0);
+
+  // Per input face: corner frames, computed lazily.
+  std::vector<std::uint8_t> have(static_cast<std::size_t>(input.num_faces), 0);
+  std::vector<std::array<V3, 3>> frame(static_cast<std::size_t>(input.num_faces));
+  auto build_frame = [&](Index O) -> bool {
+    if (have[O]) return true;
+    const double l0 = input_lengths[input.corner_edge[3 * O]], l1 = input_lengths[input.corner_edge[3 * O + 1]],
+                 l2 = input_lengths[input.corner_edge[3 * O + 2]];
+    const double sp = (l0 + l1 + l2) / 2;
+    bool ok = side_function(g, sp - l0) > 0 && side_function(g, sp - l1) > 0 && side_function(g, sp - l2) > 0;
+    if (g == Geometry::Spherical) ok = ok && sp < kPi;
+    if (!ok) {
+      r.status = Status::TriangleInequality;
+      r.element = Element::Face;
+      r.element_index = O;
+      r.message = "input face " + std::to_string(O) + " with lengths " + num(l0) + ", " + num(l1) + ", " + num(l2) +
+                  " violates the triangle inequality" + (g == Geometry::Spherical ? " (or has perimeter ≥ 2π)" : "");
+      return false;
+    }
+    const double th = angle_from_lengths(g, l0, l1, l2);
+    std::array<V3, 3>& F = frame[O];
+    switch (g) {
+      case Geometry::Euclidean:
+        F = {V3{1, 0, 0}, V3{1, l2, 0}, V3{1, l1 * std::cos(th), l1 * std::sin(th)}};
+        break;
+      case Geometry::Hyperbolic:
+        F = {V3{1, 0, 0}, V3{std::cosh(l2), std::sinh(l2), 0},
+             V3{std::cosh(l1), std::sinh(l1) * std::cos(th), std::sinh(l1) * std::sin(th)}};
+        break;
+      default:
+        F = {V3{0, 0, 1}, V3{std::sin(l2), 0, std::cos(l2)},
+             V3{std::sin(l1) * std::cos(th), std::sin(l1) * std::sin(th), std::cos(l1)}};
+        break;
+    }
+    have[O] = 1;
+    return true;
+  };
+  // The point of surface vertex v in the frame of input face O; false if v is not in O.
+  auto point = [&](Index v, Index O, V3& X) -> bool {
+    X = {0, 0, 0};
+    if (v < nin) {
+      for (int j = 0; j < 3; ++j)
+        if (input.corner_vertex[3 * O + j] == v) {
+          X = frame[O][j];
+          return true;
+        }
+      return false;
+    }
+    const Index k = v - nin;
+    for (int i = 0; i < 3; ++i) {
+      const double b = cut.refined_vertex_bary[3 * k + i];
+      if (b == 0) continue;
+      const Index w = cut.refined_vertex_corners[3 * k + i];
+      int slot = -1;
+      for (int j = 0; j < 3; ++j)
+        if (input.corner_vertex[3 * O + j] == w) slot = j;
+      if (slot < 0) return false;
+      for (int d = 0; d < 3; ++d) X[d] += b * frame[O][slot][d];
+    }
+    switch (g) {
+      case Geometry::Euclidean: X = scaled(X, 1 / X[0]); break;  // Σβ = 1 up to rounding
+      case Geometry::Hyperbolic: X = scaled(X, 1 / std::sqrt(X[0] * X[0] - X[1] * X[1] - X[2] * X[2])); break;
+      default: X = normalized(X); break;
+    }
+    return true;
+  };
+
+  for (Index e = 0; e < s.num_edges; ++e) {
+    const Index a = s.edge_vertices[2 * e], b = s.edge_vertices[2 * e + 1];
+    const Index fs = corner_face(s.edge_corners[2 * e]);
+    const Index O = cut.surface_face_to_input[fs];
+    if (a < nin && b < nin) {
+      Index found = kInvalid;
+      for (int j = 0; j < 3; ++j) {
+        const Index c = 3 * O + j;
+        const Index p = input.corner_vertex[next_corner(c)], q = input.corner_vertex[prev_corner(c)];
+        if ((p == a && q == b) || (p == b && q == a)) found = input.corner_edge[c];
+      }
+      if (found != kInvalid) {
+        r.l[e] = input_lengths[found];
+        ++r.edges_copied;
+        continue;
+      }
+    }
+    if (!build_frame(O)) {
+      r.l.clear();
+      return r;
+    }
+    V3 A, B;
+    if (!point(a, O, A) || !point(b, O, B)) {
+      const Index bad = point(a, O, A) ? b : a;
+      return fail(Status::NumericalFailure, "surface vertex " + std::to_string(bad) + " of edge " + std::to_string(e) +
+                                                " is not expressible in input face " + std::to_string(O) +
+                                                " that holds the edge");
+    }
+    double d = 0;
+    switch (g) {
+      case Geometry::Euclidean: d = std::hypot(A[1] - B[1], A[2] - B[2]); break;
+      case Geometry::Hyperbolic: {
+        const double q = (A[1] - B[1]) * (A[1] - B[1]) + (A[2] - B[2]) * (A[2] - B[2]) - (A[0] - B[0]) * (A[0] - B[0]);
+        d = 2 * std::asinh(std::sqrt(std::max(q, 0.0)) / 2);
+        break;
+      }
+      default: d = sphere_distance(A, B); break;
+    }
+    if (!(d > 0) || !std::isfinite(d))
+      return fail(Status::NumericalFailure, "sub-edge " + std::to_string(e) + " of input face " + std::to_string(O) +
+                                                " has length " + num(d));
+    r.l[e] = d;
+    ++r.edges_computed;
+  }
+  r.status = Status::Ok;
+  r.message = "lengths of " + std::to_string(s.num_edges) + " edges (" + std::to_string(r.edges_copied) +
+              " copied, " + std::to_string(r.edges_computed) + " measured inside input faces)";
+  return r;
+}
+
+std::vector<double> disk_edge_lengths(const CutResult& cut, const Topology& surface,
+                                      std::span<const double> surface_lengths, const Topology& disk) {
+  if (surface_lengths.size() != static_cast<std::size_t>(surface.num_edges) ||
+      disk.num_faces != surface.num_faces || cut.cut_faces.size() != static_cast<std::size_t>(disk.num_corners()))
+    return {};
+  std::vector<double> out(static_cast<std::size_t>(disk.num_edges));
+  for (Index e = 0; e < disk.num_edges; ++e) out[e] = surface_lengths[surface.corner_edge[disk.edge_corners[2 * e]]];
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Alignment.
+
+LayoutAlignment align_layouts(Geometry g, std::span<const double> a, std::span<const double> b) {
+  LayoutAlignment r;
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  if (a.size() != b.size() || a.empty() || a.size() % dims != 0) {
+    r.status = Status::InvalidArgument;
+    r.message = "the layouts must have the same non-zero size, a multiple of " + std::to_string(dims) + "; got " +
+                std::to_string(a.size()) + " and " + std::to_string(b.size());
+    return r;
+  }
+  const Index n = static_cast<Index>(a.size() / dims);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a[i]) || !std::isfinite(b[i])) {
+      r.status = Status::InvalidArgument;
+      r.message = "coordinate " + std::to_string(i) + " is not finite";
+      return r;
+    }
+  auto z = [](std::span<const double> x, Index v) { return Cx(x[2 * v], x[2 * v + 1]); };
+  auto p = [](std::span<const double> x, Index v) { return V3{x[3 * v], x[3 * v + 1], x[3 * v + 2]}; };
+  for (Index v = 0; v < n; ++v) {
+    if (g == Geometry::Hyperbolic && !(std::abs(z(a, v)) < 1 && std::abs(z(b, v)) < 1)) {
+      r.status = Status::InvalidArgument;
+      r.message = "point " + std::to_string(v) + " is not inside the Poincaré disk";
+      return r;
+    }
+    if (g == Geometry::Spherical &&
+        !(std::abs(norm(p(a, v)) - 1) < 1e-6 && std::abs(norm(p(b, v)) - 1) < 1e-6)) {
+      r.status = Status::InvalidArgument;
+      r.message = "point " + std::to_string(v) + " is not a unit vector";
+      return r;
+    }
+  }
+  std::vector<double> dev(static_cast<std::size_t>(n));
+  if (g == Geometry::Euclidean) {
+    Cx ca(0, 0), cb(0, 0);
+    for (Index v = 0; v < n; ++v) {
+      ca += z(a, v);
+      cb += z(b, v);
+    }
+    ca /= static_cast<double>(n);
+    cb /= static_cast<double>(n);
+    Cx m(0, 0);
+    for (Index v = 0; v < n; ++v) m += (z(a, v) - ca) * std::conj(z(b, v) - cb);
+    const Cx rot = std::abs(m) > 0 ? m / std::abs(m) : Cx(1, 0);
+    const Cx t = ca - rot * cb;
+    r.angle = std::arg(rot);
+    r.translation[0] = t.real();
+    r.translation[1] = t.imag();
+    for (Index v = 0; v < n; ++v) dev[v] = std::abs(z(a, v) - (rot * z(b, v) + t));
+  } else if (g == Geometry::Hyperbolic) {
+    std::vector<double> aa(a.begin(), a.end()), bb(b.begin(), b.end());
+    Positions A{g, 2, aa}, B{g, 2, bb};
+    const Cx ca = hyperbolic_centre(A, n, nullptr), cb = hyperbolic_centre(B, n, nullptr);
+    Cx m(0, 0);
+    for (Index v = 0; v < n; ++v) m += to_origin(ca, z(a, v)) * std::conj(to_origin(cb, z(b, v)));
+    const Cx rot = std::abs(m) > 0 ? m / std::abs(m) : Cx(1, 0);
+    auto map = [&](Cx w) { return from_origin(ca, rot * to_origin(cb, w)); };
+    // As e^{iψ}(z − z0)/(1 − z̄0 z): z0 is the preimage of 0, the angle from the derivative's phase.
+    const Cx z0 = from_origin(cb, std::conj(rot) * to_origin(ca, Cx(0, 0)));
+    const Cx h = map(Cx(0, 0));  // = e^{iψ}(−z0)
+    const double psi = std::abs(z0) > 1e-300 ? std::arg(-h / z0) : std::arg(map(Cx(0.5, 0)) / 0.5);
+    r.angle = psi;
+    r.translation[0] = z0.real();
+    r.translation[1] = z0.imag();
+    for (Index v = 0; v < n; ++v) dev[v] = disk_distance(z(a, v), map(z(b, v)));
+  } else {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    for (Index v = 0; v < n; ++v) {
+      const V3 x = p(a, v), y = p(b, v);
+      H += Eigen::Vector3d(y[0], y[1], y[2]) * Eigen::Vector3d(x[0], x[1], x[2]).transpose();
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    if ((svd.matrixV() * svd.matrixU().transpose()).determinant() < 0) D(2, 2) = -1;
+    const Eigen::Matrix3d R = svd.matrixV() * D * svd.matrixU().transpose();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r.rotation[3 * i + j] = R(i, j);
+    for (Index v = 0; v < n; ++v) {
+      const V3 y = p(b, v);
+      const Eigen::Vector3d Ry = R * Eigen::Vector3d(y[0], y[1], y[2]);
+      dev[v] = sphere_distance(p(a, v), V3{Ry[0], Ry[1], Ry[2]});
+    }
+  }
+  double sq = 0;
+  for (double d : dev) {
+    r.max_deviation = std::max(r.max_deviation, d);
+    sq += d * d;
+  }
+  r.rms_deviation = std::sqrt(sq / n);
+  r.status = Status::Ok;
+  r.message = "aligned " + std::to_string(n) + " points";
+  return r;
+}
+
+double layout_alignment_error(Geometry g, std::span<const double> a, std::span<const double> b) {
+  const LayoutAlignment r = align_layouts(g, a, b);
+  return r.status == Status::Ok ? r.max_deviation : kInf;
+}
+
+}  // namespace ricci
+
+namespace ricci {
+
+Index farthest_face(const Topology& t, Index seed) {
+  std::vector<Index> dist;
+  return dual_bfs(t, seed, dist);
+}
+
+Index central_face(const Topology& t) { return t.num_faces > 0 ? central_face_of(t) : kInvalid; }
+
+LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
+                           std::span<const double> positions, std::span<const double> face_area, double limit) {
+  LayoutMisses m;
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  if (l.size() != static_cast<std::size_t>(disk.num_edges) || face_area.size() != static_cast<std::size_t>(disk.num_faces) ||
+      positions.size() != static_cast<std::size_t>(disk.num_vertices) * static_cast<std::size_t>(dims)) {
+    m.worst_unexplained = kInf;  // nothing measured: nothing excused
+    m.area_fraction = 1;
+    return m;
+  }
+  std::vector<double> x(positions.begin(), positions.end());
+  const Positions P{g, dims, x};
+  std::vector<std::uint8_t> missed(static_cast<std::size_t>(disk.num_faces), 0);
+  for (Index e = 0; e < disk.num_edges; ++e) {
+    const Index a = disk.edge_vertices[2 * e], b = disk.edge_vertices[2 * e + 1];
+    const double err = std::abs(P.distance(a, b) - l[e]) / l[e];
+    if (!(err > limit)) continue;
+    ++m.edges;
+    const double unexplained = err - kRoundingAllowance * rounding_drift(g, P, a, b) / l[e];
+    if (!(unexplained <= m.worst_unexplained)) m.worst_unexplained = unexplained;  // NaN counts as the worst
+    for (int k = 0; k < 2; ++k)
+      if (const Index c = disk.edge_corners[2 * e + k]; c != kInvalid) missed[c / 3] = 1;
+  }
+  double total = 0, part = 0;
+  for (Index f = 0; f < disk.num_faces; ++f) {
+    total += face_area[f];
+    if (missed[f]) part += face_area[f];
+  }
+  m.area_fraction = m.edges == 0 ? 0 : total > 0 ? part / total : 1;
+  return m;
+}
+
+Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions) {
+  Layout out;
+  out.geometry = g;
+  out.dims = g == Geometry::Spherical ? 3 : 2;
+  const Index nv = disk.num_vertices;
+  if (l.size() != static_cast<std::size_t>(disk.num_edges) ||
+      positions.size() != static_cast<std::size_t>(nv) * static_cast<std::size_t>(out.dims)) {
+    out.status = Status::InvalidArgument;
+    out.message = "measure_layout: sizes do not match the mesh";
+    return out;
+  }
+  out.positions.assign(positions.begin(), positions.end());
+  Positions P{g, out.dims, out.positions};
+  for (Index v = 0; v < nv; ++v)
+    if (!P.finite(v)) {
+      out.status = Status::NonFiniteCoordinate;
+      out.message = "measure_layout: vertex " + std::to_string(v) + " has no valid position";
+      out.element = Element::Vertex;
+      out.element_index = v;
+      return out;
+    }
+  measure_edges(disk, g, l, P, out);
+  for (Index f = 0; f < disk.num_faces; ++f)
+    if (P.orientation(disk.corner_vertex[3 * f], disk.corner_vertex[3 * f + 1], disk.corner_vertex[3 * f + 2]) < 0) {
+      if (out.flipped_faces == 0) out.first_flipped_face = f;
+      ++out.flipped_faces;
+    }
+  out.status = Status::Ok;
+  out.message = "measured";
+  return out;
+}
+
+namespace detail {
+
+double rounding_drift_planar(Geometry g, std::complex<double> a, std::complex<double> b) {
+  constexpr double u = 0x1p-53;
+  if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(a) + std::abs(b));
+  const double ra = std::abs(a), rb = std::abs(b);
+  return 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+}
+
+bool propagate_faces(const Topology& t, Geometry g, std::span<const double> l, Index seed,
+                     std::span<const Index> owner, Index label, std::vector<double>& positions,
+                     std::vector<Index>& touched, Layout& out) {
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  positions.assign(static_cast<std::size_t>(dims) * t.num_vertices, 0.0);
+  Positions L{g, dims, positions};
+  std::vector<std::uint8_t> visited(static_cast<std::size_t>(t.num_faces), 0), placed(static_cast<std::size_t>(t.num_vertices), 0);
+  std::vector<Index> queue;
+  return lay_out_patch(t, l, label, seed, owner, visited, L, placed, touched, queue, out);
+}
+
+}  // namespace detail
+
+}  // namespace ricci

@@ -1,0 +1,133 @@
+// Points of the three model spaces for developing triangles face by face (internal).
+//
+// E: the plane z = 0; S: the unit sphere; H: the hyperboloid x² + y² − z² = −1, z > 0. The pole is
+// the origin (E) or (0, 0, 1) (S, H); angles turn counter-clockwise seen from +z.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <complex>
+#include <limits>
+
+#include "ricci/metric.h"
+
+namespace ricci::model {
+
+using P3 = std::array<double, 3>;
+
+inline P3 add(const P3& a, const P3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
+inline P3 sub(const P3& a, const P3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+inline P3 mul(const P3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
+inline double dot(const P3& a, const P3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline double lorentz(const P3& a, const P3& b) { return a[0] * b[0] + a[1] * b[1] - a[2] * b[2]; }
+inline P3 cross(const P3& a, const P3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+// The model's pole and the point at distance r from it in direction φ (measured from +x).
+inline P3 pole(Geometry g) { return g == Geometry::Euclidean ? P3{0, 0, 0} : P3{0, 0, 1}; }
+inline P3 polar(Geometry g, double r, double phi) {
+  const double c = std::cos(phi), s = std::sin(phi);
+  switch (g) {
+    case Geometry::Euclidean: return {r * c, r * s, 0};
+    case Geometry::Spherical: return {std::sin(r) * c, std::sin(r) * s, std::cos(r)};
+    case Geometry::Hyperbolic: return {std::sinh(r) * c, std::sinh(r) * s, std::cosh(r)};
+  }
+  return {};
+}
+
+// Distance of x from the pole.
+inline double from_pole(Geometry g, const P3& x) {
+  const double rho = std::hypot(x[0], x[1]);
+  switch (g) {
+    case Geometry::Euclidean: return rho;
+    case Geometry::Spherical: return std::atan2(rho, x[2]);
+    case Geometry::Hyperbolic: return std::asinh(rho);
+  }
+  return 0;
+}
+
+// The point at distance r from p, at angle `angle` to the left of the geodesic from p to q
+// (counter-clockwise seen from outside the sphere / from above the plane and the hyperboloid).
+inline P3 turn_and_walk(Geometry g, const P3& p, const P3& q, double angle, double r) {
+  const double c = std::cos(angle), s = std::sin(angle);
+  switch (g) {
+    case Geometry::Euclidean: {
+      P3 d = sub(q, p);
+      d = mul(d, 1 / std::hypot(d[0], d[1]));
+      return {p[0] + r * (c * d[0] - s * d[1]), p[1] + r * (s * d[0] + c * d[1]), 0};
+    }
+    case Geometry::Spherical: {
+      P3 n = cross(p, q);                       // normal of the great circle through p and q
+      n = mul(n, 1 / std::sqrt(dot(n, n)));
+      const P3 t = cross(n, p);                 // unit tangent at p towards q
+      const P3 left = cross(p, t);              // unit tangent at p, 90° to the left of t
+      P3 x = add(mul(p, std::cos(r)), mul(add(mul(t, c), mul(left, s)), std::sin(r)));
+      return mul(x, 1 / std::sqrt(dot(x, x)));
+    }
+    case Geometry::Hyperbolic: {
+      P3 t = add(q, mul(p, lorentz(p, q)));     // q's component tangent at p
+      t = mul(t, 1 / std::sqrt(lorentz(t, t)));
+      P3 left = cross(p, t);                    // J (p × t): Lorentz-orthogonal to p and t
+      left[2] = -left[2];
+      P3 x = add(mul(p, std::cosh(r)), mul(add(mul(t, c), mul(left, s)), std::sinh(r)));
+      return mul(x, 1 / std::sqrt(-lorentz(x, x)));
+    }
+  }
+  return {};
+}
+
+
+// The geodesic distance of two model points (accurate for close points).
+inline double distance(Geometry g, const P3& p, const P3& q) {
+  const P3 d = sub(p, q);
+  switch (g) {
+    case Geometry::Euclidean: return std::hypot(d[0], d[1]);
+    case Geometry::Spherical: return std::atan2(std::sqrt(dot(cross(p, q), cross(p, q))), dot(p, q));
+    case Geometry::Hyperbolic: return 2 * std::asinh(0.5 * std::sqrt(std::max(0.0, lorentz(d, d))));
+  }
+  return 0;
+}
+
+// Great-circle distance of two unit vectors (accurate for close and for nearly antipodal points).
+inline double sphere_distance(const P3& x, const P3& y) {
+  const P3 c = cross(x, y);
+  return std::atan2(std::sqrt(dot(c, c)), dot(x, y));
+}
+
+// Hyperbolic distance of two Poincaré-disk points (accurate for close points); +∞ for points on
+// or outside the unit circle.
+inline double disk_distance(std::complex<double> z, std::complex<double> w) {
+  const double az = std::abs(z), aw = std::abs(w);
+  const double dz = (1 - az) * (1 + az), dw = (1 - aw) * (1 + aw);
+  if (!(dz > 0 && dw > 0)) return std::numeric_limits<double>::infinity();
+  return 2 * std::asinh(std::abs(z - w) / std::sqrt(dz * dw));
+}
+
+// The disk isometry that takes p to the origin, applied to z.
+inline std::complex<double> disk_to_origin(std::complex<double> p, std::complex<double> z) {
+  return (z - p) / (1.0 - std::conj(p) * z);
+}
+
+// The point a fraction t of the way from p to q along the chord, projected back onto the model.
+inline P3 on_chord(Geometry g, const P3& p, const P3& q, double t) {
+  P3 x = add(mul(p, 1 - t), mul(q, t));
+  switch (g) {
+    case Geometry::Euclidean: return x;
+    case Geometry::Spherical: return mul(x, 1 / std::sqrt(dot(x, x)));
+    case Geometry::Hyperbolic: return mul(x, 1 / std::sqrt(-lorentz(x, x)));
+  }
+  return x;
+}
+
+}  // namespace ricci::model
+
+namespace ricci::detail {
+
+/// Angle between sides b and c of a triangle of geometry g whose third side (opposite the
+/// angle) is a (half-angle formula, never NaN for lengths that round past the triangle inequality;
+/// metric.cpp).
+double angle_from_lengths(Geometry g, double a, double b, double c);
+
+}  // namespace ricci::detail
