@@ -7,6 +7,7 @@ recorded in FOLDER."""
 import json
 import os
 import sys
+import time
 
 import ricci
 from ricci.batch import write_failure
@@ -18,6 +19,10 @@ def main(argv):
     crash = os.environ.get("RICCI_BATCH_TEST_ABORT")
     if crash and crash in path:
         os.abort()
+    # A test aid: the process never finishes (as a run past --timeout would not) for matching paths.
+    hang = os.environ.get("RICCI_BATCH_TEST_HANG")
+    if hang and hang in path:
+        time.sleep(3600)
     pictures = options.pop("pictures", True)
     try:
         result = ricci.uniformize(path, **options)
