@@ -622,106 +622,160 @@ cplx minimax_centre(const std::vector<CQ>& pts) {
 namespace {
 
 /// deck_through_domain() with the canonical cut optional: without it, only the domain's side
-/// pairings and the vertex-cycle check (fit_domain_pairings()).
-DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, std::span<const double> dpos,
-                       const DeckOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
-  DomainDeck out;
-  DeckResult& r = out.deck;
-  r.geometry = Geometry::Hyperbolic;
-  r.genus = domain.genus;
-  auto bad = [&](Status s, const std::string& m) {
-    out.status = s;
-    out.message = m;
-    r.status = s;
-    r.message = m;
-    r.generators.clear();
-    out.side_maps.clear();
-    out.canonical_positions.clear();
-    return out;
+/// pairings and the vertex-cycle check (fit_domain_pairings()). One method per step, in the order
+/// run() calls them; each returns false after fail() has recorded why.
+class DomainDeckRun {
+ public:
+  DomainDeckRun(const CutResult* canonical, const CutResult& domain, std::span<const double> dpos,
+                const DeckOptions& options)
+      : canonical_in_(canonical), domain_(domain), in_(domain.surface_faces), dpos_(dpos), options_(options) {}
+
+  DomainDeck run() {
+    t_start_ = std::chrono::steady_clock::now();
+    r_.geometry = Geometry::Hyperbolic;
+    r_.genus = domain_.genus;
+    if (!check_domain() || !fit_side_pairings()) return std::move(out_);
+    index_boundary();
+    if (!find_vertex_cycles() || !adjust_to_cycles()) return std::move(out_);
+    if (canonical_in_ == nullptr) return pairings_only();
+    // Each step stops the chain on failure; out_ then carries its status and message.
+    if (check_canonical() && build_tiles() && canonical_positions() && polygon_frame() && canonical_generators())
+      relation();
+    return std::move(out_);
+  }
+
+ private:
+  struct Word {
+    Index Fs, Fp;
+    Letter N;
   };
-  std::string why;
-  if (!options.is_valid(&why)) return bad(Status::InvalidArgument, why);
-  if (domain.genus < 2) return bad(Status::InvalidArgument, "the compact-domain construction is for genus >= 2.");
-  if (domain.status != Status::Ok || domain.num_refined_vertices() != 0 ||
-      domain.cut_faces.size() != domain.surface_faces.size())
-    return bad(Status::InvalidArgument, "the domain is not an unrefined cut of the surface.");
-  const Index nin = domain.num_input_vertices;
-  const Index Fin = static_cast<Index>(domain.surface_faces.size() / 3);
-  const Index nd = domain.num_cut_vertices();
-  if (dpos.size() != 2 * static_cast<std::size_t>(nd))
-    return bad(Status::InvalidArgument, "domain positions: expected #domain cut vertices x 2 values.");
-  for (Index v = 0; v < nd; ++v) {
-    const cplx z(dpos[2 * v], dpos[2 * v + 1]);
-    if (!std::isfinite(z.real()) || !std::isfinite(z.imag()) || !(one_minus_abs2(z) > 0))
-      return bad(Status::InvalidArgument, "domain cut vertex " + std::to_string(v) + " is not inside the unit disk.");
-  }
-  auto dz = [&](Index v) { return cplx(dpos[2 * v], dpos[2 * v + 1]); };
 
-  // 1. Side pairings of the domain, fitted over all vertex pairs of each branch.
-  std::vector<MoebiusQ> X(static_cast<std::size_t>(domain.num_generators()));
-  std::vector<std::vector<Pair>> side_pairs(X.size());
-  out.side_maps.resize(X.size());
-  for (Index s = 0; s < domain.num_sides(); ++s) {
-    if (domain.side_orientation[s] != 1) continue;
-    const Index k = domain.side_generator[s], p = domain.side_partner[s];
-    if (k < 0 || k >= static_cast<Index>(X.size()) || p < 0) return bad(Status::InvalidArgument, "a domain side has no pairing.");
-    const Index b0 = domain.side_offsets[s], bp = domain.side_offsets[p], n = domain.side_offsets[s + 1] - b0;
-    std::vector<Pair>& pairs = side_pairs[k];
-    for (Index i = 0; i < n; ++i) pairs.push_back({dz(domain.side_vertices[b0 + i]), dz(domain.side_vertices[bp + n - 1 - i])});
-    DeckGenerator G;
-    G.name = domain.side_label[s];
-    G.side = s;
-    G.partner = p;
-    G.pairs = n;
-    if (!fit_hyperbolic(pairs, options, G, r.ceres_iterations))
-      return bad(Status::NumericalFailure, "domain side pairing " + G.name + " maps its side outside the disk.");
-    X[k] = MoebiusQ(G.map);
-    out.side_maps[k] = std::move(G);
+  const CutResult* canonical_in_;
+  const CutResult& domain_;
+  const std::vector<Index>& in_;  // the domain's input faces (surface_faces)
+  std::span<const double> dpos_;
+  const DeckOptions& options_;
+  std::chrono::steady_clock::time_point t_start_;
+  DomainDeck out_;
+  DeckResult& r_ = out_.deck;
+  Index nin_ = 0, Fin_ = 0;
+  std::vector<MoebiusQ> X_;                   // the domain's side pairings (adjusted when asked)
+  std::vector<MoebiusQ> fitted_;              // the same as fitted, before any adjustment
+  std::vector<std::vector<Pair>> side_pairs_;  // per pairing: the vertex pairs it was fitted on
+  std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary_;  // directed edge → (pairing, orientation)
+  std::vector<Cycle> cycles_;
+  // The canonical disk, its breadth-first tiles and positions.
+  Topology T_;
+  std::vector<Index> parent_, queue_;
+  std::vector<Letter> via_;
+  std::vector<MoebiusQ> h_;
+  std::vector<CQ> pos_;
+  MoebiusQ frame_;
+  std::vector<Word> words_;
+  std::vector<MoebiusQ> XQ_;
+
+  bool fail(Status s, const std::string& m) {
+    out_.status = s;
+    out_.message = m;
+    r_.status = s;
+    r_.message = m;
+    r_.generators.clear();
+    out_.side_maps.clear();
+    out_.canonical_positions.clear();
+    return false;
+  }
+  cplx dz(Index v) const { return cplx(dpos_[2 * v], dpos_[2 * v + 1]); }
+
+  /// The options, the domain (an unrefined cut of genus ≥ 2) and its positions inside the disk.
+  bool check_domain() {
+    std::string why;
+    if (!options_.is_valid(&why)) return fail(Status::InvalidArgument, why);
+    if (domain_.genus < 2) return fail(Status::InvalidArgument, "the compact-domain construction is for genus >= 2.");
+    if (domain_.status != Status::Ok || domain_.num_refined_vertices() != 0 ||
+        domain_.cut_faces.size() != domain_.surface_faces.size())
+      return fail(Status::InvalidArgument, "the domain is not an unrefined cut of the surface.");
+    nin_ = domain_.num_input_vertices;
+    Fin_ = static_cast<Index>(domain_.surface_faces.size() / 3);
+    const Index nd = domain_.num_cut_vertices();
+    if (dpos_.size() != 2 * static_cast<std::size_t>(nd))
+      return fail(Status::InvalidArgument, "domain positions: expected #domain cut vertices x 2 values.");
+    for (Index v = 0; v < nd; ++v) {
+      const cplx z = dz(v);
+      if (!std::isfinite(z.real()) || !std::isfinite(z.imag()) || !(one_minus_abs2(z) > 0))
+        return fail(Status::InvalidArgument, "domain cut vertex " + std::to_string(v) + " is not inside the unit disk.");
+    }
+    return true;
   }
 
-  // 2. Directed boundary edges of the domain → (pairing, orientation), and the letter crossed
-  // over the edge opposite corner k of input face O (none when the domain does not cut it):
-  // X^-1 when the face lies on side x, X on side x^-1.
-  std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary;
-  for (Index s = 0; s < domain.num_sides(); ++s)
-    for (Index i = domain.side_offsets[s]; i + 1 < domain.side_offsets[s + 1]; ++i)
-      boundary[dkey(domain.side_vertices[i], domain.side_vertices[i + 1])] = {domain.side_generator[s],
-                                                                             domain.side_orientation[s]};
-  auto crossing = [&](Index O, int k) {
+  /// 1. Side pairings of the domain, fitted over all vertex pairs of each branch.
+  bool fit_side_pairings() {
+    X_.resize(static_cast<std::size_t>(domain_.num_generators()));
+    side_pairs_.resize(X_.size());
+    out_.side_maps.resize(X_.size());
+    for (Index s = 0; s < domain_.num_sides(); ++s) {
+      if (domain_.side_orientation[s] != 1) continue;
+      const Index k = domain_.side_generator[s], p = domain_.side_partner[s];
+      if (k < 0 || k >= static_cast<Index>(X_.size()) || p < 0)
+        return fail(Status::InvalidArgument, "a domain side has no pairing.");
+      const Index b0 = domain_.side_offsets[s], bp = domain_.side_offsets[p], n = domain_.side_offsets[s + 1] - b0;
+      std::vector<Pair>& pairs = side_pairs_[k];
+      for (Index i = 0; i < n; ++i)
+        pairs.push_back({dz(domain_.side_vertices[b0 + i]), dz(domain_.side_vertices[bp + n - 1 - i])});
+      DeckGenerator G;
+      G.name = domain_.side_label[s];
+      G.side = s;
+      G.partner = p;
+      G.pairs = n;
+      if (!fit_hyperbolic(pairs, options_, G, r_.ceres_iterations))
+        return fail(Status::NumericalFailure, "domain side pairing " + G.name + " maps its side outside the disk.");
+      X_[k] = MoebiusQ(G.map);
+      out_.side_maps[k] = std::move(G);
+    }
+    return true;
+  }
+
+  /// 2. Directed boundary edges of the domain → (pairing, orientation).
+  void index_boundary() {
+    for (Index s = 0; s < domain_.num_sides(); ++s)
+      for (Index i = domain_.side_offsets[s]; i + 1 < domain_.side_offsets[s + 1]; ++i)
+        boundary_[dkey(domain_.side_vertices[i], domain_.side_vertices[i + 1])] = {domain_.side_generator[s],
+                                                                                   domain_.side_orientation[s]};
+  }
+  /// The letter crossed over the edge opposite corner k of input face O (none when the domain does
+  /// not cut it): X^-1 when the face lies on side x, X on side x^-1.
+  Letter crossing(Index O, int k) const {
     const Index c = 3 * O + k;
-    const auto it = boundary.find(dkey(domain.cut_faces[next_corner(c)], domain.cut_faces[prev_corner(c)]));
-    if (it == boundary.end()) return Letter{};
+    const auto it = boundary_.find(dkey(domain_.cut_faces[next_corner(c)], domain_.cut_faces[prev_corner(c)]));
+    if (it == boundary_.end()) return Letter{};
     return Letter{it->second.first, it->second.second == 1};
-  };
-  const std::vector<Index>& in = domain.surface_faces;
-  // The corner of input face O1 opposite its edge shared with O2 that holds surface vertices a, b
-  // (input vertices or points added on that edge).
-  auto shared_corner = [&](Index O1, Index O2, Index a, Index b) {
+  }
+  /// The corner of input face O1 opposite its edge shared with O2 that holds surface vertices a, b
+  /// (input vertices or points added on that edge).
+  int shared_corner(Index O1, Index O2, Index a, Index b) const {
     int best = -1;
     for (int k = 0; k < 3; ++k) {
-      const Index A = in[3 * O1 + (k + 1) % 3], B = in[3 * O1 + (k + 2) % 3];
+      const Index A = in_[3 * O1 + (k + 1) % 3], B = in_[3 * O1 + (k + 2) % 3];
       bool in2 = false, in2b = false;
       for (int j = 0; j < 3; ++j) {
-        in2 |= in[3 * O2 + j] == A;
-        in2b |= in[3 * O2 + j] == B;
+        in2 |= in_[3 * O2 + j] == A;
+        in2b |= in_[3 * O2 + j] == B;
       }
       if (!in2 || !in2b) continue;
-      const bool ends_ok = (a >= nin || a == A || a == B) && (b >= nin || b == A || b == B);
+      const bool ends_ok = (a >= nin_ || a == A || a == B) && (b >= nin_ || b == A || b == B);
       if (ends_ok) return k;
       if (best < 0) best = k;
     }
     return best;
-  };
+  }
 
-  // Vertex cycles of the domain: the crossings around every input vertex compose to ±I. Their
-  // words, freely reduced (a vertex inside a branch crosses it there and back: empty).
-  std::vector<Cycle> cycles;
-  {
-    const TopologyResult it = build_topology(in, nin);
-    if (it.status != Status::Ok) return bad(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
+  /// Vertex cycles of the domain: the crossings around every input vertex compose to ±I. Their
+  /// words, freely reduced (a vertex inside a branch crosses it there and back: empty), and the
+  /// largest residual of the fitted pairings on them.
+  bool find_vertex_cycles() {
+    const TopologyResult it = build_topology(in_, nin_);
+    if (it.status != Status::Ok) return fail(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
     const Topology& I = it.topology;
-    for (Index v = 0; v < nin; ++v) {
+    for (Index v = 0; v < nin_; ++v) {
       const Index k0 = I.vertex_corner_offsets[v], k1 = I.vertex_corner_offsets[v + 1];
       if (k0 == k1) continue;
       Cycle cyc;
@@ -748,139 +802,161 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
         cyc.word.erase(cyc.word.begin());
       }
       if (!closed || cyc.word.empty()) continue;
-      cyc.at = CQ(dz(domain.cut_faces[I.vertex_corners[k0]]));
-      cycles.push_back(std::move(cyc));
+      cyc.at = CQ(dz(domain_.cut_faces[I.vertex_corners[k0]]));
+      cycles_.push_back(std::move(cyc));
     }
+    double res[3];
+    for (const Cycle& c : cycles_) {
+      cycle_residual(X_, c, res);
+      out_.cycle_error = std::max({out_.cycle_error, std::abs(res[0]), std::abs(res[1]), std::abs(res[2])});
+    }
+    return true;
   }
-  double res[3];
-  for (const Cycle& c : cycles) {
-    cycle_residual(X, c, res);
-    out.cycle_error = std::max({out.cycle_error, std::abs(res[0]), std::abs(res[1]), std::abs(res[2])});
-  }
-  const std::vector<MoebiusQ> fitted = X;
-  out.adjusted_cycle_error = out.cycle_error;
-  if (options.adjust_pairings && !cycles.empty()) {
-    out.fitted_side_maps = out.side_maps;
-    out.adjusted_cycle_error = adjust_pairings(X, cycles);
+
+  /// With options.adjust_pairings: the pairings closest to the fitted ones whose vertex cycles
+  /// are exact (adjust_pairings()), their residuals on the domain's sides, and a refusal when they
+  /// had to move a side vertex further than options.max_pairing_adjustment.
+  bool adjust_to_cycles() {
+    fitted_ = X_;
+    out_.adjusted_cycle_error = out_.cycle_error;
+    if (!options_.adjust_pairings || cycles_.empty()) return true;
+    out_.fitted_side_maps = out_.side_maps;
+    out_.adjusted_cycle_error = adjust_pairings(X_, cycles_);
     // The adjusted maps replace the fitted ones; their residuals on the domain's sides.
-    for (std::size_t k = 0; k < X.size(); ++k) {
-      DeckGenerator& G = out.side_maps[k];
-      G.map = X[k].to_double();
-      G.map_low = MoebiusQ(X[k].a - CQ(G.map.a), X[k].b - CQ(G.map.b)).to_double();
+    for (std::size_t k = 0; k < X_.size(); ++k) {
+      DeckGenerator& G = out_.side_maps[k];
+      G.map = X_[k].to_double();
+      G.map_low = MoebiusQ(X_[k].a - CQ(G.map.a), X_[k].b - CQ(G.map.b)).to_double();
       G.theta = G.map.theta();
       G.z0 = G.map.z0();
       G.translation_length = G.map.translation_length();
       G.residual_max = 0;
       double sum2 = 0;
-      for (const Pair& p : side_pairs[k]) {
-        const double d = detail::hyperbolic_distance_q(X[k].apply(CQ(p.z)), CQ(p.w));
-        const double moved = detail::hyperbolic_distance_q(X[k].apply(CQ(p.z)), fitted[k].apply(CQ(p.z)));
+      for (const Pair& p : side_pairs_[k]) {
+        const double d = detail::hyperbolic_distance_q(X_[k].apply(CQ(p.z)), CQ(p.w));
+        const double moved = detail::hyperbolic_distance_q(X_[k].apply(CQ(p.z)), fitted_[k].apply(CQ(p.z)));
         G.residual_max = std::max(G.residual_max, d);
-        out.pairing_adjustment = std::max(out.pairing_adjustment, moved);
+        out_.pairing_adjustment = std::max(out_.pairing_adjustment, moved);
         sum2 += d * d;
       }
-      G.residual_rms = side_pairs[k].empty() ? 0 : std::sqrt(sum2 / double(side_pairs[k].size()));
-      if (!std::isfinite(G.residual_max) || !std::isfinite(out.pairing_adjustment))
-        return bad(Status::NumericalFailure, "the adjusted side pairing " + G.name + " is not finite.");
+      G.residual_rms = side_pairs_[k].empty() ? 0 : std::sqrt(sum2 / double(side_pairs_[k].size()));
+      if (!std::isfinite(G.residual_max) || !std::isfinite(out_.pairing_adjustment))
+        return fail(Status::NumericalFailure, "the adjusted side pairing " + G.name + " is not finite.");
     }
-    if (!(out.pairing_adjustment <= options.max_pairing_adjustment) || !(out.adjusted_cycle_error < 1e14 * detail::kQuadEpsilon)) {
+    if (!(out_.pairing_adjustment <= options_.max_pairing_adjustment) ||
+        !(out_.adjusted_cycle_error < 1e14 * detail::kQuadEpsilon)) {
       char buf[320];
       std::snprintf(buf, sizeof buf,
                     "the domain's side pairings are not those of a surface group: their vertex cycles miss the "
                     "identity by %.3g, and pairings closing them exactly (to %.3g) move a side vertex by %.3g "
                     "(limit %.3g); the domain layout is not consistent.",
-                    out.cycle_error, out.adjusted_cycle_error, out.pairing_adjustment, options.max_pairing_adjustment);
-      return bad(Status::NumericalFailure, buf);
+                    out_.cycle_error, out_.adjusted_cycle_error, out_.pairing_adjustment,
+                    options_.max_pairing_adjustment);
+      return fail(Status::NumericalFailure, buf);
     }
+    return true;
   }
 
-  if (canonical_in == nullptr) {
-    out.status = Status::Ok;
+  /// The result of fit_domain_pairings(): the pairings and their cycle check, no generators.
+  DomainDeck pairings_only() {
+    out_.status = Status::Ok;
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "%d side pairings fitted; vertex cycles within %.3g of the identity (%.3g after an adjustment of "
                   "%.3g).",
-                  static_cast<int>(out.side_maps.size()), out.cycle_error, out.adjusted_cycle_error,
-                  out.pairing_adjustment);
-    out.message = buf;
-    r.status = Status::NotRun;
-    r.message = "no canonical cut given";
-    out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    return out;
+                  static_cast<int>(out_.side_maps.size()), out_.cycle_error, out_.adjusted_cycle_error,
+                  out_.pairing_adjustment);
+    out_.message = buf;
+    r_.status = Status::NotRun;
+    r_.message = "no canonical cut given";
+    out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count();
+    return std::move(out_);
   }
-  const CutResult& canonical = *canonical_in;
-  r.genus = canonical.genus;
-  why = check_cut(canonical);
-  if (!why.empty()) return bad(Status::InvalidArgument, why);
-  if (canonical.genus != domain.genus || canonical.num_input_vertices != nin)
-    return bad(Status::InvalidArgument, "the domain is not a cut of the canonical cut's surface.");
-  for (Index o : canonical.surface_face_to_input)
-    if (o < 0 || o >= Fin) return bad(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
 
-  // 3. Tiles of the canonical disk's faces, breadth first: each face records the face it was
-  // reached from and the letter crossed, so the tiles can be formed for any set of pairings.
-  const TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
-  if (ct.status != Status::Ok) return bad(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
-  const Topology& T = ct.topology;
-  const Index Fc = T.num_faces;
-  std::vector<Index> parent(static_cast<std::size_t>(Fc), kInvalid);
-  std::vector<Letter> via(static_cast<std::size_t>(Fc));
-  std::vector<Index> depth(static_cast<std::size_t>(Fc), kInvalid);
-  std::vector<Index> queue = {0};
-  depth[0] = 0;
-  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
-    const Index F1 = queue[qi], O1 = canonical.surface_face_to_input[F1];
-    for (int j = 0; j < 3; ++j) {
-      const Index c = 3 * F1 + j, o = T.opposite[c];
-      if (o == kInvalid) continue;
-      const Index F2 = corner_face(o);
-      if (depth[F2] != kInvalid) continue;
-      const Index O2 = canonical.surface_face_to_input[F2];
-      if (O1 != O2) {
-        const int k = shared_corner(O1, O2, canonical.surface_faces[next_corner(c)], canonical.surface_faces[prev_corner(c)]);
-        if (k < 0) return bad(Status::NumericalFailure, "canonical faces " + std::to_string(F1) + " and " +
-                                                            std::to_string(F2) + " lie in input faces that share no edge.");
-        via[F2] = crossing(O1, k);
-      }
-      parent[F2] = F1;
-      depth[F2] = depth[F1] + 1;
-      out.tile_depth = std::max(out.tile_depth, depth[F2]);
-      queue.push_back(F2);
-    }
+  /// The canonical cut: valid, of the same surface, naming only input faces the domain has.
+  bool check_canonical() {
+    const CutResult& canonical = *canonical_in_;
+    r_.genus = canonical.genus;
+    const std::string why = check_cut(canonical);
+    if (!why.empty()) return fail(Status::InvalidArgument, why);
+    if (canonical.genus != domain_.genus || canonical.num_input_vertices != nin_)
+      return fail(Status::InvalidArgument, "the domain is not a cut of the canonical cut's surface.");
+    for (Index o : canonical.surface_face_to_input)
+      if (o < 0 || o >= Fin_) return fail(Status::InvalidArgument, "the canonical cut names an input face the domain lacks.");
+    return true;
   }
-  if (static_cast<Index>(queue.size()) != Fc) return bad(Status::InvalidArgument, "the canonical disk is not connected.");
-  auto tiles = [&](const std::vector<MoebiusQ>& P) {
-    std::vector<MoebiusQ> h(static_cast<std::size_t>(Fc));
-    for (std::size_t qi = 1; qi < queue.size(); ++qi) {
-      const Index F = queue[qi];
-      h[F] = via[F].k < 0 ? h[parent[F]] : h[parent[F]] * letter_map(P, via[F]);
+
+  /// 3. Tiles of the canonical disk's faces, breadth first: each face records the face it was
+  /// reached from and the letter crossed, so the tiles can be formed for any set of pairings.
+  bool build_tiles() {
+    const CutResult& canonical = *canonical_in_;
+    TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
+    if (ct.status != Status::Ok) return fail(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
+    T_ = std::move(ct.topology);
+    const Index Fc = T_.num_faces;
+    parent_.assign(static_cast<std::size_t>(Fc), kInvalid);
+    via_.assign(static_cast<std::size_t>(Fc), Letter{});
+    std::vector<Index> depth(static_cast<std::size_t>(Fc), kInvalid);
+    queue_ = {0};
+    depth[0] = 0;
+    for (std::size_t qi = 0; qi < queue_.size(); ++qi) {
+      const Index F1 = queue_[qi], O1 = canonical.surface_face_to_input[F1];
+      for (int j = 0; j < 3; ++j) {
+        const Index c = 3 * F1 + j, o = T_.opposite[c];
+        if (o == kInvalid) continue;
+        const Index F2 = corner_face(o);
+        if (depth[F2] != kInvalid) continue;
+        const Index O2 = canonical.surface_face_to_input[F2];
+        if (O1 != O2) {
+          const int k = shared_corner(O1, O2, canonical.surface_faces[next_corner(c)], canonical.surface_faces[prev_corner(c)]);
+          if (k < 0)
+            return fail(Status::NumericalFailure, "canonical faces " + std::to_string(F1) + " and " + std::to_string(F2) +
+                                                      " lie in input faces that share no edge.");
+          via_[F2] = crossing(O1, k);
+        }
+        parent_[F2] = F1;
+        depth[F2] = depth[F1] + 1;
+        out_.tile_depth = std::max(out_.tile_depth, depth[F2]);
+        queue_.push_back(F2);
+      }
+    }
+    if (static_cast<Index>(queue_.size()) != Fc) return fail(Status::InvalidArgument, "the canonical disk is not connected.");
+    return true;
+  }
+  /// Every face's tile for the pairings P, in breadth-first order.
+  std::vector<MoebiusQ> tiles(const std::vector<MoebiusQ>& P) const {
+    std::vector<MoebiusQ> h(static_cast<std::size_t>(T_.num_faces));
+    for (std::size_t qi = 1; qi < queue_.size(); ++qi) {
+      const Index F = queue_[qi];
+      h[F] = via_[F].k < 0 ? h[parent_[F]] : h[parent_[F]] * letter_map(P, via_[F]);
     }
     return h;
-  };
-  // The tile of one face: the letters along its breadth-first path, from face 0.
-  auto tile_of = [&](const std::vector<MoebiusQ>& P, Index F) {
+  }
+  /// The tile of one face: the letters along its breadth-first path, from face 0.
+  MoebiusQ tile_of(const std::vector<MoebiusQ>& P, Index F) const {
     std::vector<Letter> path;
-    for (; F != 0 && F != kInvalid; F = parent[F])
-      if (via[F].k >= 0) path.push_back(via[F]);
+    for (; F != 0 && F != kInvalid; F = parent_[F])
+      if (via_[F].k >= 0) path.push_back(via_[F]);
     MoebiusQ t;
     for (auto it = path.rbegin(); it != path.rend(); ++it) t = t * letter_map(P, *it);
     return t;
-  };
+  }
 
-  // 4. The domain position of surface vertex x seen from input face O.
-  auto corner_of = [&](Index O, Index v) {
+  /// 4. The domain position of surface vertex x seen from input face O.
+  int corner_of(Index O, Index v) const {
     for (int k = 0; k < 3; ++k)
-      if (in[3 * O + k] == v) return k;
+      if (in_[3 * O + k] == v) return k;
     return -1;
-  };
-  auto local = [&](Index O, Index x, CQ& w) {
-    if (x < nin) {
+  }
+  bool local(Index O, Index x, CQ& w) const {
+    const CutResult& canonical = *canonical_in_;
+    if (x < nin_) {
       const int k = corner_of(O, x);
       if (k < 0) return false;
-      w = CQ(dz(domain.cut_faces[3 * O + k]));
+      w = CQ(dz(domain_.cut_faces[3 * O + k]));
       return true;
     }
-    const Index rec = x - nin;
+    const Index rec = x - nin_;
     if (rec >= canonical.num_refined_vertices()) return false;
     HyperboloidSum sum;
     for (int k = 0; k < 3; ++k) {
@@ -888,174 +964,195 @@ DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, s
       if (beta == 0) continue;
       const int kk = corner_of(O, canonical.refined_vertex_corners[3 * rec + k]);
       if (kk < 0) return false;
-      sum.add(CQ(dz(domain.cut_faces[3 * O + kk])), beta);
+      sum.add(CQ(dz(domain_.cut_faces[3 * O + kk])), beta);
     }
     return sum.point(w);
-  };
+  }
 
-  // 5. Canonical positions (quad), each cut vertex from every face that holds it.
-  const std::vector<MoebiusQ> h = tiles(X);
-  const Index nc = canonical.num_cut_vertices();
-  std::vector<CQ> pos(static_cast<std::size_t>(nc));
-  std::vector<char> have(static_cast<std::size_t>(nc), 0);
-  for (Index F = 0; F < Fc; ++F) {
-    const Index O = canonical.surface_face_to_input[F];
-    for (int j = 0; j < 3; ++j) {
-      const Index cv = canonical.cut_faces[3 * F + j], x = canonical.surface_faces[3 * F + j];
-      CQ w;
-      if (!local(O, x, w))
-        return bad(Status::NumericalFailure, "surface vertex " + std::to_string(x) + " is not in its input face " + std::to_string(O) + ".");
-      const CQ z = h[F].apply(w);
-      if (!have[cv]) {
-        pos[cv] = z;
-        have[cv] = 1;
-      } else {
-        out.tile_consistency = std::max(out.tile_consistency, detail::hyperbolic_distance_q(pos[cv], z));
+  /// 5. Canonical positions (quad), each cut vertex from every face that holds it.
+  bool canonical_positions() {
+    const CutResult& canonical = *canonical_in_;
+    h_ = tiles(X_);
+    const Index nc = canonical.num_cut_vertices();
+    pos_.assign(static_cast<std::size_t>(nc), CQ{});
+    std::vector<char> have(static_cast<std::size_t>(nc), 0);
+    for (Index F = 0; F < T_.num_faces; ++F) {
+      const Index O = canonical.surface_face_to_input[F];
+      for (int j = 0; j < 3; ++j) {
+        const Index cv = canonical.cut_faces[3 * F + j], x = canonical.surface_faces[3 * F + j];
+        CQ w;
+        if (!local(O, x, w))
+          return fail(Status::NumericalFailure,
+                      "surface vertex " + std::to_string(x) + " is not in its input face " + std::to_string(O) + ".");
+        const CQ z = h_[F].apply(w);
+        if (!have[cv]) {
+          pos_[cv] = z;
+          have[cv] = 1;
+        } else {
+          out_.tile_consistency = std::max(out_.tile_consistency, detail::hyperbolic_distance_q(pos_[cv], z));
+        }
       }
     }
+    for (Index v = 0; v < nc; ++v)
+      if (!have[v] || !(1 - pos_[v].norm() > 0) || !std::isfinite(static_cast<double>(pos_[v].norm())))
+        return fail(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) + " is not in the disk.");
+    if (!std::isfinite(out_.tile_consistency)) return fail(Status::NumericalFailure, "the canonical tiles are not finite.");
+    return true;
   }
-  for (Index v = 0; v < nc; ++v)
-    if (!have[v] || !(1 - pos[v].norm() > 0) || !std::isfinite(static_cast<double>(pos[v].norm())))
-      return bad(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) + " is not in the disk.");
-  if (!std::isfinite(out.tile_consistency)) return bad(Status::NumericalFailure, "the canonical tiles are not finite.");
-  // The polygon's own frame: its hyperboloid centre of mass, then (PolygonCentre::Minimax) the
-  // centre of its smallest enclosing disk, moved to the origin by C. The polygon can lie far
-  // from the domain (tiles at distance r have entries ~e^{r/2}), so the generators are formed
-  // from the products C·h_F, which are moderate near the polygon, never by conjugating a far-out
-  // product (that would multiply its rounding by e^r).
-  MoebiusQ frame;
-  {
+
+  /// The polygon's own frame: its hyperboloid centre of mass, then (PolygonCentre::Minimax) the
+  /// centre of its smallest enclosing disk, moved to the origin. The polygon can lie far from the
+  /// domain (tiles at distance r have entries ~e^{r/2}), so the generators are formed from the
+  /// products frame·h_F, which are moderate near the polygon, never by conjugating a far-out
+  /// product (that would multiply its rounding by e^r). Then the positions in double, when every
+  /// vertex is resolved (otherwise the generators stand without the view).
+  bool polygon_frame() {
     HyperboloidSum sum;
-    for (const CQ& z : pos) sum.add(z, 1);
+    for (const CQ& z : pos_) sum.add(z, 1);
     CQ centre;
-    if (!sum.point(centre)) return bad(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
-    frame = MoebiusQ::to_origin(centre);
-    for (CQ& z : pos) z = frame.apply(z);
-    if (options.polygon_centre == PolygonCentre::Minimax) {
-      const cplx c = minimax_centre(pos);
+    if (!sum.point(centre)) return fail(Status::NumericalFailure, "the canonical polygon has no centre of mass.");
+    frame_ = MoebiusQ::to_origin(centre);
+    for (CQ& z : pos_) z = frame_.apply(z);
+    if (options_.polygon_centre == PolygonCentre::Minimax) {
+      const cplx c = minimax_centre(pos_);
       const MoebiusQ M = MoebiusQ::to_origin(CQ(c));
-      frame = M * frame;
-      for (CQ& z : pos) z = M.apply(z);
+      frame_ = M * frame_;
+      for (CQ& z : pos_) z = M.apply(z);
     }
-    out.polygon_frame = frame.to_double();
-  }
-  // In double, when every vertex is resolved (otherwise the generators stand without the view).
-  out.canonical_positions.resize(2 * static_cast<std::size_t>(nc));
-  for (Index v = 0; v < nc && out.positions_note.empty(); ++v) {
-    const cplx z = pos[v].to_double();
-    if (!(one_minus_abs2(z) > 0)) {
-      char buf[240];
-      std::snprintf(buf, sizeof buf,
-                    "canonical cut vertex %d lies at hyperbolic distance %.1f from the origin, beyond the range of "
-                    "double coordinates in the Poincaré disk (about 38)",
-                    static_cast<int>(v), detail::hyperbolic_distance_q(pos[v], CQ{0, 0}));
-      out.positions_note = buf;
+    out_.polygon_frame = frame_.to_double();
+    const Index nc = static_cast<Index>(pos_.size());
+    out_.canonical_positions.resize(2 * static_cast<std::size_t>(nc));
+    for (Index v = 0; v < nc && out_.positions_note.empty(); ++v) {
+      const cplx z = pos_[v].to_double();
+      if (!(one_minus_abs2(z) > 0)) {
+        char buf[240];
+        std::snprintf(buf, sizeof buf,
+                      "canonical cut vertex %d lies at hyperbolic distance %.1f from the origin, beyond the range of "
+                      "double coordinates in the Poincaré disk (about 38)",
+                      static_cast<int>(v), detail::hyperbolic_distance_q(pos_[v], CQ{0, 0}));
+        out_.positions_note = buf;
+      }
+      out_.canonical_positions[2 * v] = z.real();
+      out_.canonical_positions[2 * v + 1] = z.imag();
     }
-    out.canonical_positions[2 * v] = z.real();
-    out.canonical_positions[2 * v + 1] = z.imag();
+    if (!out_.positions_note.empty()) out_.canonical_positions.clear();
+    return true;
   }
-  if (!out.positions_note.empty()) out.canonical_positions.clear();
 
-  // 6. The canonical generators X = h_{F_p} · N^-1 · h_{F_s}^-1.
-  std::unordered_map<std::uint64_t, Index> face_of;  // directed cut-vertex edge → canonical face
-  for (Index F = 0; F < Fc; ++F)
-    for (int j = 0; j < 3; ++j)
-      face_of[dkey(canonical.cut_faces[3 * F + (j + 1) % 3], canonical.cut_faces[3 * F + (j + 2) % 3])] = 3 * F + j;
-  const Index g = canonical.genus;
-  struct Word {
-    Index Fs, Fp;
-    Letter N;
-  };
-  std::vector<Word> words;
-  std::vector<MoebiusQ> XQ;
-  for (Index i = 1; i <= g; ++i)
-    for (const char* letter : {"a", "b"}) {
-      DeckGenerator G;
-      G.name = letter + std::to_string(i);
-      G.geometry = Geometry::Hyperbolic;
-      if (!find_side_pair(canonical, G.name, &G.side, &G.partner))
-        return bad(Status::InvalidArgument, "the cut has no sides " + G.name + " and " + G.name + "^-1.");
-      const Index bs = canonical.side_offsets[G.side], bp = canonical.side_offsets[G.partner];
-      const Index n = canonical.side_offsets[G.side + 1] - bs;
-      const Index s0 = canonical.side_vertices[bs], s1 = canonical.side_vertices[bs + 1];
-      const Index p0 = canonical.side_vertices[bp + n - 2], p1 = canonical.side_vertices[bp + n - 1];
-      const auto fs = face_of.find(dkey(s0, s1)), fp = face_of.find(dkey(p0, p1));
-      if (fs == face_of.end() || fp == face_of.end()) return bad(Status::InvalidArgument, "side " + G.name + " is not on the disk boundary.");
-      const Index Fs = corner_face(fs->second), Fp = corner_face(fp->second);
-      const Index Os = canonical.surface_face_to_input[Fs], Op = canonical.surface_face_to_input[Fp];
-      Letter N;
-      if (Os != Op) {
-        const int k = shared_corner(Os, Op, canonical.cut_to_surface[s0], canonical.cut_to_surface[s1]);
-        if (k < 0) return bad(Status::NumericalFailure, "the faces on either side of " + G.name + " share no input edge.");
-        N = crossing(Os, k);
+  /// 6. The canonical generators X = h_{F_p} · N^-1 · h_{F_s}^-1 (in the polygon's frame), with
+  /// their residuals on the canonical positions.
+  bool canonical_generators() {
+    const CutResult& canonical = *canonical_in_;
+    std::unordered_map<std::uint64_t, Index> face_of;  // directed cut-vertex edge → canonical face
+    for (Index F = 0; F < T_.num_faces; ++F)
+      for (int j = 0; j < 3; ++j)
+        face_of[dkey(canonical.cut_faces[3 * F + (j + 1) % 3], canonical.cut_faces[3 * F + (j + 2) % 3])] = 3 * F + j;
+    for (Index i = 1; i <= canonical.genus; ++i)
+      for (const char* letter : {"a", "b"}) {
+        DeckGenerator G;
+        G.name = letter + std::to_string(i);
+        G.geometry = Geometry::Hyperbolic;
+        if (!find_side_pair(canonical, G.name, &G.side, &G.partner))
+          return fail(Status::InvalidArgument, "the cut has no sides " + G.name + " and " + G.name + "^-1.");
+        const Index bs = canonical.side_offsets[G.side], bp = canonical.side_offsets[G.partner];
+        const Index n = canonical.side_offsets[G.side + 1] - bs;
+        const Index s0 = canonical.side_vertices[bs], s1 = canonical.side_vertices[bs + 1];
+        const Index p0 = canonical.side_vertices[bp + n - 2], p1 = canonical.side_vertices[bp + n - 1];
+        const auto fs = face_of.find(dkey(s0, s1)), fp = face_of.find(dkey(p0, p1));
+        if (fs == face_of.end() || fp == face_of.end())
+          return fail(Status::InvalidArgument, "side " + G.name + " is not on the disk boundary.");
+        const Index Fs = corner_face(fs->second), Fp = corner_face(fp->second);
+        const Index Os = canonical.surface_face_to_input[Fs], Op = canonical.surface_face_to_input[Fp];
+        Letter N;
+        if (Os != Op) {
+          const int k = shared_corner(Os, Op, canonical.cut_to_surface[s0], canonical.cut_to_surface[s1]);
+          if (k < 0) return fail(Status::NumericalFailure, "the faces on either side of " + G.name + " share no input edge.");
+          N = crossing(Os, k);
+        }
+        words_.push_back({Fs, Fp, N});
+        const MoebiusQ Xg = (frame_ * h_[Fp]) * letter_map(X_, N).inverse() * (frame_ * h_[Fs]).inverse();
+        XQ_.push_back(Xg);
+        G.map = Xg.to_double();
+        G.map_low = MoebiusQ(Xg.a - CQ(G.map.a), Xg.b - CQ(G.map.b)).to_double();
+        G.theta = G.map.theta();
+        G.z0 = G.map.z0();
+        G.translation_length = G.map.translation_length();
+        G.pairs = n;
+        if (!generator_residuals(Xg, bs, bp, n, G)) return false;
+        r_.residual_max = std::max(r_.residual_max, G.residual_max);
+        r_.single_edge_spread = std::max(r_.single_edge_spread, G.single_edge_spread);
+        r_.generators.push_back(std::move(G));
       }
-      words.push_back({Fs, Fp, N});
-      const MoebiusQ Xg = (frame * h[Fp]) * letter_map(X, N).inverse() * (frame * h[Fs]).inverse();
-      XQ.push_back(Xg);
-      G.map = Xg.to_double();
-      G.map_low = MoebiusQ(Xg.a - CQ(G.map.a), Xg.b - CQ(G.map.b)).to_double();
-      G.theta = G.map.theta();
-      G.z0 = G.map.z0();
-      G.translation_length = G.map.translation_length();
-      G.pairs = n;
-      // Residuals on the canonical positions (quad), in frames centred on the two sides.
-      const Index mid = n / 2;
-      const MoebiusQ Cs = MoebiusQ::to_origin(pos[canonical.side_vertices[bs + mid]]);
-      const MoebiusQ Cp = MoebiusQ::to_origin(pos[canonical.side_vertices[bp + n - 1 - mid]]);
-      const MoebiusQ MQ = Cp * Xg * Cs.inverse();
-      const Moebius M = MQ.to_double();
-      std::vector<Pair> loc;
-      double sum2 = 0;
-      for (Index k = 0; k < n; ++k) {
-        const CQ zq = Cs.apply(pos[canonical.side_vertices[bs + k]]);
-        const CQ wq = Cp.apply(pos[canonical.side_vertices[bp + n - 1 - k]]);
-        const double d = detail::hyperbolic_distance_q(MQ.apply(zq), wq);
-        G.residual_max = std::max(G.residual_max, d);
-        sum2 += d * d;
-        loc.push_back({zq.to_double(), wq.to_double()});
-      }
-      G.residual_rms = std::sqrt(sum2 / double(n));
-      G.initial_residual_max = G.residual_max;
-      G.initial_residual_rms = G.residual_rms;
-      for (std::size_t k = 0; k + 1 < loc.size(); ++k) {
-        const Moebius E = moebius_from_two_points(loc[k].z, loc[k + 1].z, loc[k].w, loc[k + 1].w);
-        for (const Pair& q : loc) G.single_edge_spread = std::max(G.single_edge_spread, hyperbolic_distance(E.apply(q.z), M.apply(q.z)));
-      }
-      if (!std::isfinite(G.residual_max) || !std::isfinite(G.single_edge_spread))
-        return bad(Status::NumericalFailure, "generator " + G.name + " is not finite.");
-      r.residual_max = std::max(r.residual_max, G.residual_max);
-      r.single_edge_spread = std::max(r.single_edge_spread, G.single_edge_spread);
-      r.generators.push_back(std::move(G));
-    }
-
-  // 7. The relation, conjugated to the corner v0, in quad: of the generators (from the adjusted
-  // pairings) and of the same words in the pairings as fitted.
-  const CQ v0 = pos[canonical.side_vertices[canonical.side_offsets[0]]];
-  r.relation_error = relation_of(XQ, v0, &r.relator);
-  if (options.adjust_pairings && !cycles.empty()) {
-    std::vector<MoebiusQ> XF;
-    for (const Word& w : words)
-      XF.push_back((frame * tile_of(fitted, w.Fp)) * letter_map(fitted, w.N).inverse() *
-                   (frame * tile_of(fitted, w.Fs)).inverse());
-    out.fitted_relation_error = relation_of(XF, v0, nullptr);
-  } else {
-    out.fitted_relation_error = r.relation_error;
+    return true;
   }
-  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
-    return bad(Status::NumericalFailure, "the relation check is not finite.");
-  r.status = Status::Ok;
-  char buf[240];
-  std::snprintf(buf, sizeof buf,
-                "%d generators through %d domain pairings; residual max %.3g, relation error %.3g (%.3g with the "
-                "pairings as fitted).",
-                static_cast<int>(r.generators.size()), static_cast<int>(out.side_maps.size()), r.residual_max,
-                r.relation_error, out.fitted_relation_error);
-  r.message = buf;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  out.status = Status::Ok;
-  out.message = r.message;
-  out.seconds = r.seconds;
-  return out;
+  /// Residuals of generator Xg on the canonical positions of its n side pairs (sides starting at
+  /// bs and bp in side_vertices), in quad, in frames centred on the two sides; the spread of the
+  /// maps fitted to single edges.
+  bool generator_residuals(const MoebiusQ& Xg, Index bs, Index bp, Index n, DeckGenerator& G) {
+    const CutResult& canonical = *canonical_in_;
+    const Index mid = n / 2;
+    const MoebiusQ Cs = MoebiusQ::to_origin(pos_[canonical.side_vertices[bs + mid]]);
+    const MoebiusQ Cp = MoebiusQ::to_origin(pos_[canonical.side_vertices[bp + n - 1 - mid]]);
+    const MoebiusQ MQ = Cp * Xg * Cs.inverse();
+    const Moebius M = MQ.to_double();
+    std::vector<Pair> loc;
+    double sum2 = 0;
+    for (Index k = 0; k < n; ++k) {
+      const CQ zq = Cs.apply(pos_[canonical.side_vertices[bs + k]]);
+      const CQ wq = Cp.apply(pos_[canonical.side_vertices[bp + n - 1 - k]]);
+      const double d = detail::hyperbolic_distance_q(MQ.apply(zq), wq);
+      G.residual_max = std::max(G.residual_max, d);
+      sum2 += d * d;
+      loc.push_back({zq.to_double(), wq.to_double()});
+    }
+    G.residual_rms = std::sqrt(sum2 / double(n));
+    G.initial_residual_max = G.residual_max;
+    G.initial_residual_rms = G.residual_rms;
+    for (std::size_t k = 0; k + 1 < loc.size(); ++k) {
+      const Moebius E = moebius_from_two_points(loc[k].z, loc[k + 1].z, loc[k].w, loc[k + 1].w);
+      for (const Pair& q : loc) G.single_edge_spread = std::max(G.single_edge_spread, hyperbolic_distance(E.apply(q.z), M.apply(q.z)));
+    }
+    if (!std::isfinite(G.residual_max) || !std::isfinite(G.single_edge_spread))
+      return fail(Status::NumericalFailure, "generator " + G.name + " is not finite.");
+    return true;
+  }
+
+  /// 7. The relation, conjugated to the corner v0, in quad: of the generators (from the adjusted
+  /// pairings) and of the same words in the pairings as fitted.
+  bool relation() {
+    const CutResult& canonical = *canonical_in_;
+    const CQ v0 = pos_[canonical.side_vertices[canonical.side_offsets[0]]];
+    r_.relation_error = relation_of(XQ_, v0, &r_.relator);
+    if (options_.adjust_pairings && !cycles_.empty()) {
+      std::vector<MoebiusQ> XF;
+      for (const Word& w : words_)
+        XF.push_back((frame_ * tile_of(fitted_, w.Fp)) * letter_map(fitted_, w.N).inverse() *
+                     (frame_ * tile_of(fitted_, w.Fs)).inverse());
+      out_.fitted_relation_error = relation_of(XF, v0, nullptr);
+    } else {
+      out_.fitted_relation_error = r_.relation_error;
+    }
+    if (!std::isfinite(r_.relation_error) || !std::isfinite(out_.fitted_relation_error))
+      return fail(Status::NumericalFailure, "the relation check is not finite.");
+    r_.status = Status::Ok;
+    char buf[240];
+    std::snprintf(buf, sizeof buf,
+                  "%d generators through %d domain pairings; residual max %.3g, relation error %.3g (%.3g with the "
+                  "pairings as fitted).",
+                  static_cast<int>(r_.generators.size()), static_cast<int>(out_.side_maps.size()), r_.residual_max,
+                  r_.relation_error, out_.fitted_relation_error);
+    r_.message = buf;
+    r_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start_).count();
+    out_.status = Status::Ok;
+    out_.message = r_.message;
+    out_.seconds = r_.seconds;
+    return true;
+  }
+};
+
+DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, std::span<const double> dpos,
+                       const DeckOptions& options) {
+  return DomainDeckRun(canonical_in, domain, dpos, options).run();
 }
 
 }  // namespace
