@@ -87,93 +87,71 @@ std::uint64_t pair_key(Index u, Index v) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(u)) << 32) | static_cast<std::uint32_t>(v);
 }
 
-}  // namespace
-
-CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const double> lengths, Index centre_face,
-                      std::span<const Index> keep) {
-  const auto t0 = std::chrono::steady_clock::now();
-  CutResult r;
-  auto fail = [&](Status s, const std::string& m) {
-    r.status = s;
-    r.message = "cut_compact: " + m;
-    return r;
+/// The face minimising the larger distance to the two ends of a double-sweep diameter of the dual
+/// graph with edge weights w (per corner: the edge opposite it).
+Index dual_centre(const Topology& topo, const std::vector<double>& w) {
+  const Index F = topo.num_faces;
+  auto farthest = [&](const std::vector<double>& d) {
+    Index best = 0;
+    for (Index f = 0; f < F; ++f)
+      if (d[f] > d[best]) best = f;
+    return best;
   };
+  const Index a = farthest(dual_distances(topo, w, 0, nullptr));
+  const std::vector<double> da = dual_distances(topo, w, a, nullptr);
+  const std::vector<double> db = dual_distances(topo, w, farthest(da), nullptr);
+  Index centre = 0;
+  for (Index f = 1; f < F; ++f)
+    if (std::max(da[f], db[f]) < std::max(da[centre], db[centre])) centre = f;
+  return centre;
+}
+
+/// The cut graph: the edges the dual tree (`via`, per face the corner it was reached across) does
+/// not cross, spurs pruned. Vertices in `keep` (cones) are never pruned: the branch to each stays, a
+/// slit whose two sides are paired by the rotation about it. `degree`: per vertex, its cut edges.
+std::vector<char> cut_graph(const Topology& topo, const std::vector<Index>& via, std::span<const Index> keep,
+                            std::vector<Index>& degree) {
   const Index V = topo.num_vertices, F = topo.num_faces, E = topo.num_edges;
-  if (mesh.faces.size() != static_cast<std::size_t>(3 * F)) return fail(Status::InvalidArgument, "faces do not match the topology");
-  if (lengths.size() != static_cast<std::size_t>(E))
-    return fail(Status::InvalidArgument, "lengths must have one value per edge (" + std::to_string(E) + ")");
-  for (Index e = 0; e < E; ++e)
-    if (!(lengths[e] > 0) || !std::isfinite(lengths[e]))
-      return fail(Status::InvalidArgument, "the length of edge " + std::to_string(e) + " is not a positive finite number");
-  if (topo.num_components != 1) return fail(Status::MultipleComponents, "the surface is not connected");
-  if (topo.is_closed() ? topo.genus() < 1 : topo.genus() == 0 && topo.num_boundary_loops() == 1)
-    return fail(Status::InvalidArgument,
-                "a compact domain is built for closed surfaces of genus >= 1 and for bordered surfaces other "
-                "than a disk");
-  if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
-
-  // Dual edge weights (per corner: the edge opposite it), then the centre: the face minimising
-  // the larger distance to the two ends of a double-sweep diameter of the dual graph.
-  std::vector<double> w(static_cast<std::size_t>(3 * F), kInf);
-  for (Index c = 0; c < 3 * F; ++c)
-    if (topo.opposite[c] != kInvalid) w[c] = dual_weight(topo, lengths, c);
-  if (centre_face < 0) {
-    auto farthest = [&](const std::vector<double>& d) {
-      Index best = 0;
-      for (Index f = 0; f < F; ++f)
-        if (d[f] > d[best]) best = f;
-      return best;
-    };
-    const Index a = farthest(dual_distances(topo, w, 0, nullptr));
-    const std::vector<double> da = dual_distances(topo, w, a, nullptr);
-    const std::vector<double> db = dual_distances(topo, w, farthest(da), nullptr);
-    centre_face = 0;
-    for (Index f = 1; f < F; ++f)
-      if (std::max(da[f], db[f]) < std::max(da[centre_face], db[centre_face])) centre_face = f;
-  }
-  std::vector<Index> via;
-  dual_distances(topo, w, centre_face, &via);
-
-  // The cut graph: edges the dual tree does not cross, spurs pruned.
   std::vector<char> cut(static_cast<std::size_t>(E), 1);
   for (Index f = 0; f < F; ++f)
     if (via[f] != kInvalid) cut[topo.corner_edge[via[f]]] = 0;
-  std::vector<Index> degree(static_cast<std::size_t>(V), 0);
+  degree.assign(static_cast<std::size_t>(V), 0);
   for (Index e = 0; e < E; ++e)
     if (cut[e]) {
       ++degree[topo.edge_vertices[2 * e]];
       ++degree[topo.edge_vertices[2 * e + 1]];
     }
-  {
-    // Vertices to keep on the cut (cones) are never pruned: the branch to each stays, a slit
-    // whose two sides are paired by the rotation about it.
-    std::vector<char> kept(static_cast<std::size_t>(V), 0);
-    for (const Index v : keep)
-      if (v >= 0 && v < V) kept[v] = 1;
-    std::vector<Index> stack;
-    for (Index v = 0; v < V; ++v)
-      if (degree[v] == 1 && !kept[v]) stack.push_back(v);
-    while (!stack.empty()) {
-      const Index v = stack.back();
-      stack.pop_back();
-      if (degree[v] != 1) continue;
-      for (Index k = topo.vertex_corner_offsets[v]; k < topo.vertex_corner_offsets[v + 1]; ++k) {
-        const Index c = topo.vertex_corners[k];
-        for (const Index e : {topo.corner_edge[next_corner(c)], topo.corner_edge[prev_corner(c)]}) {
-          if (!cut[e]) continue;
-          cut[e] = 0;
-          for (int s = 0; s < 2; ++s) {
-            const Index u = topo.edge_vertices[2 * e + s];
-            if (--degree[u] == 1 && !kept[u]) stack.push_back(u);
-          }
+  std::vector<char> kept(static_cast<std::size_t>(V), 0);
+  for (const Index v : keep)
+    if (v >= 0 && v < V) kept[v] = 1;
+  std::vector<Index> stack;
+  for (Index v = 0; v < V; ++v)
+    if (degree[v] == 1 && !kept[v]) stack.push_back(v);
+  while (!stack.empty()) {
+    const Index v = stack.back();
+    stack.pop_back();
+    if (degree[v] != 1) continue;
+    for (Index k = topo.vertex_corner_offsets[v]; k < topo.vertex_corner_offsets[v + 1]; ++k) {
+      const Index c = topo.vertex_corners[k];
+      for (const Index e : {topo.corner_edge[next_corner(c)], topo.corner_edge[prev_corner(c)]}) {
+        if (!cut[e]) continue;
+        cut[e] = 0;
+        for (int s = 0; s < 2; ++s) {
+          const Index u = topo.edge_vertices[2 * e + s];
+          if (--degree[u] == 1 && !kept[u]) stack.push_back(u);
         }
       }
     }
   }
+  return cut;
+}
 
-  // Cut vertices: corners joined across every edge that is not cut.
+/// The disk's vertices: corners joined across every edge that is not cut (r.cut_faces,
+/// r.cut_to_surface).
+void join_corners(const Mesh& mesh, const Topology& topo, const std::vector<char>& cut, CutResult& r) {
+  const Index F = topo.num_faces;
   UnionFind uf(3 * F);
-  for (Index e = 0; e < E; ++e) {
+  for (Index e = 0; e < topo.num_edges; ++e) {
     if (cut[e]) continue;
     const Index c1 = topo.edge_corners[2 * e], c2 = topo.edge_corners[2 * e + 1];
     if (c2 == kInvalid) continue;
@@ -190,27 +168,21 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
     }
     r.cut_faces[c] = id[root];
   }
-  const TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
-  if (disk.status != Status::Ok) return fail(Status::NumericalFailure, "the cut surface is not a manifold: " + disk.message);
-  const Topology& dt = disk.topology;
-  if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
-    return fail(Status::NumericalFailure, "the cut surface is not a disk");
+}
 
-  // Directed disk edges that lie on the surface's boundary (their sides have no partner).
-  std::unordered_map<std::uint64_t, char> on_boundary;
-  for (Index c = 0; c < 3 * F; ++c)
+/// The sides: the disk's boundary (dt) split at the cut graph's nodes (degree ≥ 3, boundary edges
+/// counted, and the ends of kept branches, degree 1); which sides lie on the surface's boundary
+/// (their edges have no partner); each other side's partner. Empty string, or what went wrong.
+std::string pair_sides(const Topology& topo, const Topology& dt, const std::vector<Index>& degree, CutResult& r,
+                       std::vector<char>& boundary_side) {
+  std::unordered_map<std::uint64_t, char> on_boundary;  // directed disk edges on the surface's boundary
+  for (Index c = 0; c < 3 * topo.num_faces; ++c)
     if (topo.opposite[c] == kInvalid) on_boundary[pair_key(r.cut_faces[next_corner(c)], r.cut_faces[prev_corner(c)])] = 1;
-  std::vector<Index> loop_of(static_cast<std::size_t>(V), kInvalid);
-  for (Index i = 0; i < topo.num_boundary_loops(); ++i)
-    for (Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) loop_of[topo.boundary_vertices[j]] = i;
-
-  // Sides: the disk boundary split at the cut graph's nodes (degree >= 3, boundary edges counted,
-  // and the ends of kept branches, degree 1).
   const Index b0 = dt.boundary_offsets[0], m = dt.boundary_offsets[1] - b0;
   Index first = kInvalid;
   for (Index k = 0; k < m && first == kInvalid; ++k)
     if (degree[r.cut_to_surface[dt.boundary_vertices[b0 + k]]] != 2) first = k;
-  if (first == kInvalid) return fail(Status::NumericalFailure, "the cut graph has no node");
+  if (first == kInvalid) return "the cut graph has no node";
   auto at = [&](Index k) { return dt.boundary_vertices[b0 + (first + k) % m]; };
   r.side_offsets.push_back(0);
   for (Index k = 0; k < m;) {
@@ -224,28 +196,41 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   const Index ns = static_cast<Index>(r.side_offsets.size()) - 1;
   auto sv = [&](Index s, Index i) { return r.cut_to_surface[r.side_vertices[r.side_offsets[s] + i]]; };
   auto len = [&](Index s) { return r.side_offsets[s + 1] - r.side_offsets[s]; };
-  auto is_boundary_side = [&](Index s) {
+  boundary_side.assign(static_cast<std::size_t>(ns), 0);
+  for (Index s = 0; s < ns; ++s) {
     const Index a = r.side_vertices[r.side_offsets[s]], b = r.side_vertices[r.side_offsets[s] + 1];
-    return on_boundary.count(pair_key(a, b)) > 0 || on_boundary.count(pair_key(b, a)) > 0;
-  };
+    boundary_side[s] = on_boundary.count(pair_key(a, b)) > 0 || on_boundary.count(pair_key(b, a)) > 0;
+  }
   std::unordered_map<std::uint64_t, Index> by_first;
   for (Index s = 0; s < ns; ++s)
-    if (!is_boundary_side(s)) by_first[pair_key(sv(s, 0), sv(s, 1))] = s;
+    if (!boundary_side[s]) by_first[pair_key(sv(s, 0), sv(s, 1))] = s;
   r.side_partner.assign(static_cast<std::size_t>(ns), kInvalid);
   for (Index s = 0; s < ns; ++s) {
-    if (is_boundary_side(s)) continue;
+    if (boundary_side[s]) continue;
     const Index n = len(s);
     const auto it = by_first.find(pair_key(sv(s, n - 1), sv(s, n - 2)));
-    if (it == by_first.end() || len(it->second) != n) return fail(Status::NumericalFailure, "a side has no partner");
+    if (it == by_first.end() || len(it->second) != n) return "a side has no partner";
     r.side_partner[s] = it->second;
   }
+  return {};
+}
+
+/// Kinds and labels of the sides (∂i on boundary loop i, x_k / x_k^-1 for the k-th pair), the
+/// generators, the word, and the rest of a compact CutResult.
+void label_sides(const Mesh& mesh, const Topology& topo, const std::vector<char>& boundary_side, CutResult& r) {
+  const Index ns = static_cast<Index>(r.side_offsets.size()) - 1;
+  auto sv = [&](Index s, Index i) { return r.cut_to_surface[r.side_vertices[r.side_offsets[s] + i]]; };
+  auto len = [&](Index s) { return r.side_offsets[s + 1] - r.side_offsets[s]; };
+  std::vector<Index> loop_of(static_cast<std::size_t>(topo.num_vertices), kInvalid);
+  for (Index i = 0; i < topo.num_boundary_loops(); ++i)
+    for (Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) loop_of[topo.boundary_vertices[j]] = i;
   r.side_kind.assign(static_cast<std::size_t>(ns), SideKind::Loop);
   r.side_generator.assign(static_cast<std::size_t>(ns), kInvalid);
   r.side_orientation.assign(static_cast<std::size_t>(ns), 0);
   r.side_boundary_loop.assign(static_cast<std::size_t>(ns), -1);
   r.side_label.assign(static_cast<std::size_t>(ns), "");
   for (Index s = 0; s < ns; ++s) {
-    if (!is_boundary_side(s)) continue;
+    if (!boundary_side[s]) continue;
     // A piece of boundary loop i: its vertices between two nodes all lie on that loop.
     const Index loop = loop_of[sv(s, 1 < len(s) - 1 ? 1 : 0)];
     r.side_kind[s] = SideKind::Boundary;
@@ -277,11 +262,58 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   r.requested_base_vertex = -1;
   r.canonical = false;
   r.reason = "compact domain: the sides are the branches of a cut graph, not a canonical system of loops";
-  r.num_input_vertices = V;
+  r.num_input_vertices = topo.num_vertices;
   r.surface_positions = mesh.positions;
   r.surface_faces = mesh.faces;
-  r.surface_face_to_input.resize(static_cast<std::size_t>(F));
+  r.surface_face_to_input.resize(static_cast<std::size_t>(topo.num_faces));
   std::iota(r.surface_face_to_input.begin(), r.surface_face_to_input.end(), 0);
+}
+
+}  // namespace
+
+CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const double> lengths, Index centre_face,
+                      std::span<const Index> keep) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CutResult r;
+  auto fail = [&](Status s, const std::string& m) {
+    r.status = s;
+    r.message = "cut_compact: " + m;
+    return r;
+  };
+  const Index F = topo.num_faces, E = topo.num_edges;
+  if (mesh.faces.size() != static_cast<std::size_t>(3 * F)) return fail(Status::InvalidArgument, "faces do not match the topology");
+  if (lengths.size() != static_cast<std::size_t>(E))
+    return fail(Status::InvalidArgument, "lengths must have one value per edge (" + std::to_string(E) + ")");
+  for (Index e = 0; e < E; ++e)
+    if (!(lengths[e] > 0) || !std::isfinite(lengths[e]))
+      return fail(Status::InvalidArgument, "the length of edge " + std::to_string(e) + " is not a positive finite number");
+  if (topo.num_components != 1) return fail(Status::MultipleComponents, "the surface is not connected");
+  if (topo.is_closed() ? topo.genus() < 1 : topo.genus() == 0 && topo.num_boundary_loops() == 1)
+    return fail(Status::InvalidArgument,
+                "a compact domain is built for closed surfaces of genus >= 1 and for bordered surfaces other "
+                "than a disk");
+  if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
+
+  // Dual edge weights (per corner: the edge opposite it), the centre, and the dual tree from it.
+  std::vector<double> w(static_cast<std::size_t>(3 * F), kInf);
+  for (Index c = 0; c < 3 * F; ++c)
+    if (topo.opposite[c] != kInvalid) w[c] = dual_weight(topo, lengths, c);
+  if (centre_face < 0) centre_face = dual_centre(topo, w);
+  std::vector<Index> via;
+  dual_distances(topo, w, centre_face, &via);
+
+  std::vector<Index> degree;
+  const std::vector<char> cut = cut_graph(topo, via, keep, degree);
+  join_corners(mesh, topo, cut, r);
+  const TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
+  if (disk.status != Status::Ok) return fail(Status::NumericalFailure, "the cut surface is not a manifold: " + disk.message);
+  const Topology& dt = disk.topology;
+  if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
+    return fail(Status::NumericalFailure, "the cut surface is not a disk");
+  std::vector<char> boundary_side;
+  const std::string why = pair_sides(topo, dt, degree, r, boundary_side);
+  if (!why.empty()) return fail(Status::NumericalFailure, why);
+  label_sides(mesh, topo, boundary_side, r);
   r.status = Status::Ok;
   r.message = "ok";
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
