@@ -2125,6 +2125,102 @@ std::function<void(const IterationRecord&)> shifted_progress(const FlowOptions& 
   };
 }
 
+// The vertex sent to infinity by spherical_start_from_plane(): the vertex of largest valence (the
+// smallest index among ties) among those whose neighbours all have valence ≥ 4, so that no vertex
+// of the disk's boundary lies in a single triangle. kInvalid when there is none.
+Index vertex_at_infinity(const Topology& t) {
+  Index v = kInvalid;
+  for (Index i = 0; i < t.num_vertices; ++i) {
+    if (t.valence(i) == 0 || (v != kInvalid && t.valence(i) <= t.valence(v))) continue;
+    bool ears = false;
+    for (Index k = t.vertex_corner_offsets[i]; k < t.vertex_corner_offsets[i + 1] && !ears; ++k)
+      ears = t.valence(t.corner_vertex[next_corner(t.vertex_corners[k])]) < 4;
+    if (!ears) v = i;
+  }
+  return v;
+}
+
+// The disk d's circles (planar layout x, radii e^u_disk) carried to the sphere: the disk's
+// boundary circle fitted, scaled to bound a cap of area `share`, each circle lifted by inverse
+// stereographic projection. Writes the sphere's u, circle centres and radii rho for the disk's
+// vertices (to_full: disk vertex → sphere vertex); false when a circle does not lift.
+bool lift_circles(const Topology& d, const std::vector<double>& x, const std::vector<double>& u_disk,
+                  const std::vector<Index>& to_full, double share, std::vector<double>& u,
+                  std::vector<double>& centre, std::vector<double>& rho) {
+  // The boundary circle → the unit circle, scaled so that it bounds a cap of v's area share:
+  // 1 − cos ψ = 2·share, and the circle at polar angle ψ from the north pole projects to radius
+  // cot(ψ/2).
+  double cx = 0, cy = 0;
+  const Index nb = d.num_boundary_edges();
+  for (Index j = 0; j < nb; ++j) {
+    cx += x[2 * d.boundary_vertices[j]];
+    cy += x[2 * d.boundary_vertices[j] + 1];
+  }
+  cx /= nb;
+  cy /= nb;
+  double R = 0;
+  for (Index j = 0; j < nb; ++j)
+    R += std::hypot(x[2 * d.boundary_vertices[j]] - cx, x[2 * d.boundary_vertices[j] + 1] - cy);
+  R /= nb;
+  const double cos_psi = 1 - 2 * share;
+  const double lambda = std::sqrt(1 - cos_psi * cos_psi) / (1 - cos_psi);
+  const double scale = lambda / R;
+  auto lift = [](double px, double py, double out[3]) {
+    const double q = px * px + py * py;
+    out[0] = 2 * px / (q + 1);
+    out[1] = 2 * py / (q + 1);
+    out[2] = (q - 1) / (q + 1);
+  };
+  for (Index i = 0; i < static_cast<Index>(to_full.size()); ++i) {
+    const double zx = (x[2 * i] - cx) * scale, zy = (x[2 * i + 1] - cy) * scale;
+    const double r = std::exp(u_disk[i]) * scale;
+    const double norm = std::hypot(zx, zy);
+    const double dx = norm > 0 ? zx / norm : 1.0, dy = norm > 0 ? zy / norm : 0.0;
+    double a[3], b[3];
+    lift((norm - r) * dx, (norm - r) * dy, a);
+    lift((norm + r) * dx, (norm + r) * dy, b);
+    // Half the angle between the two points, by atan2 (acos loses small circles).
+    const double cx3 = a[1] * b[2] - a[2] * b[1], cy3 = a[2] * b[0] - a[0] * b[2], cz3 = a[0] * b[1] - a[1] * b[0];
+    const double radius =
+        0.5 * std::atan2(std::sqrt(cx3 * cx3 + cy3 * cy3 + cz3 * cz3), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+    if (!(radius > 0 && radius < std::numbers::pi / 2)) return false;
+    const Index full = to_full[i];
+    rho[full] = radius;
+    const double mx = a[0] + b[0], my = a[1] + b[1], mz = a[2] + b[2], mn = std::sqrt(mx * mx + my * my + mz * mz);
+    if (!(mn > 0)) return false;
+    centre[3 * full] = mx / mn;
+    centre[3 * full + 1] = my / mn;
+    centre[3 * full + 2] = mz / mn;
+    u[full] = std::log(std::tan(radius / 2));
+  }
+  return true;
+}
+
+// The radius of v (at the north pole) from its neighbours' circles (centre, rho), written to u[v].
+bool fit_pole_radius(const Topology& t, const ConformalStructure& s, Index v, const std::vector<double>& centre,
+                     const std::vector<double>& rho, std::vector<double>& u) {
+  // v at the north pole; its radius from each neighbour j by the spherical cosine law
+  // cos d_j = cos ρ_v cos ρ_j − sin ρ_v sin ρ_j η_vj, averaged.
+  double sum = 0;
+  int count = 0;
+  for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
+    const Index c = t.vertex_corners[k];
+    const Index j = t.corner_vertex[next_corner(c)];
+    const double eta = s.eta[t.corner_edge[prev_corner(c)]];  // the edge from v to j
+    const double A = std::cos(rho[j]), B = std::sin(rho[j]) * eta, C = centre[3 * j + 2];
+    const double h = std::hypot(A, B);
+    if (!(h > 0) || std::abs(C) > h) continue;
+    const double value = std::acos(C / h) - std::atan2(B, A);
+    if (value > 0 && value < std::numbers::pi) {
+      sum += value;
+      ++count;
+    }
+  }
+  if (count == 0) return false;
+  u[v] = std::log(std::tan(sum / count / 2));
+  return true;
+}
+
 // A starting point for the round-sphere target (S, genus 0, K̄ = 0) from a planar problem, which
 // is convex. Intersection angles and inversive distances are Möbius invariant, so stereographic
 // projection from the centre of a vertex v's circle turns a spherical pattern into a planar one
@@ -2144,16 +2240,7 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
       area(static_cast<std::size_t>(nf));
   if (edge_lengths(t, s, u0, l) != kInvalid || corner_angles(t, s.geometry, l, theta).violations > 0) return {};
   face_areas(t, s.geometry, l, theta, area);
-  // v: the vertex of largest valence (the smallest index among ties) among those whose neighbours
-  // all have valence ≥ 4, so that no vertex of the disk's boundary lies in a single triangle.
-  Index v = kInvalid;
-  for (Index i = 0; i < nv; ++i) {
-    if (t.valence(i) == 0 || (v != kInvalid && t.valence(i) <= t.valence(v))) continue;
-    bool ears = false;
-    for (Index k = t.vertex_corner_offsets[i]; k < t.vertex_corner_offsets[i + 1] && !ears; ++k)
-      ears = t.valence(t.corner_vertex[next_corner(t.vertex_corners[k])]) < 4;
-    if (!ears) v = i;
-  }
+  const Index v = vertex_at_infinity(t);
   if (v == kInvalid) return {};
   // The disk: every face without v, vertices renumbered without v.
   std::vector<Index> to_sub(static_cast<std::size_t>(nv), kInvalid), to_full;
@@ -2214,74 +2301,11 @@ std::vector<double> spherical_start_from_plane(const Topology& t, const Conforma
   plane_layout.patches = 0;
   const Layout laid = layout_disk(d, Geometry::Euclidean, flat.l, plane_layout);
   if (laid.status != Status::Ok || laid.unplaced_vertices > 0) return {};
-  const std::vector<double>& x = laid.positions;
-  // The boundary circle → the unit circle, scaled so that it bounds a cap of v's area share:
-  // 1 − cos ψ = 2·share, and the circle at polar angle ψ from the north pole projects to radius
-  // cot(ψ/2).
-  double cx = 0, cy = 0;
-  const Index nb = d.num_boundary_edges();
-  for (Index j = 0; j < nb; ++j) {
-    cx += x[2 * d.boundary_vertices[j]];
-    cy += x[2 * d.boundary_vertices[j] + 1];
-  }
-  cx /= nb;
-  cy /= nb;
-  double R = 0;
-  for (Index j = 0; j < nb; ++j)
-    R += std::hypot(x[2 * d.boundary_vertices[j]] - cx, x[2 * d.boundary_vertices[j] + 1] - cy);
-  R /= nb;
-  const double share = std::clamp(star_area / total_area, 1e-6, 0.25);
-  const double cos_psi = 1 - 2 * share;
-  const double lambda = std::sqrt(1 - cos_psi * cos_psi) / (1 - cos_psi);
-  const double scale = lambda / R;
-  auto lift = [](double px, double py, double out[3]) {
-    const double q = px * px + py * py;
-    out[0] = 2 * px / (q + 1);
-    out[1] = 2 * py / (q + 1);
-    out[2] = (q - 1) / (q + 1);
-  };
-  std::vector<double> u(static_cast<std::size_t>(nv), 0.0), centre(3 * static_cast<std::size_t>(nv), 0.0), rho(static_cast<std::size_t>(nv), 0.0);
-  for (Index i = 0; i < n_sub; ++i) {
-    const double zx = (x[2 * i] - cx) * scale, zy = (x[2 * i + 1] - cy) * scale;
-    const double r = std::exp(flat.u[i]) * scale;
-    const double norm = std::hypot(zx, zy);
-    const double dx = norm > 0 ? zx / norm : 1.0, dy = norm > 0 ? zy / norm : 0.0;
-    double a[3], b[3];
-    lift((norm - r) * dx, (norm - r) * dy, a);
-    lift((norm + r) * dx, (norm + r) * dy, b);
-    // Half the angle between the two points, by atan2 (acos loses small circles).
-    const double cx3 = a[1] * b[2] - a[2] * b[1], cy3 = a[2] * b[0] - a[0] * b[2], cz3 = a[0] * b[1] - a[1] * b[0];
-    const double radius =
-        0.5 * std::atan2(std::sqrt(cx3 * cx3 + cy3 * cy3 + cz3 * cz3), a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
-    if (!(radius > 0 && radius < std::numbers::pi / 2)) return {};
-    const Index full = to_full[i];
-    rho[full] = radius;
-    const double mx = a[0] + b[0], my = a[1] + b[1], mz = a[2] + b[2], mn = std::sqrt(mx * mx + my * my + mz * mz);
-    if (!(mn > 0)) return {};
-    centre[3 * full] = mx / mn;
-    centre[3 * full + 1] = my / mn;
-    centre[3 * full + 2] = mz / mn;
-    u[full] = std::log(std::tan(radius / 2));
-  }
-  // v at the north pole; its radius from each neighbour j by the spherical cosine law
-  // cos d_j = cos ρ_v cos ρ_j − sin ρ_v sin ρ_j η_vj, averaged.
-  double sum = 0;
-  int count = 0;
-  for (Index k = t.vertex_corner_offsets[v]; k < t.vertex_corner_offsets[v + 1]; ++k) {
-    const Index c = t.vertex_corners[k];
-    const Index j = t.corner_vertex[next_corner(c)];
-    const double eta = s.eta[t.corner_edge[prev_corner(c)]];  // the edge from v to j
-    const double A = std::cos(rho[j]), B = std::sin(rho[j]) * eta, C = centre[3 * j + 2];
-    const double h = std::hypot(A, B);
-    if (!(h > 0) || std::abs(C) > h) continue;
-    const double value = std::acos(C / h) - std::atan2(B, A);
-    if (value > 0 && value < std::numbers::pi) {
-      sum += value;
-      ++count;
-    }
-  }
-  if (count == 0) return {};
-  u[v] = std::log(std::tan(sum / count / 2));
+  std::vector<double> u(static_cast<std::size_t>(nv), 0.0), centre(3 * static_cast<std::size_t>(nv), 0.0),
+      rho(static_cast<std::size_t>(nv), 0.0);
+  if (!lift_circles(d, laid.positions, flat.u, to_full, std::clamp(star_area / total_area, 1e-6, 0.25), u, centre, rho) ||
+      !fit_pole_radius(t, s, v, centre, rho, u))
+    return {};
   for (Index i = 0; i < nv; ++i)
     if (t.valence(i) > 0 && !std::isfinite(u[i])) return {};
   for (Index i = 0; i < nv; ++i)
