@@ -1307,14 +1307,79 @@ bool canonical_polygon(LayoutRun& run) {
 }
 
 // The mesh path (see canonical_polygon()).
+// The deck stage's line for canonical generators formed through the domain's pairings.
+std::string generators_line(const UniformizeResult& r) {
+  return "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
+         std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " + sci(r.domain_cycle_error) +
+         ", adjusted by " + sci(r.domain_pairing_adjustment) + "), residual max " + sci(r.deck.residual_max) +
+         ", relation error " + sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)";
+}
+
+// The end of mesh_canonical_polygon(): the polygon found (`found`: r.polygon and r.deck hold the
+// best base's), else canonical generators without a view (deck_only), else the compact domain's
+// side pairings alone; the polygon note and the stage lines say which.
+bool report_mesh_polygon(LayoutRun& run, bool found, std::optional<DomainDeck>& deck_only, CutResult& deck_only_cut,
+                         const std::string& last_error) {
+  UniformizeResult& r = run.r;
+  StageClock& stage_done = run.stage_done;
+  if (!found && deck_only) {
+    // Canonical generators whose polygon double precision cannot draw.
+    r.polygon_note = "no canonical polygon view: " + deck_only->positions_note +
+                     "; the canonical generators stand (products of the domain's side pairings, relation in quad)";
+    take_domain(r, *deck_only);
+    r.deck = std::move(deck_only->deck);
+    r.polygon_cut = std::move(deck_only_cut);
+    r.has_deck = true;
+    stage_done("polygon", r.polygon_note);
+    stage_done("deck", generators_line(r));
+  } else if (!found) {
+    // The layout and the domain's side pairings stand; only the canonical view is missing.
+    const std::size_t tried = r.candidates.size();
+    const std::string which = tried == 1 ? "the one base vertex tried gave none"
+                                         : "none of the " + std::to_string(tried) + " base vertices tried gave one";
+    r.polygon_note = "no canonical polygon: " + which + " that double precision can lay out (last: " + last_error +
+                     "); the deck group is given by the compact domain's side pairings";
+    r.deck = DeckResult{};
+    {
+      DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck);
+      if (dd.status != Status::Ok) return run.fail(dd.status, "deck", dd.message);
+      take_domain(r, dd);
+    }
+    stage_done("polygon", r.polygon_note);
+    stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                           sci(r.domain_cycle_error) + ")");
+  } else {
+    r.has_polygon = true;
+    r.has_deck = true;
+    if (r.polygon.max_edge_length_error > 1e-9) {
+      // The view is drawn but coarse: say where its digits went.
+      double reach = 0;
+      for (std::size_t i = 0; i + 1 < r.polygon.positions.size(); i += 2)
+        reach = std::max(reach, std::hypot(r.polygon.positions[i], r.polygon.positions[i + 1]));
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
+                    "resolve lengths only to about %.1g: its edge error is %.2g, %d faces flipped (the layout, the "
+                    "generators and the relation do not depend on these coordinates)",
+                    2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
+                    r.polygon.max_edge_length_error, static_cast<int>(r.polygon.flipped_faces));
+      r.polygon_note = buf;
+    }
+    stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
+                              std::to_string(r.polygon_cut.base_vertex) + ", best of " +
+                              std::to_string(r.candidates.size()) + "): edge error " +
+                              sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
+    stage_done("deck", generators_line(r));
+  }
+  return true;
+}
+
 bool mesh_canonical_polygon(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
   const UniformizeOptions& options = run.options;
   const std::span<const double> metric_l = run.metric_l;
   UniformizeResult& r = run.r;
-  StageClock& stage_done = run.stage_done;
-  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
   std::vector<Index> bases;
   if (options.cut.base_vertex >= 0) bases.push_back(options.cut.base_vertex);
   else bases = base_candidates(topology, mesh.faces, metric_l, options.base_candidates);
@@ -1407,64 +1472,7 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     }
     if (best_score < options.polygon_tolerance || (options.polygon_tolerance > 0 && matching >= 2)) break;
   }
-  if (!std::isfinite(best_score) && deck_only) {
-    // Canonical generators whose polygon double precision cannot draw.
-    r.polygon_note = "no canonical polygon view: " + deck_only->positions_note +
-                     "; the canonical generators stand (products of the domain's side pairings, relation in quad)";
-    take_domain(r, *deck_only);
-    r.deck = std::move(deck_only->deck);
-    r.polygon_cut = std::move(deck_only_cut);
-    r.has_deck = true;
-    stage_done("polygon", r.polygon_note);
-    stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
-                           std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                           sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
-                           "), residual max " + sci(r.deck.residual_max) + ", relation error " +
-                           sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
-  } else if (!std::isfinite(best_score)) {
-    // The layout and the domain's side pairings stand; only the canonical view is missing.
-    const std::size_t tried = r.candidates.size();
-    const std::string which = tried == 1 ? "the one base vertex tried gave none"
-                                         : "none of the " + std::to_string(tried) + " base vertices tried gave one";
-    r.polygon_note = "no canonical polygon: " + which + " that double precision can lay out (last: " + last_error +
-                     "); the deck group is given by the compact domain's side pairings";
-    r.deck = DeckResult{};
-    {
-      DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, options.deck);
-      if (dd.status != Status::Ok) return fail(dd.status, "deck", dd.message);
-      take_domain(r, dd);
-    }
-    stage_done("polygon", r.polygon_note);
-    stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                           sci(r.domain_cycle_error) + ")");
-  } else {
-  r.has_polygon = true;
-  r.has_deck = true;
-  if (r.polygon.max_edge_length_error > 1e-9) {
-    // The view is drawn but coarse: say where its digits went.
-    double reach = 0;
-    for (std::size_t i = 0; i + 1 < r.polygon.positions.size(); i += 2)
-      reach = std::max(reach, std::hypot(r.polygon.positions[i], r.polygon.positions[i + 1]));
-    char buf[400];
-    std::snprintf(buf, sizeof buf,
-                  "the canonical polygon reaches hyperbolic distance %.1f from its centre, where double coordinates "
-                  "resolve lengths only to about %.1g: its edge error is %.2g, %d faces flipped (the layout, the "
-                  "generators and the relation do not depend on these coordinates)",
-                  2 * std::atanh(std::min(reach, 1 - 1e-16)), r.polygon.rounding_floor,
-                  r.polygon.max_edge_length_error, static_cast<int>(r.polygon.flipped_faces));
-    r.polygon_note = buf;
-  }
-  stage_done("polygon", "canonical polygon " + r.polygon_cut.word + " (base vertex " +
-                            std::to_string(r.polygon_cut.base_vertex) + ", best of " +
-                            std::to_string(r.candidates.size()) + "): edge error " +
-                            sci(r.polygon.max_edge_length_error) + ", rounding floor " + sci(r.polygon.rounding_floor));
-  stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
-                         std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                         sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
-                         "), residual max " + sci(r.deck.residual_max) + ", relation error " +
-                         sci(r.deck.relation_error) + " (" + sci(r.fitted_relation_error) + " as fitted)");
-  }
-  return true;
+  return report_mesh_polygon(run, std::isfinite(best_score), deck_only, deck_only_cut, last_error);
 }
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
