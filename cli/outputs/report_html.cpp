@@ -241,20 +241,11 @@ void card(std::string& out, const char* label, const std::string& value, bool ba
   out += "</div></div>\n";
 }
 
+// The page's sections, in order; each appends its HTML to `out`.
+
+// The title, status, message and input.
 template <class Json>
-std::string page(const Json& report, std::span<const ReportImage> images, const std::string& title) {
-  std::string out;
-  std::size_t image_bytes = 0;
-  for (const ReportImage& im : images) image_bytes += im.data.size();
-  out.reserve(16384 + image_bytes / 3 * 4 + 4 * images.size());
-
-  const std::string safe_title = html_escape(title);
-  out += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
-  out += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
-  out += "<title>" + safe_title + "</title>\n<style>" + kStyle + "</style>\n</head>\n";
-  out += "<body data-images-expected=\"" + std::to_string(images.size()) + "\">\n<main>\n";
-
-  // ---- Header: title, status, message, input ----
+void header_section(std::string& out, const Json& report, const std::string& safe_title) {
   const Json* status = at(report, {"status"});
   const bool ok =
       status != nullptr && status->is_string() && status->template get_ref<const std::string&>() == "ok";
@@ -268,31 +259,43 @@ std::string page(const Json& report, std::span<const ReportImage> images, const 
       "<p class=\"check\" id=\"report-images-status\">Pictures: not checked (the page&#39;s script did not "
       "run).</p>\n";
   out += "</header>\n";
+}
 
-  // ---- Key numbers ----
-  const Json* flipped = at(report, {"layout", "flipped_faces"});
-  const bool flipped_bad = flipped != nullptr && flipped->is_number() && flipped->template get<double>() != 0;
-  // The total: the report's own "total" stage when it has one, else the sum of the stages.
-  double total_seconds = 0;
-  bool any_time = false;
+// The run's total time: the report's own "total" stage when it has one, else the sum of the stages.
+struct TotalTime {
+  double seconds = 0;
+  bool known = false;  ///< some stage had a time
+  bool own = false;    ///< the report names its total
+};
+template <class Json>
+TotalTime total_time(const Json& report) {
+  TotalTime t;
   const Json* timings = at(report, {"timings"});
   const Json* own_total = at(report, {"timings", "total"});
   if (own_total != nullptr && own_total->is_number()) {
-    total_seconds = own_total->template get<double>();
-    any_time = true;
+    t.seconds = own_total->template get<double>();
+    t.known = t.own = true;
   } else if (timings != nullptr && timings->is_object()) {
     for (auto it = timings->begin(); it != timings->end(); ++it)
       if (it->is_number()) {
-        total_seconds += it->template get<double>();
-        any_time = true;
+        t.seconds += it->template get<double>();
+        t.known = true;
       }
   }
+  return t;
+}
+
+// The key numbers as cards, then the summary table.
+template <class Json>
+void summary_sections(std::string& out, const Json& report, const TotalTime& total) {
+  const Json* flipped = at(report, {"layout", "flipped_faces"});
+  const bool flipped_bad = flipped != nullptr && flipped->is_number() && flipped->template get<double>() != 0;
   out += "<section class=\"cards\" id=\"report-key-numbers\">\n";
   card(out, "Max curvature error", cell(at(report, {"max_curvature_error"}), Format::Error));
   card(out, "Max edge length error", cell(at(report, {"layout", "max_edge_length_error"}), Format::Error));
   card(out, "Flipped faces", cell(flipped), flipped_bad);
   card(out, "Relation error", cell(at(report, {"relation_error"}), Format::Error));
-  card(out, "Total time", any_time ? html_escape(format_number(total_seconds, Format::Seconds)) : kMissing);
+  card(out, "Total time", total.known ? html_escape(format_number(total.seconds, Format::Seconds)) : kMissing);
   out += "</section>\n";
 
   // ---- Summary ----
@@ -317,8 +320,11 @@ std::string page(const Json& report, std::span<const ReportImage> images, const 
   group(out, "Deck group");
   row(out, "Relation error", cell(at(report, {"relation_error"}), Format::Error));
   out += "</table>\n</section>\n";
+}
 
-  // ---- Generators ----
+// One row per generator: residuals and translation length.
+template <class Json>
+void generators_section(std::string& out, const Json& report) {
   out += "<section id=\"report-generators\">\n<h2>Generators</h2>\n";
   const Json* generators = at(report, {"generators"});
   if (generators == nullptr || !generators->is_array()) {
@@ -339,8 +345,12 @@ std::string page(const Json& report, std::span<const ReportImage> images, const 
     out += "</tbody>\n</table>\n";
   }
   out += "</section>\n";
+}
 
-  // ---- Timings ----
+// One row per stage with a bar relative to the longest, and the total when the report has none.
+template <class Json>
+void timings_section(std::string& out, const Json& report, const TotalTime& total) {
+  const Json* timings = at(report, {"timings"});
   out += "<section id=\"report-timings\">\n<h2>Timings</h2>\n";
   if (timings == nullptr || !timings->is_object() || timings->empty()) {
     out += "<p class=\"none\">" + std::string(kMissing) + "</p>\n";
@@ -357,15 +367,17 @@ std::string page(const Json& report, std::span<const ReportImage> images, const 
              "</td><td class=\"bar\"><span style=\"width:" + chars(100 * share, std::chars_format::fixed, 1) +
              "%\"></span></td></tr>\n";
     }
-    if (own_total == nullptr)
+    if (!total.own)
       out += "<tr><th>Total</th><td class=\"num\">" +
-             (any_time ? html_escape(format_number(total_seconds, Format::Seconds)) : std::string(kMissing)) +
+             (total.known ? html_escape(format_number(total.seconds, Format::Seconds)) : std::string(kMissing)) +
              "</td><td></td></tr>\n";
     out += "</tbody>\n</table>\n";
   }
   out += "</section>\n";
+}
 
-  // ---- Pictures ----
+// The pictures, embedded as base64 data, with a navigation bar of unique element ids.
+void pictures_section(std::string& out, std::span<const ReportImage> images) {
   out += "<section id=\"report-pictures\">\n<h2>Pictures</h2>\n";
   std::vector<std::string> ids;
   std::set<std::string> used;
@@ -396,6 +408,27 @@ std::string page(const Json& report, std::span<const ReportImage> images, const 
     out += "</figure>\n";
   }
   out += "</section>\n";
+}
+
+template <class Json>
+std::string page(const Json& report, std::span<const ReportImage> images, const std::string& title) {
+  std::string out;
+  std::size_t image_bytes = 0;
+  for (const ReportImage& im : images) image_bytes += im.data.size();
+  out.reserve(16384 + image_bytes / 3 * 4 + 4 * images.size());
+
+  const std::string safe_title = html_escape(title);
+  out += "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  out += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+  out += "<title>" + safe_title + "</title>\n<style>" + kStyle + "</style>\n</head>\n";
+  out += "<body data-images-expected=\"" + std::to_string(images.size()) + "\">\n<main>\n";
+
+  header_section(out, report, safe_title);
+  const TotalTime total = total_time(report);
+  summary_sections(out, report, total);
+  generators_section(out, report);
+  timings_section(out, report, total);
+  pictures_section(out, images);
 
   // ---- The whole report ----
   out +=
