@@ -353,6 +353,44 @@ EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::Boundary
   return out;
 }
 
+PreparedTarget prepare_target(ricci::ValidateResult& validated, ricci::Geometry geometry, const TargetSpec& target_spec,
+                              const BoundarySpec& boundary_spec, const std::string& target_text,
+                              const std::string& boundary_text, bool split_ears, const std::string& file) {
+  PreparedTarget out;
+  const ricci::Topology& topo = validated.topology;  // split_ears() replaces its content
+  auto usage = [&](std::string m) {
+    out.status = Status::InvalidArgument;
+    out.usage = true;
+    out.message = std::move(m);
+    return out;
+  };
+  if (topo.is_closed()) {
+    if (!boundary_spec.automatic) out.notes.push_back("the surface is closed; --boundary " + boundary_text + " is ignored");
+  } else {
+    out.mode = boundary_spec.automatic ? ricci::natural_boundary_mode(topo, geometry) : boundary_spec.mode;
+    if (out.mode == ricci::BoundaryMode::LoopTotals &&
+        boundary_spec.totals.size() != static_cast<std::size_t>(topo.num_boundary_loops()))
+      return usage("--boundary " + boundary_text + " gives " + std::to_string(boundary_spec.totals.size()) +
+                   " loop totals but the mesh has " + std::to_string(topo.num_boundary_loops()) +
+                   " boundary loops (in the order `ricci info` lists them)");
+    if (split_ears) {
+      const EarSplit es = split_infeasible_ears(validated, out.mode, target_spec, boundary_spec, target_text, boundary_text);
+      if (es.status != Status::Ok) {
+        out.status = es.status;
+        out.message = file + ": " + es.message;
+        return out;
+      }
+      out.ear_split = es.repair;
+    }
+  }
+  TargetBuild tb = build_target(topo, out.mode, target_spec, boundary_spec, target_text, boundary_text);
+  if (tb.usage) return usage(tb.message);
+  out.status = tb.status;
+  out.message = std::move(tb.message);
+  out.target = std::move(tb.target);
+  return out;
+}
+
 namespace {
 
 // ---- info -----------------------------------------------------------------------------------

@@ -94,6 +94,25 @@ EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::Boundary
                                const TargetSpec& target_spec, const BoundarySpec& boundary_spec,
                                const std::string& target_text, const std::string& boundary_text);
 
+/// The step every command that runs a flow shares (`flow`, `uniformize`, `signature`) between
+/// loading the mesh and solving: the boundary mode — none on a closed surface (with a note when
+/// --boundary was given), else the one given or the natural one for `geometry`; with `split_ears`,
+/// the ears that target makes infeasible split (split_infeasible_ears(), `validated` updated in
+/// place); then the target on the final topology (build_target()). On failure `status` and
+/// `message` say why (`usage` for a bad option value, exit 2; an ear split's message names `file`).
+struct PreparedTarget {
+  ricci::Status status = ricci::Status::Ok;
+  bool usage = false;
+  std::string message;
+  ricci::BoundaryMode mode = ricci::BoundaryMode::Free;
+  std::vector<std::string> notes;          ///< to print and to report
+  std::optional<ricci::Repair> ear_split;  ///< the repair, when ears were split
+  ricci::Target target;
+};
+PreparedTarget prepare_target(ricci::ValidateResult& validated, ricci::Geometry geometry, const TargetSpec& target_spec,
+                              const BoundarySpec& boundary_spec, const std::string& target_text,
+                              const std::string& boundary_text, bool split_ears, const std::string& file);
+
 /// What the metric file says about the run that made it.
 struct MetricHeader {
   std::string mesh;      ///< the input's name

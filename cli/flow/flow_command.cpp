@@ -718,44 +718,28 @@ int flow_run(const FlowCommandOptions& options, FlowReport& r) {
   r.euler_characteristic = topo.euler_characteristic();
   r.genus = topo.genus();
 
-  // ---- geometry and boundary mode ----
+  // ---- geometry, boundary mode, ears the target cannot realise (split: new vertices come last),
+  // the target (both solves take it as built here) ----
   r.geometry = geometry ? *geometry : ricci::natural_geometry(topo);
-  BoundaryMode mode = BoundaryMode::Free;
-  if (topo.is_closed()) {
-    r.boundary = "none";
-    if (!boundary_spec->automatic) {
-      const std::string note = "the surface is closed; --boundary " + options.boundary + " is ignored";
-      r.notes.push_back(note);
-      print_note(options.quiet, note);
-    }
-  } else {
-    mode = boundary_spec->automatic ? ricci::natural_boundary_mode(topo, *r.geometry) : boundary_spec->mode;
-    r.boundary = std::string(ricci::boundary_mode_name(mode));
-    if (mode == BoundaryMode::LoopTotals &&
-        boundary_spec->totals.size() != static_cast<std::size_t>(topo.num_boundary_loops())) {
-      return usage("--boundary " + options.boundary + " gives " + std::to_string(boundary_spec->totals.size()) +
-                   " loop totals but the mesh has " + std::to_string(topo.num_boundary_loops()) +
-                   " boundary loops (in the order `ricci info` lists them)");
-    }
+  PreparedTarget prepared = prepare_target(validated, *r.geometry, *target_spec, *boundary_spec, options.target,
+                                           options.boundary, !options.no_split_ears, r.file);
+  r.boundary = topo.is_closed() ? std::string("none") : std::string(ricci::boundary_mode_name(prepared.mode));
+  for (const std::string& note : prepared.notes) {
+    r.notes.push_back(note);
+    print_note(options.quiet, note);
   }
-
-  // ---- ears the target cannot realise: split them (new vertices come last) ----
-  if (!topo.is_closed() && !options.no_split_ears) {
-    const EarSplit es =
-        split_infeasible_ears(validated, mode, *target_spec, *boundary_spec, options.target, options.boundary);
-    if (es.status != Status::Ok) {
-      fail(r, es.status, r.file + ": " + es.message);
-      return finish(options, r, start);
-    }
-    if (es.repair) {
-      r.repairs.push_back(*es.repair);
-      print_note(options.quiet, es.repair->message);
-      r.vertices = topo.num_vertices;
-      r.edges = topo.num_edges;
-      r.faces = topo.num_faces;
-    }
+  if (prepared.ear_split) {
+    r.repairs.push_back(*prepared.ear_split);
+    print_note(options.quiet, prepared.ear_split->message);
+    r.vertices = topo.num_vertices;
+    r.edges = topo.num_edges;
+    r.faces = topo.num_faces;
   }
-
+  if (prepared.usage) return usage(prepared.message);
+  if (prepared.status != Status::Ok) {
+    fail(r, prepared.status, prepared.message);
+    return finish(options, r, start);
+  }
   if (r.on_iteration) {
     fo.on_iteration = r.on_iteration;
   } else if (!options.quiet && r.console) {
@@ -765,17 +749,9 @@ int flow_run(const FlowCommandOptions& options, FlowReport& r) {
                 << " s\n";
     };
   }
-  // ---- target (both solves take it as built here) ----
-  TargetBuild tb = build_target(topo, mode, *target_spec, *boundary_spec, options.target, options.boundary);
-  if (tb.usage) return usage(tb.message);
-  if (tb.status != Status::Ok) {
-    fail(r, tb.status, tb.message);
-    return finish(options, r, start);
-  }
-  r.loop_totals = tb.target.loop_total;
-  if (flips) return flow_with_flips(options, r, start, validated, mode, tb.target, fo, protected_paths);
-
-  return flow_as_given(options, r, start, validated, tb.target, fo, protected_paths);
+  r.loop_totals = prepared.target.loop_total;
+  if (flips) return flow_with_flips(options, r, start, validated, prepared.mode, prepared.target, fo, protected_paths);
+  return flow_as_given(options, r, start, validated, prepared.target, fo, protected_paths);
 }
 
 CLI::App* add_flow_command(CLI::App& app, FlowCommandOptions& o) {

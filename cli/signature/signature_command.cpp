@@ -323,21 +323,19 @@ int signature_of_mesh(const std::string& mesh, bool largest_component, bool quie
     print_error(loaded.message);
     return exit_code(loaded.status);
   }
-  // Ears the natural boundary target cannot realise are split, as `ricci uniformize` does.
-  if (!loaded.validated.topology.is_closed()) {
-    const ricci::Geometry g = ricci::natural_geometry(loaded.validated.topology);
-    BoundarySpec boundary;
-    boundary.mode = ricci::natural_boundary_mode(loaded.validated.topology, g);
-    const EarSplit es = split_infeasible_ears(loaded.validated, boundary.mode, TargetSpec{}, boundary, "", "");
-    if (es.status != Status::Ok) {
-      print_error(name + ": " + es.message);
-      return exit_code(es.status);
-    }
-    if (es.repair) print_note(quiet, es.repair->message);
+  // The natural boundary mode and uniform target, ears it cannot realise split, as `ricci
+  // uniformize` does.
+  ricci::ValidateResult& v = loaded.validated;
+  PreparedTarget prepared =
+      prepare_target(v, ricci::natural_geometry(v.topology), TargetSpec{}, BoundarySpec{}, "", "", true, name);
+  if (prepared.status != Status::Ok) {
+    print_error(prepared.message);
+    return exit_code(prepared.status);
   }
+  if (prepared.ear_split) print_note(quiet, prepared.ear_split->message);
   ricci::UniformizeOptions uo;
   uo.seed_checks = 0;
-  const ricci::UniformizeResult r = ricci::uniformize(loaded.validated.mesh, loaded.validated.topology, uo);
+  const ricci::UniformizeResult r = ricci::uniformize(v.mesh, v.topology, uo, &prepared.target);
   s = ricci::conformal_signature(r);
   if (s.status != Status::Ok) {
     print_error(name + ": " + s.message);

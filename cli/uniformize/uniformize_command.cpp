@@ -894,42 +894,30 @@ std::optional<int> lay_out_stored_metric(const UniformizeCommandOptions& o, Run&
   return std::nullopt;
 }
 
-// `ricci uniformize`: boundary mode and target as for `ricci flow` (ears the target cannot realise
-// split), then the whole pipeline.
+// `ricci uniformize`: boundary mode and target as for `ricci flow` (prepare_target(): ears the
+// target cannot realise split), then the whole pipeline.
 std::optional<int> uniformize_with_target(const UniformizeCommandOptions& o, Run& run, Clock::time_point start,
                                           Settings& st, ricci::ValidateResult& v) {
   ricci::UniformizeOptions& uo = st.uo;
   const ricci::Topology& topo = v.topology;
   const Geometry g = uo.geometry ? *uo.geometry : ricci::natural_geometry(topo);
-  ricci::BoundaryMode mode = ricci::BoundaryMode::Free;
-  if (!topo.is_closed()) {
-    mode = st.boundary.automatic ? ricci::natural_boundary_mode(topo, g) : st.boundary.mode;
-    uo.boundary = mode;
-  } else if (!st.boundary.automatic) {
-    const std::string note = "the surface is closed; --boundary " + o.boundary + " is ignored";
+  PreparedTarget prepared = prepare_target(v, g, st.target, st.boundary, o.target, o.boundary, !o.no_split_ears, run.file);
+  if (!topo.is_closed()) uo.boundary = prepared.mode;
+  for (const std::string& note : prepared.notes) {
     run.notes.push_back(note);
     print_note(o.quiet, note);
   }
-  // Ears the boundary target cannot realise are split (new vertices come last; see `ricci flow`).
-  if (!topo.is_closed() && !o.no_split_ears) {
-    const EarSplit es = split_infeasible_ears(v, mode, st.target, st.boundary, o.target, o.boundary);
-    if (es.status != Status::Ok) {
-      fail(run, es.status, run.file + ": " + es.message);
-      return finish(o, run, start);
-    }
-    if (es.repair) {
-      run.repairs.push_back(*es.repair);
-      print_note(o.quiet, es.repair->message);
-      run.topo = v.topology;
-    }
+  if (prepared.ear_split) {
+    run.repairs.push_back(*prepared.ear_split);
+    print_note(o.quiet, prepared.ear_split->message);
+    run.topo = v.topology;
   }
-  TargetBuild tb = build_target(topo, mode, st.target, st.boundary, o.target, o.boundary);
-  if (tb.usage) return usage_error(o, run, start, tb.message);
-  if (tb.status != Status::Ok) {
-    fail(run, tb.status, tb.message);
+  if (prepared.usage) return usage_error(o, run, start, prepared.message);
+  if (prepared.status != Status::Ok) {
+    fail(run, prepared.status, prepared.message);
     return finish(o, run, start);
   }
-  run.result = ricci::uniformize(v.mesh, topo, uo, &tb.target);
+  run.result = ricci::uniformize(v.mesh, topo, uo, &prepared.target);
   return std::nullopt;
 }
 
