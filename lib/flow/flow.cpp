@@ -284,6 +284,428 @@ void graph_distances(const Topology& t, Index source, std::vector<Index>& distan
   }
 }
 
+// Which vertices of a flow problem carry a curvature condition, which of them move in the Newton
+// system, and the gauge: a euclidean component without a held u keeps Σu (Newton pins one of its
+// vertices); the round sphere (S, closed genus 0, K̄ = 0, Newton) pins three vertices for its
+// Möbius gauge (pin_hint when usable, else three vertices about a quarter turn apart). Set once
+// per solve by classify().
+struct VertexClasses {
+  std::vector<std::uint8_t> condition;        // has a curvature condition
+  std::vector<std::uint8_t> unknown;          // moves in the Newton system
+  std::vector<std::uint8_t> pinned;           // gauge-pinned (a condition vertex that is not an unknown)
+  std::vector<Index> vertex_component;        // kInvalid for vertices used by no face
+  std::vector<std::uint8_t> gauge_component;  // E: Σu of the component is held
+  std::vector<double> component_sum;
+  std::vector<Index> component_count;
+  bool spherical_gauge = false;
+  std::vector<Index> spherical_pins;
+  std::array<Index, 3> pin_hint = {kInvalid, kInvalid, kInvalid};
+
+  void classify(const Topology& t, Geometry g, const Target& target, Method method);
+  // Removes each euclidean gauge component's mean from a step over its condition vertices.
+  void remove_gauge_mean(const Topology& t, std::span<double> step, ChunkedSum& sum);
+
+ private:
+  void choose_spherical_gauge(const Topology& t, Index component);
+};
+
+void VertexClasses::classify(const Topology& t, Geometry g, const Target& target, Method method) {
+  const Index nv = t.num_vertices, nc = t.num_components;
+  condition.assign(static_cast<std::size_t>(nv), 0);
+  pinned.assign(static_cast<std::size_t>(nv), 0);
+  vertex_component.assign(static_cast<std::size_t>(nv), kInvalid);
+  std::vector<std::uint8_t> has_fixed(static_cast<std::size_t>(nc), 0),
+      has_boundary(static_cast<std::size_t>(nc), 0);
+  std::vector<std::int64_t> chi(static_cast<std::size_t>(nc), 0);
+  for (Index v = 0; v < nv; ++v) {
+    if (t.valence(v) == 0) continue;
+    const Index c = t.face_component[corner_face(t.vertex_corners[t.vertex_corner_offsets[v]])];
+    vertex_component[v] = c;
+    const bool fixed = !target.fixed_u.empty() && target.fixed_u[v] != 0;
+    condition[v] = fixed ? 0 : 1;
+    if (fixed) has_fixed[c] = 1;
+    if (t.is_boundary_vertex(v)) has_boundary[c] = 1;
+    ++chi[c];
+  }
+  for (Index e = 0; e < t.num_edges; ++e) --chi[t.face_component[corner_face(t.edge_corners[2 * e])]];
+  for (Index f = 0; f < t.num_faces; ++f) ++chi[t.face_component[f]];
+
+  gauge_component.assign(static_cast<std::size_t>(nc), 0);
+  component_sum.assign(static_cast<std::size_t>(nc), 0.0);
+  component_count.assign(static_cast<std::size_t>(nc), 0);
+  for (Index v = 0; v < nv; ++v)
+    if (condition[v]) ++component_count[vertex_component[v]];
+
+  if (g == Geometry::Euclidean) {
+    for (Index c = 0; c < nc; ++c) gauge_component[c] = !has_fixed[c] && component_count[c] > 0;
+    if (method == Method::Newton) {
+      std::vector<std::uint8_t> done(static_cast<std::size_t>(nc), 0);
+      for (Index v = 0; v < nv; ++v) {
+        const Index c = vertex_component[v];
+        if (!condition[v] || !gauge_component[c] || done[c]) continue;
+        pinned[v] = 1;
+        done[c] = 1;
+      }
+    }
+  } else if (g == Geometry::Spherical && method == Method::Newton) {
+    // The round sphere: closed, genus 0, no held u, K̄ = 0 at every vertex.
+    std::vector<std::uint8_t> all_zero(static_cast<std::size_t>(nc), 1);
+    for (Index v = 0; v < nv; ++v)
+      if (vertex_component[v] != kInvalid && target.K[v] != 0) all_zero[vertex_component[v]] = 0;
+    for (Index c = 0; c < nc; ++c)
+      if (!has_fixed[c] && !has_boundary[c] && chi[c] == 2 && all_zero[c] && component_count[c] >= 4)
+        choose_spherical_gauge(t, c);
+  }
+
+  unknown.assign(static_cast<std::size_t>(nv), 0);
+  for (Index v = 0; v < nv; ++v) unknown[v] = condition[v] && !pinned[v];
+}
+
+void VertexClasses::choose_spherical_gauge(const Topology& t, Index component) {
+  const Index nv = t.num_vertices;
+  {
+    const auto [a, b, c] = pin_hint;
+    auto usable = [&](Index v) { return v >= 0 && v < nv && vertex_component[v] == component && condition[v]; };
+    if (usable(a) && usable(b) && usable(c) && a != b && b != c && a != c) {
+      for (const Index v : pin_hint) {
+        pinned[v] = 1;
+        spherical_pins.push_back(v);
+      }
+      spherical_gauge = true;
+      return;
+    }
+  }
+  Index v0 = kInvalid;
+  for (Index v = 0; v < nv && v0 == kInvalid; ++v)
+    if (vertex_component[v] == component) v0 = v;
+  std::vector<Index> d0(static_cast<std::size_t>(nv)), d1(static_cast<std::size_t>(nv)), queue;
+  graph_distances(t, v0, d0, queue);
+  Index diameter = 0;
+  for (Index v = 0; v < nv; ++v) diameter = std::max(diameter, d0[v]);
+  // A quarter turn on the sphere is about half the graph diameter.
+  const double quarter = 0.5 * diameter;
+  Index v1 = kInvalid;
+  double best = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < nv; ++v) {
+    if (d0[v] < 0 || v == v0) continue;
+    const double score = std::abs(d0[v] - quarter);
+    if (score < best) {
+      best = score;
+      v1 = v;
+    }
+  }
+  graph_distances(t, v1, d1, queue);
+  Index v2 = kInvalid;
+  best = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < nv; ++v) {
+    if (d0[v] < 0 || v == v0 || v == v1) continue;
+    const double score = std::abs(d0[v] - quarter) + std::abs(d1[v] - quarter);
+    if (score < best) {
+      best = score;
+      v2 = v;
+    }
+  }
+  if (v1 == kInvalid || v2 == kInvalid) return;
+  for (const Index v : {v0, v1, v2}) {
+    pinned[v] = 1;
+    spherical_pins.push_back(v);
+  }
+  spherical_gauge = true;
+}
+
+void VertexClasses::remove_gauge_mean(const Topology& t, std::span<double> step, ChunkedSum& sum) {
+  const Index nv = t.num_vertices, nc = t.num_components;
+  bool any = false;
+  for (Index c = 0; c < nc; ++c) {
+    any = any || gauge_component[c];
+    component_sum[c] = 0;
+  }
+  if (!any) return;
+  if (nc == 1) {
+    component_sum[0] = sum(nv, [&](std::int64_t v) { return condition[v] ? step[v] : 0.0; });
+  } else {
+    for (Index v = 0; v < nv; ++v)
+      if (condition[v]) component_sum[vertex_component[v]] += step[v];
+  }
+  for (Index c = 0; c < nc; ++c)
+    component_sum[c] = gauge_component[c] ? component_sum[c] / component_count[c] : 0;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v)
+    if (condition[v]) step[v] -= component_sum[vertex_component[v]];
+}
+
+constexpr int kGmresRestart = 40;
+
+// Restarted GMRES (modified Gram–Schmidt, Givens rotations, restart kGmresRestart) for a linear
+// system given by its operator apply(x, out), from w = 0; serial and in a fixed order. It keeps its
+// workspace between solves: `b` (the right-hand side) in, `w` (the solution) out.
+class RestartedGmres {
+ public:
+  std::vector<double> b, w;
+  void resize(std::size_t P) {
+    const std::size_t m = kGmresRestart;
+    basis_.assign((m + 1) * P, 0.0);
+    hessenberg_.assign((m + 1) * m, 0.0);
+    cos_.assign(m, 0.0);
+    sin_.assign(m, 0.0);
+    residual_.assign(m + 1, 0.0);
+    y_.assign(m, 0.0);
+    b.assign(P, 0.0);
+    w.assign(P, 0.0);
+    v_.assign(P, 0.0);
+  }
+  // False when the relative residual is not reached or a value is not finite (the true residual
+  // of w decides, within 10× the tolerance).
+  template <class Apply>
+  bool solve(Apply&& apply, double relative_tolerance, int max_iterations);
+
+ private:
+  std::vector<double> basis_, hessenberg_, cos_, sin_, residual_, y_, v_;
+};
+
+template <class Apply>
+bool RestartedGmres::solve(Apply&& apply, double relative_tolerance, int max_iterations) {
+  const std::size_t P = b.size();
+  const std::size_t m = kGmresRestart;
+  auto dot = [&](const double* x, const double* y) {
+    double s = 0;
+    for (std::size_t i = 0; i < P; ++i) s += x[i] * y[i];
+    return s;
+  };
+  std::fill(w.begin(), w.end(), 0.0);
+  const double b_norm = std::sqrt(dot(b.data(), b.data()));
+  if (!std::isfinite(b_norm)) return false;
+  if (b_norm == 0) return true;
+  const double target = relative_tolerance * b_norm;
+  int iterations = 0;
+  while (iterations < max_iterations) {
+    // r = b − A w into the first basis vector.
+    double* v0 = basis_.data();
+    apply(w, {v0, P});
+    for (std::size_t i = 0; i < P; ++i) v0[i] = b[i] - v0[i];
+    const double beta = std::sqrt(dot(v0, v0));
+    if (!std::isfinite(beta)) return false;
+    if (beta <= target) break;
+    for (std::size_t i = 0; i < P; ++i) v0[i] /= beta;
+    std::fill(residual_.begin(), residual_.end(), 0.0);
+    residual_[0] = beta;
+    std::size_t k = 0;
+    double residual = beta;
+    for (; k < m && iterations < max_iterations; ++k) {
+      ++iterations;
+      double* vk = basis_.data() + k * P;
+      double* vn = basis_.data() + (k + 1) * P;
+      apply({vk, P}, {vn, P});
+      double* h = hessenberg_.data() + k * (m + 1);  // column k
+      for (std::size_t i = 0; i <= k; ++i) {
+        const double* vi = basis_.data() + i * P;
+        h[i] = dot(vn, vi);
+        for (std::size_t r = 0; r < P; ++r) vn[r] -= h[i] * vi[r];
+      }
+      h[k + 1] = std::sqrt(dot(vn, vn));
+      if (!std::isfinite(h[k + 1])) return false;
+      if (h[k + 1] > 0)
+        for (std::size_t r = 0; r < P; ++r) vn[r] /= h[k + 1];
+      for (std::size_t i = 0; i < k; ++i) {
+        const double a = cos_[i] * h[i] + sin_[i] * h[i + 1];
+        h[i + 1] = -sin_[i] * h[i] + cos_[i] * h[i + 1];
+        h[i] = a;
+      }
+      const double rho = std::hypot(h[k], h[k + 1]);
+      if (!(rho > 0)) return false;
+      cos_[k] = h[k] / rho;
+      sin_[k] = h[k + 1] / rho;
+      h[k] = rho;
+      h[k + 1] = 0;
+      residual_[k + 1] = -sin_[k] * residual_[k];
+      residual_[k] *= cos_[k];
+      residual = std::abs(residual_[k + 1]);
+      if (residual <= target) {
+        ++k;
+        break;
+      }
+    }
+    // w += V y with H y = residual (upper triangular, k columns).
+    for (std::size_t i = k; i-- > 0;) {
+      double x = residual_[i];
+      for (std::size_t j = i + 1; j < k; ++j) x -= hessenberg_[j * (m + 1) + i] * y_[j];
+      y_[i] = x / hessenberg_[i * (m + 1) + i];
+    }
+    for (std::size_t i = 0; i < k; ++i) {
+      const double* vi = basis_.data() + i * P;
+      for (std::size_t r = 0; r < P; ++r) w[r] += y_[i] * vi[r];
+    }
+    if (residual <= target) break;
+  }
+  for (double x : w)
+    if (!std::isfinite(x)) return false;
+  // The true residual decides.
+  apply(w, v_);
+  double r2 = 0;
+  for (std::size_t i = 0; i < P; ++i) r2 += (b[i] - v_[i]) * (b[i] - v_[i]);
+  return std::isfinite(r2) && std::sqrt(r2) <= 10 * target;
+}
+
+// ∂K̄/∂u of Circle and LoopTotals targets, whose boundary values follow the lengths (the coupling
+// notes below): per boundary position p (the CSR order of Topology::boundary_vertices), ∂l/∂u of
+// its outgoing edge at its two ends, taken at a metric by at(); apply() maps a change x of u (#V)
+// to the change of K̄ at every position.
+class LoopTargetDerivative {
+ public:
+  void resize(std::size_t positions) {
+    dl_du_.assign(2 * positions, 0.0);
+    dl_.assign(positions, 0.0);
+    arc_.assign(positions, 0.0);
+  }
+  void at(const Topology& t, const ConformalStructure& s, std::span<const double> u, std::span<const double> lengths);
+  void apply(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
+             std::span<const double> x, std::span<double> dK);
+
+ private:
+  std::vector<double> dl_du_, dl_;
+  std::vector<double> arc_;  // per position: scratch of apply()
+};
+
+// ∂l/∂u of each loop's outgoing edges at the current u (the derivative of the unified length
+// formula of metric.h: F(l) = Q/D with F = l², sinh²(l/2) or sin²(l/2)).
+void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, std::span<const double> u,
+                              std::span<const double> lengths) {
+  const double sigma =
+      s.geometry == Geometry::Euclidean ? 0.0 : (s.geometry == Geometry::Hyperbolic ? 1.0 : -1.0);
+  const double eps = s.epsilon;
+  const Index positions = t.num_boundary_edges();
+  for (Index p = 0; p < positions; ++p) {
+    const Index e = t.corner_edge[t.boundary_corners[p]];
+    const Index a = t.boundary_vertices[p];
+    const Index b = t.edge_vertices[2 * e] == a ? t.edge_vertices[2 * e + 1] : t.edge_vertices[2 * e];
+    const double ua = u[a], ub = u[b], eta = s.eta[e], l = lengths[e];
+    const double xa = std::exp(2 * ua), xb = std::exp(2 * ub), xab = std::exp(ua + ub);
+    const double q = 2 * eta * xab + eps * xa + eps * xb;
+    const double da = 1 - sigma * eps * xa, db = 1 - sigma * eps * xb;
+    const double ratio = q / (da * db);
+    const double dratio_a = (2 * eta * xab + 2 * eps * xa) / (da * db) + ratio * (2 * sigma * eps * xa / da);
+    const double dratio_b = (2 * eta * xab + 2 * eps * xb) / (da * db) + ratio * (2 * sigma * eps * xb / db);
+    const double dF = s.geometry == Geometry::Euclidean
+                          ? 2 * l
+                          : (s.geometry == Geometry::Hyperbolic ? std::sinh(l) / 2 : std::sin(l) / 2);
+    dl_du_[2 * p] = dratio_a / dF;
+    dl_du_[2 * p + 1] = dratio_b / dF;
+  }
+}
+
+// dK[p] = (∂K̄/∂u · x) at the vertex of boundary position p, for x given per vertex (#V).
+void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
+                                 std::span<const double> x, std::span<double> dK) {
+  for (Index loop = 0; loop < t.num_boundary_loops(); ++loop) {
+    const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
+    double L = 0, dL = 0;
+    for (Index p = begin; p < end; ++p) {
+      const Index next = p + 1 < end ? p + 1 : begin;
+      const double dl = dl_du_[2 * p] * x[t.boundary_vertices[p]] +
+                        dl_du_[2 * p + 1] * x[t.boundary_vertices[next]];
+      dl_[p] = dl;
+      L += lengths[t.corner_edge[t.boundary_corners[p]]];
+      dL += dl;
+    }
+    const double T = target.loop_total[loop];
+    const double R = inscribed_circle_loop(target, g, loop) ? inscribed_radius(t, loop, lengths) : 0.0;
+    if (R > 0) {
+      // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
+      // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
+      double num = 0, den = 0;
+      for (Index p = begin; p < end; ++p) {
+        const double l = lengths[t.corner_edge[t.boundary_corners[p]]];
+        const double half_chord = std::min(l / (2 * R), 1.0);
+        const double c = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
+        arc_[p] = c;
+        num += dl_[p] / c;
+        den += l / c;
+      }
+      const double dR_over_R = den > 0 ? num / den : 0.0;
+      for (Index p = begin; p < end; ++p) {
+        const double l = lengths[t.corner_edge[t.boundary_corners[p]]];
+        arc_[p] = (dl_[p] - l * dR_over_R) / (R * arc_[p]);  // dα_p
+      }
+      const double sign = T > 0 ? 1.0 : -1.0;
+      for (Index p = begin; p < end; ++p) {
+        const Index before = p > begin ? p - 1 : end - 1;
+        dK[p] = sign * 0.5 * (arc_[before] + arc_[p]);
+      }
+      continue;
+    }
+    for (Index p = begin; p < end; ++p) {
+      const Index before = p > begin ? p - 1 : end - 1;
+      const double m = 0.5 * (lengths[t.corner_edge[t.boundary_corners[before]]] +
+                              lengths[t.corner_edge[t.boundary_corners[p]]]);
+      const double dm = 0.5 * (dl_[before] + dl_[p]);
+      dK[p] = T / L * (dm - m * dL / L);
+    }
+  }
+}
+
+// How finely each vertex's curvature is resolved in double precision (see the design notes at the
+// top): values at the last u whose angle derivative blocks were read, whether some condition
+// vertex resolves less than the tolerance (active), and the error judged with it.
+struct CurvatureResolution {
+  std::vector<double> values;  // #V
+  bool active = false;
+  bool current = false;  // values are those of the solver's current u
+  double largest = 0;    // the largest value above the tolerance, and how many vertices are above it
+  Index vertices = 0;
+
+  void update(const Topology& t, const std::vector<double>& blocks, std::span<const double> u,
+              const std::vector<std::uint8_t>& condition, double tolerance);
+  // max |K̄ − K| over the condition vertices, each scaled by min(1, tolerance / values[v]) when active.
+  double judged_error(std::span<const double> K, std::span<const double> target,
+                      const std::vector<std::uint8_t>& condition, double tolerance) const;
+};
+
+// resolution_v = ε·Σ over the corners at v of Σ_b |∂θ/∂u_b|·(1 + |u_b|), from the derivative
+// blocks (of u): the rounding of each length (its log carries ε·(1 + |u|)) seen
+// through the angles' sensitivity to it.
+void CurvatureResolution::update(const Topology& t, const std::vector<double>& blocks, std::span<const double> u,
+                                 const std::vector<std::uint8_t>& condition, double tolerance) {
+  const Index nv = t.num_vertices;
+  values.resize(static_cast<std::size_t>(nv));
+  double most = 0;
+  Index count = 0;
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin) reduction(max : most) reduction(+ : count)
+  for (Index v = 0; v < nv; ++v) {
+    double sum = 0;
+    for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i) {
+      const Index c = t.vertex_corners[i], f = c / 3;
+      const double* row = &blocks[9 * static_cast<std::size_t>(f) + 3 * static_cast<std::size_t>(c - 3 * f)];
+      for (int b = 0; b < 3; ++b) sum += std::abs(row[b]) * (1 + std::abs(u[t.corner_vertex[3 * f + b]]));
+    }
+    values[v] = kEps * sum;
+    if (condition[v] && values[v] > tolerance) {
+      most = std::max(most, values[v]);
+      ++count;
+    }
+  }
+  active = count > 0;
+  current = true;
+  if (active) {
+    largest = most;
+    vertices = count;
+  }
+}
+
+double CurvatureResolution::judged_error(std::span<const double> K, std::span<const double> target,
+                                         const std::vector<std::uint8_t>& condition, double tolerance) const {
+  if (!active) return max_error(K, target, condition);
+  const auto n = static_cast<Index>(K.size());
+  double e = 0;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin) reduction(max : e)
+  for (Index v = 0; v < n; ++v) {
+    if (!condition[v]) continue;
+    double d = std::abs(target[v] - K[v]);
+    if (values[v] > tolerance) d *= tolerance / values[v];
+    e = std::isfinite(d) ? std::max(e, d) : std::numeric_limits<double>::infinity();
+  }
+  return e;
+}
+
 // ---------------------------------------------------------------------------------------------
 
 class FlowSolver {
@@ -298,7 +720,7 @@ class FlowSolver {
   void finish();
   /// Pins for the Möbius gauge of the round sphere instead of the graph-distance choice (three
   /// distinct vertices; ignored unless valid).
-  void set_sphere_pins(const std::array<Index, 3>& pins) { pin_hint_ = pins; }
+  void set_sphere_pins(const std::array<Index, 3>& pins) { vc_.pin_hint = pins; }
   /// Vertex orders for the symbolic analysis of the Newton system: `hint` (when not null and not
   /// empty) is used as its fill-reducing ordering, restricted to the unknowns (vertices of the
   /// hint that are not unknowns are skipped; unknowns it misses go last, in index order); `out`
@@ -317,8 +739,6 @@ class FlowSolver {
 
  private:
   // Setup.
-  void classify_vertices();
-  void choose_spherical_gauge(Index component);
   // Iterations.
   bool newton_step();
   bool gradient_step();
@@ -337,14 +757,15 @@ class FlowSolver {
   double judged_error(std::span<const double> K, std::span<const double> target) const;
   bool energy_difference(double t, double& dE);
   double directional_derivative(const Topology& t);
-  void remove_gauge_mean(std::span<double> step);
+  void remove_gauge_mean(std::span<double> step) { vc_.remove_gauge_mean(t_, step, sum_); }
   void accept(double step_length, double dE);
   // Circle / LoopTotals coupling.
   void setup_coupling();
-  void loop_edge_derivatives();
-  void target_derivative(std::span<const double> x, std::span<double> dK);
+  void loop_edge_derivatives() { loop_dK_.at(t_, s_, u_, cur_.l); }
+  void target_derivative(std::span<const double> x, std::span<double> dK) {
+    loop_dK_.apply(t_, target_, s_.geometry, cur_.l, x, dK);
+  }
   void apply_boundary_operator(std::span<const double> w, std::span<double> out);
-  bool gmres(double relative_tolerance, int max_iterations);
   void setup_boundary_direct(bool force = false);
   bool boundary_direct_solve();
   bool coupled_direction(std::span<const double> g);
@@ -402,14 +823,7 @@ class FlowSolver {
   Clock::time_point start_ = Clock::now();
   ChunkedSum sum_;
 
-  // Vertex classes (#V flags) and components.
-  std::vector<std::uint8_t> condition_;        // has a curvature condition
-  std::vector<std::uint8_t> unknown_;          // moves in the Newton system
-  std::vector<std::uint8_t> pinned_;           // gauge-pinned (a condition vertex that is not an unknown)
-  std::vector<Index> vertex_component_;        // kInvalid for vertices used by no face
-  std::vector<std::uint8_t> gauge_component_;  // E: Σu of the component is held
-  std::vector<double> component_sum_;
-  std::vector<Index> component_count_;
+  VertexClasses vc_;  // vertex classes (#V flags), components and gauge
   // Circle / LoopTotals targets: K̄ of the loop vertices depends on the lengths; the Newton
   // system is J = ∂K/∂u − ∂K̄/∂u (see coupled_direction()). Per boundary position p (the CSR
   // order of Topology::boundary_vertices): its vertex's unknown (or kInvalid), its outgoing edge
@@ -417,12 +831,12 @@ class FlowSolver {
   bool coupled_ = false;
   bool residual_merit_ = false;  // S or coupled: the line search uses ½‖K̄ − K‖²
   std::vector<Index> position_unknown_;
-  std::vector<double> position_dl_du_, position_dl_, position_dK_;
-  std::vector<double> position_dK_arc_;  ///< per boundary position: scratch of target_derivative()
+  std::vector<double> position_dK_;
+  LoopTargetDerivative loop_dK_;
   std::vector<double> full_;            // #V scratch
   std::vector<double> K_target_trial_;  // #V: effective target of the trial lengths
   // Restarted GMRES on the boundary system (dimension: the number of boundary positions).
-  std::vector<double> gm_basis_, gm_hessenberg_, gm_cos_, gm_sin_, gm_residual_, gm_y_, gm_b_, gm_w_, gm_v_;
+  RestartedGmres gmres_;
   int gmres_failures_ = 0;
   // The boundary system by a direct solve (see setup_boundary_direct()): the positions with an
   // unknown (block columns) and their unknowns, G = E_Bᵀ H⁻¹ E_B over them, the LU factors of the
@@ -454,8 +868,6 @@ class FlowSolver {
   double largest_mode_ = 0;  // max over the run of max |α a + β b| / |the effective target without modes|
   int mode_failures_ = 0;
   std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
-  bool spherical_gauge_ = false;
-  std::array<Index, 3> pin_hint_ = {kInvalid, kInvalid, kInvalid};
   const std::vector<Index>* order_hint_ = nullptr;
   std::vector<Index>* order_out_ = nullptr;
   // Intrinsic flips (set_intrinsic()): the current triangulation and structure (t_ and s_ refer
@@ -474,7 +886,6 @@ class FlowSolver {
   std::vector<std::int64_t> analysis_order_;
   double ordered_fill_ = 0;  // nonzeros of the factor with the last fresh ordering
   int reorderings_ = 0;      // fresh orderings after flips
-  std::vector<Index> spherical_pins_;
   std::vector<std::vector<std::pair<Index, Index>>> pin_edges_;  // per pin: (edge, unknown) of its neighbours
   std::vector<std::vector<double>> moebius_;                     // per pin: w_p on the unknowns
   std::vector<double> gram_, coefficient_, rhs_projected_;
@@ -487,13 +898,10 @@ class FlowSolver {
   std::vector<double> grad_;      // #V: K̄ − K on condition vertices (mean-free on E gauge components)
   double error_ = 0;
   double energy_ = 0;
-  // Curvature resolution: resolution_ (#V) at the last u whose derivative blocks were read
-  // (resolution_current_ when that is u_), active when some condition vertex resolves less than
-  // the tolerance; judged_ = judged_error() of the current point (error_ when not active).
-  std::vector<double> resolution_;
-  bool resolution_active_ = false, resolution_current_ = false;
-  double judged_ = 0, largest_resolution_ = 0;
-  Index resolution_vertices_ = 0;
+  // Curvature resolution (resolution_.current when its values are those of u_); judged_ =
+  // judged_error() of the current point (error_ when not active).
+  CurvatureResolution resolution_;
+  double judged_ = 0;
   int iteration_ = 0;
 
   // Newton.
@@ -552,10 +960,10 @@ constexpr double kRefillGrowth = 1.25;
 bool FlowSolver::refresh_pattern() {
   Clock::time_point mark = Clock::now();  // the new pattern and its analysis count as analysis
   pattern_stale_ = false;
-  detail::HessianPattern next = detail::build_hessian_pattern(t_, unknown_);
+  detail::HessianPattern next = detail::build_hessian_pattern(t_, vc_.unknown);
   const bool same = next.col_ptr == pattern_.col_ptr && next.row == pattern_.row;
   pattern_ = std::move(next);
-  if (spherical_gauge_) compute_pin_edges();
+  if (vc_.spherical_gauge) compute_pin_edges();
   if (same) {
     ++pattern_reuses_;
     const double seconds = lap(mark);
@@ -603,10 +1011,10 @@ bool FlowSolver::refresh_pattern() {
 
 // Per sphere-gauge pin: (edge, unknown) of each neighbour of the pin that is an unknown.
 void FlowSolver::compute_pin_edges() {
-  const std::size_t k = spherical_pins_.size();
+  const std::size_t k = vc_.spherical_pins.size();
   pin_edges_.assign(k, {});
   for (std::size_t a = 0; a < k; ++a) {
-    const Index p = spherical_pins_[a];
+    const Index p = vc_.spherical_pins[a];
     for (Index i = t_.vertex_corner_offsets[p]; i < t_.vertex_corner_offsets[p + 1]; ++i) {
       const Index c = t_.vertex_corners[i];
       for (const Index other : {next_corner(c), prev_corner(c)}) {
@@ -621,138 +1029,12 @@ void FlowSolver::compute_pin_edges() {
   }
 }
 
-void FlowSolver::classify_vertices() {
-  const Index nv = t_.num_vertices, nc = t_.num_components;
-  condition_.assign(static_cast<std::size_t>(nv), 0);
-  pinned_.assign(static_cast<std::size_t>(nv), 0);
-  vertex_component_.assign(static_cast<std::size_t>(nv), kInvalid);
-  std::vector<std::uint8_t> has_fixed(static_cast<std::size_t>(nc), 0),
-      has_boundary(static_cast<std::size_t>(nc), 0);
-  std::vector<std::int64_t> chi(static_cast<std::size_t>(nc), 0);
-  for (Index v = 0; v < nv; ++v) {
-    if (t_.valence(v) == 0) continue;
-    const Index c = t_.face_component[corner_face(t_.vertex_corners[t_.vertex_corner_offsets[v]])];
-    vertex_component_[v] = c;
-    const bool fixed = !target_.fixed_u.empty() && target_.fixed_u[v] != 0;
-    condition_[v] = fixed ? 0 : 1;
-    if (fixed) has_fixed[c] = 1;
-    if (t_.is_boundary_vertex(v)) has_boundary[c] = 1;
-    ++chi[c];
-  }
-  for (Index e = 0; e < t_.num_edges; ++e) --chi[t_.face_component[corner_face(t_.edge_corners[2 * e])]];
-  for (Index f = 0; f < t_.num_faces; ++f) ++chi[t_.face_component[f]];
-
-  gauge_component_.assign(static_cast<std::size_t>(nc), 0);
-  component_sum_.assign(static_cast<std::size_t>(nc), 0.0);
-  component_count_.assign(static_cast<std::size_t>(nc), 0);
-  for (Index v = 0; v < nv; ++v)
-    if (condition_[v]) ++component_count_[vertex_component_[v]];
-
-  const Geometry g = s_.geometry;
-  if (g == Geometry::Euclidean) {
-    for (Index c = 0; c < nc; ++c) gauge_component_[c] = !has_fixed[c] && component_count_[c] > 0;
-    if (options_.method == Method::Newton) {
-      std::vector<std::uint8_t> done(static_cast<std::size_t>(nc), 0);
-      for (Index v = 0; v < nv; ++v) {
-        const Index c = vertex_component_[v];
-        if (!condition_[v] || !gauge_component_[c] || done[c]) continue;
-        pinned_[v] = 1;
-        done[c] = 1;
-      }
-    }
-  } else if (g == Geometry::Spherical && options_.method == Method::Newton) {
-    // The round sphere: closed, genus 0, no held u, K̄ = 0 at every vertex.
-    std::vector<std::uint8_t> all_zero(static_cast<std::size_t>(nc), 1);
-    for (Index v = 0; v < nv; ++v)
-      if (vertex_component_[v] != kInvalid && target_.K[v] != 0) all_zero[vertex_component_[v]] = 0;
-    for (Index c = 0; c < nc; ++c)
-      if (!has_fixed[c] && !has_boundary[c] && chi[c] == 2 && all_zero[c] && component_count_[c] >= 4)
-        choose_spherical_gauge(c);
-  }
-
-  unknown_.assign(static_cast<std::size_t>(nv), 0);
-  for (Index v = 0; v < nv; ++v) unknown_[v] = condition_[v] && !pinned_[v];
-}
-
-void FlowSolver::choose_spherical_gauge(Index component) {
-  const Index nv = t_.num_vertices;
-  {
-    const auto [a, b, c] = pin_hint_;
-    auto usable = [&](Index v) { return v >= 0 && v < nv && vertex_component_[v] == component && condition_[v]; };
-    if (usable(a) && usable(b) && usable(c) && a != b && b != c && a != c) {
-      for (const Index v : pin_hint_) {
-        pinned_[v] = 1;
-        spherical_pins_.push_back(v);
-      }
-      spherical_gauge_ = true;
-      return;
-    }
-  }
-  Index v0 = kInvalid;
-  for (Index v = 0; v < nv && v0 == kInvalid; ++v)
-    if (vertex_component_[v] == component) v0 = v;
-  std::vector<Index> d0(static_cast<std::size_t>(nv)), d1(static_cast<std::size_t>(nv)), queue;
-  graph_distances(t_, v0, d0, queue);
-  Index diameter = 0;
-  for (Index v = 0; v < nv; ++v) diameter = std::max(diameter, d0[v]);
-  // A quarter turn on the sphere is about half the graph diameter.
-  const double quarter = 0.5 * diameter;
-  Index v1 = kInvalid;
-  double best = std::numeric_limits<double>::infinity();
-  for (Index v = 0; v < nv; ++v) {
-    if (d0[v] < 0 || v == v0) continue;
-    const double score = std::abs(d0[v] - quarter);
-    if (score < best) {
-      best = score;
-      v1 = v;
-    }
-  }
-  graph_distances(t_, v1, d1, queue);
-  Index v2 = kInvalid;
-  best = std::numeric_limits<double>::infinity();
-  for (Index v = 0; v < nv; ++v) {
-    if (d0[v] < 0 || v == v0 || v == v1) continue;
-    const double score = std::abs(d0[v] - quarter) + std::abs(d1[v] - quarter);
-    if (score < best) {
-      best = score;
-      v2 = v;
-    }
-  }
-  if (v1 == kInvalid || v2 == kInvalid) return;
-  for (const Index v : {v0, v1, v2}) {
-    pinned_[v] = 1;
-    spherical_pins_.push_back(v);
-  }
-  spherical_gauge_ = true;
-}
-
-void FlowSolver::remove_gauge_mean(std::span<double> step) {
-  const Index nv = t_.num_vertices, nc = t_.num_components;
-  bool any = false;
-  for (Index c = 0; c < nc; ++c) {
-    any = any || gauge_component_[c];
-    component_sum_[c] = 0;
-  }
-  if (!any) return;
-  if (nc == 1) {
-    component_sum_[0] = sum_(nv, [&](std::int64_t v) { return condition_[v] ? step[v] : 0.0; });
-  } else {
-    for (Index v = 0; v < nv; ++v)
-      if (condition_[v]) component_sum_[vertex_component_[v]] += step[v];
-  }
-  for (Index c = 0; c < nc; ++c)
-    component_sum_[c] = gauge_component_[c] ? component_sum_[c] / component_count_[c] : 0;
-#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
-  for (Index v = 0; v < nv; ++v)
-    if (condition_[v]) step[v] -= component_sum_[vertex_component_[v]];
-}
-
 // Energy change ∫_0^t (K(u + sδ) − K̄)·δ ds by quadrature, trial_ holding the metric at u + tδ;
 // false when an interior node is not an admissible metric.
 bool FlowSolver::energy_difference(double t, double& dE) {
   const Index nv = t_.num_vertices;
   auto slope_at = [&](const std::vector<double>& K) {
-    return sum_(nv, [&](std::int64_t v) { return condition_[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
+    return sum_(nv, [&](std::int64_t v) { return vc_.condition[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
   };
   dE = 0;
   for (int q = 0; q < kQuadratureNodes; ++q) {
@@ -798,7 +1080,7 @@ double FlowSolver::directional_derivative(const Topology& t) {
 // False when a solve fails or the Gram matrix is not positive definite.
 bool FlowSolver::project_moebius() {
   const Index n = pattern_.num_unknowns;
-  const std::size_t k = spherical_pins_.size();
+  const std::size_t k = vc_.spherical_pins.size();
   for (std::size_t a = 0; a < k; ++a) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (Index j = 0; j < n; ++j) tmp_[j] = 0;
@@ -812,7 +1094,7 @@ bool FlowSolver::project_moebius() {
       const std::vector<double>& wb = moebius_[b];
       gram_[a * k + b] = sum_(n, [&](std::int64_t j) { return wa[j] * wb[j]; }) + (a == b ? 1.0 : 0.0);
     }
-    coefficient_[a] = sum_(n, [&](std::int64_t j) { return wa[j] * rhs_[j]; }) + grad_[spherical_pins_[a]];
+    coefficient_[a] = sum_(n, [&](std::int64_t j) { return wa[j] * rhs_[j]; }) + grad_[vc_.spherical_pins[a]];
   }
   // Dense Cholesky of G (lower triangle, in place) and the solve G α = c.
   for (std::size_t a = 0; a < k; ++a) {
@@ -848,7 +1130,6 @@ bool FlowSolver::project_moebius() {
 // GMRES whose operator costs one solve with the factorization at hand. (Holding K̄ fixed within a step instead converges linearly at
 // best, and oscillates for surfaces with several holes.)
 
-constexpr int kGmresRestart = 40;
 constexpr int kGmresMaxIterations = 400;
 
 void FlowSolver::setup_coupling() {
@@ -865,98 +1146,14 @@ void FlowSolver::setup_coupling() {
     coupled_ = false;
     return;
   }
-  position_dl_du_.assign(2 * positions, 0.0);
-  position_dl_.assign(positions, 0.0);
+  loop_dK_.resize(positions);
   position_dK_.assign(positions, 0.0);
-  position_dK_arc_.assign(positions, 0.0);
   full_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
   K_target_trial_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
-  const std::size_t m = kGmresRestart;
-  gm_basis_.assign((m + 1) * positions, 0.0);
-  gm_hessenberg_.assign((m + 1) * m, 0.0);
-  gm_cos_.assign(m, 0.0);
-  gm_sin_.assign(m, 0.0);
-  gm_residual_.assign(m + 1, 0.0);
-  gm_y_.assign(m, 0.0);
-  gm_b_.assign(positions, 0.0);
-  gm_w_.assign(positions, 0.0);
-  gm_v_.assign(positions, 0.0);
+  gmres_.resize(positions);
 }
 
-// ∂l/∂u of each loop's outgoing edges at the current u (the derivative of the unified length
-// formula of metric.h: F(l) = Q/D with F = l², sinh²(l/2) or sin²(l/2)).
-void FlowSolver::loop_edge_derivatives() {
-  const double sigma =
-      s_.geometry == Geometry::Euclidean ? 0.0 : (s_.geometry == Geometry::Hyperbolic ? 1.0 : -1.0);
-  const double eps = s_.epsilon;
-  const Index positions = t_.num_boundary_edges();
-  for (Index p = 0; p < positions; ++p) {
-    const Index e = t_.corner_edge[t_.boundary_corners[p]];
-    const Index a = t_.boundary_vertices[p];
-    const Index b = t_.edge_vertices[2 * e] == a ? t_.edge_vertices[2 * e + 1] : t_.edge_vertices[2 * e];
-    const double ua = u_[a], ub = u_[b], eta = s_.eta[e], l = cur_.l[e];
-    const double xa = std::exp(2 * ua), xb = std::exp(2 * ub), xab = std::exp(ua + ub);
-    const double q = 2 * eta * xab + eps * xa + eps * xb;
-    const double da = 1 - sigma * eps * xa, db = 1 - sigma * eps * xb;
-    const double ratio = q / (da * db);
-    const double dratio_a = (2 * eta * xab + 2 * eps * xa) / (da * db) + ratio * (2 * sigma * eps * xa / da);
-    const double dratio_b = (2 * eta * xab + 2 * eps * xb) / (da * db) + ratio * (2 * sigma * eps * xb / db);
-    const double dF = s_.geometry == Geometry::Euclidean
-                          ? 2 * l
-                          : (s_.geometry == Geometry::Hyperbolic ? std::sinh(l) / 2 : std::sin(l) / 2);
-    position_dl_du_[2 * p] = dratio_a / dF;
-    position_dl_du_[2 * p + 1] = dratio_b / dF;
-  }
-}
 
-// dK[p] = (∂K̄/∂u · x) at the vertex of boundary position p, for x given per vertex (#V).
-void FlowSolver::target_derivative(std::span<const double> x, std::span<double> dK) {
-  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
-    const Index begin = t_.boundary_offsets[loop], end = t_.boundary_offsets[loop + 1];
-    double L = 0, dL = 0;
-    for (Index p = begin; p < end; ++p) {
-      const Index next = p + 1 < end ? p + 1 : begin;
-      const double dl = position_dl_du_[2 * p] * x[t_.boundary_vertices[p]] +
-                        position_dl_du_[2 * p + 1] * x[t_.boundary_vertices[next]];
-      position_dl_[p] = dl;
-      L += cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
-      dL += dl;
-    }
-    const double T = target_.loop_total[loop];
-    const double R = inscribed_circle_loop(target_, s_.geometry, loop) ? inscribed_radius(t_, loop, cur_.l) : 0.0;
-    if (R > 0) {
-      // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
-      // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
-      double num = 0, den = 0;
-      for (Index p = begin; p < end; ++p) {
-        const double l = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
-        const double half_chord = std::min(l / (2 * R), 1.0);
-        const double c = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
-        position_dK_arc_[p] = c;
-        num += position_dl_[p] / c;
-        den += l / c;
-      }
-      const double dR_over_R = den > 0 ? num / den : 0.0;
-      for (Index p = begin; p < end; ++p) {
-        const double l = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
-        position_dK_arc_[p] = (position_dl_[p] - l * dR_over_R) / (R * position_dK_arc_[p]);  // dα_p
-      }
-      const double sign = T > 0 ? 1.0 : -1.0;
-      for (Index p = begin; p < end; ++p) {
-        const Index before = p > begin ? p - 1 : end - 1;
-        dK[p] = sign * 0.5 * (position_dK_arc_[before] + position_dK_arc_[p]);
-      }
-      continue;
-    }
-    for (Index p = begin; p < end; ++p) {
-      const Index before = p > begin ? p - 1 : end - 1;
-      const double m = 0.5 * (cur_.l[t_.corner_edge[t_.boundary_corners[before]]] +
-                              cur_.l[t_.corner_edge[t_.boundary_corners[p]]]);
-      const double dm = 0.5 * (position_dl_[before] + position_dl_[p]);
-      dK[p] = T / L * (dm - m * dL / L);
-    }
-  }
-}
 
 // out = (I − D_BB E_Bᵀ H⁻¹ E_B) w on the boundary positions (positions whose vertex is not an
 // unknown are identity rows with no coupling).
@@ -981,90 +1178,6 @@ void FlowSolver::apply_boundary_operator(std::span<const double> w, std::span<do
     out[p] = w[p] - (position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0);
 }
 
-// Restarted GMRES (modified Gram–Schmidt, Givens rotations) for the boundary system, from w = 0:
-// solves for gm_w_ with right-hand side gm_b_. Serial and in a fixed order. False when the
-// relative residual is not reached or a value is not finite.
-bool FlowSolver::gmres(double relative_tolerance, int max_iterations) {
-  const auto P = static_cast<std::size_t>(position_unknown_.size());
-  const std::size_t m = kGmresRestart;
-  auto dot = [&](const double* a, const double* b) {
-    double s = 0;
-    for (std::size_t i = 0; i < P; ++i) s += a[i] * b[i];
-    return s;
-  };
-  std::fill(gm_w_.begin(), gm_w_.end(), 0.0);
-  const double b_norm = std::sqrt(dot(gm_b_.data(), gm_b_.data()));
-  if (!std::isfinite(b_norm)) return false;
-  if (b_norm == 0) return true;
-  const double target = relative_tolerance * b_norm;
-  int iterations = 0;
-  while (iterations < max_iterations) {
-    // r = b − A w into the first basis vector.
-    double* v0 = gm_basis_.data();
-    apply_boundary_operator(gm_w_, {v0, P});
-    for (std::size_t i = 0; i < P; ++i) v0[i] = gm_b_[i] - v0[i];
-    const double beta = std::sqrt(dot(v0, v0));
-    if (!std::isfinite(beta)) return false;
-    if (beta <= target) break;
-    for (std::size_t i = 0; i < P; ++i) v0[i] /= beta;
-    std::fill(gm_residual_.begin(), gm_residual_.end(), 0.0);
-    gm_residual_[0] = beta;
-    std::size_t k = 0;
-    double residual = beta;
-    for (; k < m && iterations < max_iterations; ++k) {
-      ++iterations;
-      double* vk = gm_basis_.data() + k * P;
-      double* vn = gm_basis_.data() + (k + 1) * P;
-      apply_boundary_operator({vk, P}, {vn, P});
-      double* h = gm_hessenberg_.data() + k * (m + 1);  // column k
-      for (std::size_t i = 0; i <= k; ++i) {
-        const double* vi = gm_basis_.data() + i * P;
-        h[i] = dot(vn, vi);
-        for (std::size_t r = 0; r < P; ++r) vn[r] -= h[i] * vi[r];
-      }
-      h[k + 1] = std::sqrt(dot(vn, vn));
-      if (!std::isfinite(h[k + 1])) return false;
-      if (h[k + 1] > 0)
-        for (std::size_t r = 0; r < P; ++r) vn[r] /= h[k + 1];
-      for (std::size_t i = 0; i < k; ++i) {
-        const double a = gm_cos_[i] * h[i] + gm_sin_[i] * h[i + 1];
-        h[i + 1] = -gm_sin_[i] * h[i] + gm_cos_[i] * h[i + 1];
-        h[i] = a;
-      }
-      const double rho = std::hypot(h[k], h[k + 1]);
-      if (!(rho > 0)) return false;
-      gm_cos_[k] = h[k] / rho;
-      gm_sin_[k] = h[k + 1] / rho;
-      h[k] = rho;
-      h[k + 1] = 0;
-      gm_residual_[k + 1] = -gm_sin_[k] * gm_residual_[k];
-      gm_residual_[k] *= gm_cos_[k];
-      residual = std::abs(gm_residual_[k + 1]);
-      if (residual <= target) {
-        ++k;
-        break;
-      }
-    }
-    // w += V y with H y = residual (upper triangular, k columns).
-    for (std::size_t i = k; i-- > 0;) {
-      double x = gm_residual_[i];
-      for (std::size_t j = i + 1; j < k; ++j) x -= gm_hessenberg_[j * (m + 1) + i] * gm_y_[j];
-      gm_y_[i] = x / gm_hessenberg_[i * (m + 1) + i];
-    }
-    for (std::size_t i = 0; i < k; ++i) {
-      const double* vi = gm_basis_.data() + i * P;
-      for (std::size_t r = 0; r < P; ++r) gm_w_[r] += gm_y_[i] * vi[r];
-    }
-    if (residual <= target) break;
-  }
-  for (double x : gm_w_)
-    if (!std::isfinite(x)) return false;
-  // The true residual decides.
-  apply_boundary_operator(gm_w_, gm_v_);
-  double r2 = 0;
-  for (std::size_t i = 0; i < P; ++i) r2 += (gm_b_[i] - gm_v_[i]) * (gm_b_[i] - gm_v_[i]);
-  return std::isfinite(r2) && std::sqrt(r2) <= 10 * target;
-}
 
 // The boundary system directly. G = E_Bᵀ H⁻¹ E_B over the positions with an unknown comes from
 // the factor by sparse forward solves along elimination-tree paths (SymmetricSolver::
@@ -1105,7 +1218,7 @@ void FlowSolver::setup_boundary_direct(bool force) {
   boundary_direct_ = true;
 }
 
-// gm_w_ from gm_b_ with the LU factors of the boundary matrix, factorized first if they are not
+// gmres_.w from gmres_.b with the LU factors of the boundary matrix, factorized first if they are not
 // those of the current step. False when the block is unavailable, the matrix is singular or the
 // result not finite.
 bool FlowSolver::boundary_direct_solve() {
@@ -1149,8 +1262,8 @@ bool FlowSolver::boundary_direct_solve() {
     }
     boundary_factored_ = true;
   }
-  double* w = gm_w_.data();
-  std::copy(gm_b_.begin(), gm_b_.end(), w);
+  double* w = gmres_.w.data();
+  std::copy(gmres_.b.begin(), gmres_.b.end(), w);
   for (std::size_t j = 0; j < P; ++j) std::swap(w[j], w[boundary_pivot_[j]]);
   for (std::size_t i = 0; i < P; ++i)
     for (std::size_t c = 0; c < i; ++c) w[i] -= S[i * P + c] * w[c];
@@ -1176,7 +1289,7 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
     full_[t_.boundary_vertices[p]] = j != kInvalid ? x_[j] : 0.0;
   }
   target_derivative(full_, position_dK_);
-  for (Index p = 0; p < positions; ++p) gm_b_[p] = position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0;
+  for (Index p = 0; p < positions; ++p) gmres_.b[p] = position_unknown_[p] != kInvalid ? position_dK_[p] : 0.0;
   // Directly when set up (see setup_boundary_direct()); otherwise inexact Newton: GMRES to a
   // relative accuracy that tightens with the error.
   bool ok = boundary_direct_ && boundary_direct_solve();
@@ -1187,7 +1300,8 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
     // near that level need only a loose solve.
     const double forcing =
         std::clamp(std::max(0.01 * error_, 0.1 * curvature_rounding() / std::max(error_, 1e-300)), 1e-13, 1e-3);
-    ok = gmres(forcing, kGmresMaxIterations);
+    ok = gmres_.solve([this](std::span<const double> x, std::span<double> out) { apply_boundary_operator(x, out); },
+                      forcing, kGmresMaxIterations);
     if (!ok && !boundary_direct_ && positions <= kDirectBoundaryFallback) {
       setup_boundary_direct(true);
       ok = boundary_direct_ && boundary_direct_solve();
@@ -1199,7 +1313,7 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (Index j = 0; j < n; ++j) tmp_[j] = 0;
     for (Index p = 0; p < positions; ++p)
-      if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] += gm_w_[p];
+      if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] += gmres_.w[p];
     ok = solver_.solve(tmp_, x2_);
   }
   // J δ = (g + E_B w − μ δ) − D δ, where (H + μI) δ = g + E_B w. For the held-target step y,
@@ -1208,7 +1322,7 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (Index j = 0; j < n; ++j) x_[j] += x2_[j];
   } else {
-    std::fill(gm_w_.begin(), gm_w_.end(), 0.0);
+    std::fill(gmres_.w.begin(), gmres_.w.end(), 0.0);
   }
   for (Index p = 0; p < positions; ++p) {
     const Index j = position_unknown_[p];
@@ -1219,7 +1333,7 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   for (Index j = 0; j < n; ++j) tmp_[j] = g[j] - shift_ * x_[j];
   for (Index p = 0; p < positions; ++p) {
     const Index j = position_unknown_[p];
-    if (j != kInvalid) tmp_[j] += gm_w_[p] - position_dK_[p];
+    if (j != kInvalid) tmp_[j] += gmres_.w[p] - position_dK_[p];
   }
   slope_ = -sum_(n, [&](std::int64_t j) { return g[j] * tmp_[j]; });
   return ok;
@@ -1284,7 +1398,7 @@ void FlowSolver::setup_moebius_modes() {
   ws /= wsum;
   for (Index i = 0; i < count; ++i) {
     const Index v = t_.boundary_vertices[begin + i];
-    if (!condition_[v]) return;  // every vertex of a Circle loop has a curvature condition
+    if (!vc_.condition[v]) return;  // every vertex of a Circle loop has a curvature condition
     mode_vertices_.push_back(v);
     mode_a_[v] = std::cos(theta[i]) - mean_c;
     mode_b_[v] = std::sin(theta[i]) - mean_s;
@@ -1357,7 +1471,7 @@ bool FlowSolver::moebius_direction() {
 
 // Solves G α = coefficient_ in place with the Cholesky factor of the Gram matrix in gram_.
 bool FlowSolver::gram_solve() {
-  const std::size_t k = spherical_pins_.size();
+  const std::size_t k = vc_.spherical_pins.size();
   for (std::size_t a = 0; a < k; ++a) {
     double x = coefficient_[a];
     for (std::size_t m = 0; m < a; ++m) x -= gram_[a * k + m] * coefficient_[m];
@@ -1380,7 +1494,7 @@ bool FlowSolver::compute_direction() {
   Clock::time_point mark = Clock::now();
   if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
   blocks_at_u_ = true;
-  if (!resolution_current_) update_resolution();
+  if (!resolution_.current) update_resolution();
   iter_.derivatives += lap(mark);
   const std::span<double> values = solver_.values();
   assemble_hessian(t_, pattern_, blocks_, values);
@@ -1388,7 +1502,7 @@ bool FlowSolver::compute_direction() {
   // arithmetic (Gauss–Bonnet), but the computed curvatures sum to 2πχ only up to rounding, and
   // that remainder must not be pushed onto the pinned vertex.
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
-  for (Index v = 0; v < nv; ++v) grad_[v] = condition_[v] ? K_target_[v] - cur_.K[v] : 0.0;
+  for (Index v = 0; v < nv; ++v) grad_[v] = vc_.condition[v] ? K_target_[v] - cur_.K[v] : 0.0;
   remove_gauge_mean(grad_);
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
   for (Index j = 0; j < n; ++j) rhs_[j] = grad_[pattern_.unknown_vertex[j]];
@@ -1443,7 +1557,7 @@ bool FlowSolver::compute_direction() {
       return -(gb - shift_ * gx);
     };
     bool done = false;
-    if (spherical_gauge_ && project_moebius() && solver_.solve(rhs_projected_, x_)) {
+    if (vc_.spherical_gauge && project_moebius() && solver_.solve(rhs_projected_, x_)) {
       slope_ = merit_slope(rhs_projected_);
       done = std::isfinite(slope_) && slope_ < 0;
       if (!done) ++projection_skipped_;
@@ -1517,11 +1631,11 @@ bool FlowSolver::line_search() {
   // (the residual merit) to about ε·Σ|K̄_i − K_i|·(4π + |K̄_i|).
   const double merit0 = spherical ? 0.5 * sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; }) : 0;
   // Where a vertex resolves its curvature less well (update_resolution()), its resolution.
-  const bool resolution = resolution_active_;
+  const bool resolution = resolution_.active;
   const double noise = sum_(nv, [&](std::int64_t v) {
-    if (!condition_[v]) return 0.0;
+    if (!vc_.condition[v]) return 0.0;
     double scale = 64 * kEps * (4 * kPi + std::abs(K_target_[v]));
-    if (resolution) scale = std::max(scale, resolution_[v]);
+    if (resolution) scale = std::max(scale, resolution_.values[v]);
     return (spherical ? std::abs(K_target_[v] - cur_.K[v]) : std::abs(step_[v])) * scale;
   });
   // Below the rounding level the merit function cannot rank trial points; a step is then taken
@@ -1531,7 +1645,7 @@ bool FlowSolver::line_search() {
   // E and H: the energy slope f(s) = (K(u + sδ) − K̄)·δ at s = 0 and its derivative δᵀ(∂K/∂u)δ
   // there, for the one-evaluation estimate of the energy change (see below).
   auto energy_slope = [&](const std::vector<double>& K) {
-    return sum_(nv, [&](std::int64_t v) { return condition_[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
+    return sum_(nv, [&](std::int64_t v) { return vc_.condition[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
   };
   const double f0 = spherical ? 0.0 : energy_slope(cur_.K);
   const double df0 = spherical ? 0.0 : directional_derivative(t_);
@@ -1553,7 +1667,7 @@ bool FlowSolver::line_search() {
       }
     }
     const std::vector<double>& trial_target = coupled_ ? K_target_trial_ : K_target_;
-    const double trial_error = max_error(trial_.K, trial_target, condition_);
+    const double trial_error = max_error(trial_.K, trial_target, vc_.condition);
     // Ranked by the judged error (the plain one unless some vertex resolves less than the tolerance).
     const double trial_judged = resolution ? judged_error(trial_.K, trial_target) : trial_error;
     if (!std::isfinite(trial_error) || (polishing_ && !(trial_judged < judged_))) continue;
@@ -1665,9 +1779,9 @@ void FlowSolver::accept(double step_length, double dE) {
     }
     largest_mode_ = relative;
   }
-  error_ = max_error(cur_.K, K_target_, condition_);
-  resolution_current_ = false;
-  judged_ = resolution_active_ ? judged_error(cur_.K, K_target_) : error_;
+  error_ = max_error(cur_.K, K_target_, vc_.condition);
+  resolution_.current = false;
+  judged_ = resolution_.active ? judged_error(cur_.K, K_target_) : error_;
   energy_ += dE;
   IterationRecord record;
   record.iteration = iteration_;
@@ -1716,45 +1830,19 @@ constexpr double kPolishUlps = 16;
 double FlowSolver::curvature_rounding() const {
   double largest_target = 0;
   for (Index v = 0; v < t_.num_vertices; ++v)
-    if (condition_[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
+    if (vc_.condition[v]) largest_target = std::max(largest_target, std::abs(K_target_[v]));
   return kPolishUlps * kEps * (4 * kPi + largest_target);
 }
 
-// resolution_v = ε·Σ over the corners at v of Σ_b |∂θ/∂u_b|·(1 + |u_b|), from the derivative
-// blocks in blocks_ (of u_): the rounding of each length (its log carries ε·(1 + |u|)) seen
-// through the angles' sensitivity to it.
 void FlowSolver::update_resolution() {
-  const Index nv = t_.num_vertices;
-  resolution_.resize(static_cast<std::size_t>(nv));
-  double largest = 0;
-  Index count = 0;
-#pragma omp parallel for schedule(static) if (nv >= kParallelMin) reduction(max : largest) reduction(+ : count)
-  for (Index v = 0; v < nv; ++v) {
-    double sum = 0;
-    for (Index i = t_.vertex_corner_offsets[v]; i < t_.vertex_corner_offsets[v + 1]; ++i) {
-      const Index c = t_.vertex_corners[i], f = c / 3;
-      const double* row = &blocks_[9 * static_cast<std::size_t>(f) + 3 * static_cast<std::size_t>(c - 3 * f)];
-      for (int b = 0; b < 3; ++b) sum += std::abs(row[b]) * (1 + std::abs(u_[t_.corner_vertex[3 * f + b]]));
-    }
-    resolution_[v] = kEps * sum;
-    if (condition_[v] && resolution_[v] > tolerance_) {
-      largest = std::max(largest, resolution_[v]);
-      ++count;
-    }
-  }
-  resolution_active_ = count > 0;
-  resolution_current_ = true;
-  if (resolution_active_) {
-    largest_resolution_ = largest;
-    resolution_vertices_ = count;
-  }
+  resolution_.update(t_, blocks_, u_, vc_.condition, tolerance_);
   judged_ = judged_error(cur_.K, K_target_);
 }
 
 // The resolution at u_ itself (the derivative blocks of u_ are computed when they are not at hand;
 // the next Newton step uses them).
 void FlowSolver::resolution_at_u() {
-  if (resolution_current_) return;
+  if (resolution_.current) return;
   if (!blocks_at_u_) {
     const Clock::time_point mark = Clock::now();
     angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
@@ -1777,8 +1865,8 @@ void FlowSolver::set_tolerance() {
 }
 
 void FlowSolver::note_resolution() {
-  r_.notes.push_back(std::to_string(resolution_vertices_) + " vertices resolve their curvature only to " +
-                     format_double("%.3g", largest_resolution_) +
+  r_.notes.push_back(std::to_string(resolution_.vertices) + " vertices resolve their curvature only to " +
+                     format_double("%.3g", resolution_.largest) +
                      " (the ends of edges far shorter than their neighbours: their angles follow from the double "
                      "lengths only to about ε·l/s); converged with each of them within its resolution and every other "
                      "vertex within the tolerance " + format_double("%.3g", tolerance_) + ": max |K̄ − K| = " +
@@ -1786,18 +1874,7 @@ void FlowSolver::note_resolution() {
 }
 
 double FlowSolver::judged_error(std::span<const double> K, std::span<const double> target) const {
-  if (!resolution_active_) return max_error(K, target, condition_);
-  const auto n = static_cast<Index>(K.size());
-  const double tolerance = tolerance_;
-  double e = 0;
-#pragma omp parallel for schedule(static) if (n >= kParallelMin) reduction(max : e)
-  for (Index v = 0; v < n; ++v) {
-    if (!condition_[v]) continue;
-    double d = std::abs(target[v] - K[v]);
-    if (resolution_[v] > tolerance) d *= tolerance / resolution_[v];
-    e = std::isfinite(d) ? std::max(e, d) : std::numeric_limits<double>::infinity();
-  }
-  return e;
+  return resolution_.judged_error(K, target, vc_.condition, tolerance_);
 }
 
 bool FlowSolver::polish_step() {
@@ -1821,7 +1898,7 @@ bool FlowSolver::gradient_step() {
   const Index nv = t_.num_vertices;
   const double eps = options_.gradient_step;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
-  for (Index v = 0; v < nv; ++v) step_[v] = condition_[v] ? eps * (K_target_[v] - cur_.K[v]) : 0.0;
+  for (Index v = 0; v < nv; ++v) step_[v] = vc_.condition[v] ? eps * (K_target_[v] - cur_.K[v]) : 0.0;
   remove_gauge_mean(step_);
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
   for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + step_[v];
@@ -1836,7 +1913,7 @@ bool FlowSolver::gradient_step() {
   // Trapezoidal energy change (the flow takes small steps; no extra curvature evaluations).
   const double dE =
       0.5 * sum_(nv, [&](std::int64_t v) {
-        return condition_[v] ? ((cur_.K[v] - K_target_[v]) + (trial_.K[v] - K_target_[v])) * step_[v] : 0.0;
+        return vc_.condition[v] ? ((cur_.K[v] - K_target_[v]) + (trial_.K[v] - K_target_[v])) * step_[v] : 0.0;
       });
   accept(eps, std::isfinite(dE) ? dE : 0.0);
   return true;
@@ -1845,7 +1922,7 @@ bool FlowSolver::gradient_step() {
 void FlowSolver::run() {
   const Index nv = t_.num_vertices, nf = t_.num_faces;
   const bool newton = options_.method == Method::Newton;
-  classify_vertices();
+  vc_.classify(t_, s_.geometry, target_, options_.method);
 
   u_trial_.assign(static_cast<std::size_t>(nv), 0.0);
   step_.assign(static_cast<std::size_t>(nv), 0.0);
@@ -1880,7 +1957,7 @@ void FlowSolver::run() {
     return;
   }
   effective_target(t_, target_, cur_.l, K_target_, s_.geometry);
-  error_ = max_error(cur_.K, K_target_, condition_);
+  error_ = max_error(cur_.K, K_target_, vc_.condition);
   if (start != Validity::Ok) {
     fail(start == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
          "the starting metric is not admissible: " + validity_text(start));
@@ -1889,15 +1966,15 @@ void FlowSolver::run() {
 
   Clock::time_point mark = Clock::now();
   if (newton) {
-    pattern_ = detail::build_hessian_pattern(t_, unknown_);
+    pattern_ = detail::build_hessian_pattern(t_, vc_.unknown);
     const Index n = pattern_.num_unknowns;
     blocks_.assign(9 * static_cast<std::size_t>(nf), 0.0);
     rhs_.assign(static_cast<std::size_t>(n), 0.0);
     x_.assign(static_cast<std::size_t>(n), 0.0);
     tmp_.assign(static_cast<std::size_t>(n), 0.0);
     x2_.assign(static_cast<std::size_t>(n), 0.0);
-    if (spherical_gauge_) {
-      const std::size_t k = spherical_pins_.size();
+    if (vc_.spherical_gauge) {
+      const std::size_t k = vc_.spherical_pins.size();
       compute_pin_edges();
       moebius_.assign(k, std::vector<double>(static_cast<std::size_t>(n), 0.0));
       gram_.assign(k * k, 0.0);
@@ -1955,12 +2032,12 @@ void FlowSolver::run() {
   judged_ = error_;
   while (true) {
     // Within the resolution with the resolution of an earlier point: confirmed at this one.
-    if (resolution_active_ && judged_ < tolerance_ && !(error_ < tolerance_)) resolution_at_u();
+    if (resolution_.active && judged_ < tolerance_ && !(error_ < tolerance_)) resolution_at_u();
     if (judged_ < tolerance_) {
       if (newton && polish_step()) continue;
       r_.status = Status::Ok;
       r_.message = "converged";
-      if (resolution_active_ && !(error_ < tolerance_)) note_resolution();
+      if (resolution_.active && !(error_ < tolerance_)) note_resolution();
       if (polished_ > 0)
         r_.notes.push_back("polished by " + std::to_string(polished_) + " Newton step" + (polished_ == 1 ? "" : "s") +
                            " after the tolerance was met: max |K̄ − K| " + format_double("%.3g", error_before_polish_) +
@@ -1972,7 +2049,7 @@ void FlowSolver::run() {
            "the curvature error is not finite at iteration " + std::to_string(iteration_));
       return;
     }
-    if (newton && spherical_gauge_ && max_error(cur_.K, K_target_, unknown_) < 0.01 * tolerance_) {
+    if (newton && vc_.spherical_gauge && max_error(cur_.K, K_target_, vc_.unknown) < 0.01 * tolerance_) {
       fail(Status::NotConverged,
            "Newton converged on the free vertices but not at the three vertices pinned for the Möbius gauge "
            "of the sphere (their starting u is not reachable by a Möbius transformation of the solution)");
@@ -2000,9 +2077,9 @@ void FlowSolver::finish() {
     r_.K = cur_.K;
     r_.K_target = K_target_;
     r_.max_curvature_error = error_;
-    if (resolution_active_) {
-      r_.curvature_resolution = largest_resolution_;
-      r_.resolution_vertices = resolution_vertices_;
+    if (resolution_.active) {
+      r_.curvature_resolution = resolution_.largest;
+      r_.resolution_vertices = resolution_.vertices;
     }
     area_.assign(static_cast<std::size_t>(t_.num_faces), 0.0);
     face_areas(t_, g, cur_.l, cur_.theta, area_);
@@ -2025,12 +2102,12 @@ void FlowSolver::finish() {
                          " non-Delaunay edge(s) were left unflipped at some point: both sides of the edge lie in one "
                          "face");
   }
-  if (spherical_gauge_) {
+  if (vc_.spherical_gauge) {
     r_.notes.push_back(
         "spherical gauge: the round-sphere target is unique only up to Möbius transformations; "
         "vertices " +
-        std::to_string(spherical_pins_[0]) + ", " + std::to_string(spherical_pins_[1]) + " and " +
-        std::to_string(spherical_pins_[2]) + " kept their starting u");
+        std::to_string(vc_.spherical_pins[0]) + ", " + std::to_string(vc_.spherical_pins[1]) + " and " +
+        std::to_string(vc_.spherical_pins[2]) + " kept their starting u");
   }
   if (switched_direct_at_ > 0)
     r_.notes.push_back("the boundary system of the length-dependent target was solved directly from Newton step " +
