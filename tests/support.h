@@ -2,8 +2,11 @@
 // and the invariant checks every topology must pass.
 #pragma once
 
+#include <doctest/doctest.h>
+
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <random>
 #include <string>
 #include <vector>
@@ -35,6 +38,46 @@ fs::path fixtures_dir();
 fs::path shared_meshes_dir();
 /// Mesh files (.obj, .off, .ply) directly inside `dir`, sorted by name; empty when `dir` is absent.
 std::vector<fs::path> mesh_files(const fs::path& dir);
+
+// Seeded property loops and lists of meshes: each case runs with its seed or file named in the
+// messages of any check that fails inside it (doctest INFO), so a failure says which draw it was.
+
+/// body(seed) for seed = first, first + 1, …, last.
+template <class Body>
+void for_each_seed(std::uint64_t first, std::uint64_t last, Body&& body) {
+  for (std::uint64_t seed = first; seed <= last; ++seed) {
+    INFO("seed " << seed);
+    body(seed);
+  }
+}
+/// body(seed) for each seed listed.
+template <class Body>
+void for_each_seed(std::initializer_list<std::uint64_t> seeds, Body&& body) {
+  for (const std::uint64_t seed : seeds) {
+    INFO("seed " << seed);
+    body(seed);
+  }
+}
+/// body(path) for every mesh file of fixtures/ (mesh_files()), in name order.
+template <class Body>
+void for_each_fixture(Body&& body) {
+  for (const fs::path& path : mesh_files(fixtures_dir())) {
+    INFO("fixture " << path.filename().string());
+    body(path);
+  }
+}
+/// body(path) for every mesh file of ../shared/meshes/<folder> for each folder listed, in that
+/// order; nothing when the shared meshes are absent.
+template <class Body>
+void for_each_shared_mesh(std::initializer_list<const char*> folders, Body&& body) {
+  const fs::path root = shared_meshes_dir();
+  if (root.empty()) return;
+  for (const char* folder : folders)
+    for (const fs::path& path : mesh_files(root / folder)) {
+      INFO("shared mesh " << path.string());
+      body(path);
+    }
+}
 
 /// A fresh, empty temporary folder removed when the object goes out of scope.
 class TempDir {

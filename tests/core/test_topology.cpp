@@ -88,9 +88,8 @@ TEST_CASE("topology: invariants and Euler characteristic on generated surfaces")
 TEST_CASE("topology: random renumberings, rotations, splits, flips and subdivisions keep every invariant") {
   using namespace ricci_shapes;
   for (const auto& s : surfaces()) {
-    for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    ricci_test::for_each_seed(1, 4, [&](std::uint64_t seed) {
       INFO(s.name);
-      CAPTURE(seed);
       std::mt19937_64 rng(seed);
       Mesh m = permute_vertices(s.mesh, rng);
       m = permute_faces(m, rng);
@@ -101,7 +100,7 @@ TEST_CASE("topology: random renumberings, rotations, splits, flips and subdivisi
       m = flip_random_edges(m, rng);
       check_surface(m, s.chi, s.boundary_loops, s.genus);
       if (seed == 1) check_surface(subdivide_midpoint(m), s.chi, s.boundary_loops, s.genus);
-    }
+    });
   }
 }
 

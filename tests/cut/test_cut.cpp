@@ -230,8 +230,7 @@ Loaded load(const fs::path& p) {
 }  // namespace
 
 TEST_CASE("cut: every fixture becomes one canonical disk, deterministically, for random base vertices") {
-  for (const fs::path& p : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
-    INFO(p.filename().string());
+  ricci_test::for_each_fixture([&](const ricci_test::fs::path& p) {
     const Loaded m = load(p);
     const CutResult r = cut_surface(m.mesh, m.topo);
     check_cut(m.mesh, m.topo, r);
@@ -250,7 +249,7 @@ TEST_CASE("cut: every fixture becomes one canonical disk, deterministically, for
       ob.base_vertex = rs.requested_base_vertex;
       CHECK(cut_surface(m.mesh, m.topo, ob).side_vertices == rs.side_vertices);
     }
-  }
+  });
 }
 
 TEST_CASE("cut: coarse surfaces need refinement and stay exact") {
@@ -307,14 +306,13 @@ TEST_CASE("cut: a base vertex on the boundary is replaced by an interior one (ge
 TEST_CASE("cut: renumbered surfaces give valid cuts") {
   using namespace ricci_shapes;
   const Mesh base = remove_vertex_stars(pretzel(2, 2), {3, 40});
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     const Mesh m = rotate_face_corners(permute_faces(permute_vertices(base, rng), rng), rng);
     const TopologyResult t = build_topology(m.faces, m.num_vertices());
     REQUIRE(t.status == Status::Ok);
     check_cut(m, t.topology, cut_surface(m, t.topology));
-  }
+  });
 }
 
 TEST_CASE("cut: options are checked and data is carried across the cut") {
@@ -361,30 +359,27 @@ TEST_CASE("cut: the shared real meshes become disks with canonical polygons") {
     MESSAGE("skipped: ../shared/meshes is absent");
     return;
   }
-  for (const char* folder : {"genus1", "genus2", "genus3plus", "boundary"}) {
-    for (const fs::path& p : ricci_test::mesh_files(root / folder)) {
-      INFO(p.string());
-      const LoadResult lr = load_mesh(p.string());
-      REQUIRE(lr.status == Status::Ok);
-      const Mesh& mesh = lr.validated.mesh;
-      const Topology& topo = lr.validated.topology;
+  ricci_test::for_each_shared_mesh({"genus1", "genus2", "genus3plus", "boundary"}, [&](const fs::path& p) {
+    const LoadResult lr = load_mesh(p.string());
+    REQUIRE(lr.status == Status::Ok);
+    const Mesh& mesh = lr.validated.mesh;
+    const Topology& topo = lr.validated.topology;
 #ifndef NDEBUG
-      if (topo.num_faces > 30000) {
-        MESSAGE("skipped in this (debug) build: " << p.filename().string() << " has " << topo.num_faces
-                                                  << " faces");
-        continue;
-      }
-#endif
-      const auto t0 = std::chrono::steady_clock::now();
-      const CutResult r = cut_surface(mesh, topo);
-      const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      MESSAGE(p.filename().string() << ": " << r.brief_report() << " (" << sec << " s)");
-      check_cut(mesh, topo, r);
-      if (topo.num_faces <= 12000) {
-        CutOptions o;
-        o.seed = 7;
-        check_cut(mesh, topo, cut_surface(mesh, topo, o));
-      }
+    if (topo.num_faces > 30000) {
+      MESSAGE("skipped in this (debug) build: " << p.filename().string() << " has " << topo.num_faces
+                                                << " faces");
+      return;
     }
-  }
+#endif
+    const auto t0 = std::chrono::steady_clock::now();
+    const CutResult r = cut_surface(mesh, topo);
+    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    MESSAGE(p.filename().string() << ": " << r.brief_report() << " (" << sec << " s)");
+    check_cut(mesh, topo, r);
+    if (topo.num_faces <= 12000) {
+      CutOptions o;
+      o.seed = 7;
+      check_cut(mesh, topo, cut_surface(mesh, topo, o));
+    }
+  });
 }

@@ -314,8 +314,7 @@ TEST_CASE("deck: flat torus translations") {
 }
 
 TEST_CASE("deck: noisy layouts fit better than two points") {
-  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 4, [&](std::uint64_t seed) {
     Polygon P = regular_polygon(2, seed, {30, 25, 40, 20});
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> noise(0, 1e-7);
@@ -331,7 +330,7 @@ TEST_CASE("deck: noisy layouts fit better than two points") {
     }
     CHECK(r.relation_error < 1e-4);
     CHECK(r.relation_error > 0);
-  }
+  });
 }
 
 TEST_CASE("deck: bad input is a status, never NaN") {

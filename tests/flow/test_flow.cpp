@@ -16,6 +16,7 @@
 #include "ricci/flow.h"
 #include "ricci/validate.h"
 #include "shapes.h"
+#include "support.h"
 
 using namespace ricci;
 
@@ -336,8 +337,7 @@ TEST_CASE("flow: the euclidean result is invariant under vertex permutation") {
   const Problem p = make_problem("torus", ricci_shapes::torus(16, 8, 2.0, 0.7), Geometry::Euclidean);
   const FlowResult r = solve(p);
   REQUIRE(r.status == Status::Ok);
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     const Problem q =
         make_problem("permuted torus", ricci_shapes::permute_vertices(p.mesh, rng), Geometry::Euclidean);
@@ -348,7 +348,7 @@ TEST_CASE("flow: the euclidean result is invariant under vertex permutation") {
     for (Index v = 0; v < q.topology.num_vertices; ++v)
       worst = std::max(worst, std::abs(s.u[v] - r.u[map[v]]));
     CHECK(worst < 1e-9);
-  }
+  });
 }
 
 TEST_CASE("flow: the euclidean result is invariant under global scaling (u shifts by log scale)") {
@@ -662,8 +662,7 @@ TEST_CASE("flow: a disk maps to a rectangle — four corners of curvature π/2, 
 
 TEST_CASE("flow: valence-3 vertices in obtuse triangles — infeasible with Step 2's angles, solved after relaxing") {
   using namespace ricci_shapes;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     // Splitting split faces again makes valence-3 vertices inside thin, obtuse triangles.
     const ValidateResult v =
@@ -687,7 +686,7 @@ TEST_CASE("flow: valence-3 vertices in obtuse triangles — infeasible with Step
     CHECK(r.status == Status::Ok);
     CHECK(r.max_curvature_error < 1e-10);
     CHECK(r.iterations <= 15);
-  }
+  });
 }
 
 TEST_CASE("flow: S safeguards — a planar start for the round sphere, a continuation for other targets") {

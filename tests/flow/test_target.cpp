@@ -139,16 +139,15 @@ template <class Fn>
 void for_each_random_packing(double shrink, Fn&& fn) {
   for (const auto& f : fixtures()) {
     for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic}) {
-      for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
         INFO(f.name << " " << geometry_name(g));
-        CAPTURE(seed);
         std::mt19937_64 rng(seed);
         const InitialMetric m = metric_for(f, g);
         std::vector<double> u = m.u;
         for (double& x : u) x -= shrink * ricci_shapes::unit_double(rng);
         const Evaluation e = evaluate(f.topology, m.structure, u);
         fn(f, m, u, e, rng);
-      }
+      });
     }
   }
 }
@@ -293,9 +292,8 @@ TEST_CASE("target: effective_target spreads each loop total in proportion to len
     const Topology& t = s.topology;
     if (t.is_closed()) continue;
     for (BoundaryMode mode : {BoundaryMode::Circle, BoundaryMode::LoopTotals}) {
-      for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      ricci_test::for_each_seed(1, 5, [&](std::uint64_t seed) {
         INFO(s.name << " " << boundary_mode_name(mode));
-        CAPTURE(seed);
         std::mt19937_64 rng(seed);
         Target target = uniform_target(t, mode);
         if (mode == BoundaryMode::LoopTotals)
@@ -328,7 +326,7 @@ TEST_CASE("target: effective_target spreads each loop total in proportion to len
         std::vector<double> again(t.num_vertices, 0.0);
         effective_target(t, target, l, again, Geometry::Hyperbolic);
         CHECK(again == K);
-      }
+      });
     }
   }
 }
@@ -624,8 +622,7 @@ TEST_CASE("target: random garbage target files never crash") {
   const std::string alphabet =
       std::string("0123456789 \t\r\n#-+.eEinfaxN\xFF\xEF\xBB\xBF", 30) + std::string(1, '\0');
   const std::string valid = "0 0.5\n3 -0.25\n# comment\n7 1e-3\r\n";
-  for (std::uint64_t seed = 1; seed <= 300; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 300, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     std::string text;
     if (seed % 2 == 0) {
@@ -657,7 +654,7 @@ TEST_CASE("target: random garbage target files never crash") {
         CHECK(r.line >= 1);
       }
     }
-  }
+  });
 }
 
 TEST_CASE("target: check_target rejects a Gauss-Bonnet violation and states 2πχ and the sum") {

@@ -152,9 +152,8 @@ double min_margin(const IntrinsicTriangulation& tri, std::span<const double> u) 
 
 TEST_CASE("intrinsic: random flips keep the corner table valid and flipping back restores every log-chord bit for bit") {
   for (const Case& c : cases()) {
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
       INFO(c.name);
-      CAPTURE(seed);
       std::mt19937_64 rng(seed);
       IntrinsicTriangulation tri = intrinsic(c, false);
       const std::vector<std::int64_t> chords0 = tri.log_chord;
@@ -182,7 +181,7 @@ TEST_CASE("intrinsic: random flips keep the corner table valid and flipping back
       CHECK(tri.log_chord == chords0);
       CHECK(face_set(tri.topology) == faces0);
       CHECK(ricci_test::check_topology(tri.topology, tri.topology.corner_vertex) == "");
-    }
+    });
   }
 }
 
@@ -280,8 +279,7 @@ TEST_CASE("intrinsic: non_delaunay_edges() finds exactly the edges the margin fl
 TEST_CASE("intrinsic: the metric at u does not depend on the flips before it — any flip path, then Delaunay, gives the same curvature") {
   for (const Case& c : cases()) {
     INFO(c.name);
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      CAPTURE(seed);
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
       std::mt19937_64 rng(seed);
       IntrinsicTriangulation a = intrinsic(c, true);
       IntrinsicTriangulation b = a;
@@ -309,7 +307,7 @@ TEST_CASE("intrinsic: the metric at u does not depend on the flips before it —
       CHECK(max_abs_difference(Ka, Kb) <= 1e-11);
       // Gauss–Bonnet on the flipped triangulation.
       CHECK(std::abs(gauss_bonnet_defect(a.topology, a.geometry, Ka, area)) <= 1e-10);
-    }
+    });
   }
 }
 

@@ -19,6 +19,7 @@
 #include "ricci/validate.h"
 #include "shapes.h"
 #include "stress_shapes.h"
+#include "support.h"
 
 using namespace ricci;
 
@@ -229,8 +230,7 @@ TEST_CASE("intrinsic trace: after the flow's flips in E, H and S every input edg
 
 TEST_CASE("intrinsic trace: on points of a circle, where input edges cross the flipped ones is where their chords meet, also after a Möbius map (a vertex scaling)") {
   using C = std::complex<double>;
-  for (const std::uint64_t seed : {4u, 5u, 6u}) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed({4, 5, 6}, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     // n points on the unit circle, a fan triangulation; every quadrilateral is cyclic, so Ptolemy
     // flips are the straight diagonals.
@@ -285,7 +285,7 @@ TEST_CASE("intrinsic trace: on points of a circle, where input edges cross the f
       MESSAGE("seed " << seed << std::string(moved ? " after the Möbius map" : "") << ": largest error in t " << worst);
       CHECK(worst < 1e-10);
     }
-  }
+  });
 }
 
 TEST_CASE("intrinsic flow: the stress kinds converge with flips and their input edges trace") {

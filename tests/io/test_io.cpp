@@ -182,8 +182,7 @@ void check_same_mesh(const Mesh& mesh, const ReadResult& back, FileFormat format
 }
 
 void check_round_trips(FileFormat format) {
-  for (const std::uint64_t seed : {1ull, 2ull, 3ull, 17ull, 2024ull, 99991ull}) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed({1, 2, 3, 17, 2024, 99991}, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     const Mesh mesh = random_mesh(rng, format == FileFormat::Obj && seed % 2 == 1);
     const std::string bytes = ricci::serialize_mesh(mesh, format);
@@ -191,7 +190,7 @@ void check_round_trips(FileFormat format) {
     INFO(back.message);
     check_same_mesh(mesh, back, format);
     CHECK(back.format == format);
-  }
+  });
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -711,39 +711,36 @@ TEST_CASE("layout: shared real meshes (figures per mesh)") {
 #else
   const Index max_faces = 3000;
 #endif
-  for (const char* folder : {"genus0", "genus1", "genus2", "genus3plus", "boundary"}) {
-    for (const fs::path& p : ricci_test::mesh_files(root / folder)) {
-      INFO(p.string());
-      const LoadResult lr = load_mesh(p.string());
-      if (lr.status != Status::Ok || lr.validated.topology.num_faces > max_faces) continue;
-      const auto t0 = std::chrono::steady_clock::now();
-      const Uniformized u = uniformize(lr.validated.mesh, lr.validated.topology);
-      if (u.flow.status != Status::Ok && u.flow.status != Status::NotConverged) {
-        MESSAGE(p.filename().string() << ": flow " << u.flow.brief_report() << " — no layout");
-        continue;
-      }
-      const bool sphere = u.topo.is_closed() && u.topo.euler_characteristic() == 2;
-      Disk d;
-      if (!sphere) d = cut_disk(u);
-      const Disk* dp = sphere ? nullptr : &d;
-      const Layout base = lay_out(u, dp, -1, false);
-      REQUIRE_MESSAGE(base.status == Status::Ok, base.message);
-      const Layout other = lay_out(u, dp, 0, false);
-      REQUIRE(other.status == Status::Ok);
-      const double seed_error = layout_alignment_error(u.geometry, base.positions, other.positions);
-      MESSAGE(p.filename().string() << ": F " << u.topo.num_faces << ", " << geometry_name(u.geometry)
-                                    << ", curvature error " << u.flow.max_curvature_error << ", "
-                                    << base.brief_report() << ", rounding floor " << base.rounding_floor
-                                    << "; seed face 0: edge error "
-                                    << other.max_edge_length_error << ", flips " << other.flipped_faces
-                                    << "; seed independence " << seed_error << "; total " << seconds_since(t0)
-                                    << " s");
-      CHECK(base.unplaced_vertices == 0);
-      CHECK(base.flipped_faces == 0);
-      CHECK(other.flipped_faces == 0);
-      // < 1e-9 wherever double-precision coordinates can hold it (see Layout::rounding_floor).
-      CHECK(base.max_edge_length_error < std::max(1e-9, 8 * base.rounding_floor));
-      CHECK(other.max_edge_length_error < std::max(1e-9, 8 * other.rounding_floor));
+  ricci_test::for_each_shared_mesh({"genus0", "genus1", "genus2", "genus3plus", "boundary"}, [&](const fs::path& p) {
+    const LoadResult lr = load_mesh(p.string());
+    if (lr.status != Status::Ok || lr.validated.topology.num_faces > max_faces) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    const Uniformized u = uniformize(lr.validated.mesh, lr.validated.topology);
+    if (u.flow.status != Status::Ok && u.flow.status != Status::NotConverged) {
+      MESSAGE(p.filename().string() << ": flow " << u.flow.brief_report() << " — no layout");
+      return;
     }
-  }
+    const bool sphere = u.topo.is_closed() && u.topo.euler_characteristic() == 2;
+    Disk d;
+    if (!sphere) d = cut_disk(u);
+    const Disk* dp = sphere ? nullptr : &d;
+    const Layout base = lay_out(u, dp, -1, false);
+    REQUIRE_MESSAGE(base.status == Status::Ok, base.message);
+    const Layout other = lay_out(u, dp, 0, false);
+    REQUIRE(other.status == Status::Ok);
+    const double seed_error = layout_alignment_error(u.geometry, base.positions, other.positions);
+    MESSAGE(p.filename().string() << ": F " << u.topo.num_faces << ", " << geometry_name(u.geometry)
+                                  << ", curvature error " << u.flow.max_curvature_error << ", "
+                                  << base.brief_report() << ", rounding floor " << base.rounding_floor
+                                  << "; seed face 0: edge error "
+                                  << other.max_edge_length_error << ", flips " << other.flipped_faces
+                                  << "; seed independence " << seed_error << "; total " << seconds_since(t0)
+                                  << " s");
+    CHECK(base.unplaced_vertices == 0);
+    CHECK(base.flipped_faces == 0);
+    CHECK(other.flipped_faces == 0);
+    // < 1e-9 wherever double-precision coordinates can hold it (see Layout::rounding_floor).
+    CHECK(base.max_edge_length_error < std::max(1e-9, 8 * base.rounding_floor));
+    CHECK(other.max_edge_length_error < std::max(1e-9, 8 * other.rounding_floor));
+  });
 }

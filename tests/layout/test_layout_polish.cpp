@@ -20,6 +20,7 @@
 #include "ricci/validate.h"
 #include "ricci/topology.h"
 #include "shapes.h"
+#include "support.h"
 
 using namespace ricci;
 
@@ -106,9 +107,8 @@ std::vector<double> bent(const Case& c, double drift, double noise, std::uint64_
 
 TEST_CASE("layout polish: global Gauss–Newton removes a smooth drift in E, H and S") {
   for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
       CAPTURE(static_cast<int>(g));
-      CAPTURE(seed);
       const Case c = make_case(g, seed);
       const std::vector<double> start = bent(c, 1e-6, 1e-9, seed + 100);
       const double before = max_error(c, start);
@@ -130,15 +130,14 @@ TEST_CASE("layout polish: global Gauss–Newton removes a smooth drift in E, H a
       std::vector<double> swept = start;
       detail::polish_by_sweeps(c.topo, g, c.l, swept, 30);
       CHECK(max_error(c, swept) > 100 * gp.error_after);
-    }
+    });
   }
 }
 
 TEST_CASE("layout polish: Gauss–Seidel sweeps remove short-range noise in E, H and S") {
   for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
       CAPTURE(static_cast<int>(g));
-      CAPTURE(seed);
       const Case c = make_case(g, seed);
       const std::vector<double> start = bent(c, 0, 1e-7, seed + 200);
       const double before = max_error(c, start);
@@ -154,7 +153,7 @@ TEST_CASE("layout polish: Gauss–Seidel sweeps remove short-range noise in E, H
       CHECK(again == x);
       if (g == Geometry::Hyperbolic)
         for (Index v = 0; v < c.topo.num_vertices; ++v) CHECK(std::hypot(x[2 * v], x[2 * v + 1]) < 1);
-    }
+    });
   }
 }
 
@@ -198,8 +197,7 @@ TEST_CASE("layout polish: polish_steps is validated and reported") {
 }
 
 TEST_CASE("layout from shapes: a flat disk's own layout, to the solve's conditioning, then polished to rounding") {
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
     const Case c = make_case(Geometry::Euclidean, seed);
     std::vector<double> theta(3 * static_cast<std::size_t>(c.topo.num_faces));
     corner_angles(c.topo, Geometry::Euclidean, c.l, theta);
@@ -224,7 +222,7 @@ TEST_CASE("layout from shapes: a flat disk's own layout, to the solve's conditio
     CHECK(apart < 1e-10);
     const detail::GlobalPolish gp = detail::polish_globally(c.topo, Geometry::Euclidean, c.l, x, 3);
     CHECK(gp.error_after < 1e-13);
-  }
+  });
 }
 
 TEST_CASE("layout from shapes: a long annulus of needles lays out where the propagation cannot") {

@@ -118,9 +118,8 @@ TEST_CASE("metric: the initial metric reproduces the mesh lengths (exactly for i
 TEST_CASE("metric: Gauss-Bonnet holds for random admissible metrics in E, H and S") {
   for (const auto& s : small_surfaces()) {
     for (Geometry g : kGeometries) {
-      for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      ricci_test::for_each_seed(1, 5, [&](std::uint64_t seed) {
         INFO(s.name << " " << geometry_name(g));
-        CAPTURE(seed);
         std::mt19937_64 rng(seed);
         InitialMetricOptions o;
         o.geometry = g;
@@ -142,7 +141,7 @@ TEST_CASE("metric: Gauss-Bonnet holds for random admissible metrics in E, H and 
           if (g == Geometry::Spherical) CHECK(std::abs((sum - kPi) - e.area[f]) < 1e-12);
           CHECK(e.area[f] > 0);
         }
-      }
+      });
     }
   }
 }
@@ -335,14 +334,14 @@ TEST_CASE("metric: relaxing the angles clears every separating 3- and 4-cycle an
     bool all_right_angles;  // set every Φ to π/2 instead of Step 2's angles
   };
   std::vector<Case> cases;
-  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+  ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     // Splitting split faces again makes valence-3 vertices inside thin, obtuse triangles.
     cases.push_back({"torus with twice split faces, seed " + std::to_string(seed),
                      split_random_faces(split_random_faces(torus(16, 8, 2.0, 0.8), rng, 0.3), rng, 0.3), false});
     cases.push_back({"icosphere with twice split faces, seed " + std::to_string(seed),
                      split_random_faces(split_random_faces(icosphere(2), rng, 0.3), rng, 0.3), false});
-  }
+  });
   // The octahedron: every vertex link is a 4-cycle; with right angles everywhere each violates.
   Mesh octahedron;
   octahedron.positions = {1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1};

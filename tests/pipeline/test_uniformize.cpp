@@ -19,8 +19,7 @@ using namespace ricci;
 namespace fs = std::filesystem;
 
 TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy") {
-  for (const fs::path& p : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
-    INFO(p.filename().string());
+  ricci_test::for_each_fixture([&](const ricci_test::fs::path& p) {
     const LoadResult lr = load_mesh(p.string());
     REQUIRE(lr.status == Status::Ok);
     const Topology& t = lr.validated.topology;
@@ -122,7 +121,7 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
     }
     CHECK(r.angles.max_abs_log == doctest::Approx(mx));
     CHECK(r.angles.mean_abs_log <= r.angles.max_abs_log);
-  }
+  });
 }
 
 TEST_CASE("uniformize: a stored metric lays out exactly as the flow's own lengths") {

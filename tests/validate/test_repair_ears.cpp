@@ -265,10 +265,10 @@ TEST_CASE("repair ears: ear-free meshes are left byte-identical") {
   std::vector<std::pair<std::string, Mesh>> meshes = {{"annulus", ricci_shapes::annulus(3, 12)},
                                                       {"disk", ricci_shapes::disk(4)},
                                                       {"torus", ricci_shapes::torus(12, 8, 1.0, 0.4)}};
-  for (const auto& file : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
+  ricci_test::for_each_fixture([&](const ricci_test::fs::path& file) {
     const ReadResult rr = read_mesh(file.string());
     if (rr.status == Status::Ok) meshes.emplace_back(file.filename().string(), rr.mesh);
-  }
+  });
   REQUIRE(meshes.size() >= 5);
   for (const auto& [name, m] : meshes) {
     INFO(name);

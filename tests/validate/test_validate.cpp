@@ -152,8 +152,7 @@ TEST_CASE("validate: the largest component is kept on request, with maps to the 
 
 TEST_CASE("validate: inconsistent orientation is repaired outward, or refused on request") {
   using namespace ricci_shapes;
-  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
-    CAPTURE(seed);
+  ricci_test::for_each_seed(1, 6, [&](std::uint64_t seed) {
     std::mt19937_64 rng(seed);
     Mesh m = icosphere(2);
     // Flip a random majority of the faces: the outward choice must still win on a closed surface.
@@ -172,7 +171,7 @@ TEST_CASE("validate: inconsistent orientation is repaired outward, or refused on
     ValidateOptions strict;
     strict.repair_orientation = false;
     CHECK(validate_mesh(m, strict).status == Status::InconsistentOrientation);
-  }
+  });
   // An open surface: the majority orientation is kept, and texture corners follow their faces.
   Mesh d = disk(5);
   d.texcoords = {0, 0, 1, 0, 0, 1};

@@ -157,10 +157,10 @@ std::vector<std::array<double, 9>> geometric_faces(const Mesh& m) {
 
 std::vector<std::pair<std::string, Mesh>> loaded_fixtures() {
   std::vector<std::pair<std::string, Mesh>> out;
-  for (const auto& path : ricci_test::mesh_files(ricci_test::fixtures_dir())) {
+  ricci_test::for_each_fixture([&](const ricci_test::fs::path& path) {
     const LoadResult r = load_mesh(path.string());
     if (r.status == Status::Ok) out.emplace_back(path.filename().string(), r.validated.mesh);
-  }
+  });
   return out;
 }
 
@@ -200,8 +200,7 @@ TEST_CASE("shapes: permutations and corner rotations change only the numbering")
   using namespace ricci_shapes;
   for (const Mesh& mesh : {torus(12, 6, 1.0, 0.4), disk(4), pretzel(2, 2)}) {
     const auto want = geometric_faces(mesh);
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      CAPTURE(seed);
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
       std::mt19937_64 rng(seed);
       const Mesh a = permute_vertices(mesh, rng), b = permute_faces(mesh, rng), c = rotate_face_corners(mesh, rng);
       CHECK(a.faces != mesh.faces);
@@ -212,7 +211,7 @@ TEST_CASE("shapes: permutations and corner rotations change only the numbering")
       CHECK(geometric_faces(c) == want);
       CHECK(b.positions == mesh.positions);
       CHECK(c.positions == mesh.positions);
-    }
+    });
   }
 }
 
