@@ -706,6 +706,27 @@ double CurvatureResolution::judged_error(std::span<const double> K, std::span<co
   return e;
 }
 
+// The circle-domain normalization (see "Circle domains" below; E, genus 0, Circle targets,
+// Newton): modes a, b and normalization rows n_c, n_s per vertex (#V, zero off the outer loop),
+// their coefficients α, β (current, step, trial), and the workspace of the bordered solve.
+struct CircleDomainModes {
+  bool active = false;
+  std::vector<Index> vertices;  // the outer loop's
+  std::vector<double> a, b, norm_c, norm_s;
+  double norm_c0 = 0, norm_s0 = 0;  // n·u at the start
+  double alpha = 0, beta = 0, d_alpha = 0, d_beta = 0, alpha_trial = 0, beta_trial = 0;
+  double largest = 0;  // max over the run of max |α a + β b| / |the effective target without modes|
+  int failures = 0;    // steps without the modes (singular 2×2 system)
+  std::vector<double> y, z_a, z_b, rhs, full;
+
+  // Sets the modes up on the outer loop (the loop of largest positive total) at lengths l and u;
+  // active stays false when there is none or a vertex of it has no curvature condition.
+  void setup(const Topology& t, const Target& target, std::span<const double> l,
+             const std::vector<std::uint8_t>& condition, std::span<const double> u, Index unknowns);
+  // K_target += α a + β b on the outer loop.
+  void add(double alpha_now, double beta_now, std::span<double> K_target) const;
+};
+
 // ---------------------------------------------------------------------------------------------
 
 class FlowSolver {
@@ -769,9 +790,7 @@ class FlowSolver {
   void setup_boundary_direct(bool force = false);
   bool boundary_direct_solve();
   bool coupled_direction(std::span<const double> g);
-  void setup_moebius_modes();
   bool moebius_direction();
-  void add_modes(double alpha, double beta, std::span<double> K_target) const;
   Validity evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
                        ConformalStructure& s, bool& flipped);
   const Topology& trial_topology() const { return trial_flipped_ ? trial_tri_.topology : t_; }
@@ -857,17 +876,8 @@ class FlowSolver {
   std::vector<std::int64_t> block_unknown_;
   std::vector<double> block_gram_, boundary_lu_;
   std::vector<Index> boundary_pivot_;
-  // Circle domains (E, genus 0, Circle targets, Newton): the Möbius normalization, see
-  // setup_moebius_modes(). Modes and normalization rows per vertex (#V, zero off the outer loop),
-  // their coefficients, the update of the current step and the value of the trial point.
-  bool moebius_modes_ = false;
-  std::vector<Index> mode_vertices_;
-  std::vector<double> mode_a_, mode_b_, norm_c_, norm_s_;
-  double norm_c0_ = 0, norm_s0_ = 0;
-  double alpha_ = 0, beta_ = 0, d_alpha_ = 0, d_beta_ = 0, alpha_trial_ = 0, beta_trial_ = 0;
-  double largest_mode_ = 0;  // max over the run of max |α a + β b| / |the effective target without modes|
-  int mode_failures_ = 0;
-  std::vector<double> y_, z_a_, z_b_, mode_rhs_, mode_full_;
+  // Circle domains: the Möbius normalization (CircleDomainModes).
+  CircleDomainModes modes_;
   const std::vector<Index>* order_hint_ = nullptr;
   std::vector<Index>* order_out_ = nullptr;
   // Intrinsic flips (set_intrinsic()): the current triangulation and structure (t_ and s_ refer
@@ -1358,28 +1368,29 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
 // as δ = y + Δα z_a + Δβ z_b with y = J⁻¹g, z = J⁻¹a, J⁻¹b (three solves of the coupled system) and
 // a 2×2 system for (Δα, Δβ). The loop total is unchanged (the modes sum to zero); the result's
 // K_target contains the modes, and the notes give their size relative to the proportional target.
-void FlowSolver::setup_moebius_modes() {
+void CircleDomainModes::setup(const Topology& t, const Target& target, std::span<const double> l,
+                              const std::vector<std::uint8_t>& condition, std::span<const double> u, Index unknowns) {
   Index outer = kInvalid;
-  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop)
-    if (target_.loop_total[loop] > 0 && (outer == kInvalid || target_.loop_total[loop] > target_.loop_total[outer]))
+  for (Index loop = 0; loop < t.num_boundary_loops(); ++loop)
+    if (target.loop_total[loop] > 0 && (outer == kInvalid || target.loop_total[loop] > target.loop_total[outer]))
       outer = loop;
   if (outer == kInvalid) return;
-  const Index begin = t_.boundary_offsets[outer], end = t_.boundary_offsets[outer + 1];
+  const Index begin = t.boundary_offsets[outer], end = t.boundary_offsets[outer + 1];
   const Index count = end - begin;
   if (count < 4) return;
-  const auto nv = static_cast<std::size_t>(t_.num_vertices);
-  mode_a_.assign(nv, 0.0);
-  mode_b_.assign(nv, 0.0);
-  norm_c_.assign(nv, 0.0);
-  norm_s_.assign(nv, 0.0);
+  const auto nv = static_cast<std::size_t>(t.num_vertices);
+  a.assign(nv, 0.0);
+  b.assign(nv, 0.0);
+  norm_c.assign(nv, 0.0);
+  norm_s.assign(nv, 0.0);
   double L = 0;
-  for (Index p = begin; p < end; ++p) L += cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
+  for (Index p = begin; p < end; ++p) L += l[t.corner_edge[t.boundary_corners[p]]];
   if (!(L > 0)) return;
   std::vector<double> theta(static_cast<std::size_t>(count)), w(static_cast<std::size_t>(count));
   double arc = 0;
   for (Index p = begin; p < end; ++p) {
-    const double out = cur_.l[t_.corner_edge[t_.boundary_corners[p]]];
-    const double in = cur_.l[t_.corner_edge[t_.boundary_corners[p > begin ? p - 1 : end - 1]]];
+    const double out = l[t.corner_edge[t.boundary_corners[p]]];
+    const double in = l[t.corner_edge[t.boundary_corners[p > begin ? p - 1 : end - 1]]];
     theta[p - begin] = 2 * std::numbers::pi * arc / L;
     w[p - begin] = 0.5 * (in + out);
     arc += out;
@@ -1397,46 +1408,48 @@ void FlowSolver::setup_moebius_modes() {
   wc /= wsum;
   ws /= wsum;
   for (Index i = 0; i < count; ++i) {
-    const Index v = t_.boundary_vertices[begin + i];
-    if (!vc_.condition[v]) return;  // every vertex of a Circle loop has a curvature condition
-    mode_vertices_.push_back(v);
-    mode_a_[v] = std::cos(theta[i]) - mean_c;
-    mode_b_[v] = std::sin(theta[i]) - mean_s;
-    norm_c_[v] = w[i] * (std::cos(theta[i]) - wc);
-    norm_s_[v] = w[i] * (std::sin(theta[i]) - ws);
+    const Index v = t.boundary_vertices[begin + i];
+    if (!condition[v]) return;  // every vertex of a Circle loop has a curvature condition
+    vertices.push_back(v);
+    a[v] = std::cos(theta[i]) - mean_c;
+    b[v] = std::sin(theta[i]) - mean_s;
+    norm_c[v] = w[i] * (std::cos(theta[i]) - wc);
+    norm_s[v] = w[i] * (std::sin(theta[i]) - ws);
   }
-  norm_c0_ = norm_s0_ = 0;
-  for (Index v : mode_vertices_) {
-    norm_c0_ += norm_c_[v] * u_[v];
-    norm_s0_ += norm_s_[v] * u_[v];
+  norm_c0 = norm_s0 = 0;
+  for (Index v : vertices) {
+    norm_c0 += norm_c[v] * u[v];
+    norm_s0 += norm_s[v] * u[v];
   }
-  const auto n = static_cast<std::size_t>(pattern_.num_unknowns);
-  y_.assign(n, 0.0);
-  z_a_.assign(n, 0.0);
-  z_b_.assign(n, 0.0);
-  mode_rhs_.assign(n, 0.0);
-  mode_full_.assign(nv, 0.0);
-  moebius_modes_ = true;
+  const auto n = static_cast<std::size_t>(unknowns);
+  y.assign(n, 0.0);
+  z_a.assign(n, 0.0);
+  z_b.assign(n, 0.0);
+  rhs.assign(n, 0.0);
+  full.assign(nv, 0.0);
+  active = true;
 }
 
-void FlowSolver::add_modes(double alpha, double beta, std::span<double> K_target) const {
-  for (const Index v : mode_vertices_) K_target[v] += alpha * mode_a_[v] + beta * mode_b_[v];
+
+void CircleDomainModes::add(double alpha_now, double beta_now, std::span<double> K_target) const {
+  for (const Index v : vertices) K_target[v] += alpha_now * a[v] + beta_now * b[v];
 }
 
-// Turns x_ = J⁻¹ g into the step of the bordered system (see setup_moebius_modes()) and sets
-// d_alpha_, d_beta_ and slope_. False (x_ unchanged, no mode update) when a solve fails or the
+
+// Turns x_ = J⁻¹ g into the step of the bordered system (see CircleDomainModes) and sets
+// modes_.d_alpha, modes_.d_beta and slope_. False (x_ unchanged, no mode update) when a solve fails or the
 // 2×2 system is singular.
 bool FlowSolver::moebius_direction() {
   const Index n = pattern_.num_unknowns;
-  std::copy(x_.begin(), x_.end(), y_.begin());
+  std::copy(x_.begin(), x_.end(), modes_.y.begin());
   for (int k = 0; k < 2; ++k) {
-    const std::vector<double>& mode = k == 0 ? mode_a_ : mode_b_;
-    std::vector<double>& z = k == 0 ? z_a_ : z_b_;
-    std::copy(mode.begin(), mode.end(), mode_full_.begin());
-    remove_gauge_mean(mode_full_);
-    for (Index j = 0; j < n; ++j) mode_rhs_[j] = mode_full_[pattern_.unknown_vertex[j]];
-    if (!solver_.solve(mode_rhs_, x_) || !coupled_direction(mode_rhs_)) {
-      std::copy(y_.begin(), y_.end(), x_.begin());
+    const std::vector<double>& mode = k == 0 ? modes_.a : modes_.b;
+    std::vector<double>& z = k == 0 ? modes_.z_a : modes_.z_b;
+    std::copy(mode.begin(), mode.end(), modes_.full.begin());
+    remove_gauge_mean(modes_.full);
+    for (Index j = 0; j < n; ++j) modes_.rhs[j] = modes_.full[pattern_.unknown_vertex[j]];
+    if (!solver_.solve(modes_.rhs, x_) || !coupled_direction(modes_.rhs)) {
+      std::copy(modes_.y.begin(), modes_.y.end(), x_.begin());
       return false;
     }
     std::copy(x_.begin(), x_.end(), z.begin());
@@ -1449,24 +1462,24 @@ bool FlowSolver::moebius_direction() {
     return sum;
   };
   double nu_c = 0, nu_s = 0;
-  for (const Index v : mode_vertices_) {
-    nu_c += norm_c_[v] * u_[v];
-    nu_s += norm_s_[v] * u_[v];
+  for (const Index v : modes_.vertices) {
+    nu_c += modes_.norm_c[v] * u_[v];
+    nu_s += modes_.norm_s[v] * u_[v];
   }
-  const double r_c = (norm_c0_ - nu_c) - dot(norm_c_, y_), r_s = (norm_s0_ - nu_s) - dot(norm_s_, y_);
-  const double m00 = dot(norm_c_, z_a_), m01 = dot(norm_c_, z_b_), m10 = dot(norm_s_, z_a_), m11 = dot(norm_s_, z_b_);
+  const double r_c = (modes_.norm_c0 - nu_c) - dot(modes_.norm_c, modes_.y), r_s = (modes_.norm_s0 - nu_s) - dot(modes_.norm_s, modes_.y);
+  const double m00 = dot(modes_.norm_c, modes_.z_a), m01 = dot(modes_.norm_c, modes_.z_b), m10 = dot(modes_.norm_s, modes_.z_a), m11 = dot(modes_.norm_s, modes_.z_b);
   const double det = m00 * m11 - m01 * m10;
   const double scale = std::max({std::abs(m00 * m11), std::abs(m01 * m10), 1e-300});
   if (!std::isfinite(det) || std::abs(det) <= 1e-12 * scale) {
-    std::copy(y_.begin(), y_.end(), x_.begin());
+    std::copy(modes_.y.begin(), modes_.y.end(), x_.begin());
     return false;
   }
-  d_alpha_ = (r_c * m11 - m01 * r_s) / det;
-  d_beta_ = (m00 * r_s - m10 * r_c) / det;
-  for (Index j = 0; j < n; ++j) x_[j] = y_[j] + d_alpha_ * z_a_[j] + d_beta_ * z_b_[j];
+  modes_.d_alpha = (r_c * m11 - m01 * r_s) / det;
+  modes_.d_beta = (m00 * r_s - m10 * r_c) / det;
+  for (Index j = 0; j < n; ++j) x_[j] = modes_.y[j] + modes_.d_alpha * modes_.z_a[j] + modes_.d_beta * modes_.z_b[j];
   // d/dt ½‖g‖² for the exact bordered step: −‖g‖² (J δ − a Δα − b Δβ = g).
   slope_ = -sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; });
-  return std::isfinite(d_alpha_) && std::isfinite(d_beta_);
+  return std::isfinite(modes_.d_alpha) && std::isfinite(modes_.d_beta);
 }
 
 // Solves G α = coefficient_ in place with the Cholesky factor of the Gram matrix in gram_.
@@ -1570,12 +1583,12 @@ bool FlowSolver::compute_direction() {
     ok = solver_.solve(rhs_, x_);
   }
   // Circle / LoopTotals: correct the step for the dependence of K̄ on the lengths.
-  d_alpha_ = d_beta_ = 0;
+  modes_.d_alpha = modes_.d_beta = 0;
   if (ok && coupled_) {
     if (!coupled_direction(rhs_)) {
       ++gmres_failures_;
-    } else if (moebius_modes_ && !moebius_direction()) {
-      ++mode_failures_;
+    } else if (modes_.active && !moebius_direction()) {
+      ++modes_.failures;
     }
   }
   if (ok) {
@@ -1660,10 +1673,10 @@ bool FlowSolver::line_search() {
     // The residual merit of a coupled target uses the target of the trial lengths.
     if (coupled_) {
       effective_target(trial_topology(), target_, trial_.l, K_target_trial_, s_.geometry);
-      if (moebius_modes_) {
-        alpha_trial_ = alpha_ + t * d_alpha_;
-        beta_trial_ = beta_ + t * d_beta_;
-        add_modes(alpha_trial_, beta_trial_, K_target_trial_);
+      if (modes_.active) {
+        modes_.alpha_trial = modes_.alpha + t * modes_.d_alpha;
+        modes_.beta_trial = modes_.beta + t * modes_.d_beta;
+        modes_.add(modes_.alpha_trial, modes_.beta_trial, K_target_trial_);
       }
     }
     const std::vector<double>& trial_target = coupled_ ? K_target_trial_ : K_target_;
@@ -1767,17 +1780,17 @@ void FlowSolver::accept(double step_length, double dE) {
     pattern_stale_ = true;
   }
   effective_target(t_, target_, cur_.l, K_target_, s_.geometry);
-  if (moebius_modes_) {
-    alpha_ = alpha_trial_;
-    beta_ = beta_trial_;
-    add_modes(alpha_, beta_, K_target_);
+  if (modes_.active) {
+    modes_.alpha = modes_.alpha_trial;
+    modes_.beta = modes_.beta_trial;
+    modes_.add(modes_.alpha, modes_.beta, K_target_);
     double relative = 0;
-    for (std::size_t i = 0; i < mode_vertices_.size(); ++i) {
-      const Index v = mode_vertices_[i];
-      const double base = K_target_[v] - alpha_ * mode_a_[v] - beta_ * mode_b_[v];
-      if (base != 0) relative = std::max(relative, std::abs(alpha_ * mode_a_[v] + beta_ * mode_b_[v]) / std::abs(base));
+    for (std::size_t i = 0; i < modes_.vertices.size(); ++i) {
+      const Index v = modes_.vertices[i];
+      const double base = K_target_[v] - modes_.alpha * modes_.a[v] - modes_.beta * modes_.b[v];
+      if (base != 0) relative = std::max(relative, std::abs(modes_.alpha * modes_.a[v] + modes_.beta * modes_.b[v]) / std::abs(base));
     }
-    largest_mode_ = relative;
+    modes_.largest = relative;
   }
   error_ = max_error(cur_.K, K_target_, vc_.condition);
   resolution_.current = false;
@@ -1987,7 +2000,7 @@ void FlowSolver::run() {
       setup_coupling();
     if (coupled_ && options_.normalize_circle_domains && target_.boundary == BoundaryMode::Circle &&
         s_.geometry == Geometry::Euclidean && t_.num_components == 1 && t_.genus() == 0)
-      setup_moebius_modes();
+      modes_.setup(t_, target_, cur_.l, vc_.condition, u_, pattern_.num_unknowns);
     residual_merit_ = s_.geometry == Geometry::Spherical || coupled_;
     const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                        : detail::FactorKind::PositiveDefinite;
@@ -2137,12 +2150,12 @@ void FlowSolver::finish() {
                        " direction was used instead");
   if (damped_ > 0)
     r_.notes.push_back("the line search shortened " + std::to_string(damped_) + " Newton step(s)");
-  if (moebius_modes_)
+  if (modes_.active)
     r_.notes.push_back(
         "circle domain: the Möbius normalization (the first Fourier modes of u along the outer loop held at their "
-        "start) moved the outer loop's target curvature by at most " + format_double("%.3g", largest_mode_) +
+        "start) moved the outer loop's target curvature by at most " + format_double("%.3g", modes_.largest) +
         " of its value without the modes" +
-        (mode_failures_ > 0 ? "; " + std::to_string(mode_failures_) + " step(s) without it (singular 2×2 system)" : ""));
+        (modes_.failures > 0 ? "; " + std::to_string(modes_.failures) + " step(s) without it (singular 2×2 system)" : ""));
   if (noise_accepts_ > 0)
     r_.notes.push_back(
         std::to_string(noise_accepts_) +
