@@ -305,7 +305,7 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   std::vector<Index> degree;
   const std::vector<char> cut = cut_graph(topo, via, keep, degree);
   join_corners(mesh, topo, cut, r);
-  const TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
+  TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
   if (disk.status != Status::Ok) return fail(Status::NumericalFailure, "the cut surface is not a manifold: " + disk.message);
   const Topology& dt = disk.topology;
   if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
@@ -314,6 +314,7 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   const std::string why = pair_sides(topo, dt, degree, r, boundary_side);
   if (!why.empty()) return fail(Status::NumericalFailure, why);
   label_sides(mesh, topo, boundary_side, r);
+  r.disk_topology = std::move(disk.topology);  // the layout takes it (one build per cut)
   r.status = Status::Ok;
   r.message = "ok";
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

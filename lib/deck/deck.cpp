@@ -627,8 +627,9 @@ namespace {
 class DomainDeckRun {
  public:
   DomainDeckRun(const CutResult* canonical, const CutResult& domain, std::span<const double> dpos,
-                const DeckOptions& options)
-      : canonical_in_(canonical), domain_(domain), in_(domain.surface_faces), dpos_(dpos), options_(options) {}
+                const DeckOptions& options, const Topology* surface)
+      : canonical_in_(canonical), domain_(domain), in_(domain.surface_faces), dpos_(dpos), options_(options),
+        surface_(surface) {}
 
   DomainDeck run() {
     t_start_ = std::chrono::steady_clock::now();
@@ -655,6 +656,7 @@ class DomainDeckRun {
   const std::vector<Index>& in_;  // the domain's input faces (surface_faces)
   std::span<const double> dpos_;
   const DeckOptions& options_;
+  const Topology* surface_;  // the input surface's topology, when the caller has it
   std::chrono::steady_clock::time_point t_start_;
   DomainDeck out_;
   DeckResult& r_ = out_.deck;
@@ -665,7 +667,8 @@ class DomainDeckRun {
   std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary_;  // directed edge → (pairing, orientation)
   std::vector<Cycle> cycles_;
   // The canonical disk, its breadth-first tiles and positions.
-  Topology T_;
+  const Topology* T_ = nullptr;  // the canonical disk's connectivity: the cut's, or built_disk_
+  Topology built_disk_;
   std::vector<Index> parent_, queue_;
   std::vector<Letter> via_;
   std::vector<MoebiusQ> h_;
@@ -772,9 +775,13 @@ class DomainDeckRun {
   /// words, freely reduced (a vertex inside a branch crosses it there and back: empty), and the
   /// largest residual of the fitted pairings on them.
   bool find_vertex_cycles() {
-    const TopologyResult it = build_topology(in_, nin_);
-    if (it.status != Status::Ok) return fail(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
-    const Topology& I = it.topology;
+    TopologyResult it;
+    const bool given = surface_ != nullptr && is_topology_of(*surface_, in_, nin_);
+    if (!given) {
+      it = build_topology(in_, nin_);
+      if (it.status != Status::Ok) return fail(Status::InvalidArgument, "the domain's input faces are not a valid mesh.");
+    }
+    const Topology& I = given ? *surface_ : it.topology;
     for (Index v = 0; v < nin_; ++v) {
       const Index k0 = I.vertex_corner_offsets[v], k1 = I.vertex_corner_offsets[v + 1];
       if (k0 == k1) continue;
@@ -890,10 +897,16 @@ class DomainDeckRun {
   /// reached from and the letter crossed, so the tiles can be formed for any set of pairings.
   bool build_tiles() {
     const CutResult& canonical = *canonical_in_;
-    TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
-    if (ct.status != Status::Ok) return fail(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
-    T_ = std::move(ct.topology);
-    const Index Fc = T_.num_faces;
+    // The cut's own disk connectivity when it kept it (cut_surface() does), else built here.
+    if (is_topology_of(canonical.disk_topology, canonical.cut_faces, canonical.num_cut_vertices())) {
+      T_ = &canonical.disk_topology;
+    } else {
+      TopologyResult ct = build_topology(canonical.cut_faces, canonical.num_cut_vertices());
+      if (ct.status != Status::Ok) return fail(Status::InvalidArgument, "the canonical disk is not a valid mesh.");
+      built_disk_ = std::move(ct.topology);
+      T_ = &built_disk_;
+    }
+    const Index Fc = T_->num_faces;
     parent_.assign(static_cast<std::size_t>(Fc), kInvalid);
     via_.assign(static_cast<std::size_t>(Fc), Letter{});
     std::vector<Index> depth(static_cast<std::size_t>(Fc), kInvalid);
@@ -902,7 +915,7 @@ class DomainDeckRun {
     for (std::size_t qi = 0; qi < queue_.size(); ++qi) {
       const Index F1 = queue_[qi], O1 = canonical.surface_face_to_input[F1];
       for (int j = 0; j < 3; ++j) {
-        const Index c = 3 * F1 + j, o = T_.opposite[c];
+        const Index c = 3 * F1 + j, o = T_->opposite[c];
         if (o == kInvalid) continue;
         const Index F2 = corner_face(o);
         if (depth[F2] != kInvalid) continue;
@@ -925,7 +938,7 @@ class DomainDeckRun {
   }
   /// Every face's tile for the pairings P, in breadth-first order.
   std::vector<MoebiusQ> tiles(const std::vector<MoebiusQ>& P) const {
-    std::vector<MoebiusQ> h(static_cast<std::size_t>(T_.num_faces));
+    std::vector<MoebiusQ> h(static_cast<std::size_t>(T_->num_faces));
     for (std::size_t qi = 1; qi < queue_.size(); ++qi) {
       const Index F = queue_[qi];
       h[F] = via_[F].k < 0 ? h[parent_[F]] : h[parent_[F]] * letter_map(P, via_[F]);
@@ -976,7 +989,7 @@ class DomainDeckRun {
     const Index nc = canonical.num_cut_vertices();
     pos_.assign(static_cast<std::size_t>(nc), CQ{});
     std::vector<char> have(static_cast<std::size_t>(nc), 0);
-    for (Index F = 0; F < T_.num_faces; ++F) {
+    for (Index F = 0; F < T_->num_faces; ++F) {
       const Index O = canonical.surface_face_to_input[F];
       for (int j = 0; j < 3; ++j) {
         const Index cv = canonical.cut_faces[3 * F + j], x = canonical.surface_faces[3 * F + j];
@@ -1044,7 +1057,7 @@ class DomainDeckRun {
   bool canonical_generators() {
     const CutResult& canonical = *canonical_in_;
     std::unordered_map<std::uint64_t, Index> face_of;  // directed cut-vertex edge → canonical face
-    for (Index F = 0; F < T_.num_faces; ++F)
+    for (Index F = 0; F < T_->num_faces; ++F)
       for (int j = 0; j < 3; ++j)
         face_of[dkey(canonical.cut_faces[3 * F + (j + 1) % 3], canonical.cut_faces[3 * F + (j + 2) % 3])] = 3 * F + j;
     for (Index i = 1; i <= canonical.genus; ++i)
@@ -1150,20 +1163,17 @@ class DomainDeckRun {
   }
 };
 
-DomainDeck domain_deck(const CutResult* canonical_in, const CutResult& domain, std::span<const double> dpos,
-                       const DeckOptions& options) {
-  return DomainDeckRun(canonical_in, domain, dpos, options).run();
-}
 
 }  // namespace
 
 DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain, std::span<const double> dpos,
-                               const DeckOptions& options) {
-  return domain_deck(&canonical, domain, dpos, options);
+                               const DeckOptions& options, const Topology* surface) {
+  return DomainDeckRun(&canonical, domain, dpos, options, surface).run();
 }
 
-DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> dpos, const DeckOptions& options) {
-  return domain_deck(nullptr, domain, dpos, options);
+DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> dpos, const DeckOptions& options,
+                               const Topology* surface) {
+  return DomainDeckRun(nullptr, domain, dpos, options, surface).run();
 }
 
 }  // namespace ricci

@@ -98,6 +98,23 @@ std::vector<Index> base_candidates(const Topology& t, std::span<const Index> fac
   }
   return out;
 }
+// The cut disk's connectivity, built once: the cut's own (moved out of it), else the surface's
+// when the disk is the surface itself (nothing cut), else built from cut_faces.
+TopologyResult take_disk_topology(CutResult& cut, const Topology* surface) {
+  TopologyResult out;
+  if (is_topology_of(cut.disk_topology, cut.cut_faces, cut.num_cut_vertices())) {
+    out.status = Status::Ok;
+    out.topology = std::move(cut.disk_topology);
+    cut.disk_topology = Topology{};
+  } else if (surface != nullptr && is_topology_of(*surface, cut.cut_faces, cut.num_cut_vertices())) {
+    out.status = Status::Ok;
+    out.topology = *surface;
+  } else {
+    out = build_topology(cut.cut_faces, cut.num_cut_vertices());
+  }
+  return out;
+}
+
 
 struct DiskBuild {
   CutResult cut;
@@ -128,22 +145,14 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
     d.stage = "cut_metric";
     return d;
   }
-  // The cut's own disk connectivity; a disk that is not cut is the surface itself.
-  if (is_topology_of(d.cut.disk_topology, d.cut.cut_faces, d.cut.num_cut_vertices())) {
-    d.disk = std::move(d.cut.disk_topology);
-    d.cut.disk_topology = Topology{};
-  } else if (is_topology_of(d.metric.surface, d.cut.cut_faces, d.cut.num_cut_vertices())) {
-    d.disk = d.metric.surface;
-  } else {
-    TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
-    if (tr.status != Status::Ok) {
-      d.status = Status::NumericalFailure;
-      d.message = "the cut disk is not a valid mesh: " + tr.message;
-      d.stage = "cut_metric";
-      return d;
-    }
-    d.disk = std::move(tr.topology);
+  TopologyResult disk = take_disk_topology(d.cut, &d.metric.surface);
+  if (disk.status != Status::Ok) {
+    d.status = Status::NumericalFailure;
+    d.message = "the cut disk is not a valid mesh: " + disk.message;
+    d.stage = "cut_metric";
+    return d;
   }
+  d.disk = std::move(disk.topology);
   d.lengths = disk_edge_lengths(d.cut, d.metric.surface, d.metric.l, d.disk);
   d.status = Status::Ok;
   return d;
@@ -1065,7 +1074,7 @@ bool cut_and_lay_out(LayoutRun& run) {
     if (d.cut.status != Status::Ok) return fail(d.cut.status, "cut", d.cut.message);
     d.metric = refined_edge_lengths(d.cut, topology, r.geometry, metric_l);
     if (d.metric.status != Status::Ok) return fail(d.metric.status, "cut", d.metric.message);
-    TopologyResult tr = build_topology(d.cut.cut_faces, d.cut.num_cut_vertices());
+    TopologyResult tr = take_disk_topology(d.cut, nullptr);
     if (tr.status != Status::Ok) return fail(Status::NumericalFailure, "cut", "the domain is not a valid mesh");
     r.cut = std::move(d.cut);
     r.cut_metric = std::move(d.metric);
@@ -1241,7 +1250,7 @@ enum class GeodesicOutcome { Done, Fallback, PairingsFailed };
 
 GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_failure) {
   UniformizeResult& r = run.r;
-  DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck);
+  DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck, &run.topology);
   if (dd.status != Status::Ok) {
     pairings_failure = std::move(dd);
     return GeodesicOutcome::PairingsFailed;
@@ -1341,7 +1350,7 @@ bool report_mesh_polygon(LayoutRun& run, bool found, std::optional<DomainDeck>& 
                      "); the deck group is given by the compact domain's side pairings";
     r.deck = DeckResult{};
     {
-      DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck);
+      DomainDeck dd = fit_domain_pairings(r.cut, r.layout.positions, run.options.deck, &run.topology);
       if (dd.status != Status::Ok) return run.fail(dd.status, "deck", dd.message);
       take_domain(r, dd);
     }
@@ -1422,24 +1431,18 @@ bool mesh_canonical_polygon(LayoutRun& run) {
       reject(pm.message);
       continue;
     }
-    TopologyResult pt;
-    if (is_topology_of(pc.disk_topology, pc.cut_faces, pc.num_cut_vertices())) {
-      pt.status = Status::Ok;
-      pt.topology = std::move(pc.disk_topology);
-      pc.disk_topology = Topology{};
-    } else {
-      pt = build_topology(pc.cut_faces, pc.num_cut_vertices());
+    // The deck first: it reads the canonical disk's connectivity from the cut, then moved out.
+    DomainDeck dd = deck_through_domain(pc, r.cut, r.layout.positions, options.deck, &topology);
+    if (dd.status != Status::Ok) {
+      reject(dd.message);
+      continue;
     }
+    TopologyResult pt = take_disk_topology(pc, nullptr);
     if (pt.status != Status::Ok) {
       reject("the canonical disk is not a valid mesh");
       continue;
     }
     std::vector<double> pl = disk_edge_lengths(pc, pm.surface, pm.l, pt.topology);
-    DomainDeck dd = deck_through_domain(pc, r.cut, r.layout.positions, options.deck);
-    if (dd.status != Status::Ok) {
-      reject(dd.message);
-      continue;
-    }
     if (!dd.positions_note.empty()) {
       // Generators without a view of the polygon: kept in case no base gives one.
       bc.relation_error = dd.deck.relation_error;

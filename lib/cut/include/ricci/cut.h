@@ -149,11 +149,12 @@ struct CutResult {
   /// #Vc.
   Index num_cut_vertices() const { return static_cast<Index>(cut_to_surface.size()); }
 
-  /// The connectivity of surface_faces and of cut_faces as cut_surface() built them (each equal
-  /// to build_topology() of that buffer), so that later stages need not build them again:
-  /// refined_edge_lengths() takes the first when it matches surface_faces. uniformize() moves
-  /// them into its `cut_metric.surface` and `disk`, so there they are empty. Empty from
-  /// cut_compact().
+  /// The connectivity of surface_faces and of cut_faces as the cut built them (each equal to
+  /// build_topology() of that buffer), so that later stages need not build them again:
+  /// refined_edge_lengths() takes the first when it matches surface_faces, the layout and
+  /// deck_through_domain() the second. uniformize() moves them into its `cut_metric.surface` and
+  /// `disk`, so there they are empty. cut_compact() gives the disk's only (its surface is the
+  /// input's own topology).
   Topology surface_topology;
   Topology disk_topology;
 

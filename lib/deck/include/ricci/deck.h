@@ -296,14 +296,18 @@ struct DomainDeck {
 
 /// See the block comment above. `domain` is cut_compact() of the same input surface (no
 /// refinement), `domain_positions` its layout (#Vc(domain)×2, Poincaré disk), `canonical` a
-/// canonical cut_surface() of that surface (refined or not).
+/// canonical cut_surface() of that surface (refined or not). `surface`: the input surface's
+/// topology when the caller has it (used when it is that of domain.surface_faces, else built);
+/// the canonical disk's is taken from canonical.disk_topology in the same way.
 DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& domain,
-                               std::span<const double> domain_positions, const DeckOptions& options = {});
+                               std::span<const double> domain_positions, const DeckOptions& options = {},
+                               const Topology* surface = nullptr);
 
 /// The compact domain's side pairings alone (Ceres fits over all vertex pairs) and the check of
 /// its vertex cycles: status, side_maps, cycle_error (deck has status NotRun; no positions).
+/// `surface` as for deck_through_domain().
 DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> domain_positions,
-                               const DeckOptions& options = {});
+                               const DeckOptions& options = {}, const Topology* surface = nullptr);
 
 // ---- Canonical generators and the geodesic canonical polygon (H, closed, genus ≥ 2) ----------
 //
