@@ -98,6 +98,7 @@ std::vector<Index> base_candidates(const Topology& t, std::span<const Index> fac
   }
   return out;
 }
+
 // The cut disk's connectivity, built once: the cut's own (moved out of it), else the surface's
 // when the disk is the surface itself (nothing cut), else built from cut_faces.
 TopologyResult take_disk_topology(CutResult& cut, const Topology* surface) {
@@ -114,7 +115,6 @@ TopologyResult take_disk_topology(CutResult& cut, const Topology* surface) {
   }
   return out;
 }
-
 
 struct DiskBuild {
   CutResult cut;
@@ -1315,7 +1315,6 @@ bool canonical_polygon(LayoutRun& run) {
   return true;
 }
 
-// The mesh path (see canonical_polygon()).
 // The deck stage's line for canonical generators formed through the domain's pairings.
 std::string generators_line(const UniformizeResult& r) {
   return "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
@@ -1383,6 +1382,7 @@ bool report_mesh_polygon(LayoutRun& run, bool found, std::optional<DomainDeck>& 
   return true;
 }
 
+// The mesh path (see canonical_polygon()).
 bool mesh_canonical_polygon(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
