@@ -368,11 +368,8 @@ PreparedTarget prepare_target(ricci::ValidateResult& validated, ricci::Geometry 
     if (!boundary_spec.automatic) out.notes.push_back("the surface is closed; --boundary " + boundary_text + " is ignored");
   } else {
     out.mode = boundary_spec.automatic ? ricci::natural_boundary_mode(topo, geometry) : boundary_spec.mode;
-    if (out.mode == ricci::BoundaryMode::LoopTotals &&
-        boundary_spec.totals.size() != static_cast<std::size_t>(topo.num_boundary_loops()))
-      return usage("--boundary " + boundary_text + " gives " + std::to_string(boundary_spec.totals.size()) +
-                   " loop totals but the mesh has " + std::to_string(topo.num_boundary_loops()) +
-                   " boundary loops (in the order `ricci info` lists them)");
+    // A target that cannot be built (e.g. the wrong number of loop totals) splits no ear;
+    // build_target() below names the problem.
     if (split_ears) {
       const EarSplit es = split_infeasible_ears(validated, out.mode, target_spec, boundary_spec, target_text, boundary_text);
       if (es.status != Status::Ok) {
