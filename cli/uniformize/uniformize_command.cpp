@@ -681,7 +681,8 @@ Json report_json(const Run& run) {
                            {"relation_error", real(b.relation_error)},
                            {"max_edge_length_error", real(b.max_edge_length_error)},
                            {"rounding_floor", real(b.rounding_floor)},
-                           {"seconds", b.seconds}});
+                           {"seconds", b.seconds},
+                           {"note", b.note}});
     c["base_candidates"] = std::move(cands);
     c["kind"] = "mesh";
     if (r.has_geodesic_polygon) c["geodesic"] = geodesic_polygon_json(r.geodesic_polygon, r.canonical_words);

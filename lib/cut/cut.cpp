@@ -9,7 +9,8 @@
 //   S      the (refined) surface: faces, positions, topology; starts as the input mesh.
 //   cut    flags on S's interior edges: the cut graph C.
 //   node   flags on S's vertices: the polygon corners N (every vertex of C ∪ ∂S whose degree
-//          there is not 2 is a node; the base and the ends of cut paths are nodes too).
+//          there is not 2 is a node, and so is the base; the ends of a new cut path become nodes
+//          unless the move leaves one an interior point of a single path, degree 2).
 //   R      the disk (with holes while boundary loops are detached): S cut open along C
 //          (cut_open()). Its faces are S's faces (same indices and corners) over cut-vertex
 //          copies.
@@ -368,12 +369,14 @@ std::vector<Index> cut_degree(const Surface& S, const State& st) {
   return deg;
 }
 
-/// Drops nodes that left the cut graph (interior vertices with no cut edge, boundary vertices
-/// with no cut edge). `keep` stays a node.
+/// Drops nodes that left the cut graph (vertices with no cut edge) and interior vertices left
+/// with two cut edges, which are points on one path: their two sides join into one letter, so a
+/// move that takes a branch point down to degree 2 merges its corner class at once. `keep` (the
+/// base) stays a node.
 void cleanup_nodes(const Surface& S, State& st, Index keep) {
   const std::vector<Index> deg = cut_degree(S, st);
   for (Index v = 0; v < S.nv(); ++v)
-    if (st.node[v] && deg[v] == 0 && v != keep) st.node[v] = 0;
+    if (st.node[v] && v != keep && (deg[v] == 0 || (deg[v] == 2 && S.vertex_loop[v] < 0))) st.node[v] = 0;
 }
 
 // ---- paths inside the disk, and refinement ------------------------------------------------------
@@ -1360,8 +1363,8 @@ Move make_commutator(Cutter& C, std::string& reason) {
   return Move::Made;
 }
 
-/// Genus ≥ 1: the cut graph by tree–cotree (the loops based at its interior vertex nearest to x in
-/// Ŝ, which becomes x), then, when asked, cut-and-paste to the canonical word: (A) cancel
+/// Genus ≥ 1: the cut graph by tree–cotree (the loops based at its interior branch point nearest
+/// to x in Ŝ, else its interior vertex nearest to x; that base becomes x), then, when asked, cut-and-paste to the canonical word: (A) cancel
 /// x x^-1, (B) one vertex class, (C) commutators, until canonical or `max_moves`. False on an
 /// internal error (C.error); a word left non-canonical is not one (names.reason says why).
 bool loops_by_tree_cotree(Cutter& C, const CutOptions& options, Index g, Index max_moves, Index& x,
@@ -1372,12 +1375,18 @@ bool loops_by_tree_cotree(Cutter& C, const CutOptions& options, Index g, Index m
   std::vector<double> dhat;
   if (!tree_cotree(S, C.st, x, options.edge_weights, g, dhat, &C.error)) return false;
   const std::vector<Index> deg = cut_degree(S, C.st);
-  Index P = kInvalid;
+  // The base is the branch point of the cut graph (degree ≥ 3) nearest x: it is a polygon corner
+  // anyway, while a base inside a path adds a corner class that moves must merge (on a torus grid
+  // of 1M faces: 1 move instead of 4, and no refinement).
+  Index P = kInvalid, branch = kInvalid;
   for (Index v = 0; v < V; ++v) {
     if (deg[v] == 0) continue;
     if (S.vertex_loop[v] >= 0 || deg[v] != 2) C.st.node[v] = 1;
-    if (S.vertex_loop[v] < 0 && (P == kInvalid || dhat[v] < dhat[P])) P = v;
+    if (S.vertex_loop[v] >= 0) continue;
+    if (P == kInvalid || dhat[v] < dhat[P]) P = v;
+    if (deg[v] >= 3 && (branch == kInvalid || dhat[v] < dhat[branch])) branch = v;
   }
+  if (branch != kInvalid) P = branch;
   if (P == kInvalid) {
     // Every cut vertex lies on the boundary: the loops cannot be based at an interior point.
     reason = "the cut graph has no interior vertex to base the loops at";
@@ -1601,25 +1610,79 @@ void write_sides(const Cutter& C, Index s_start, const Letters& letters, CutResu
   }
 }
 
+/// Loop `a` pushed off to its left as a 1-form on the edges: at every vertex of `a`, each edge
+/// leaving it on the left (strictly between the outgoing and the incoming edge, counter-clockwise)
+/// gets +1 in the direction away from `a`. `form` (#E, zeros) receives the values, oriented from
+/// edge_vertices[2e] to edge_vertices[2e + 1]; `touched` lists the edges set. False (form left
+/// as zeros) when `a` is not a closed path of interior vertices.
+bool loop_form(const Topology& t, std::span<const Index> a, std::vector<int>& form, std::vector<Index>& touched) {
+  auto clear = [&] {
+    for (Index e : touched) form[e] = 0;
+    touched.clear();
+    return false;
+  };
+  if (a.size() < 3 || a.front() != a.back()) return false;
+  const std::size_t m = a.size() - 1;
+  for (std::size_t k = 0; k < m; ++k) {
+    const Index v = a[k], out = a[k + 1], in = a[(k + m - 1) % m];
+    if (v < 0 || v >= t.num_vertices || t.is_boundary_vertex(v)) return clear();
+    const Index o0 = t.vertex_corner_offsets[v], n = t.valence(v);
+    // ccw neighbour sequence: vertex(next(c_j)), over the edge opposite prev(c_j)
+    Index jo = kInvalid, ji = kInvalid;
+    for (Index j = 0; j < n; ++j) {
+      const Index z = t.corner_vertex[next_corner(t.vertex_corners[o0 + j])];
+      if (z == out) jo = j;
+      if (z == in) ji = j;
+    }
+    if (jo == kInvalid || ji == kInvalid) return clear();
+    for (Index j = (jo + 1) % n; j != ji; j = (j + 1) % n) {
+      const Index c = t.vertex_corners[o0 + j];
+      const Index e = t.corner_edge[prev_corner(c)];
+      if (form[e] == 0) touched.push_back(e);
+      form[e] += t.edge_vertices[2 * e] == v ? 1 : -1;
+    }
+  }
+  return true;
+}
+
+/// The form's value along the closed path `b`, or 0 when a step of `b` is not an edge.
+int form_along(const Topology& t, const std::vector<int>& form, std::span<const Index> b) {
+  if (b.size() < 2 || b.front() != b.back()) return 0;
+  int sum = 0;
+  for (std::size_t k = 0; k + 1 < b.size(); ++k) {
+    const Index e = find_edge(t, b[k], b[k + 1]);
+    if (e == kInvalid) return 0;
+    sum += t.edge_vertices[2 * e] == b[k] ? form[e] : -form[e];
+  }
+  return sum;
+}
+
 /// The independent check of a canonical word: the loops' algebraic intersection numbers, counted
 /// on the surface, must be a_i·b_j = δ_ij and a_i·a_j = b_i·b_j = 0 (r.intersection holds them).
 /// False when they are not.
 bool intersections_canonical(const Topology& surface, Index g, CutResult& r) {
   const Index n2 = 2 * g;
   r.intersection.assign(static_cast<std::size_t>(n2 * n2), 0);
+  auto loop = [&](Index i) {
+    return std::span<const Index>(r.generator_vertices.data() + r.generator_offsets[i],
+                                  static_cast<std::size_t>(r.generator_offsets[i + 1] - r.generator_offsets[i]));
+  };
+  // One form per loop, read along every other loop (both orders: antisymmetry is checked too).
+  std::vector<int> form(static_cast<std::size_t>(surface.num_edges), 0);
+  std::vector<Index> touched;
   bool ok = true;
-  for (Index i = 0; i < n2; ++i)
+  for (Index i = 0; i < n2; ++i) {
+    const bool valid = loop_form(surface, loop(i), form, touched);
     for (Index j = 0; j < n2; ++j) {
-      const std::span<const Index> gi(r.generator_vertices.data() + r.generator_offsets[i],
-                                      static_cast<std::size_t>(r.generator_offsets[i + 1] - r.generator_offsets[i]));
-      const std::span<const Index> gj(r.generator_vertices.data() + r.generator_offsets[j],
-                                      static_cast<std::size_t>(r.generator_offsets[j + 1] - r.generator_offsets[j]));
-      const int val = i == j ? 0 : intersection_number(surface, gi, gj);
+      const int val = i == j || !valid ? 0 : form_along(surface, form, loop(j));
       r.intersection[static_cast<std::size_t>(i * n2 + j)] = val;
       // loops are ordered a1 b1 a2 b2 …: a_k = 2k, b_k = 2k+1
       const int expect = (i / 2 == j / 2 && i != j) ? (i % 2 == 0 ? +1 : -1) : 0;
       if (val != expect) ok = false;
     }
+    for (Index e : touched) form[e] = 0;
+    touched.clear();
+  }
   return ok;
 }
 
@@ -1628,33 +1691,10 @@ bool intersections_canonical(const Topology& surface, Index g, CutResult& r) {
 // ---- intersection numbers -------------------------------------------------------------------------
 
 int intersection_number(const Topology& t, std::span<const Index> a, std::span<const Index> b) {
-  if (a.size() < 3 || b.size() < 2 || a.front() != a.back() || b.front() != b.back()) return 0;
-  const std::size_t m = a.size() - 1;
-  std::unordered_map<std::uint64_t, int> omega;
-  for (std::size_t k = 0; k < m; ++k) {
-    const Index v = a[k], out = a[k + 1], in = a[(k + m - 1) % m];
-    if (v < 0 || v >= t.num_vertices || t.is_boundary_vertex(v)) return 0;
-    const Index o0 = t.vertex_corner_offsets[v], n = t.valence(v);
-    // ccw neighbour sequence: vertex(next(c_j))
-    Index jo = kInvalid, ji = kInvalid;
-    for (Index j = 0; j < n; ++j) {
-      const Index z = t.corner_vertex[next_corner(t.vertex_corners[o0 + j])];
-      if (z == out) jo = j;
-      if (z == in) ji = j;
-    }
-    if (jo == kInvalid || ji == kInvalid) return 0;
-    for (Index j = (jo + 1) % n; j != ji; j = (j + 1) % n) {
-      const Index z = t.corner_vertex[next_corner(t.vertex_corners[o0 + j])];
-      omega[key(v, z)] += 1;
-      omega[key(z, v)] -= 1;
-    }
-  }
-  int sum = 0;
-  for (std::size_t k = 0; k + 1 < b.size(); ++k) {
-    const auto it = omega.find(key(b[k], b[k + 1]));
-    if (it != omega.end()) sum += it->second;
-  }
-  return sum;
+  std::vector<int> form(static_cast<std::size_t>(t.num_edges), 0);
+  std::vector<Index> touched;
+  if (!loop_form(t, a, form, touched)) return 0;
+  return form_along(t, form, b);
 }
 
 // ---- the driver -----------------------------------------------------------------------------------

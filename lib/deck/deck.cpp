@@ -998,6 +998,9 @@ class DomainDeckRun {
           return fail(Status::NumericalFailure,
                       "surface vertex " + std::to_string(x) + " is not in its input face " + std::to_string(O) + ".");
         const CQ z = h_[F].apply(w);
+        // A tile beyond quad range: fail at once rather than after every face.
+        if (!(1 - z.norm() > 0) || !std::isfinite(static_cast<double>(z.norm())))
+          return fail(Status::NumericalFailure, "canonical cut vertex " + std::to_string(cv) + " is not in the disk.");
         if (!have[cv]) {
           pos_[cv] = z;
           have[cv] = 1;

@@ -1413,6 +1413,7 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     CutResult pc = cut_surface(mesh, topology, co);
     auto reject = [&](const std::string& why) {
       last_error = why;
+      bc.note = why;
       bc.seconds = since(tc);
       r.candidates.push_back(bc);
     };

@@ -223,6 +223,9 @@ TEST_CASE("cli uniformize: --mesh-polygon lays a canonical cut of the mesh out a
   CHECK(j["polygon"]["max_edge_length_error"].get<double>() < 1e-9);
   CHECK(j["polygon"]["flipped_faces"] == 0);
   CHECK(j["polygon"]["base_candidates"].size() >= 1);
+  bool a_view = false;  // the polygon shown came from a base whose note is empty
+  for (const auto& b : j["polygon"]["base_candidates"]) a_view |= b["note"] == "";
+  CHECK(a_view);
   // The geodesic polygon of the same generators, in their frame.
   CHECK(j["polygon"]["geodesic"]["simple"] == true);
   CHECK(j["polygon"]["geodesic"]["angle_sum"].get<double>() == doctest::Approx(2 * std::numbers::pi).epsilon(1e-12));

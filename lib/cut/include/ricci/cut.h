@@ -69,8 +69,10 @@ namespace ricci {
 /// Options of cut_surface().
 struct CutOptions {
   /// Base vertex of the loops (the root of the shortest-path tree). -1: vertex 0 when seed is 0,
-  /// else a vertex drawn from `seed` (std::mt19937_64). On a boundary vertex or when the pruned
-  /// cut graph misses it, the nearest interior vertex of the cut graph becomes the base.
+  /// else a vertex drawn from `seed` (std::mt19937_64). At genus ≥ 1 the loops are based at the
+  /// branch point of the pruned cut graph (an interior vertex where three or more of its paths
+  /// meet) nearest to it, which is a corner of the polygon anyway; where no interior vertex
+  /// branches, at the nearest interior vertex of the cut graph. CutResult::base_vertex says which.
   Index base_vertex = -1;
   std::uint64_t seed = 0;  ///< draws the base vertex when base_vertex is -1; 0: use vertex 0
   /// Optional per-edge weights (#E, in the topology's edge numbering, finite and ≥ 0) for the

@@ -185,6 +185,7 @@ struct BaseCandidate {
   double rounding_floor = INFINITY;                    ///< of its polygon's positions
   double max_edge_length_error = INFINITY;             ///< of its polygon's positions
   double seconds = 0;                                  ///< time spent on this candidate
+  std::string note;  ///< why it gave no view of the polygon (empty when it gave one)
 };
 
 /// Corner angles of a metric compared with the mesh's own 3D angles (angle_distortion()).
