@@ -1364,9 +1364,10 @@ Move make_commutator(Cutter& C, std::string& reason) {
 }
 
 /// Genus ≥ 1: the cut graph by tree–cotree (the loops based at its interior branch point nearest
-/// to x in Ŝ, else its interior vertex nearest to x; that base becomes x), then, when asked, cut-and-paste to the canonical word: (A) cancel
-/// x x^-1, (B) one vertex class, (C) commutators, until canonical or `max_moves`. False on an
-/// internal error (C.error); a word left non-canonical is not one (names.reason says why).
+/// to x in Ŝ, else its interior vertex nearest to x; that base becomes x), then, when asked,
+/// cut-and-paste to the canonical word: (A) cancel x x^-1, (B) one vertex class, (C)
+/// commutators, until canonical or `max_moves`. False on an internal error (C.error); a word
+/// left non-canonical is not one (names.reason says why).
 bool loops_by_tree_cotree(Cutter& C, const CutOptions& options, Index g, Index max_moves, Index& x,
                           CutNames& names) {
   Surface& S = C.S;

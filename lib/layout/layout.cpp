@@ -351,9 +351,9 @@ Index dual_bfs(const Topology& t, Index s, std::vector<Index>& dist) {
   return far;
 }
 
-/// A face near the middle of the dual graph's longest paths: a double sweep (the face farthest
-/// from face 0, then the face b farthest from that one, a) and the face whose larger distance to
-/// a and b is least (then their sum): three breadth-first searches.
+/// A face near the middle of the dual graph's longest paths, by a double sweep: a, the face
+/// farthest from face 0, and b, the face farthest from a; then the face whose larger distance to
+/// a and b is least (then their sum). Three breadth-first searches.
 Index central_face_of(const Topology& t) {
   std::vector<Index> da, db;
   const Index a = dual_bfs(t, 0, db);
