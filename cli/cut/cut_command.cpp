@@ -225,7 +225,9 @@ CLI::App* add_cut_command(CLI::App& app, CutCommandOptions& o) {
                   "loops as OBJ polylines to the same name with the extension .loops.obj. Default: "
                   "write nothing.");
   cmd->add_option("--base-vertex", o.base_vertex,
-                  "Base vertex of the loops (0-based, after validation). Default: chosen by --seed.")
+                  "Base vertex of the loops (0-based, after validation): the root of their tree; at genus "
+                  ">= 1 they are based at the cut graph's branch point nearest it (base_vertex in --json). "
+                  "Default: chosen by --seed.")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", o.seed,
                   "Seed for the base vertex when --base-vertex is not given: 0 takes vertex 0, any "
