@@ -1009,8 +1009,10 @@ class DomainDeckRun {
         }
       }
     }
+    // Every placed position was checked inside the disk as it was computed; what is left is a
+    // vertex no face placed.
     for (Index v = 0; v < nc; ++v)
-      if (!have[v] || !(1 - pos_[v].norm() > 0) || !std::isfinite(static_cast<double>(pos_[v].norm())))
+      if (!have[v])
         return fail(Status::NumericalFailure, "canonical cut vertex " + std::to_string(v) + " is not in the disk.");
     if (!std::isfinite(out_.tile_consistency)) return fail(Status::NumericalFailure, "the canonical tiles are not finite.");
     return true;
