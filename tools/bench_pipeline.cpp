@@ -674,7 +674,7 @@ int main(int argc, char** argv) {
   doc += "Uniformization with `uniformize()` defaults (geometry by topology, vertex scaling with intrinsic "
          "flips, circle boundary in E, geodesic in H) except the flow tolerance max |K̄ − K| < 1e-10. *ref* = analysis + factorization + solve of "
          "the cotangent Laplacian (one vertex pinned) with the flow's own solver and pattern (CHOLMOD supernodal "
-         "LLᵀ, METIS ≥ 20k unknowns); *flow s* is the whole Newton solve to the tolerance (setup and symbolic "
+         "LLᵀ; AMD, or METIS where AMD's factor costs more than 6000 flops per unknown and METIS's fewer); *flow s* is the whole Newton solve to the tolerance (setup and symbolic "
          "analysis included, from the call to the first iterate below 1e-10), *+ polish* the steps `uniformize()` "
          "adds after it (kept only when they lower the error; the stage table's *flow* has both); *flow/ref* and "
          "*it/ref* are the solve and one mean Newton iteration (kernels + assembly + factorization + solve + line "

@@ -11,7 +11,22 @@ namespace ricci::detail {
 
 namespace {
 
-constexpr std::int64_t kNestedDissectionThreshold = 20000;
+// Ordering: AMD first (cheap); METIS nested dissection as well when AMD's factor would cost more
+// than this many flops per unknown, and the ordering of fewer flops is kept. On mesh Laplacians
+// nested dissection saves 30–70 % of AMD's flops, and more the more AMD fills (flops per unknown:
+// face.obj 2 800, 30 % saved; botijo 8 400, 51 %; kitten-106k 10 700, 56 %; kitten-425k 31 000,
+// 69 %), while its analysis costs 3–4 µs per unknown, i.e. roughly 8 000 flops at the
+// factorization's rate: from about this many flops per unknown it pays for itself within the
+// four factorizations of a typical Newton solve.
+constexpr double kNestedDissectionFlops = 6000;
+
+// FactorLayout::Automatic: simplicial (column by column, no BLAS) when the factorization's flops
+// per factor nonzero are below this, else supernodal (dense blocks through the BLAS); CHOLMOD's own
+// switch, whose default of 40 assumes a tuned BLAS. Measured with Debian's ATLAS on 2 cores (METIS order,
+// supernodal s / simplicial s): face.obj (75 flops per nonzero) 0.083 / 0.026, botijo (119)
+// 0.161 / 0.080, kitten-106k (129) 0.196 / 0.103, face.obj subdivided once (127) 0.370 / 0.210,
+// botijo subdivided once (196) 0.696 / 0.763, kitten-425k (217) 0.96 / 1.31.
+constexpr double kSupernodalSwitch = 180;
 
 // Indefinite matrices (see sparse_solver.h): soft pins on k spread-out unknowns, k doubling from
 // kFirstPins to kMaxPins while the pinned matrix is not positive definite; each pin adds
@@ -57,8 +72,9 @@ struct SymmetricSolver::Impl {
   };
   // Indefinite kind by pinned LLᵀ + Woodbury (see sparse_solver.h): the pins, their weights ρ,
   // the k×k capacitance matrix C = R⁻¹ − ZᵀZ in LU form (row-major, with its row pivots), and
-  // Z = L⁻¹ P E as the paths of the pins. `simplicial`: given up on pins (LDLᵀ).
-  bool simplicial = false;
+  // Z = L⁻¹ P E as the paths of the pins. `ldl`: given up on pins (simplicial LDLᵀ).
+  FactorLayout layout = FactorLayout::Supernodal;
+  bool ldl = false;
   std::vector<std::int64_t> pins;
   std::vector<double> pin_weight, pin_saved, capacitance, pin_rhs;
   Paths pin_paths;
@@ -67,7 +83,9 @@ struct SymmetricSolver::Impl {
   cholmod_dense* W = nullptr;
   // The supernodal elimination tree (the parent of each supernode, the supernode of each column)
   // and the inverse permutation, once per analysis (tree_ready); a dense workspace of n zeros.
+  // A simplicial LLᵀ factor is read as supernodes of one column each (unit_super: 0, 1, …, n).
   std::vector<std::int64_t> super_parent, column_super, inverse_perm;
+  std::vector<SuiteSparse_long> unit_super;
   std::vector<double> block_work;
   bool tree_ready = false;
   // inverse_block(): the paths of the block columns; W = Zᵀ_pins Z_I and C⁻¹W for the pins.
@@ -98,8 +116,14 @@ struct SymmetricSolver::Impl {
   }
 
   bool prepare_tree();
+  void simplicial_tree();
+  // The first column of each supernode (n + 1 entries for a simplicial factor).
+  const SuiteSparse_long* supers() const {
+    return L->is_super ? static_cast<const SuiteSparse_long*>(L->super) : unit_super.data();
+  }
   double build_paths(std::span<const std::int64_t> columns, Paths& p);
   void forward_paths(Paths& p);
+  void simplicial_forward_paths(Paths& p);
   void scatter(const Paths& p, std::int64_t t);
   void unscatter(const Paths& p, std::int64_t t);
   double scattered_dot(const Paths& p, std::int64_t t) const;
@@ -137,7 +161,7 @@ struct SymmetricSolver::Impl {
 // indefinite and solved by LU with partial pivoting. The pins are spread evenly over the unknowns'
 // order; when M is not positive definite their number doubles, unless the factorization stopped
 // at the same column as with half as many. Failed: out of pins, or stuck (the caller's
-// factorize() then switches to simplicial LDLᵀ).
+// factorize() then switches to simplicial LDLᵀ). The factor is supernodal or simplicial LLᵀ.
 FactorOutcome SymmetricSolver::Impl::pinned_factorize(double shift) {
   double* x = static_cast<double*>(A->x);
   std::int64_t k = pins.empty() ? std::min(kFirstPins, n) : static_cast<std::int64_t>(pins.size());
@@ -250,7 +274,7 @@ bool SymmetricSolver::Impl::pinned_solve(double* out) {
       common.status < CHOLMOD_OK)
     return false;
   auto* y = static_cast<double*>(W->x);
-  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const SuiteSparse_long* super = supers();
   for (std::int64_t a = 0; a < k; ++a) {
     const double* z = pin_paths.values.data() + pin_paths.value_offsets[a];
     double sum = 0;
@@ -280,7 +304,11 @@ bool SymmetricSolver::Impl::pinned_solve(double* out) {
 
 SymmetricSolver::SymmetricSolver() : impl_(std::make_unique<Impl>()) {}
 SymmetricSolver::~SymmetricSolver() = default;
-void SymmetricSolver::reset() { impl_ = std::make_unique<Impl>(); }
+void SymmetricSolver::reset() {
+  const FactorLayout layout = impl_->layout;
+  impl_ = std::make_unique<Impl>();
+  impl_->layout = layout;
+}
 
 FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int64_t> col_ptr,
                                        std::span<const std::int64_t> row, FactorKind kind,
@@ -314,29 +342,44 @@ FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int6
   std::copy(row.begin(), row.end(), i);
   std::fill(x, x + nnz, 0.0);
 
-  // Ordering: AMD for small systems; nested dissection by METIS for large ones, whose factors of
-  // mesh Laplacian-like matrices have markedly less fill (on a 425k-face mesh: a third of the
-  // flops of AMD, for a slower analysis that is done once).
-  // A given ordering is used as is (CHOLMOD still postorders its elimination tree).
-  if (!s.given.empty()) {
-    c.nmethods = 1;
-    c.method[0].ordering = CHOLMOD_GIVEN;
-  } else if (n >= kNestedDissectionThreshold) {
-    c.nmethods = 1;
-    c.method[0].ordering = CHOLMOD_METIS;
-  }
+  // Ordering (kNestedDissectionFlops): AMD, and METIS nested dissection too when AMD's factor is
+  // expensive per unknown; the one of fewer flops is kept. A given ordering is used as is (CHOLMOD
+  // still postorders its elimination tree). Layout: set_layout()'s; for Automatic CHOLMOD chooses
+  // by the flops per factor nonzero of the ordering it analyses (kSupernodalSwitch).
+  // Indefinite: pinned LLᵀ (see Impl::pinned_factorize) in either layout.
   s.kind = kind;
-  c.supernodal = CHOLMOD_SUPERNODAL;  // Indefinite: pinned LLᵀ (see Impl::pinned_factorize)
-  c.final_asis = 1;  // supernodal stays LLᵀ, simplicial stays LDLᵀ
-  c.grow0 = 0;       // no slack for updates/downdates: exact space
+  c.nmethods = 1;
+  c.method[0].ordering = s.given.empty() ? CHOLMOD_AMD : CHOLMOD_GIVEN;
+  c.supernodal = s.layout == FactorLayout::Supernodal   ? CHOLMOD_SUPERNODAL
+                 : s.layout == FactorLayout::Simplicial ? CHOLMOD_SIMPLICIAL
+                                                        : CHOLMOD_AUTO;
+  c.supernodal_switch = kSupernodalSwitch;
+  c.grow0 = 0;  // no slack for updates/downdates: exact space
   c.grow2 = 0;
   s.L = s.analyze_pattern();
-  if (!s.L && s.given.empty() && c.status == CHOLMOD_NOT_INSTALLED) {  // a CHOLMOD built without METIS: AMD alone
-    c.nmethods = 0;
-    c.status = CHOLMOD_OK;
+  if (s.L && s.given.empty() && c.fl > kNestedDissectionFlops * static_cast<double>(n)) {
+    cholmod_factor* amd = s.L;
+    const double amd_fl = c.fl, amd_lnz = c.lnz;
+    c.method[0].ordering = CHOLMOD_METIS;
     s.L = s.analyze_pattern();
+    if (s.L && c.fl < amd_fl) {
+      cholmod_l_free_factor(&amd, &c);
+    } else {  // METIS gave more flops, ran out of memory or is not installed: AMD's analysis
+      if (s.L) cholmod_l_free_factor(&s.L, &c);
+      s.L = amd;
+      c.fl = amd_fl;
+      c.lnz = amd_lnz;
+      c.status = CHOLMOD_OK;
+    }
   }
   if (!s.L) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
+  // Supernodal stays LLᵀ; a simplicial factor is computed as LLᵀ too (LDLᵀ would not report a
+  // negative pivot as NotPositiveDefinite, and the paths of inverse_block() read L's columns).
+  c.final_asis = s.L->is_super ? 1 : 0;
+  c.final_ll = 1;
+  c.final_super = 1;
+  c.final_pack = 1;
+  c.final_monotonic = 1;
   s.B = cholmod_l_zeros(static_cast<std::size_t>(n), 1, CHOLMOD_REAL, &c);
   if (!s.B) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
   return s.status_outcome();
@@ -359,20 +402,28 @@ FactorOutcome SymmetricSolver::factorize(double shift) {
     return FactorOutcome::Ok;
   }
   FloatingPointHold hold;
-  if (s.kind == FactorKind::Indefinite && !s.simplicial) {
+  if (s.kind == FactorKind::Indefinite && !s.ldl) {
     const FactorOutcome pinned = s.pinned_factorize(shift);
     if (pinned != FactorOutcome::Failed) {
       s.factored = pinned == FactorOutcome::Ok;
       return pinned;
     }
-    // Out of pins: simplicial LDLᵀ from here on (a new analysis, once).
+    // Out of pins: simplicial LDLᵀ from here on (a new analysis with the same ordering, once).
     cholmod_common& c = s.common;
+    if (s.given.empty() && s.L->Perm) {
+      const auto* perm = static_cast<const SuiteSparse_long*>(s.L->Perm);
+      s.given.assign(perm, perm + s.n);
+    }
     cholmod_l_free_factor(&s.L, &c);
+    c.nmethods = 1;
+    c.method[0].ordering = s.given.empty() ? CHOLMOD_AMD : CHOLMOD_GIVEN;
     c.supernodal = CHOLMOD_SIMPLICIAL;
+    c.final_asis = 1;  // stays LDLᵀ
+    c.final_ll = 0;
     c.status = CHOLMOD_OK;
     s.L = s.analyze_pattern();
     if (!s.L) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
-    s.simplicial = true;
+    s.ldl = true;
     s.tree_ready = false;
     s.block_ready = false;
   }
@@ -410,15 +461,24 @@ bool SymmetricSolver::solve(std::span<const double> b, std::span<double> x) {
 }
 
 // The supernodal elimination tree (the parent of a supernode holds its first off-diagonal row),
-// the supernode of each column and the inverse permutation; once per (supernodal) analysis.
+// the supernode of each column and the inverse permutation; once per analysis. A simplicial
+// factor's supernodes are its columns (simplicial_tree()).
 bool SymmetricSolver::Impl::prepare_tree() {
   if (tree_ready) return true;
-  if (!L || !L->is_super) return false;
+  if (!L || ldl) return false;
+  const auto* perm = static_cast<const SuiteSparse_long*>(L->Perm);
+  inverse_perm.resize(static_cast<std::size_t>(n));
+  for (std::int64_t k = 0; k < n; ++k) inverse_perm[perm ? perm[k] : k] = k;
+  block_work.assign(static_cast<std::size_t>(n), 0.0);
+  tree_ready = true;
+  if (!L->is_super) {
+    simplicial_tree();
+    return true;
+  }
   const auto nsuper = static_cast<std::int64_t>(L->nsuper);
   const auto* super = static_cast<const SuiteSparse_long*>(L->super);
   const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
   const auto* si = static_cast<const SuiteSparse_long*>(L->s);
-  const auto* perm = static_cast<const SuiteSparse_long*>(L->Perm);
   column_super.assign(static_cast<std::size_t>(n), -1);
   for (std::int64_t q = 0; q < nsuper; ++q)
     for (std::int64_t j = super[q]; j < super[q + 1]; ++j) column_super[j] = q;
@@ -427,18 +487,57 @@ bool SymmetricSolver::Impl::prepare_tree() {
     const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
     if (nsrow > nscol) super_parent[q] = column_super[si[pi[q] + nscol]];
   }
-  inverse_perm.resize(static_cast<std::size_t>(n));
-  for (std::int64_t k = 0; k < n; ++k) inverse_perm[perm ? perm[k] : k] = k;
-  block_work.assign(static_cast<std::size_t>(n), 0.0);
-  tree_ready = true;
   return true;
+}
+
+// The elimination tree of P A Pᵀ from A's pattern (Liu's algorithm with path compression; the
+// symbolic simplicial factor holds no row indices), columns as supernodes of one column.
+void SymmetricSolver::Impl::simplicial_tree() {
+  const auto* ap = static_cast<const SuiteSparse_long*>(A->p);
+  const auto* ai = static_cast<const SuiteSparse_long*>(A->i);
+  // For each permuted column, the permuted rows above it (A's upper triangle, either orientation).
+  std::vector<std::int64_t> start(static_cast<std::size_t>(n) + 1, 0), above;
+  for (std::int64_t c = 0; c < n; ++c)
+    for (SuiteSparse_long k = ap[c]; k < ap[c + 1]; ++k)
+      if (ai[k] != c) ++start[std::max(inverse_perm[ai[k]], inverse_perm[c]) + 1];
+  for (std::int64_t j = 0; j < n; ++j) start[j + 1] += start[j];
+  above.resize(static_cast<std::size_t>(start[n]));
+  std::vector<std::int64_t> fill(start.begin(), start.end() - 1);
+  for (std::int64_t c = 0; c < n; ++c)
+    for (SuiteSparse_long k = ap[c]; k < ap[c + 1]; ++k)
+      if (ai[k] != c) {
+        const std::int64_t a = inverse_perm[ai[k]], b = inverse_perm[c];
+        above[fill[std::max(a, b)]++] = std::min(a, b);
+      }
+  super_parent.assign(static_cast<std::size_t>(n), -1);
+  std::vector<std::int64_t> ancestor(static_cast<std::size_t>(n), -1);
+  for (std::int64_t j = 0; j < n; ++j)
+    for (std::int64_t k = start[j]; k < start[j + 1]; ++k) {
+      std::int64_t r = above[k];
+      while (ancestor[r] != -1 && ancestor[r] != j) {
+        const std::int64_t next = ancestor[r];
+        ancestor[r] = j;
+        r = next;
+      }
+      if (ancestor[r] == -1) {
+        ancestor[r] = j;
+        super_parent[r] = j;
+      }
+    }
+  column_super.resize(static_cast<std::size_t>(n));
+  unit_super.resize(static_cast<std::size_t>(n) + 1);
+  for (std::int64_t j = 0; j < n; ++j) column_super[j] = j;
+  for (std::int64_t j = 0; j <= n; ++j) unit_super[j] = j;
 }
 
 // The paths of `columns` (permuted order) into p (values zero); returns the flops of one
 // forward_paths() plus the Gram matrix of the paths.
 double SymmetricSolver::Impl::build_paths(std::span<const std::int64_t> columns, Paths& p) {
-  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const SuiteSparse_long* super = supers();
+  // Rows of a supernode's block: its pattern (supernodal) or its column count (simplicial).
   const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
+  const auto* count = static_cast<const SuiteSparse_long*>(L->ColCount);
+  auto rows = [&](std::int64_t q) -> std::int64_t { return L->is_super ? pi[q + 1] - pi[q] : count[q]; };
   const auto k = static_cast<std::int64_t>(columns.size());
   p.column.assign(columns.begin(), columns.end());
   p.offsets.assign(1, 0);
@@ -449,7 +548,7 @@ double SymmetricSolver::Impl::build_paths(std::span<const std::int64_t> columns,
     std::int64_t values = 0;
     for (std::int64_t q = column_super[columns[c]]; q >= 0; q = super_parent[q]) {
       p.super.push_back(q);
-      const std::int64_t nscol = super[q + 1] - super[q], nsrow = pi[q + 1] - pi[q];
+      const std::int64_t nscol = super[q + 1] - super[q], nsrow = rows(q);
       values += nscol;
       flops += 2.0 * static_cast<double>(nsrow) * static_cast<double>(nscol);
     }
@@ -465,6 +564,10 @@ double SymmetricSolver::Impl::build_paths(std::span<const std::int64_t> columns,
 // p.values: the forward solves L z = e_c along each path with the current factor (the rows off
 // the path stay zero); block_work is the scratch and is zero again afterwards.
 void SymmetricSolver::Impl::forward_paths(Paths& p) {
+  if (!L->is_super) {
+    simplicial_forward_paths(p);
+    return;
+  }
   const auto* super = static_cast<const SuiteSparse_long*>(L->super);
   const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
   const auto* px = static_cast<const SuiteSparse_long*>(L->px);
@@ -496,10 +599,33 @@ void SymmetricSolver::Impl::forward_paths(Paths& p) {
   }
 }
 
+// forward_paths() for a simplicial LLᵀ factor: column j of L holds its diagonal first, then rows
+// that are all ancestors of j.
+void SymmetricSolver::Impl::simplicial_forward_paths(Paths& p) {
+  const auto* lp = static_cast<const SuiteSparse_long*>(L->p);
+  const auto* li = static_cast<const SuiteSparse_long*>(L->i);
+  const auto* lnz = static_cast<const SuiteSparse_long*>(L->nz);
+  const auto* lx = static_cast<const double*>(L->x);
+  double* work = block_work.data();
+  const auto k = static_cast<std::int64_t>(p.column.size());
+  for (std::int64_t c = 0; c < k; ++c) {
+    work[p.column[c]] = 1;
+    double* z = p.values.data() + p.value_offsets[c];
+    for (std::int64_t t = p.offsets[c]; t < p.offsets[c + 1]; ++t) {
+      const std::int64_t j = p.super[t], first = lp[j], end = first + lnz[j];
+      const double xj = work[j] / lx[first];
+      work[j] = 0;
+      *z++ = xj;
+      if (xj != 0)
+        for (std::int64_t r = first + 1; r < end; ++r) work[li[r]] -= lx[r] * xj;
+    }
+  }
+}
+
 // Path t's values into block_work (scatter) and back to zero (unscatter); the dot product of
 // path t with what block_work holds.
 void SymmetricSolver::Impl::scatter(const Paths& p, std::int64_t t) {
-  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const SuiteSparse_long* super = supers();
   const double* z = p.values.data() + p.value_offsets[t];
   for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
     const std::int64_t q = p.super[i];
@@ -508,7 +634,7 @@ void SymmetricSolver::Impl::scatter(const Paths& p, std::int64_t t) {
 }
 
 void SymmetricSolver::Impl::unscatter(const Paths& p, std::int64_t t) {
-  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const SuiteSparse_long* super = supers();
   for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
     const std::int64_t q = p.super[i];
     std::fill(block_work.begin() + super[q], block_work.begin() + super[q + 1], 0.0);
@@ -516,7 +642,7 @@ void SymmetricSolver::Impl::unscatter(const Paths& p, std::int64_t t) {
 }
 
 double SymmetricSolver::Impl::scattered_dot(const Paths& p, std::int64_t t) const {
-  const auto* super = static_cast<const SuiteSparse_long*>(L->super);
+  const SuiteSparse_long* super = supers();
   const double* z = p.values.data() + p.value_offsets[t];
   double sum = 0;
   for (std::int64_t i = p.offsets[t]; i < p.offsets[t + 1]; ++i) {
@@ -529,7 +655,7 @@ double SymmetricSolver::Impl::scattered_dot(const Paths& p, std::int64_t t) cons
 double SymmetricSolver::prepare_block(std::span<const std::int64_t> index) {
   Impl& s = *impl_;
   s.block_ready = false;
-  if (!s.analyzed || s.n == 0 || !s.L || !s.L->is_super || s.simplicial) return -1;
+  if (!s.analyzed || s.n == 0 || !s.L || s.ldl) return -1;
   for (const std::int64_t i : index)
     if (i < 0 || i >= s.n) return -1;
   if (!s.prepare_tree()) return -1;
@@ -544,7 +670,7 @@ bool SymmetricSolver::inverse_block(std::span<double> out) {
   Impl& s = *impl_;
   Impl::Paths& p = s.block_paths;
   const auto k = static_cast<std::int64_t>(p.column.size());
-  if (!s.block_ready || !s.factored || s.simplicial || !s.L || !s.L->is_super || !s.L->x ||
+  if (!s.block_ready || !s.factored || s.ldl || !s.L || !s.L->is_ll || !s.L->x ||
       out.size() != static_cast<std::size_t>(k * k))
     return false;
   s.forward_paths(p);
@@ -591,6 +717,14 @@ bool SymmetricSolver::ordering(std::span<std::int64_t> out) const {
   const auto* perm = static_cast<const SuiteSparse_long*>(s.L->Perm);
   for (std::int64_t k = 0; k < s.n; ++k) out[static_cast<std::size_t>(k)] = perm ? perm[k] : k;
   return true;
+}
+
+void SymmetricSolver::set_layout(FactorLayout layout) {
+  impl_->layout = layout;
+}
+
+bool SymmetricSolver::supernodal() const {
+  return impl_->L && impl_->L->is_super;
 }
 
 double SymmetricSolver::rcond() const {

@@ -8,9 +8,13 @@
 // the first factorize() and solve(), further calls reuse every buffer of this object (CHOLMOD
 // itself still takes short-lived workspace inside its supernodal factorization).
 //
-// Two kinds: PositiveDefinite (supernodal LLᵀ; fails with NotPositiveDefinite when a pivot is not
+// The factor is LLᵀ, supernodal (dense blocks through the BLAS) unless set_layout() asks for the
+// simplicial layout (column by column) or for the automatic choice between them by the flops per
+// factor nonzero (sparse_solver.cpp has the measured switch).
+//
+// Two kinds: PositiveDefinite (LLᵀ; fails with NotPositiveDefinite when a pivot is not
 // positive) and Indefinite, for symmetric matrices with a few negative eigenvalues (the spherical
-// Newton matrix has one): supernodal LLᵀ of A + Σ ρ_p e_p e_pᵀ with soft pins on 32 … 512 unknowns
+// Newton matrix has one): LLᵀ of A + Σ ρ_p e_p e_pᵀ with soft pins on 32 … 512 unknowns
 // spread over the index range, corrected exactly by the Woodbury formula (a k×k LU solve per
 // right-hand side; see sparse_solver.cpp). When even 512 pins do not make the matrix positive
 // definite, the solver switches for good to simplicial LDLᵀ without pivoting (for matrices whose
@@ -28,6 +32,10 @@ namespace ricci::detail {
 
 enum class FactorKind { PositiveDefinite, Indefinite };
 
+/// The factor's storage: fixed, or chosen by the analysis from its flops per factor nonzero
+/// (Automatic).
+enum class FactorLayout { Automatic, Supernodal, Simplicial };
+
 enum class FactorOutcome {
   Ok,
   NotPositiveDefinite,  ///< LLᵀ met a non-positive pivot, or LDLᵀ a zero / non-finite one
@@ -41,12 +49,19 @@ class SymmetricSolver {
   ~SymmetricSolver();
   SymmetricSolver(const SymmetricSolver&) = delete;
   SymmetricSolver& operator=(const SymmetricSolver&) = delete;
-  /// Forgets the analysis and factorization (a new analyze() may follow, e.g. for a new pattern).
+  /// Forgets the analysis and factorization (a new analyze() may follow, e.g. for a new pattern);
+  /// keeps set_layout()'s choice.
   void reset();
+
+  /// The layout of the next analyze() (Supernodal unless set).
+  void set_layout(FactorLayout layout);
+  /// Whether the analysis chose (or was given) the supernodal layout; false before analyze().
+  bool supernodal() const;
 
   /// Symbolic analysis of the n×n symmetric matrix whose upper triangle has the pattern
   /// col_ptr (n+1) / row (col_ptr[n]) with rows sorted increasingly in each column.
-  /// `ordering`: empty (the solver chooses: AMD, or METIS nested dissection from 20k unknowns),
+  /// `ordering`: empty (the solver chooses: AMD, or METIS nested dissection when its ordering
+  /// saves flops and AMD's factor costs more than a few thousand flops per unknown),
   /// or a fill-reducing permutation to use instead (ordering[k] = the unknown eliminated k-th; n
   /// distinct entries in [0, n), else Failed), e.g. the restriction of another system's
   /// ordering() to the unknowns of this one: the analysis then skips the ordering, which is most
@@ -78,8 +93,9 @@ class SymmetricSolver {
   /// the last successful factorization, E_I the columns of the identity at those unknowns. With
   /// (A + shift·I) = Pᵀ L Lᵀ P this is ZᵀZ, Z = L⁻¹ P E_I, whose column for unknown i is nonzero
   /// only on the elimination-tree path from i to the root: sparse forward solves along the
-  /// supernodes of each path (no full solve). With pins (Indefinite), the Woodbury correction is
-  /// added. False when unsupported (simplicial LDLᵀ), not prepared, or a value is not finite.
+  /// supernodes (or columns) of each path (no full solve). With pins (Indefinite), the Woodbury
+  /// correction is added. False when unsupported (the LDLᵀ fallback), not prepared, or a value is
+  /// not finite.
   bool inverse_block(std::span<double> out);
 
   /// CHOLMOD's rough reciprocal condition estimate of the last factorization (min/max of the

@@ -1,6 +1,7 @@
 // The internal sparse solver (lib/core/sparse_solver.h), white box: blocks of the inverse taken
 // from the factor by sparse forward solves along elimination-tree paths agree with full solves,
-// for the positive definite factor and for the pinned (Woodbury) indefinite one, with a shift.
+// for the positive definite factor and for the pinned (Woodbury) indefinite one, with a shift, in
+// the supernodal and the simplicial layout.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -45,6 +46,14 @@ Grid grid(std::int64_t m, double d) {
 
 }  // namespace
 
+const char* layout_name(ricci::detail::FactorLayout layout) {
+  using ricci::detail::FactorLayout;
+  return layout == FactorLayout::Supernodal ? "supernodal" : layout == FactorLayout::Simplicial ? "simplicial" : "automatic";
+}
+
+constexpr ricci::detail::FactorLayout kLayouts[] = {ricci::detail::FactorLayout::Supernodal,
+                                                     ricci::detail::FactorLayout::Simplicial};
+
 TEST_CASE("sparse solver: blocks of the inverse from the factor match full solves") {
   using ricci::detail::FactorKind;
   using ricci::detail::FactorOutcome;
@@ -53,14 +62,17 @@ TEST_CASE("sparse solver: blocks of the inverse from the factor match full solve
     double d, shift;
     FactorKind kind;
   };
+  for (const auto layout : kLayouts)
   for (const Case& c : {Case{"positive definite", 0.01, 0.0, FactorKind::PositiveDefinite},
                         Case{"positive definite, shifted", 0.01, 0.5, FactorKind::PositiveDefinite},
                         Case{"pinned (Woodbury)", 0.01, 0.0, FactorKind::Indefinite}}) {
-    const std::string name = c.name;
+    const std::string name = std::string(c.name) + ", " + layout_name(layout);
     CAPTURE(name);
     const Grid g = grid(60, c.d);
     ricci::detail::SymmetricSolver s;
+    s.set_layout(layout);
     REQUIRE(s.analyze(g.n, g.col_ptr, g.row, c.kind) == FactorOutcome::Ok);
+    CHECK(s.supernodal() == (layout == ricci::detail::FactorLayout::Supernodal));
     // Unknowns spread over the grid, one of them twice.
     const std::vector<std::int64_t> index = {0, 59, 1234, 1800, 1801, 3599, 2222, 1234};
     const double flops = s.prepare_block(index);
@@ -92,10 +104,14 @@ TEST_CASE("sparse solver: blocks of the inverse from the factor match full solve
 TEST_CASE("sparse solver: a given ordering is used and gives the same solutions") {
   using ricci::detail::FactorKind;
   using ricci::detail::FactorOutcome;
+  for (const auto layout : kLayouts)
   for (const FactorKind kind : {FactorKind::PositiveDefinite, FactorKind::Indefinite}) {
+    CAPTURE(layout_name(layout));
     const Grid g = grid(40, 0.01);
     const auto n = static_cast<std::size_t>(g.n);
     ricci::detail::SymmetricSolver chosen, given;
+    chosen.set_layout(layout);
+    given.set_layout(layout);
     REQUIRE(chosen.analyze(g.n, g.col_ptr, g.row, kind) == FactorOutcome::Ok);
     std::vector<std::int64_t> order(n);
     REQUIRE(chosen.ordering(order));
@@ -128,4 +144,51 @@ TEST_CASE("sparse solver: a given ordering is used and gives the same solutions"
     for (std::size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(x1[i] - x2[i]));
     CHECK(worst < 1e-12);
   }
+}
+
+// Both layouts report a non-positive pivot of the positive definite kind (the flow then shifts),
+// and factor the indefinite kind; the automatic layout is simplicial on a small grid and the
+// solutions of all layouts agree.
+TEST_CASE("sparse solver: layouts agree, and both report an indefinite matrix") {
+  using ricci::detail::FactorKind;
+  using ricci::detail::FactorLayout;
+  using ricci::detail::FactorOutcome;
+  const Grid g = grid(30, 0.01);
+  const auto n = static_cast<std::size_t>(g.n);
+  std::vector<double> indefinite = g.val;
+  // A negative diagonal entry in the last column (a negative eigenvalue).
+  indefinite.back() = -3;
+  std::vector<double> b(n);
+  for (std::size_t i = 0; i < n; ++i) b[i] = std::cos(0.61 * static_cast<double>(i));
+  std::vector<std::vector<double>> solutions;
+  for (const FactorLayout layout : {FactorLayout::Automatic, FactorLayout::Supernodal, FactorLayout::Simplicial}) {
+    CAPTURE(layout_name(layout));
+    ricci::detail::SymmetricSolver pd, ind;
+    pd.set_layout(layout);
+    ind.set_layout(layout);
+    REQUIRE(pd.analyze(g.n, g.col_ptr, g.row, FactorKind::PositiveDefinite) == FactorOutcome::Ok);
+    REQUIRE(ind.analyze(g.n, g.col_ptr, g.row, FactorKind::Indefinite) == FactorOutcome::Ok);
+    if (layout == FactorLayout::Automatic) CHECK(!pd.supernodal());
+    std::copy(indefinite.begin(), indefinite.end(), pd.values().begin());
+    CHECK(pd.factorize() == FactorOutcome::NotPositiveDefinite);
+    // A shift large enough makes it positive definite again.
+    CHECK(pd.factorize(8) == FactorOutcome::Ok);
+    std::copy(indefinite.begin(), indefinite.end(), ind.values().begin());
+    REQUIRE(ind.factorize() == FactorOutcome::Ok);
+    std::vector<double> x(n), r(n, 0.0);
+    REQUIRE(ind.solve(b, x));
+    // Residual of the indefinite system, from the upper triangle.
+    for (std::int64_t j = 0; j < g.n; ++j)
+      for (std::int64_t k = g.col_ptr[j]; k < g.col_ptr[j + 1]; ++k) {
+        const std::int64_t i = g.row[k];
+        r[i] += indefinite[k] * x[j];
+        if (i != j) r[j] += indefinite[k] * x[i];
+      }
+    double worst = 0;
+    for (std::size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(r[i] - b[i]));
+    CHECK(worst < 1e-12);
+    solutions.push_back(x);
+  }
+  for (std::size_t k = 1; k < solutions.size(); ++k)
+    for (std::size_t i = 0; i < n; ++i) CHECK(std::abs(solutions[k][i] - solutions[0][i]) < 1e-12);
 }
