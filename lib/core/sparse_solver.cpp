@@ -123,7 +123,6 @@ struct SymmetricSolver::Impl {
   }
   double build_paths(std::span<const std::int64_t> columns, Paths& p);
   void forward_paths(Paths& p);
-  void simplicial_forward_paths(Paths& p);
   void scatter(const Paths& p, std::int64_t t);
   void unscatter(const Paths& p, std::int64_t t);
   double scattered_dot(const Paths& p, std::int64_t t) const;
@@ -564,60 +563,52 @@ double SymmetricSolver::Impl::build_paths(std::span<const std::int64_t> columns,
 // p.values: the forward solves L z = e_c along each path with the current factor (the rows off
 // the path stay zero); block_work is the scratch and is zero again afterwards.
 void SymmetricSolver::Impl::forward_paths(Paths& p) {
-  if (!L->is_super) {
-    simplicial_forward_paths(p);
-    return;
-  }
+  const bool super_layout = L->is_super;
   const auto* super = static_cast<const SuiteSparse_long*>(L->super);
   const auto* pi = static_cast<const SuiteSparse_long*>(L->pi);
   const auto* px = static_cast<const SuiteSparse_long*>(L->px);
   const auto* si = static_cast<const SuiteSparse_long*>(L->s);
-  const auto* lx = static_cast<const double*>(L->x);
-  double* work = block_work.data();
-  const auto k = static_cast<std::int64_t>(p.column.size());
-  for (std::int64_t c = 0; c < k; ++c) {
-    work[p.column[c]] = 1;
-    double* z = p.values.data() + p.value_offsets[c];
-    for (std::int64_t t = p.offsets[c]; t < p.offsets[c + 1]; ++t) {
-      const std::int64_t q = p.super[t];
-      const std::int64_t k1 = super[q], nscol = super[q + 1] - k1, psi = pi[q], nsrow = pi[q + 1] - psi;
-      const double* Lq = lx + px[q];
-      double* x = work + k1;
-      for (std::int64_t j = 0; j < nscol; ++j) {
-        const double* col = Lq + j * nsrow;
-        const double xj = x[j] / col[j];
-        x[j] = xj;
-        if (xj == 0) continue;
-        for (std::int64_t r = j + 1; r < nscol; ++r) x[r] -= col[r] * xj;
-        for (std::int64_t r = nscol; r < nsrow; ++r) work[si[psi + r]] -= col[r] * xj;
-      }
-      for (std::int64_t j = 0; j < nscol; ++j) {
-        *z++ = x[j];
-        x[j] = 0;
-      }
-    }
-  }
-}
-
-// forward_paths() for a simplicial LLᵀ factor: column j of L holds its diagonal first, then rows
-// that are all ancestors of j.
-void SymmetricSolver::Impl::simplicial_forward_paths(Paths& p) {
   const auto* lp = static_cast<const SuiteSparse_long*>(L->p);
   const auto* li = static_cast<const SuiteSparse_long*>(L->i);
   const auto* lnz = static_cast<const SuiteSparse_long*>(L->nz);
   const auto* lx = static_cast<const double*>(L->x);
   double* work = block_work.data();
+  // Supernode q: its dense block (columns k1 …, rows pi[q] …), the path's values out to z.
+  auto supernode = [&](std::int64_t q, double*& z) {
+    const std::int64_t k1 = super[q], nscol = super[q + 1] - k1, psi = pi[q], nsrow = pi[q + 1] - psi;
+    const double* Lq = lx + px[q];
+    double* x = work + k1;
+    for (std::int64_t j = 0; j < nscol; ++j) {
+      const double* col = Lq + j * nsrow;
+      const double xj = x[j] / col[j];
+      x[j] = xj;
+      if (xj == 0) continue;
+      for (std::int64_t r = j + 1; r < nscol; ++r) x[r] -= col[r] * xj;
+      for (std::int64_t r = nscol; r < nsrow; ++r) work[si[psi + r]] -= col[r] * xj;
+    }
+    for (std::int64_t j = 0; j < nscol; ++j) {
+      *z++ = x[j];
+      x[j] = 0;
+    }
+  };
+  // Simplicial column j: its diagonal first, then rows that are all ancestors of j.
+  auto column = [&](std::int64_t j, double*& z) {
+    const std::int64_t first = lp[j], end = first + lnz[j];
+    const double xj = work[j] / lx[first];
+    work[j] = 0;
+    *z++ = xj;
+    if (xj != 0)
+      for (std::int64_t r = first + 1; r < end; ++r) work[li[r]] -= lx[r] * xj;
+  };
   const auto k = static_cast<std::int64_t>(p.column.size());
   for (std::int64_t c = 0; c < k; ++c) {
     work[p.column[c]] = 1;
     double* z = p.values.data() + p.value_offsets[c];
     for (std::int64_t t = p.offsets[c]; t < p.offsets[c + 1]; ++t) {
-      const std::int64_t j = p.super[t], first = lp[j], end = first + lnz[j];
-      const double xj = work[j] / lx[first];
-      work[j] = 0;
-      *z++ = xj;
-      if (xj != 0)
-        for (std::int64_t r = first + 1; r < end; ++r) work[li[r]] -= lx[r] * xj;
+      if (super_layout)
+        supernode(p.super[t], z);
+      else
+        column(p.super[t], z);
     }
   }
 }
