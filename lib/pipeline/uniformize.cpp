@@ -1445,8 +1445,17 @@ bool mesh_canonical_polygon(LayoutRun& run) {
     }
     std::vector<double> pl = disk_edge_lengths(pc, pm.surface, pm.l, pt.topology);
     if (!dd.positions_note.empty()) {
-      // Generators without a view of the polygon: kept in case no base gives one.
+      // Generators without a view of the polygon: kept in case no base gives one, when their
+      // relation and residual are within polygon_tolerance. Beyond double range the canonical
+      // cut's positions are not those of the loops (pretzel(12, 4): relation 3.6e7, residual
+      // 0.55), and such generators are no deck group: the domain's side pairings stand instead.
       bc.relation_error = dd.deck.relation_error;
+      const double worst = std::max(dd.deck.relation_error, dd.deck.residual_max);
+      if (!(worst <= options.polygon_tolerance)) {
+        reject(dd.positions_note + "; its generators are not kept (relation error " + sci(dd.deck.relation_error) +
+               ", residual " + sci(dd.deck.residual_max) + ")");
+        continue;
+      }
       reject(dd.positions_note);
       if (!deck_only || dd.deck.residual_max < deck_only->deck.residual_max) {
         deck_only = std::move(dd);

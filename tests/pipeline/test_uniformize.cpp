@@ -367,6 +367,40 @@ TEST_CASE("uniformize: genus 4 and 5 through the compact domain, mesh-path canon
   }
 }
 
+TEST_CASE("uniformize: generators without a polygon view are kept only within the polygon tolerance") {
+  // pretzel(12, 4) by the mesh path: every canonical cut reaches beyond double range, and the
+  // first base's generators through the domain (its cut vertices' positions past that range)
+  // have a relation error of about 5e7. They are not a deck group: the run ends with the compact
+  // domain's side pairings, and the base's note says why its generators were dropped.
+  if (ricci_test::kSanitized) return;  // 6 s in Release: three canonical cuts of 100k+ vertices
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(12, 4));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.mesh_polygon = true;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  CHECK(!r.has_polygon);
+  if (r.has_deck) {
+    CHECK(r.deck.relation_error <= o.polygon_tolerance);
+    CHECK(r.deck.residual_max <= o.polygon_tolerance);
+  } else {
+    CHECK(r.domain_maps.size() == static_cast<std::size_t>(r.cut.num_generators()));
+    CHECK(r.polygon_note.find("the deck group is given by the compact domain's side pairings") != std::string::npos);
+  }
+  int dropped = 0;
+  for (const BaseCandidate& c : r.candidates) {
+    CAPTURE(c.note);
+    CHECK(!c.note.empty());
+    const bool kept = c.note.find("its generators are not kept") == std::string::npos;
+    if (!kept) {
+      ++dropped;
+      CHECK(!(std::max(c.relation_error, 0.0) <= o.polygon_tolerance));
+    }
+  }
+  MESSAGE("pretzel(12, 4), mesh path: " << r.candidates.size() << " bases, " << dropped
+                                        << " with generators dropped; " << r.polygon_note);
+}
+
 TEST_CASE("uniformize: the geodesic canonical polygon at genus 2 to 12, from the domain's pairings alone") {
   // The default for closed surfaces of genus >= 2: canonical generators as words in the compact
   // domain's side pairings, their geodesic 4g-gon a fundamental domain (simple, angle sum 2π, area
