@@ -56,6 +56,31 @@ double dual_weight(const Topology& t, std::span<const double> l, Index c) {
   return std::sqrt(dx * dx + dy * dy);
 }
 
+// Quantum of the dual weights: 2^-kWeightBits of the largest one.
+constexpr int kWeightBits = 30;
+
+/// The dual weight of every interior edge (per corner: the edge opposite it; one value for both
+/// sides), rounded to a multiple of 2^-kWeightBits of the largest weight. Path sums are then exact
+/// and equal weights compare equal, so the shortest-path tree, the double sweep and the centre of
+/// a symmetric mesh break their ties by face index (dual_distances()) and not by the last bits of
+/// the metric: metrics that differ by rounding (another factorization, another thread count) give
+/// the same domain, and with it the same canonical words downstream.
+std::vector<double> dual_weights(const Topology& t, std::span<const double> l) {
+  std::vector<double> w(static_cast<std::size_t>(3 * t.num_faces), kInf);
+  double largest = 0;
+  for (Index c = 0; c < 3 * t.num_faces; ++c) {
+    const Index o = t.opposite[c];
+    if (o == kInvalid || o < c) continue;
+    w[c] = w[o] = dual_weight(t, l, c);
+    if (std::isfinite(w[c])) largest = std::max(largest, w[c]);
+  }
+  if (!(largest > 0)) return w;
+  const int e = std::ilogb(largest) - kWeightBits;
+  for (double& x : w)
+    if (std::isfinite(x)) x = std::ldexp(std::nearbyint(std::ldexp(x, -e)), e);
+  return w;
+}
+
 std::vector<double> dual_distances(const Topology& t, std::span<const double> w, Index source, std::vector<Index>* via) {
   const Index F = t.num_faces;
   std::vector<double> d(static_cast<std::size_t>(F), kInf);
@@ -295,9 +320,7 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
 
   // Dual edge weights (per corner: the edge opposite it), the centre, and the dual tree from it.
-  std::vector<double> w(static_cast<std::size_t>(3 * F), kInf);
-  for (Index c = 0; c < 3 * F; ++c)
-    if (topo.opposite[c] != kInvalid) w[c] = dual_weight(topo, lengths, c);
+  const std::vector<double> w = dual_weights(topo, lengths);
   if (centre_face < 0) centre_face = dual_centre(topo, w);
   std::vector<Index> via;
   dual_distances(topo, w, centre_face, &via);

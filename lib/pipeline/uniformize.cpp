@@ -1261,7 +1261,7 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
     return GeodesicOutcome::Fallback;
   }
   GeodesicPolygon gp = geodesic_polygon(cg.deck);
-  const bool fundamental = gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9;
+  const bool fundamental = gp.status == Status::Ok && gp.fundamental;
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
     r.polygon_note = "no geodesic polygon: " + gp.message;
     return GeodesicOutcome::Fallback;
@@ -1305,7 +1305,7 @@ bool canonical_polygon(LayoutRun& run) {
   UniformizeResult& r = run.r;
   if (r.has_deck) {
     GeodesicPolygon gp = geodesic_in_frame_of(r.deck);
-    if (gp.status == Status::Ok && gp.simple && std::abs(gp.angle_sum - 2 * M_PI) < 1e-9) {
+    if (gp.status == Status::Ok && gp.fundamental) {
       r.geodesic_polygon = std::move(gp);
       r.has_geodesic_polygon = true;
     }

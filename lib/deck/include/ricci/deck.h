@@ -386,6 +386,14 @@ struct GeodesicPolygon {
   double closure_error = 0;
   /// No two non-adjacent sides meet and adjacent sides meet only at their corner.
   bool simple = false;
+  /// How far the angle sum may be from 2π for this polygon: max(1e-9, relation error · e^reach).
+  /// The corners are images of one point under the generators' partial products, so a relator
+  /// off the identity by δ moves them by up to about δ·e^reach (measured: 1.9e2–1e7 · δ at reach
+  /// 17–22), and the angles with them.
+  double angle_tolerance = 1e-9;
+  /// A fundamental domain: simple and the angle sum 2π within angle_tolerance (a polygon whose
+  /// corners wrap around more than once sums to 4π, 6π, …).
+  bool fundamental = false;
   int newton_steps = 0;  ///< steps of the perimeter minimisation
   double seconds = 0;
 };
