@@ -73,7 +73,7 @@ struct SymmetricSolver::Impl {
   // Indefinite kind by pinned LLᵀ + Woodbury (see sparse_solver.h): the pins, their weights ρ,
   // the k×k capacitance matrix C = R⁻¹ − ZᵀZ in LU form (row-major, with its row pivots), and
   // Z = L⁻¹ P E as the paths of the pins. `ldl`: given up on pins (simplicial LDLᵀ).
-  FactorLayout layout = FactorLayout::Supernodal;
+  FactorLayout layout = FactorLayout::Automatic;
   bool ldl = false;
   std::vector<std::int64_t> pins;
   std::vector<double> pin_weight, pin_saved, capacitance, pin_rhs;

@@ -8,9 +8,9 @@
 // the first factorize() and solve(), further calls reuse every buffer of this object (CHOLMOD
 // itself still takes short-lived workspace inside its supernodal factorization).
 //
-// The factor is LLᵀ, supernodal (dense blocks through the BLAS) unless set_layout() asks for the
-// simplicial layout (column by column) or for the automatic choice between them by the flops per
-// factor nonzero (sparse_solver.cpp has the measured switch).
+// The factor is LLᵀ, supernodal (dense blocks through the BLAS) for systems of many flops per
+// factor nonzero, simplicial (column by column) below (sparse_solver.cpp has the measured
+// switch); set_layout() fixes either.
 //
 // Two kinds: PositiveDefinite (LLᵀ; fails with NotPositiveDefinite when a pivot is not
 // positive) and Indefinite, for symmetric matrices with a few negative eigenvalues (the spherical
@@ -53,7 +53,7 @@ class SymmetricSolver {
   /// keeps set_layout()'s choice.
   void reset();
 
-  /// The layout of the next analyze() (Supernodal unless set).
+  /// The layout of the next analyze() (Automatic unless set).
   void set_layout(FactorLayout layout);
   /// Whether the analysis chose (or was given) the supernodal layout; false before analyze().
   bool supernodal() const;
