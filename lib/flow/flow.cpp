@@ -1461,6 +1461,9 @@ void FlowSolver::run() {
       for (Index j = 0; j < n; ++j)
         if (!placed[j]) ordering.push_back(j);
     }
+    solver_.set_layout(options_.factorization == Factorization::Supernodal   ? detail::FactorLayout::Supernodal
+                       : options_.factorization == Factorization::Simplicial ? detail::FactorLayout::Simplicial
+                                                                             : detail::FactorLayout::Automatic);
     const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind, ordering);
     if (analysis == detail::FactorOutcome::Ok && tri_) {
       analysis_order_.resize(static_cast<std::size_t>(n));
@@ -1618,6 +1621,9 @@ bool FlowOptions::is_valid(std::string* why) const {
   };
   if (method != Method::Newton && method != Method::GradientDescent)
     return bad("method must be Newton or GradientDescent");
+  if (factorization != Factorization::Automatic && factorization != Factorization::Supernodal &&
+      factorization != Factorization::Simplicial)
+    return bad("factorization must be Automatic, Supernodal or Simplicial");
   if (!std::isfinite(tolerance) || tolerance <= 0) return bad("tolerance must be a positive finite number");
   if (max_iterations < 0) return bad("max_iterations must be non-negative");
   if (!std::isfinite(gradient_step) || gradient_step <= 0)
