@@ -63,7 +63,7 @@ constexpr int kWeightBits = 30;
 /// sides), rounded to a multiple of 2^-kWeightBits of the largest weight. Path sums are then exact
 /// and equal weights compare equal, so the shortest-path tree, the double sweep and the centre of
 /// a symmetric mesh break their ties by face index (dual_distances()) and not by the last bits of
-/// the metric: metrics that differ by rounding (another factorization, another thread count) give
+/// the metric: metrics that differ by rounding (another factorization, another BLAS) give
 /// the same domain, and with it the same canonical words downstream.
 std::vector<double> dual_weights(const Topology& t, std::span<const double> l) {
   std::vector<double> w(static_cast<std::size_t>(3 * t.num_faces), kInf);
