@@ -21,11 +21,11 @@ namespace {
 constexpr double kNestedDissectionFlops = 6000;
 
 // FactorLayout::Automatic: simplicial (column by column, no BLAS) when the factorization's flops
-// per factor nonzero are below this, else supernodal (dense blocks through the BLAS); CHOLMOD's own
-// switch, whose default of 40 assumes a tuned BLAS. Measured with Debian's ATLAS on 2 cores (METIS order,
-// supernodal s / simplicial s): face.obj (75 flops per nonzero) 0.083 / 0.026, botijo (119)
-// 0.161 / 0.080, kitten-106k (129) 0.196 / 0.103, face.obj subdivided once (127) 0.370 / 0.210,
-// botijo subdivided once (196) 0.696 / 0.763, kitten-425k (217) 0.96 / 1.31.
+// per factor nonzero are below this, else supernodal (dense blocks through the BLAS); CHOLMOD's
+// own switch, whose default of 40 assumes a tuned BLAS. Measured with Debian's ATLAS on 2 cores
+// (METIS order, supernodal s / simplicial s): face.obj (75 flops per nonzero) 0.083 / 0.026,
+// botijo (119) 0.161 / 0.080, kitten-106k (129) 0.196 / 0.103, face.obj subdivided once (127)
+// 0.370 / 0.210, botijo subdivided once (196) 0.696 / 0.763, kitten-425k (217) 0.96 / 1.31.
 constexpr double kSupernodalSwitch = 180;
 
 // Indefinite matrices (see sparse_solver.h): soft pins on k spread-out unknowns, k doubling from
