@@ -440,12 +440,9 @@ TEST_CASE("uniformize: generators without a polygon view are kept only within th
   for (const BaseCandidate& c : r.candidates) {
     CAPTURE(c.note);
     CHECK(!c.note.empty());
-    const bool kept = c.note.find("its generators are not kept") == std::string::npos;
-    if (!kept) {
-      ++dropped;
-      CHECK(!(std::max(c.relation_error, 0.0) <= o.polygon_tolerance));
-    }
+    if (c.note.find("its generators are not kept") != std::string::npos) ++dropped;
   }
+  CHECK(dropped >= 1);  // the case this test is about: a base whose generators were dropped
   MESSAGE("pretzel(12, 4), mesh path: " << r.candidates.size() << " bases, " << dropped
                                         << " with generators dropped; " << r.polygon_note);
 }

@@ -177,7 +177,7 @@ struct FlowOptions {
   /// solve's symbolic analysis, are counted in `iterations` and `history`, and a note reports them.
   int polish_steps = 0;
   /// Newton's factor. Automatic takes the simplicial layout where it was measured faster with
-  /// Debian's ATLAS (systems of up to ~1e9 flops: 20–45 % faster flows at 16k–100k unknowns) and
+  /// Debian's ATLAS (systems of up to ~1e9 flops: 20–50 % faster flows at 5k–53k unknowns) and
   /// the supernodal one above; fix it for another BLAS. The solution agrees to rounding, and the
   /// stages after the flow give the same results either way.
   Factorization factorization = Factorization::Automatic;
