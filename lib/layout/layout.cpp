@@ -43,6 +43,17 @@ constexpr double kShapeLayoutAbove = 1e-8;
 // A placement whose vertex has an angle with sine below this costs more in the propagation (see
 // run_layout()).
 constexpr double kIllPlaced = 1e-4;
+// H: the propagation runs again in the normalised frame only when normalising moved the frame by
+// more than this hyperbolic distance. A smaller move is applied to the positions as they are: it
+// scales their rounding by at most e^0.001. (The centre of mass on the hyperboloid is reached in
+// one normalisation: the second moves by about 1e-13.)
+constexpr double kRepropagateAbove = 1e-3;
+// The Gauss–Seidel sweeps of a round move only the vertices within kSweepRings edges of an edge
+// whose error above its floor exceeds kSweepShare of the largest: a round is kept when it lowers
+// the largest error and goes on while it halves it, so edges at a quarter of it matter no more
+// (after divide and conquer the error sits along the seams: a few per cent of the vertices).
+constexpr double kSweepShare = 0.25;
+constexpr int kSweepRings = 2;
 
 std::string num(double x) {
   char buf[64];
@@ -242,10 +253,13 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
 /// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
 /// Parallel over edges; a NaN ranks above every number and ties go to the smaller edge index, so
 /// the result does not depend on the threads.
-void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o) {
+/// With `per_edge`: also each edge's error above its floor (err − drift; NaN where err is).
+void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o,
+                   std::vector<double>* per_edge = nullptr) {
   auto rank = [](double x) { return std::isnan(x) ? kInf : x; };
   double worst = 0, floor = 0, above = 0;
   Index worst_edge = kInvalid;
+  if (per_edge != nullptr) per_edge->resize(static_cast<std::size_t>(t.num_edges));
 #pragma omp parallel
   {
     double my_worst = 0, my_floor = 0, my_above = 0;
@@ -257,6 +271,7 @@ void measure_edges(const Topology& t, Geometry g, std::span<const double> l, con
       const double err = std::abs(d - l[e]) / l[e];
       const double drift = rounding_drift(g, P, a, b) / l[e];
       my_floor = std::max(my_floor, drift);
+      if (per_edge != nullptr) (*per_edge)[e] = err - drift;
       if (rank(err - drift) > rank(my_above)) my_above = err - drift;
       if (rank(err) > rank(my_worst)) {
         my_worst = err;
@@ -278,6 +293,27 @@ void measure_edges(const Topology& t, Geometry g, std::span<const double> l, con
   o.worst_edge = worst_edge;
   o.rounding_floor = floor;
   o.max_error_above_rounding = above;
+}
+
+/// The vertices within `rings` edges of an edge whose error above its rounding floor (per_edge,
+/// from measure_edges()) exceeds `tau` or is NaN, in index order.
+std::vector<Index> vertices_near_errors(const Topology& t, std::span<const double> per_edge, double tau, int rings) {
+  const Index ne = t.num_edges, nv = t.num_vertices;
+  std::vector<std::uint8_t> mark(static_cast<std::size_t>(nv), 0);
+  for (Index e = 0; e < ne; ++e)
+    if (!(per_edge[e] <= tau)) mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
+  for (int r = 1; r <= rings; ++r) {
+    const auto level = static_cast<std::uint8_t>(r);
+    for (Index e = 0; e < ne; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      if (mark[a] == level && mark[b] == 0) mark[b] = level + 1;
+      else if (mark[b] == level && mark[a] == 0) mark[a] = level + 1;
+    }
+  }
+  std::vector<Index> out;
+  for (Index v = 0; v < nv; ++v)
+    if (mark[v]) out.push_back(v);
+  return out;
 }
 
 // ---- validation ----------------------------------------------------------------------------
@@ -370,21 +406,38 @@ Index central_face_of(const Topology& t) {
 
 std::vector<double> vertex_weights(const Topology& t, const std::vector<double>& area) {
   std::vector<double> w(static_cast<std::size_t>(t.num_vertices), 0.0);
+#pragma omp parallel for schedule(static)
   for (Index v = 0; v < t.num_vertices; ++v)
     for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i)
       w[v] += area[corner_face(t.vertex_corners[i])] / 3;
   return w;
 }
 
+/// Σ add(acc, i) over i < n, in fixed blocks of indices (the blocks in parallel, then added in
+/// order), so that the sum does not depend on the threads. T: Eigen vectors or matrices.
+template <class T, class Add>
+T block_sum(Index n, Add&& add) {
+  constexpr Index kBlock = 4096;
+  const Index blocks = (n + kBlock - 1) / kBlock;
+  std::vector<T> part(static_cast<std::size_t>(blocks), T::Zero());
+#pragma omp parallel for schedule(static)
+  for (Index b = 0; b < blocks; ++b) {
+    T acc = T::Zero();
+    for (Index i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) add(acc, i);
+    part[b] = acc;
+  }
+  T sum = T::Zero();
+  for (const T& q : part) sum += q;
+  return sum;
+}
+
 /// Centre of the hyperboloid centre of mass (Poincaré point) of weighted disk points.
 Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w) {
-  V3 C{0, 0, 0};
-  for (Index v = 0; v < nv; ++v) {
+  const Eigen::Vector3d C = block_sum<Eigen::Vector3d>(nv, [&](Eigen::Vector3d& acc, Index v) {
     const V3 X = hyperboloid(P.z(v));
-    const double wv = w ? (*w)[v] : 1.0;
-    for (int d = 0; d < 3; ++d) C[d] += wv * X[d];
-  }
-  return poincare(C);
+    acc += (w ? (*w)[v] : 1.0) * Eigen::Vector3d(X[0], X[1], X[2]);
+  });
+  return poincare(V3{C[0], C[1], C[2]});
 }
 
 /// Returns the hyperbolic distance the centre of mass was moved by; *map (when not null) is the
@@ -393,12 +446,14 @@ double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<d
                             detail::M3* map = nullptr) {
   const Index nv = t.num_vertices;
   const Cx c = hyperbolic_centre(P, nv, &w);
+#pragma omp parallel for schedule(static)
   for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
   Cx ref = P.z(t.corner_vertex[3 * seed]);
   if (std::abs(ref) < 1e-12) ref = P.z(t.corner_vertex[3 * seed + 1]);
   Cx rot(1, 0);
   if (std::abs(ref) > 0) {
     rot = std::conj(ref) / std::abs(ref);
+#pragma omp parallel for schedule(static)
     for (Index v = 0; v < nv; ++v) P.set(v, rot * P.z(v));
   }
   if (map != nullptr) *map = detail::disk_map_matrix(c, rot);
@@ -409,14 +464,13 @@ double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<d
 void normalize_spherical(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, bool mobius,
                          Layout& out) {
   const Index nv = t.num_vertices;
-  double wsum = 0;
-  for (Index v = 0; v < nv; ++v) wsum += w[v];
+  double wsum = block_sum<Eigen::Matrix<double, 1, 1>>(nv, [&](auto& acc, Index v) { acc(0) += w[v]; })(0);
   if (!(wsum > 0)) wsum = 1;
   auto centre = [&] {
-    V3 mu{0, 0, 0};
-    for (Index v = 0; v < nv; ++v)
-      for (int d = 0; d < 3; ++d) mu[d] += w[v] * P.x[3 * v + d];
-    return scaled(mu, 1 / wsum);
+    const Eigen::Vector3d mu = block_sum<Eigen::Vector3d>(nv, [&](Eigen::Vector3d& acc, Index v) {
+      acc += w[v] * Eigen::Vector3d(P.x[3 * v], P.x[3 * v + 1], P.x[3 * v + 2]);
+    });
+    return scaled(V3{mu[0], mu[1], mu[2]}, 1 / wsum);
   };
   if (mobius) {
     const std::vector<double> before = P.x;
@@ -424,17 +478,17 @@ void normalize_spherical(const Topology& t, Positions& P, const std::vector<doub
     for (; it < 100; ++it) {
       const V3 mu = centre();
       if (norm(mu) < 1e-14) break;
-      Eigen::Matrix3d J = Eigen::Matrix3d::Zero();
-      for (Index v = 0; v < nv; ++v) {
+      Eigen::Matrix3d J = block_sum<Eigen::Matrix3d>(nv, [&](Eigen::Matrix3d& acc, Index v) {
         const Eigen::Vector3d x(P.x[3 * v], P.x[3 * v + 1], P.x[3 * v + 2]);
-        J += w[v] * (Eigen::Matrix3d::Identity() - x * x.transpose());
-      }
+        acc += w[v] * (Eigen::Matrix3d::Identity() - x * x.transpose());
+      });
       J *= 2 / wsum;
       const Eigen::Vector3d step = -J.ldlt().solve(Eigen::Vector3d(mu[0], mu[1], mu[2]));
       V3 c{step[0], step[1], step[2]};
       if (!std::isfinite(norm(c))) break;
       if (norm(c) > 0.5) c = scaled(c, 0.5 / norm(c));
       const double c2 = dot(c, c);
+#pragma omp parallel for schedule(static)
       for (Index v = 0; v < nv; ++v) {
         V3 x = P.p(v);
         const V3 y{x[0] + c[0], x[1] + c[1], x[2] + c[2]};
@@ -448,6 +502,7 @@ void normalize_spherical(const Topology& t, Positions& P, const std::vector<doub
     std::vector<double> old = before;
     Positions Q{Geometry::Spherical, 3, old};
     double change = 0;
+#pragma omp parallel for schedule(static) reduction(max : change)
     for (Index e = 0; e < t.num_edges; ++e) {
       const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
       const double d0 = Q.distance(a, b), d1 = P.distance(a, b);
@@ -461,6 +516,7 @@ void normalize_spherical(const Topology& t, Positions& P, const std::vector<doub
   if (norm(e1) < 1e-300) e1 = std::abs(a[0]) < 0.9 ? V3{1, 0, 0} : V3{0, 1, 0};
   e1 = normalized(sub(e1, scaled(a, dot(a, e1))));
   const V3 e2 = cross(a, e1);
+#pragma omp parallel for schedule(static)
   for (Index v = 0; v < nv; ++v) {
     const V3 x = P.p(v);
     P.set(v, V3{dot(e1, x), dot(e2, x), dot(a, x)});
@@ -570,19 +626,23 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
   std::vector<Index> near, queue;
   dual_bfs(t, seed, near);
   queue.reserve(static_cast<std::size_t>(nf));
+  // level[d]: the faces that came to distance d (in index order at first, then as they came
+  // nearer); an entry whose face has come nearer since is stale and dropped when its level is
+  // the farthest.
+  Index top = 0;
+  for (Index f = 0; f < nf; ++f) top = std::max(top, near[f]);
+  std::vector<std::vector<Index>> level(static_cast<std::size_t>(top) + 1);
+  for (Index f = 0; f < nf; ++f)
+    if (near[f] >= 0) level[near[f]].push_back(f);
   while (static_cast<Index>(out.seeds.size()) < count) {
     // The farthest face (the smallest index among the farthest).
     Index best = kInvalid;
-#pragma omp parallel
-    {
-      Index mine = kInvalid;
-#pragma omp for schedule(static) nowait
-      for (Index f = 0; f < nf; ++f)
-        if (near[f] > 0 && (mine == kInvalid || near[f] > near[mine])) mine = f;
-#pragma omp critical(ricci_partition_faces)
-      if (mine != kInvalid &&
-          (best == kInvalid || near[mine] > near[best] || (near[mine] == near[best] && mine < best)))
-        best = mine;
+    for (; top > 0; --top) {
+      std::vector<Index>& at = level[top];
+      std::erase_if(at, [&](Index f) { return near[f] != top; });
+      if (at.empty()) continue;
+      best = *std::min_element(at.begin(), at.end());
+      break;
     }
     if (best == kInvalid) break;
     out.seeds.push_back(best);
@@ -596,6 +656,7 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
         const Index nb = corner_face(o);
         if (near[nb] >= 0 && near[nb] <= near[f] + 1) continue;
         near[nb] = near[f] + 1;
+        level[near[nb]].push_back(nb);
         queue.push_back(nb);
       }
     }
@@ -1149,17 +1210,20 @@ class Propagation {
 // ---- refining the propagation's layout -------------------------------------------------------
 
 /// After the propagation, only while the layout misses its metric by more than
-/// options.refine_above above the edges' rounding floors (`now`, kept up to date): the divide and conquer (E, H, S; automatic
-/// patch count, or always with an explicit count ≥ 2; kept when not less accurate); in E, the
-/// layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
+/// options.refine_above above the edges' rounding floors (`now` and each edge's error above its
+/// floor `edge_above`, kept up to date until the sweeps end): the divide and conquer (E, H, S;
+/// automatic patch count, or always with an explicit count ≥ 2; kept when not less accurate); in
+/// E, the layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
 /// triangles placed from short bases can grow an error geometrically along a chain), kept when
-/// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps, each round only
-/// while still above the threshold); global Gauss–Newton steps (E, H, S; layout_polish.h).
+/// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps over the vertices
+/// near the largest errors, each round only while still above the threshold); global
+/// Gauss–Newton steps (E, H, S; layout_polish.h).
 /// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
 /// anything moved it. `now` describes the positions on return.
 void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
-                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, Layout& out) {
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, std::vector<double>& edge_above,
+                   Layout& out) {
   std::vector<double>& x = P.x;
   const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
   auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
@@ -1172,15 +1236,17 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   if (patches > 1) {
     std::vector<double> kept = x;
     Layout trial, after;
+    std::vector<double> after_edges;
     const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, patches, x, trial)
                                                : lay_out_patches(t, g, l, seed, patches, x, trial);
-    if (laid) measure_edges(t, g, l, P, after);
+    if (laid) measure_edges(t, g, l, P, after, &after_edges);
     if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
         after.max_edge_length_error <= now.max_edge_length_error) {
       out.patches = trial.patches;
       out.patch_fit_iterations = trial.patch_fit_iterations;
       out.patch_seam_error = trial.patch_seam_error;
       now = after;
+      edge_above.swap(after_edges);
       moved = true;
     } else {
       x.swap(kept);
@@ -1191,11 +1257,13 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     std::vector<double> trial = x;
     if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
       Layout shaped;
-      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped);
+      std::vector<double> shaped_edges;
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
       if (shaped.max_edge_length_error < now.max_edge_length_error) {
         x.swap(trial);
         out.shape_solve = true;
         now = shaped;
+        edge_above.swap(shaped_edges);
         moved = true;
       }
     }
@@ -1203,15 +1271,19 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round;
   // once started, they go on below the threshold while a round still halves the error above
   // the floor (cheap, and a layout nearer its floor gives the deck group more digits). A round
-  // that raises the max error is undone and ends the sweeps.
+  // that raises the max error is undone and ends the sweeps. Each round sweeps only the vertices
+  // near its large errors (kSweepShare, kSweepRings).
   bool halving = false;
   std::vector<double> kept;
   for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
     const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
     const Layout before = now;
     kept = x;
-    detail::polish_by_sweeps(t, g, l, x, n);
-    measure_edges(t, g, l, P, now);
+    const std::vector<Index> only =
+        vertices_near_errors(t, edge_above, kSweepShare * now.max_error_above_rounding, kSweepRings);
+    if (only.empty()) break;
+    detail::polish_by_sweeps(t, g, l, x, n, only);
+    measure_edges(t, g, l, P, now, &edge_above);
     if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
       x.swap(kept);
       now = before;
@@ -1292,13 +1364,14 @@ bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::sp
     // Second pass in the final frame: the seed face keeps its normalised position and the
     // propagation runs again there, so no vertex is ever computed farther from the origin than
     // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
-    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    // Repeated while the normalisation still moves the frame by more than kRepropagateAbove; a
+    // smaller move is kept as the map itself (it costs the coordinates at most a factor e^moved).
     const std::vector<double> w = vertex_weights(t, area);
     for (int pass = 0; pass < 4; ++pass) {
       const double moved = normalize_hyperbolic(t, P, w, seed, out);
+      if (moved <= kRepropagateAbove) break;
       if (!propagation.run(P, out)) return false;
       ++out.propagation_passes;
-      if (moved < 1e-6) break;
     }
   }
   out.unplaced_vertices = propagation.unplaced();
@@ -1323,10 +1396,10 @@ bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>&
     for (int pass = 0; pass < 4; ++pass) {
       detail::M3 map{};
       const double moved = normalize_hyperbolic(t, P, w, seed, out, &map);
+      if (moved <= kRepropagateAbove) break;
       seed_map = detail::multiply(map, seed_map);
       if (!dev.run(P.x, seed_map, out)) return false;
       ++out.propagation_passes;
-      if (moved < 1e-6) break;
     }
   }
   out.unplaced_vertices = dev.unplaced();
@@ -1357,10 +1430,11 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     return out;
   }
   Layout now;
-  measure_edges(t, g, l, P, now);
+  std::vector<double> edge_above;  // each edge's error above its rounding floor
+  measure_edges(t, g, l, P, now, &edge_above);
   // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global
   // steps would trade the resolved faces for them.
-  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, out);
+  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, edge_above, out);
   finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;

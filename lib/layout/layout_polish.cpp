@@ -121,11 +121,12 @@ void for_each_incident_edge(const Topology& t, Index v, F&& f) {
 // incident edges — E in the plane; H in the Poincaré disk; S in its tangent plane, then back
 // onto the sphere.
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
-                      int sweeps) {
-  const Index nv = t.num_vertices;
+                      int sweeps, std::span<const Index> only) {
+  const Index nv = only.empty() ? t.num_vertices : static_cast<Index>(only.size());
   const bool sphere = g == Geometry::Spherical;
   for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (Index v = 0; v < nv; ++v) {
+    for (Index i = 0; i < nv; ++i) {
+      const Index v = only.empty() ? i : only[i];
       GaussNewton2 gn;
       double a = 0, b = 0;
       if (g == Geometry::Hyperbolic) {

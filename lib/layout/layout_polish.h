@@ -27,10 +27,10 @@
 
 namespace ricci::detail {
 
-/// `sweeps` Gauss–Seidel sweeps over the vertices in index order (H: a vertex whose step would
-/// leave the unit disk stays).
+/// `sweeps` Gauss–Seidel sweeps over the vertices in index order, or over `only` in its order
+/// when it is not empty (H: a vertex whose step would leave the unit disk stays).
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
-                      int sweeps);
+                      int sweeps, std::span<const Index> only = {});
 
 /// What polish_globally() did.
 struct GlobalPolish {

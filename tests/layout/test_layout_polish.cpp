@@ -157,6 +157,53 @@ TEST_CASE("layout polish: Gauss–Seidel sweeps remove short-range noise in E, H
   }
 }
 
+TEST_CASE("layout polish: sweeps over a subset move only it and remove a local defect there") {
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
+      CAPTURE(static_cast<int>(g));
+      const Case c = make_case(g, seed);
+      const Index nv = c.topo.num_vertices, dims = g == Geometry::Spherical ? 3 : 2;
+      // One vertex pushed off its place (the kind of defect a seam leaves), the rest exact.
+      std::mt19937_64 rng(seed + 300);
+      const Index v0 = static_cast<Index>(rng() % static_cast<std::uint64_t>(nv));
+      std::vector<double> start = c.exact;
+      for (Index d = 0; d < dims; ++d) start[dims * v0 + d] += 1e-7 * (d == 0 ? 1 : 0.5);
+      if (g == Geometry::Spherical) {
+        const double n = std::hypot(start[3 * v0], start[3 * v0 + 1], start[3 * v0 + 2]);
+        for (int d = 0; d < 3; ++d) start[3 * v0 + d] /= n;
+      }
+      // The subset: v0 and the vertices within two edges of it, in index order.
+      std::vector<int> ring(static_cast<std::size_t>(nv), -1);
+      ring[v0] = 0;
+      for (int r = 0; r < 2; ++r)
+        for (Index e = 0; e < c.topo.num_edges; ++e) {
+          const Index a = c.topo.edge_vertices[2 * e], b = c.topo.edge_vertices[2 * e + 1];
+          if (ring[a] == r && ring[b] < 0) ring[b] = r + 1;
+          if (ring[b] == r && ring[a] < 0) ring[a] = r + 1;
+        }
+      std::vector<Index> only;
+      for (Index v = 0; v < nv; ++v)
+        if (ring[v] >= 0) only.push_back(v);
+      REQUIRE(only.size() > 7);
+      REQUIRE(static_cast<Index>(only.size()) < nv / 4);
+      const double before = max_error(c, start);
+      std::vector<double> x = start;
+      detail::polish_by_sweeps(c.topo, g, c.l, x, 4, only);
+      const double after = max_error(c, x);
+      MESSAGE("subset sweeps: " << before << " -> " << after);
+      CHECK(after < before / 10);
+      Index moved_outside = 0, moved_inside = 0;
+      for (Index v = 0; v < nv; ++v) {
+        bool moved = false;
+        for (Index d = 0; d < dims; ++d) moved = moved || x[dims * v + d] != start[dims * v + d];
+        (ring[v] >= 0 ? moved_inside : moved_outside) += moved ? 1 : 0;
+      }
+      CHECK(moved_outside == 0);
+      CHECK(moved_inside > 1);
+    });
+  }
+}
+
 TEST_CASE("layout polish: a consistent layout stays, and no step raises the max error") {
   for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
     const Case c = make_case(g, 7);
