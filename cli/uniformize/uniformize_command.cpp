@@ -13,7 +13,8 @@
 //   domain.obj       the cut disk with its layout as positions (x, y, 0), one vertex per cut vertex.
 //   metric.csv       as `ricci flow -o`: u, K, K_target per vertex; length per edge (uniformize only).
 //   generators.json  closed genus ≥ 1: the deck generators (see generators_json()).
-//   cover.svg, cover.obj   closed genus ≥ 1: the universal cover tiling (--cover-depth).
+//   cover.svg, cover.obj   closed genus ≥ 1: the universal cover tiling (--cover-depth; cover.obj up
+//                          to --cover-faces faces).
 //   report.json      the summary (the keys of --json), also printed on stdout with --json.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
@@ -1090,11 +1091,22 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
     cover = ricci::universal_cover(r.cut, r.layout.positions, tiling_group(r), cover_options(r, o.cover_depth));
     if (cover.status == Status::Ok) {
       files.push_back({"cover.svg", ricci::cover_svg(r.cut, r.layout.positions, cover)});
-      // Made as it is written, so the tiling's mesh exists only meanwhile.
-      files.push_back({"cover.obj", {}, [&r, &cover](const ricci::ByteSink& sink) {
-                         const ricci::Mesh tiling = ricci::cover_mesh(r.cut, r.layout.positions, cover);
-                         return tiling.num_faces() > 0 && ricci::serialize_mesh_to(tiling, ricci::FileFormat::Obj, sink);
-                       }});
+      // The tiling as one mesh only up to --cover-faces faces (a copy of the domain per element):
+      // a genus-5 domain has dozens of neighbours, and their copies would outweigh every other
+      // output together.
+      const auto copies = static_cast<long long>(cover.elements.size());
+      const auto tiling_faces = copies * static_cast<long long>(r.cut.cut_faces.size() / 3);
+      if (tiling_faces <= o.cover_faces) {
+        // Made as it is written, so the tiling's mesh exists only meanwhile.
+        files.push_back({"cover.obj", {}, [&r, &cover](const ricci::ByteSink& sink) {
+                           const ricci::Mesh tiling = ricci::cover_mesh(r.cut, r.layout.positions, cover);
+                           return tiling.num_faces() > 0 && ricci::serialize_mesh_to(tiling, ricci::FileFormat::Obj, sink);
+                         }});
+      } else {
+        add_note(o, run, "cover.obj not written: the tiling (" + std::to_string(copies) + " copies of the domain) has " +
+                             std::to_string(tiling_faces) + " faces, more than --cover-faces " +
+                             std::to_string(o.cover_faces) + " (cover.svg draws it; `ricci cover` writes the mesh)");
+      }
     } else {
       add_note(o, run, "no cover written: " + cover.message);
     }
@@ -1422,6 +1434,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "side pairings of the compact domain (hyperbolic) or the translations a1, b1 (torus); 0: 1 "
                   "(hyperbolic: every neighbour across a side) or a 3x3 block (torus). Default: 0.")
       ->check(number_validator(false, true));
+  cmd->add_option("--cover-faces", o.cover_faces,
+                  "Closed genus >= 1: cover.obj (the tiling as one mesh, a copy of the domain per tile) is written "
+                  "only when it has at most this many faces; otherwise a note gives its size (cover.svg still draws "
+                  "the tiling; `ricci cover` writes the mesh). 0: never. Default: 1000000.")
+      ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box [0,1]^2. Default: off.");
   cmd->add_option("--patches", o.patches,
                   "Layouts in E, H and S: divide and conquer with this many patches, laid out separately and "
@@ -1471,6 +1488,8 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 1.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
+  cmd->add_option("--cover-faces", o.cover_faces, "As for uniformize. Default: 1000000.")
+      ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
   cmd->add_option("--patches", o.patches, "As for uniformize. Default: -1.")->check(CLI::Range(-1, 256));
   cmd->add_option("--layout-refine-above", o.layout_refine_above, "As for uniformize. Default: 1e-10.")

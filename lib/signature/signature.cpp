@@ -143,7 +143,9 @@ int spectrum_word_length(Index genus) {
 }
 
 /// The shortest cyclically reduced word of length ≤ max_length in the generators (letters as in
-/// signature_words(): k/2 the generator, odd k its inverse).
+/// signature_words(): k/2 the generator, odd k its inverse). The words are searched depth first,
+/// each first letter's words on their own (in parallel), and the searches are then merged in the
+/// order of their first letters, so the result does not depend on the threads.
 WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::span<const double> residuals,
                           int max_length, std::vector<double>& spectrum) {
   const int letters = static_cast<int>(2 * generators.size());
@@ -152,52 +154,75 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
     const detail::MoebiusQ& m = generators[static_cast<std::size_t>(k / 2)];
     letter[static_cast<std::size_t>(k)] = k % 2 == 0 ? m : m.inverse();
   }
-  WordLength best;
-  best.length = INFINITY;
-  std::vector<double> lengths;
-  std::size_t best_letters = 0;
-  std::vector<int> word;
-  std::vector<detail::MoebiusQ> prefix{detail::MoebiusQ{}};
   std::vector<double> letter_norm(static_cast<std::size_t>(letters));
   for (int k = 0; k < letters; ++k) letter_norm[static_cast<std::size_t>(k)] = matrix_norm(letter[static_cast<std::size_t>(k)]);
-  std::vector<double> norm_product{1.0};  // Π of the prefix's letter norms
-  auto visit = [&](auto&& self) -> void {
-    const auto len = static_cast<int>(word.size());
-    const bool power = len % 2 == 0 && len > 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
-    if (len > 0 && word.back() != inverse_letter(word.front()) && !power) {
-      const double l = translation_length_q(prefix.back());
-      // Words whose product the arithmetic cannot resolve to kReliable are left out.
-      const double rounding = length_rounding(l, norm_product.back(), len);
-      const bool reliable = l > 0 && rounding <= kReliable;
-      if (reliable) lengths.push_back(l);
-      // A shorter length wins; within 1e-9 relative (the same class), the word with fewer letters.
-      const bool tie = std::abs(l - best.length) <= kSameLength * l;
-      if (reliable && ((!tie && l < best.length) || (tie && word.size() < best_letters))) {
-        best_letters = word.size();
-        best.length = l;
-        best.word.clear();
-        double residual = 0;
-        for (const int k : word) {
-          if (!best.word.empty()) best.word.push_back(' ');
-          best.word.append(letter_name(k));
-          residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(k / 2)];
-        }
-        best.uncertainty = 2 * residual + rounding;
+  // The shortest of one search: a shorter length wins; within 1e-9 relative (the same class), the
+  // word with fewer letters.
+  struct Search {
+    WordLength best;
+    std::size_t best_letters = 0;
+    std::vector<double> lengths;
+    Search() { best.length = INFINITY; }
+    void offer(const WordLength& w, std::size_t count) {
+      const bool tie = std::abs(w.length - best.length) <= kSameLength * w.length;
+      if ((!tie && w.length < best.length) || (tie && count < best_letters)) {
+        best = w;
+        best_letters = count;
       }
     }
-    if (len == max_length) return;
-    for (int k = 0; k < letters; ++k) {
-      if (len > 0 && k == inverse_letter(word.back())) continue;
-      word.push_back(k);
-      prefix.push_back((prefix.back() * letter[static_cast<std::size_t>(k)]).normalized());
-      norm_product.push_back(norm_product.back() * letter_norm[static_cast<std::size_t>(k)]);
-      self(self);
-      norm_product.pop_back();
-      prefix.pop_back();
-      word.pop_back();
-    }
   };
-  visit(visit);
+  std::vector<Search> searches(static_cast<std::size_t>(letters));
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int first = 0; first < letters; ++first) {
+    Search& S = searches[static_cast<std::size_t>(first)];
+    std::vector<int> word{first};
+    std::vector<detail::MoebiusQ> prefix{detail::MoebiusQ{}, letter[static_cast<std::size_t>(first)]};
+    std::vector<double> norm_product{1.0, letter_norm[static_cast<std::size_t>(first)]};  // Π of the prefix's letter norms
+    auto visit = [&](auto&& self) -> void {
+      const auto len = static_cast<int>(word.size());
+      const bool power = len % 2 == 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
+      if (word.back() != inverse_letter(word.front()) && !power) {
+        const double l = translation_length_q(prefix.back());
+        // Words whose product the arithmetic cannot resolve to kReliable are left out.
+        const double rounding = length_rounding(l, norm_product.back(), len);
+        if (l > 0 && rounding <= kReliable) {
+          S.lengths.push_back(l);
+          const bool tie = std::abs(l - S.best.length) <= kSameLength * l;
+          if ((!tie && l < S.best.length) || (tie && word.size() < S.best_letters)) {
+            WordLength w;
+            w.length = l;
+            double residual = 0;
+            for (const int k : word) {
+              if (!w.word.empty()) w.word.push_back(' ');
+              w.word.append(letter_name(k));
+              residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(k / 2)];
+            }
+            w.uncertainty = 2 * residual + rounding;
+            S.offer(w, word.size());
+          }
+        }
+      }
+      if (len == max_length) return;
+      for (int k = 0; k < letters; ++k) {
+        if (k == inverse_letter(word.back())) continue;
+        word.push_back(k);
+        prefix.push_back((prefix.back() * letter[static_cast<std::size_t>(k)]).normalized());
+        norm_product.push_back(norm_product.back() * letter_norm[static_cast<std::size_t>(k)]);
+        self(self);
+        norm_product.pop_back();
+        prefix.pop_back();
+        word.pop_back();
+      }
+    };
+    visit(visit);
+  }
+  Search all;
+  std::vector<double> lengths;
+  for (const Search& S : searches) {
+    if (S.best_letters > 0) all.offer(S.best, S.best_letters);
+    lengths.insert(lengths.end(), S.lengths.begin(), S.lengths.end());
+  }
+  const WordLength best = all.best;
   // Distinct lengths (a class met as several words, or equal lengths by symmetry, counts once).
   std::sort(lengths.begin(), lengths.end());
   spectrum.clear();

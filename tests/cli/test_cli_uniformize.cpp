@@ -237,6 +237,41 @@ TEST_CASE("cli uniformize: --mesh-polygon lays a canonical cut of the mesh out a
   CHECK(!gens.contains("generator_words"));
 }
 
+TEST_CASE("cli uniformize: cover.obj only up to --cover-faces faces, with a note naming its size otherwise") {
+  TempDir tmp;
+  // The default writes the embedded genus-2 surface's tiling: one copy of the domain per tile.
+  const fs::path all = tmp / "all";
+  const auto r = run_cli({"uniformize", "-o", all.string(), "--json", "--no-pictures", "-q"});
+  REQUIRE(r.exit_code == 0);
+  const ricci::ReadResult tiling = ricci::read_mesh((all / "cover.obj").string());
+  REQUIRE(tiling.status == ricci::Status::Ok);
+  const ricci::ReadResult domain = ricci::read_mesh((all / "domain.obj").string());
+  REQUIRE(domain.status == ricci::Status::Ok);
+  const long long faces = static_cast<long long>(tiling.mesh.num_faces());
+  REQUIRE(faces > domain.mesh.num_faces());
+  CHECK(faces % domain.mesh.num_faces() == 0);
+  // Exactly at the limit it is written; one face below, not, and the note says why.
+  const fs::path at = tmp / "at", below = tmp / "below";
+  REQUIRE(run_cli({"uniformize", "-o", at.string(), "--no-pictures", "-q", "--cover-faces", std::to_string(faces)})
+              .exit_code == 0);
+  CHECK(fs::exists(at / "cover.obj"));
+  const auto b = run_cli({"uniformize", "-o", below.string(), "--json", "--no-pictures", "-q", "--cover-faces",
+                          std::to_string(faces - 1)});
+  REQUIRE(b.exit_code == 0);
+  CHECK_FALSE(fs::exists(below / "cover.obj"));
+  CHECK(fs::exists(below / "cover.svg"));
+  const Json j = parse(b.out);
+  bool noted = false;
+  for (const Json& n : j["notes"])
+    noted |= n.get<std::string>().find("cover.obj not written") != std::string::npos &&
+             n.get<std::string>().find(std::to_string(faces) + " faces") != std::string::npos;
+  CHECK(noted);
+  bool listed = false;
+  for (const Json& f : j["outputs"]) listed |= f == "cover.obj";
+  CHECK_FALSE(listed);
+  CHECK(run_cli({"uniformize", "-o", (tmp / "bad").string(), "--cover-faces", "-1"}).exit_code == 2);
+}
+
 TEST_CASE("cli uniformize: the output directory is all or nothing") {
   TempDir tmp;
   const std::string torus = (ricci_test::fixtures_dir() / "torus.obj").string();

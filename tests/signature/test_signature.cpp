@@ -14,6 +14,8 @@
 #include <tuple>
 #include <vector>
 
+#include <omp.h>
+
 #include "moebius_quad.h"
 #include "ricci/signature.h"
 #include "ricci/topology.h"
@@ -566,6 +568,20 @@ TEST_CASE("signature: the regular octagon's surface has the Bolza length spectru
   MESSAGE("Bolza: systole " << sig.systole.length << " (" << sig.systole.word << "), exact " << systole
           << "; largest distance of cosh(l/2) from Z[sqrt 2]: " << worst);
   CHECK(std::abs(sig.systole.length - systole) <= 1e-9);
+  // Many words tie for the systole here: the search (each first letter's words in parallel,
+  // merged in letter order) picks the same word on one thread as on two.
+  const int saved = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const ricci::ConformalSignature one = ricci::conformal_signature(r);
+  omp_set_num_threads(2);
+  const ricci::ConformalSignature two = ricci::conformal_signature(r);
+  omp_set_num_threads(saved);
+  CHECK(one.systole.word == two.systole.word);
+  CHECK(one.systole.length == two.systole.length);
+  CHECK(one.spectrum == two.spectrum);
+  CHECK(one.systole.word == sig.systole.word);
+  REQUIRE(!sig.spectrum.empty());
+  CHECK(sig.spectrum.front() == doctest::Approx(sig.systole.length).epsilon(1e-9));
   REQUIRE(sig.has_fenchel_nielsen);
   for (std::size_t i = 0; i < 3; ++i) {
     double off = 0;

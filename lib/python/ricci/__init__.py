@@ -164,7 +164,7 @@ def flow(V, F=None, *, name=None, progress=None, **options):
 
 def uniformize(V=None, F=None, *, name=None, progress=None, **options):
     """The whole job (`ricci uniformize`): geometry, scheme, target, boundary, tol, max_iterations,
-    threads, mesh_polygon, atlas, base_candidates, seed_checks, cover_depth, patches, unit_box, flips,
+    threads, mesh_polygon, atlas, base_candidates, seed_checks, cover_depth, cover_faces, patches, unit_box, flips,
     angle_relax, circle_normalization, split_ears, largest_component. Returns a UniformizeResult; raises
     RicciError naming the stage that failed. With an atlas of charts (``report["layout"]["charts"]``
     > 1), ``uv`` holds each face's corners in its own chart and ``face_chart`` names the chart."""

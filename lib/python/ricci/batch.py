@@ -345,6 +345,7 @@ def _parser():
     u.add_argument("--base-candidates", type=int)
     u.add_argument("--seed-checks", type=int)
     u.add_argument("--cover-depth", type=int)
+    u.add_argument("--cover-faces", type=int)
     u.add_argument("--patches", type=int)
     u.add_argument("--unit-box", action="store_true", default=None)
     u.add_argument("--no-flips", dest="flips", action="store_false", default=None)
@@ -358,7 +359,7 @@ def _parser():
 
 UNIFORMIZE_KEYS = ("geometry", "scheme", "target", "boundary", "tol", "max_iterations", "threads", "mesh_polygon",
                    "atlas", "base_candidates",
-                   "seed_checks", "cover_depth", "patches", "unit_box", "flips", "angle_relax",
+                   "seed_checks", "cover_depth", "cover_faces", "patches", "unit_box", "flips", "angle_relax",
                    "circle_normalization", "split_ears", "largest_component", "pictures")
 
 

@@ -182,6 +182,7 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
   setters.insert({{"base_candidates", integer(&O::base_candidates, o)},
                   {"seed_checks", integer(&O::seed_checks, o)},
                   {"cover_depth", integer(&O::cover_depth, o)},
+                  {"cover_faces", integer(&O::cover_faces, o)},
                   {"patches", integer(&O::patches, o)},
                   {"layout_refine_above", real(&O::layout_refine_above, o)},
                   {"unit_box", flag(&O::unit_box, o, false)},
