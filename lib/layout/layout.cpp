@@ -250,28 +250,28 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
   return detail::rounding_drift_planar(g, P.z(a), P.z(b));
 }
 
-/// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout).
-/// Parallel over edges; a NaN ranks above every number and ties go to the smaller edge index, so
-/// the result does not depend on the threads.
-/// With `per_edge`: also each edge's error above its floor (err − drift; NaN where err is).
-void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o,
-                   std::vector<double>* per_edge = nullptr) {
+/// Each edge's relative length error |d − l|/l and its rounding drift over l (measure_edges()).
+struct EdgeErrors {
+  std::vector<double> err, drift;
+  double above(Index e) const { return err[e] - drift[e]; }
+};
+
+/// The figures of Layout (max error, worst edge, rounding floor, max error above it) over the
+/// edges, `at(e)` giving edge e's error and drift. Parallel; a NaN ranks above every number and
+/// ties go to the smaller edge index, so the result does not depend on the threads.
+template <class At>
+void reduce_edges(Index ne, At&& at, Layout& o) {
   auto rank = [](double x) { return std::isnan(x) ? kInf : x; };
   double worst = 0, floor = 0, above = 0;
   Index worst_edge = kInvalid;
-  if (per_edge != nullptr) per_edge->resize(static_cast<std::size_t>(t.num_edges));
 #pragma omp parallel
   {
     double my_worst = 0, my_floor = 0, my_above = 0;
     Index my_edge = kInvalid;
 #pragma omp for schedule(static) nowait
-    for (Index e = 0; e < t.num_edges; ++e) {
-      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-      const double d = P.distance(a, b);
-      const double err = std::abs(d - l[e]) / l[e];
-      const double drift = rounding_drift(g, P, a, b) / l[e];
+    for (Index e = 0; e < ne; ++e) {
+      const auto [err, drift] = at(e);
       my_floor = std::max(my_floor, drift);
-      if (per_edge != nullptr) (*per_edge)[e] = err - drift;
       if (rank(err - drift) > rank(my_above)) my_above = err - drift;
       if (rank(err) > rank(my_worst)) {
         my_worst = err;
@@ -295,13 +295,58 @@ void measure_edges(const Topology& t, Geometry g, std::span<const double> l, con
   o.max_error_above_rounding = above;
 }
 
-/// The vertices within `rings` edges of an edge whose error above its rounding floor (per_edge,
-/// from measure_edges()) exceeds `tau` or is NaN, in index order.
-std::vector<Index> vertices_near_errors(const Topology& t, std::span<const double> per_edge, double tau, int rings) {
+/// Edge e's relative length error and rounding drift over its length in positions P.
+std::pair<double, double> edge_error(const Topology& t, Geometry g, std::span<const double> l, const Positions& P,
+                                     Index e) {
+  const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+  return {std::abs(P.distance(a, b) - l[e]) / l[e], rounding_drift(g, P, a, b) / l[e]};
+}
+
+/// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout);
+/// with `per_edge`, each edge's figures are kept there too.
+void measure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P, Layout& o,
+                   EdgeErrors* per_edge = nullptr) {
+  const Index ne = t.num_edges;
+  if (per_edge == nullptr) {
+    reduce_edges(ne, [&](Index e) { return edge_error(t, g, l, P, e); }, o);
+    return;
+  }
+  EdgeErrors& E = *per_edge;
+  E.err.resize(static_cast<std::size_t>(ne));
+  E.drift.resize(static_cast<std::size_t>(ne));
+#pragma omp parallel for schedule(static)
+  for (Index e = 0; e < ne; ++e) std::tie(E.err[e], E.drift[e]) = edge_error(t, g, l, P, e);
+  reduce_edges(ne, [&](Index e) { return std::pair<double, double>(E.err[e], E.drift[e]); }, o);
+}
+
+/// measure_edges() with per_edge = E after only the vertices `moved` moved: their edges are
+/// measured again, the others kept.
+void remeasure_edges(const Topology& t, Geometry g, std::span<const double> l, const Positions& P,
+                     std::span<const Index> moved, EdgeErrors& E, Layout& o) {
+  std::vector<std::uint8_t> mark(static_cast<std::size_t>(t.num_edges), 0);
+  std::vector<Index> edges;
+  for (Index v : moved)
+    for (Index i = t.vertex_corner_offsets[v]; i < t.vertex_corner_offsets[v + 1]; ++i) {
+      const Index c = t.vertex_corners[i];
+      for (Index e : {t.corner_edge[next_corner(c)], t.corner_edge[prev_corner(c)]})
+        if (!mark[e]) {
+          mark[e] = 1;
+          edges.push_back(e);
+        }
+    }
+  const auto n = static_cast<Index>(edges.size());
+#pragma omp parallel for schedule(static)
+  for (Index k = 0; k < n; ++k) std::tie(E.err[edges[k]], E.drift[edges[k]]) = edge_error(t, g, l, P, edges[k]);
+  reduce_edges(t.num_edges, [&](Index e) { return std::pair<double, double>(E.err[e], E.drift[e]); }, o);
+}
+
+/// The vertices within `rings` edges of an edge whose error above its rounding floor exceeds
+/// `tau` or is NaN, in index order.
+std::vector<Index> vertices_near_errors(const Topology& t, const EdgeErrors& E, double tau, int rings) {
   const Index ne = t.num_edges, nv = t.num_vertices;
   std::vector<std::uint8_t> mark(static_cast<std::size_t>(nv), 0);
   for (Index e = 0; e < ne; ++e)
-    if (!(per_edge[e] <= tau)) mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
+    if (!(E.above(e) <= tau)) mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
   for (int r = 1; r <= rings; ++r) {
     const auto level = static_cast<std::uint8_t>(r);
     for (Index e = 0; e < ne; ++e) {
@@ -1210,8 +1255,8 @@ class Propagation {
 // ---- refining the propagation's layout -------------------------------------------------------
 
 /// After the propagation, only while the layout misses its metric by more than
-/// options.refine_above above the edges' rounding floors (`now` and each edge's error above its
-/// floor `edge_above`, kept up to date until the sweeps end): the divide and conquer (E, H, S;
+/// options.refine_above above the edges' rounding floors (`now` and each edge's figures
+/// `edge_errors`, kept up to date until the sweeps end): the divide and conquer (E, H, S;
 /// automatic patch count, or always with an explicit count ≥ 2; kept when not less accurate); in
 /// E, the layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
 /// triangles placed from short bases can grow an error geometrically along a chain), kept when
@@ -1222,7 +1267,7 @@ class Propagation {
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
 /// anything moved it. `now` describes the positions on return.
 void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
-                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, std::vector<double>& edge_above,
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, EdgeErrors& edge_errors,
                    Layout& out) {
   std::vector<double>& x = P.x;
   const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
@@ -1236,7 +1281,7 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   if (patches > 1) {
     std::vector<double> kept = x;
     Layout trial, after;
-    std::vector<double> after_edges;
+    EdgeErrors after_edges;
     const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, patches, x, trial)
                                                : lay_out_patches(t, g, l, seed, patches, x, trial);
     if (laid) measure_edges(t, g, l, P, after, &after_edges);
@@ -1246,7 +1291,7 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
       out.patch_fit_iterations = trial.patch_fit_iterations;
       out.patch_seam_error = trial.patch_seam_error;
       now = after;
-      edge_above.swap(after_edges);
+      std::swap(edge_errors, after_edges);
       moved = true;
     } else {
       x.swap(kept);
@@ -1257,13 +1302,13 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     std::vector<double> trial = x;
     if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
       Layout shaped;
-      std::vector<double> shaped_edges;
+      EdgeErrors shaped_edges;
       measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
       if (shaped.max_edge_length_error < now.max_edge_length_error) {
         x.swap(trial);
         out.shape_solve = true;
         now = shaped;
-        edge_above.swap(shaped_edges);
+        std::swap(edge_errors, shaped_edges);
         moved = true;
       }
     }
@@ -1280,10 +1325,10 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     const Layout before = now;
     kept = x;
     const std::vector<Index> only =
-        vertices_near_errors(t, edge_above, kSweepShare * now.max_error_above_rounding, kSweepRings);
+        vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding, kSweepRings);
     if (only.empty()) break;
     detail::polish_by_sweeps(t, g, l, x, n, only);
-    measure_edges(t, g, l, P, now, &edge_above);
+    remeasure_edges(t, g, l, P, only, edge_errors, now);
     if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
       x.swap(kept);
       now = before;
@@ -1430,11 +1475,11 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
     return out;
   }
   Layout now;
-  std::vector<double> edge_above;  // each edge's error above its rounding floor
-  measure_edges(t, g, l, P, now, &edge_above);
+  EdgeErrors edge_errors;
+  measure_edges(t, g, l, P, now, &edge_errors);
   // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global
   // steps would trade the resolved faces for them.
-  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, edge_above, out);
+  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, edge_errors, out);
   finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;
