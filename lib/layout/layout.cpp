@@ -655,7 +655,7 @@ struct SeamResidual {
 };
 
 /// The faces split into patches: seeds by farthest-point sampling over the dual graph (the first
-/// is `seed`), then a simultaneous breadth-first growth; owner[f] is the patch of face f.
+/// is `seed`); owner[f] is the patch of face f, its nearest seed (the first of equals).
 struct Patches {
   std::vector<Index> seeds, owner;
 };
@@ -671,6 +671,12 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
   std::vector<Index> near, queue;
   dual_bfs(t, seed, near);
   queue.reserve(static_cast<std::size_t>(nf));
+  // owner[f]: the seed that last brought f nearer, so the first of its nearest seeds. Each patch
+  // is connected: the face f came nearer from holds the same seed (had that face come nearer
+  // again later, so would f).
+  out.owner.assign(static_cast<std::size_t>(nf), kInvalid);
+  for (Index f = 0; f < nf; ++f)
+    if (near[f] >= 0) out.owner[f] = 0;
   // level[d]: the faces that came to distance d (in index order at first, then as they came
   // nearer); an entry whose face has come nearer since is stale and dropped when its level is
   // the farthest.
@@ -690,8 +696,10 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
       break;
     }
     if (best == kInvalid) break;
+    const auto p = static_cast<Index>(out.seeds.size());
     out.seeds.push_back(best);
     near[best] = 0;
+    out.owner[best] = p;
     queue.assign({best});
     for (std::size_t h = 0; h < queue.size(); ++h) {
       const Index f = queue[h];
@@ -701,24 +709,10 @@ Patches partition_faces(const Topology& t, Index seed, Index count) {
         const Index nb = corner_face(o);
         if (near[nb] >= 0 && near[nb] <= near[f] + 1) continue;
         near[nb] = near[f] + 1;
+        out.owner[nb] = p;
         level[near[nb]].push_back(nb);
         queue.push_back(nb);
       }
-    }
-  }
-  out.owner.assign(static_cast<std::size_t>(nf), kInvalid);
-  queue.clear();
-  for (Index p = 0; p < static_cast<Index>(out.seeds.size()); ++p) {
-    out.owner[out.seeds[p]] = p;
-    queue.push_back(out.seeds[p]);
-  }
-  for (std::size_t h = 0; h < queue.size(); ++h) {
-    const Index f = queue[h];
-    for (int c = 0; c < 3; ++c) {
-      const Index o = t.opposite[3 * f + c];
-      if (o == kInvalid || out.owner[corner_face(o)] != kInvalid) continue;
-      out.owner[corner_face(o)] = out.owner[f];
-      queue.push_back(corner_face(o));
     }
   }
   return out;
