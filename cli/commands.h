@@ -130,7 +130,7 @@ struct UniformizeCommandOptions {
   int base_candidates = 8;                ///< H: base vertices tried for the mesh-path canonical polygon
   int seed_checks = 1;                    ///< extra seed faces for seed_independence_error
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2
-  int cover_faces = 1000000;              ///< cover.obj only up to this many faces (tiles × domain faces)
+  int cover_faces = 250000;               ///< cover.obj only up to this many faces (tiles × domain faces)
   bool unit_box = false;                  ///< E: layout scaled into [0,1]²
   int patches = -1;                       ///< layout: divide-and-conquer patches (-1 automatic)
   double layout_refine_above = 1e-10;     ///< layout: refine only above the rounding floor by more than this

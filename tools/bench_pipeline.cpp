@@ -18,11 +18,15 @@
 //   --all-shared       every shared mesh of genus*/, boundary/ and derived/ instead of five large ones
 //                      (with --max-faces 0 --gd-seconds 0: the table of the default against circle
 //                      packing, tools/BENCHMARK-flips.md)
+//   --cli PATH         the ricci CLI whose whole `uniformize --no-pictures` process is timed per input
+//                      (default: the one built beside this benchmark)
+//   --cli-max-faces N  time the CLI only on inputs up to N faces (default 500000; 0: never)
 //
 // Every input runs in a child process (fork), so that its peak resident memory is its own: the
 // peak of each stage is read from /proc/self/status (VmHWM), reset between stages by writing 5 to
 // /proc/self/clear_refs. Timings are wall-clock; ratios are measured in the same process, minutes
 // apart at most, so they are less sensitive to other load than absolute seconds.
+#include <fcntl.h>
 #include <omp.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -43,6 +47,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "bench_common.h"
 #include "hessian.h"
@@ -77,6 +83,8 @@ struct Settings {
   double gd_seconds = 20;
   bool flow_only = false;
   bool all_shared = false;
+  std::string cli = RICCI_CLI_PATH;
+  std::int64_t cli_max_faces = 500000;
 };
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -591,6 +599,73 @@ Row run_isolated(const Input& input, const Settings& s) {
   return r;
 }
 
+/// The CLI's whole job on the input: `ricci uniformize --no-pictures --json` in a child process
+/// (generated inputs written to a PLY file first), its wall time, peak RSS (wait4), the flow stage
+/// it reports and the bytes it wrote. Skipped above s.cli_max_faces faces or when the file inputs'
+/// row has no face count.
+void run_cli(const Input& input, const Settings& s, Row& r) {
+  const auto it = r.find("faces");
+  if (it == r.end() || s.cli_max_faces <= 0 || std::atoll(it->second.c_str()) > s.cli_max_faces) return;
+  std::error_code ec;
+  const fs::path scratch = fs::temp_directory_path() / ("bench_pipeline_cli_" + std::to_string(getpid()));
+  fs::remove_all(scratch, ec);
+  fs::create_directories(scratch, ec);
+  std::string mesh = input.path;
+  if (mesh.empty()) {
+    mesh = (scratch / "input.ply").string();
+    if (ricci::write_mesh(mesh, input.generate()).status != ricci::Status::Ok) {
+      r["cli_status"] = "could not write the generated mesh";
+      return;
+    }
+  }
+  const std::string out = (scratch / "out").string();
+  std::vector<std::string> args = {s.cli, "uniformize", mesh, "-o", out, "--no-pictures", "--json", "-q"};
+  if (s.threads > 0) args.insert(args.end(), {"--threads", std::to_string(s.threads)});
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  int fd[2];
+  if (pipe(fd) != 0) return;
+  std::cout << std::flush;
+  std::cerr << std::flush;
+  const Clock::time_point t0 = Clock::now();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    dup2(fd[1], 1);
+    const int null = open("/dev/null", O_WRONLY);
+    if (null >= 0) dup2(null, 2);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  close(fd[1]);
+  std::string text;
+  char buf[4096];
+  ssize_t k;
+  while ((k = read(fd[0], buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(k));
+  close(fd[0]);
+  int status = 0;
+  struct rusage use {};
+  wait4(pid, &status, 0, &use);
+  const double wall = since(t0);
+  std::uintmax_t bytes = 0;
+  for (const auto& e : fs::directory_iterator(out, ec))
+    if (e.is_regular_file(ec)) bytes += e.file_size(ec);
+  fs::remove_all(scratch, ec);
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || j.is_discarded() || !j.contains("timings")) {
+    r["cli_status"] = "exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+    return;
+  }
+  const double flow = j["timings"].value("flow", 0.0);
+  r["cli_seconds"] = fmt("%.3f", wall);
+  r["cli_flow"] = fmt("%.3f", flow);
+  r["cli_ratio"] = flow > 0 ? fmt("%.2f", wall / flow) : "—";
+  r["cli_peak"] = fmt("%.0f", 1024.0 * static_cast<double>(use.ru_maxrss));
+  r["cli_bytes"] = fmt("%.0f", static_cast<double>(bytes));
+  r["cli_status"] = j.value("status", std::string("?"));
+}
+
 std::string get(const Row& r, const std::string& k, const std::string& fallback = "—") {
   const auto it = r.find(k);
   return it == r.end() ? fallback : it->second;
@@ -609,7 +684,7 @@ std::string mb(const Row& r, const std::string& k) {
 int usage(const char* argv0) {
   std::cerr << "usage: " << argv0
             << " [MESHES_DIR] [--out FILE.md] [--only TEXT]… [--max-faces N] [--sphere] [--threads N] "
-               "[--gd-seconds S] [--flow-only] [--all-shared]\n";
+               "[--gd-seconds S] [--flow-only] [--all-shared] [--cli PATH] [--cli-max-faces N]\n";
   return 2;
 }
 
@@ -628,12 +703,13 @@ int main(int argc, char** argv) {
       s.all_shared = true;
     } else if (a == "--flow-only") {
       s.flow_only = true;
-    } else if (a == "--out" || a == "--only") {
+    } else if (a == "--out" || a == "--only" || a == "--cli") {
       const char* v = value();
       if (!v) return usage(argv[0]);
       if (a == "--out") s.out = v;
+      else if (a == "--cli") s.cli = v;
       else s.only.emplace_back(v);
-    } else if (a == "--threads" || a == "--gd-seconds" || a == "--max-faces") {
+    } else if (a == "--threads" || a == "--gd-seconds" || a == "--max-faces" || a == "--cli-max-faces") {
       const char* v = value();
       if (!v) return usage(argv[0]);
       char* end = nullptr;
@@ -642,6 +718,7 @@ int main(int argc, char** argv) {
       if (a == "--threads") s.threads = static_cast<int>(x);
       if (a == "--gd-seconds") s.gd_seconds = x;
       if (a == "--max-faces") s.max_faces = static_cast<std::int64_t>(x);
+      if (a == "--cli-max-faces") s.cli_max_faces = static_cast<std::int64_t>(x);
     } else if (a == "-h" || a == "--help") {
       usage(argv[0]);
       return 0;
@@ -657,6 +734,7 @@ int main(int argc, char** argv) {
     std::cerr << "bench_pipeline: " << in.name << " …" << std::endl;
     const Clock::time_point t0 = Clock::now();
     rows.emplace_back(in.name, run_isolated(in, s));
+    if (!s.flow_only) run_cli(in, s, rows.back().second);
     std::cerr << "bench_pipeline: " << in.name << " done in " << fmt("%.1f", since(t0)) << " s: flow "
               << get(rows.back().second, "flow") << " s, ref " << get(rows.back().second, "ref") << " s, "
               << get(rows.back().second, "iterations") << " it, ratio " << get(rows.back().second, "ratio_flow")
@@ -719,9 +797,9 @@ int main(int argc, char** argv) {
                                            "layout",         "seed_check", "polygon", "deck", "angles"};
   doc += "| input | load | validate | topology |";
   for (const std::string& st : stages) doc += " " + st + " |";
-  doc += " write | status |\n|---|---:|---:|---:|";
+  doc += " write | job | job/flow | cut/ref | layout/ref | status |\n|---|---:|---:|---:|";
   for (std::size_t i = 0; i < stages.size(); ++i) doc += "---:|";
-  doc += "---:|---|\n";
+  doc += "---:|---:|---:|---:|---:|---|\n";
   for (const auto& [name, r] : rows) {
     doc += "| " + name + " | " + get(r, "load") + " | " + get(r, "validate") + " | " + get(r, "topology") + " |";
     for (const std::string& st : stages) {
@@ -731,7 +809,36 @@ int main(int argc, char** argv) {
     std::string status = get(r, "status");
     if (r.count("message")) status += ": " + get(r, "message");
     if (r.count("error") && !r.count("faces")) status = get(r, "error");
-    doc += " " + get(r, "stage_write") + " | " + status + " |\n";
+    // The job: every stage but the topology column (validate_mesh() builds the topology; that
+    // column times it again on its own).
+    double job = 0;
+    for (const char* k : {"load", "validate"})
+      if (!std::isnan(num(r, k))) job += num(r, k);
+    for (const std::string& st : stages)
+      if (!std::isnan(num(r, "stage_" + st))) job += num(r, "stage_" + st);
+    if (!std::isnan(num(r, "stage_write"))) job += num(r, "stage_write");
+    const double flow = num(r, "stage_flow"), ref = num(r, "ref");
+    auto ratio = [](double a, double b) { return std::isnan(a) || !(b > 0) ? std::string("—") : fmt("%.2f", a / b); };
+    doc += " " + get(r, "stage_write") + " | " + fmt("%.3f", job) + " | " + ratio(job, flow) + " | " +
+           ratio(num(r, "stage_cut"), ref) + " | " + ratio(num(r, "stage_layout"), ref) + " | " + status + " |\n";
+  }
+  if (!s.flow_only) {
+    doc += "\n## The CLI's whole job\n\n";
+    doc += "`ricci uniformize MESH -o OUTDIR --no-pictures --json -q` in its own process after the input's row above "
+           "(generated inputs written to a PLY file first), up to " + std::to_string(s.cli_max_faces) +
+           " faces: wall time from start to exit (reading, every stage, the outputs and writing them), the flow "
+           "stage it reports, its peak RSS and the bytes it wrote. The CLI runs the flow to its own default "
+           "tolerance (1e-12).\n\n";
+    doc += "| input | #F | process s | flow s | process/flow | peak MB | bytes/face | outputs MB | status |\n"
+           "|---|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    for (const auto& [name, r] : rows) {
+      if (!r.count("cli_status")) continue;
+      const double F = num(r, "faces");
+      doc += "| " + name + " | " + get(r, "faces") + " | " + get(r, "cli_seconds") + " | " + get(r, "cli_flow") + " | " +
+             get(r, "cli_ratio") + " | " + mb(r, "cli_peak") + " | " +
+             (r.count("cli_peak") ? fmt("%.0f", num(r, "cli_peak") / F) : std::string("—")) + " | " +
+             mb(r, "cli_bytes") + " | " + get(r, "cli_status") + " |\n";
+    }
   }
   doc += "\n## The default (vertex scaling with intrinsic flips) against the paper's circle packing\n\n";
   doc += "*flow s*: the default's flow stage (the intrinsic Delaunay triangulation of the input's metric and "

@@ -1437,7 +1437,7 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--cover-faces", o.cover_faces,
                   "Closed genus >= 1: cover.obj (the tiling as one mesh, a copy of the domain per tile) is written "
                   "only when it has at most this many faces; otherwise a note gives its size (cover.svg still draws "
-                  "the tiling; `ricci cover` writes the mesh). 0: never. Default: 1000000.")
+                  "the tiling; `ricci cover` writes the mesh). 0: never. Default: 250000.")
       ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box [0,1]^2. Default: off.");
   cmd->add_option("--patches", o.patches,
@@ -1488,7 +1488,7 @@ CLI::App* add_layout_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_option("--base-candidates", o.base_candidates, "As for uniformize. Default: 8.")->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks, "As for uniformize. Default: 1.")->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth, "As for uniformize. Default: 0.")->check(number_validator(false, true));
-  cmd->add_option("--cover-faces", o.cover_faces, "As for uniformize. Default: 1000000.")
+  cmd->add_option("--cover-faces", o.cover_faces, "As for uniformize. Default: 250000.")
       ->check(number_validator(false, true));
   cmd->add_flag("--unit-box", o.unit_box, "Euclidean: scale the layout into the unit box. Default: off.");
   cmd->add_option("--patches", o.patches, "As for uniformize. Default: -1.")->check(CLI::Range(-1, 256));
