@@ -184,26 +184,29 @@ std::optional<ValidateResult> check_faces(const Mesh& input, const ValidateOptio
                                           std::span<const Index> faces, std::span<const Index> kept_faces) {
   const Index nv = input.num_vertices();
   const Index kf = static_cast<Index>(kept_faces.size());
-  // 6: zero area.
-  for (Index i = 0; i < kf; ++i) {
-    if (detail::is_degenerate(shape_of(input, faces, i), options.degenerate_tolerance)) {
-      const Index f = kept_faces[i];
-      // Name why: two vertices at one position, or three on a line. (Faces of small but
-      // non-zero area pass: the metric mollifies them, mollify_lengths().)
-      std::string why = "its vertices are collinear";
-      for (int k = 0; k < 3; ++k) {
-        const Index a = faces[3 * i + k], b = faces[3 * i + (k + 1) % 3];
-        const double* p = &input.positions[3 * static_cast<std::size_t>(a)];
-        const double* q = &input.positions[3 * static_cast<std::size_t>(b)];
-        if (p[0] == q[0] && p[1] == q[1] && p[2] == q[2]) {
-          why = "vertices " + str(std::min(a, b)) + " and " + str(std::max(a, b)) + " are at the same position";
-          break;
-        }
+  // 6: zero area (the first such face, found in parallel).
+  Index first = kf;
+#pragma omp parallel for schedule(static) reduction(min : first)
+  for (Index i = 0; i < kf; ++i)
+    if (detail::is_degenerate(shape_of(input, faces, i), options.degenerate_tolerance)) first = std::min(first, i);
+  if (first < kf) {
+    const Index i = first;
+    const Index f = kept_faces[i];
+    // Name why: two vertices at one position, or three on a line. (Faces of small but
+    // non-zero area pass: the metric mollifies them, mollify_lengths().)
+    std::string why = "its vertices are collinear";
+    for (int k = 0; k < 3; ++k) {
+      const Index a = faces[3 * i + k], b = faces[3 * i + (k + 1) % 3];
+      const double* p = &input.positions[3 * static_cast<std::size_t>(a)];
+      const double* q = &input.positions[3 * static_cast<std::size_t>(b)];
+      if (p[0] == q[0] && p[1] == q[1] && p[2] == q[2]) {
+        why = "vertices " + str(std::min(a, b)) + " and " + str(std::max(a, b)) + " are at the same position";
+        break;
       }
-      return fail(Status::DegenerateFace, Element::Face, f,
-                  "face " + str(f) + " (vertices " + str(faces[3 * i]) + ", " + str(faces[3 * i + 1]) + ", " +
-                      str(faces[3 * i + 2]) + ") has zero area: " + why);
     }
+    return fail(Status::DegenerateFace, Element::Face, f,
+                "face " + str(f) + " (vertices " + str(faces[3 * i]) + ", " + str(faces[3 * i + 1]) + ", " +
+                    str(faces[3 * i + 2]) + ") has zero area: " + why);
   }
   // 7: duplicates.
   {
