@@ -2,6 +2,9 @@
 // maps back to the input, and diagnose() on soups that are not surfaces.
 #include <doctest/doctest.h>
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -296,4 +299,38 @@ TEST_CASE("validate: errors in triangulated polygons name the polygon of the fil
   CHECK(r.repairs.size() == 1);
   // Files of triangles only need no map.
   CHECK(read_mesh_from_memory("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "t.obj").triangle_polygon.empty());
+}
+
+TEST_CASE("validate: of several zero-area faces the first is named, on 1 and 2 threads") {
+  Mesh m = ricci_shapes::disk(40);
+  const Index nf = m.num_faces();
+  REQUIRE(nf > 1000);
+  // Two interior vertices, one in the first faces and one in the last, each moved onto a
+  // neighbour: every face on both becomes of zero area.
+  auto collapse = [&](Index f) {
+    const Index v = m.faces[3 * f], w = m.faces[3 * f + 1];
+    for (int d = 0; d < 3; ++d) m.positions[3 * v + d] = m.positions[3 * w + d];
+  };
+  collapse(nf - 5);
+  collapse(5);
+  Index expected = kInvalid;
+  for (Index f = 0; f < nf && expected == kInvalid; ++f) {
+    const double* p = &m.positions[3 * m.faces[3 * f]];
+    const double* q = &m.positions[3 * m.faces[3 * f + 1]];
+    const double* r = &m.positions[3 * m.faces[3 * f + 2]];
+    const double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, v[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+    const double c[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+    if (c[0] == 0 && c[1] == 0 && c[2] == 0) expected = f;
+  }
+  REQUIRE(expected != kInvalid);
+  CHECK(expected <= 5);
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    const ValidateResult r = validate_mesh(m);
+    CHECK(r.status == Status::DegenerateFace);
+    CHECK(r.element == Element::Face);
+    CHECK(r.element_index == expected);
+  }
+  omp_set_num_threads(saved);
 }
