@@ -23,6 +23,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -43,17 +44,17 @@ constexpr double kShapeLayoutAbove = 1e-8;
 // A placement whose vertex has an angle with sine below this costs more in the propagation (see
 // run_layout()).
 constexpr double kIllPlaced = 1e-4;
-// H: the propagation runs again in the normalised frame only when normalising moved the frame by
-// more than this hyperbolic distance. A smaller move is applied to the positions as they are: it
-// scales their rounding by at most e^0.001. (The centre of mass on the hyperboloid is reached in
-// one normalisation: the second moves by about 1e-13.)
-constexpr double kRepropagateAbove = 1e-3;
 // The Gauss–Seidel sweeps of a round move only the vertices within kSweepRings edges of an edge
-// whose error above its floor exceeds kSweepShare of the largest: a round is kept when it lowers
-// the largest error and goes on while it halves it, so edges at a quarter of it matter no more
-// (after divide and conquer the error sits along the seams: a few per cent of the vertices).
+// whose error, above its floor or in all, exceeds kSweepShare of the largest: a round is kept when
+// it lowers the largest error and goes on while it halves it, so edges at a quarter of it matter
+// no more (after divide and conquer the error sits along the seams: a few per cent of the
+// vertices).
 constexpr double kSweepShare = 0.25;
 constexpr int kSweepRings = 2;
+// A round over those vertices that does not lower the largest error above the floor to this share
+// of it, or raises the largest error, is followed by rounds over every vertex: the error is not
+// only where the largest errors are.
+constexpr double kLocalGain = 0.75;
 
 std::string num(double x) {
   char buf[64];
@@ -341,12 +342,14 @@ void remeasure_edges(const Topology& t, Geometry g, std::span<const double> l, c
 }
 
 /// The vertices within `rings` edges of an edge whose error above its rounding floor exceeds
-/// `tau` or is NaN, in index order.
-std::vector<Index> vertices_near_errors(const Topology& t, const EdgeErrors& E, double tau, int rings) {
+/// `tau`, whose error exceeds `tau_err`, or whose error is NaN, in index order.
+std::vector<Index> vertices_near_errors(const Topology& t, const EdgeErrors& E, double tau, double tau_err,
+                                        int rings) {
   const Index ne = t.num_edges, nv = t.num_vertices;
   std::vector<std::uint8_t> mark(static_cast<std::size_t>(nv), 0);
   for (Index e = 0; e < ne; ++e)
-    if (!(E.above(e) <= tau)) mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
+    if (!(E.above(e) <= tau) || !(E.err[e] <= tau_err))
+      mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
   for (int r = 1; r <= rings; ++r) {
     const auto level = static_cast<std::uint8_t>(r);
     for (Index e = 0; e < ne; ++e) {
@@ -491,6 +494,7 @@ double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<d
                             detail::M3* map = nullptr) {
   const Index nv = t.num_vertices;
   const Cx c = hyperbolic_centre(P, nv, &w);
+  const double moved = 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
 #pragma omp parallel for schedule(static)
   for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
   Cx ref = P.z(t.corner_vertex[3 * seed]);
@@ -503,7 +507,7 @@ double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<d
   }
   if (map != nullptr) *map = detail::disk_map_matrix(c, rot);
   out.centre_of_mass = std::abs(hyperbolic_centre(P, nv, &w));
-  return 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
+  return moved;
 }
 
 void normalize_spherical(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, bool mobius,
@@ -1255,7 +1259,8 @@ class Propagation {
 /// E, the layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
 /// triangles placed from short bases can grow an error geometrically along a chain), kept when
 /// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps over the vertices
-/// near the largest errors, each round only while still above the threshold); global
+/// near the largest errors while that pays, then over all, each round only while still above the
+/// threshold); global
 /// Gauss–Newton steps (E, H, S; layout_polish.h).
 /// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
@@ -1311,27 +1316,40 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
   // once started, they go on below the threshold while a round still halves the error above
   // the floor (cheap, and a layout nearer its floor gives the deck group more digits). A round
   // that raises the max error is undone and ends the sweeps. Each round sweeps only the vertices
-  // near its large errors (kSweepShare, kSweepRings).
-  bool halving = false;
+  // near its large errors (kSweepShare, kSweepRings) until one of them lowers the largest error
+  // above the floor by less than a quarter or raises the largest error (undone) (kLocalGain); the
+  // rounds after it sweep every vertex.
+  bool halving = false, local = true;
   std::vector<double> kept;
+  std::vector<Index> all;
   for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
     const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
     const Layout before = now;
     kept = x;
-    const std::vector<Index> only =
-        vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding, kSweepRings);
+    if (!local && all.empty()) {
+      all.resize(static_cast<std::size_t>(t.num_vertices));
+      std::iota(all.begin(), all.end(), Index{0});
+    }
+    const std::vector<Index> near =
+        local ? vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding,
+                                     kSweepShare * now.max_edge_length_error, kSweepRings)
+              : std::vector<Index>{};
+    const std::vector<Index>& only = local ? near : all;
     if (only.empty()) break;
     detail::polish_by_sweeps(t, g, l, x, n, only);
     remeasure_edges(t, g, l, P, only, edge_errors, now);
     if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
       x.swap(kept);
       now = before;
-      break;
+      if (!local) break;
+      local = false;  // undone; every vertex from now on (their edges measured again with it)
+      continue;
     }
     out.polish_sweeps += n;
     moved = true;
     halving = now.max_error_above_rounding > 0 &&
               now.max_error_above_rounding <= 0.5 * before.max_error_above_rounding;
+    if (local && !(now.max_error_above_rounding <= kLocalGain * before.max_error_above_rounding)) local = false;
   }
   if (steps && coarse()) {
     out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
@@ -1403,14 +1421,13 @@ bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::sp
     // Second pass in the final frame: the seed face keeps its normalised position and the
     // propagation runs again there, so no vertex is ever computed farther from the origin than
     // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
-    // Repeated while the normalisation still moves the frame by more than kRepropagateAbove; a
-    // smaller move is kept as the map itself (it costs the coordinates at most a factor e^moved).
+    // Repeated while the frame still moves noticeably (a seed far from the centre).
     const std::vector<double> w = vertex_weights(t, area);
     for (int pass = 0; pass < 4; ++pass) {
       const double moved = normalize_hyperbolic(t, P, w, seed, out);
-      if (moved <= kRepropagateAbove) break;
       if (!propagation.run(P, out)) return false;
       ++out.propagation_passes;
+      if (moved < 1e-6) break;
     }
   }
   out.unplaced_vertices = propagation.unplaced();
@@ -1435,10 +1452,10 @@ bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>&
     for (int pass = 0; pass < 4; ++pass) {
       detail::M3 map{};
       const double moved = normalize_hyperbolic(t, P, w, seed, out, &map);
-      if (moved <= kRepropagateAbove) break;
       seed_map = detail::multiply(map, seed_map);
       if (!dev.run(P.x, seed_map, out)) return false;
       ++out.propagation_passes;
+      if (moved < 1e-6) break;
     }
   }
   out.unplaced_vertices = dev.unplaced();

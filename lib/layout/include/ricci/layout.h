@@ -55,10 +55,8 @@
 //      putting the seed face's corner-0 vertex on the positive real axis (corner 1 if corner 0 is
 //      at 0). An isometry: lengths are unchanged. Then the propagation runs a second time in this
 //      final frame, from the seed face's normalised position, and the map is re-fitted; repeated
-//      (at most 4 times) while the fitted map moves the centre by more than 1e-3 (a smaller move
-//      is applied to the positions; the second fit moves by about 1e-13): Poincaré coordinates
-//      resolve hyperbolic distance only to ~2^-52 / (1 − |z|²), so no vertex should be computed
-//      farther out than it ends up (a move of m scales that by at most e^m).
+//      (at most 4 times) until the fitted map moves the centre by less than 1e-6: Poincaré coordinates resolve hyperbolic distance only to
+//      ~2^-52 / (1 − |z|²), so no vertex should be computed farther out than it ends up.
 //   S  Möbius centring (Baden, Crane, Kazhdan 2018, "Möbius registration"): with fixed weights
 //      w_i (vertex areas of the metric), Newton iterations c = −J⁻¹ μ on the centre of mass
 //      μ = Σ w_i x_i / Σ w_i, J = 2 Σ w_i (I − x_i x_iᵀ) / Σ w_i, each applying the Möbius map
@@ -166,9 +164,10 @@ struct LayoutOptions {
   /// neighbourhood, which matters on large meshes (tools/sweep_uniformize --polish-sweeps
   /// compares; on the shared nefertiti's subdivision, 1.7e-7 → 4.4e-9). They run in rounds of 1,
   /// 2, 4, … sweeps, each only while the layout is still above refine_above (or the last round
-  /// halved its error), and each over the vertices within two edges of an edge whose error is
-  /// above a quarter of the largest; this is the most in all (Layout::polish_sweeps: how many
-  /// ran). 0: none.
+  /// halved its error), each over the vertices within two edges of an edge whose error (above its
+  /// rounding floor, or in all) is above a quarter of the largest, until such a round lowers the
+  /// largest error above the floor by less than a quarter or raises the largest error, then over
+  /// every vertex; this is the most in all (Layout::polish_sweeps: how many ran). 0: none.
   int polish_sweeps = 30;
   /// E, H and S: then, while still above refine_above, up to this many
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
@@ -254,8 +253,7 @@ struct Layout {
   double mobius_length_change = 0;   ///< S with Möbius centring: max relative change of an edge
   double centre_of_mass = 0;         ///< S: |μ| after normalising; H: |z| of the centre of mass
   int normalization_iterations = 0;  ///< S: Möbius centring steps
-  /// H with normalize: propagations run again in the normalised frame (while normalising moves it
-  /// by more than 1e-3; usually once).
+  /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
   int propagation_passes = 0;
   /// Gauss–Seidel sweeps kept (LayoutOptions::polish_sweeps; a round that raises the max error is undone).
   int polish_sweeps = 0;
