@@ -566,6 +566,16 @@ Row deserialize(const std::string& s) {
   return r;
 }
 
+/// Everything the descriptor gives until end of file; closes it.
+std::string read_all(int fd) {
+  std::string text;
+  char buf[4096];
+  ssize_t k;
+  while ((k = read(fd, buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(k));
+  close(fd);
+  return text;
+}
+
 /// Runs run_input() in a child process; its rows come back through a pipe.
 Row run_isolated(const Input& input, const Settings& s) {
   int fd[2];
@@ -586,11 +596,7 @@ Row run_isolated(const Input& input, const Settings& s) {
     _exit(0);
   }
   close(fd[1]);
-  std::string text;
-  char buf[4096];
-  ssize_t k;
-  while ((k = read(fd[0], buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(k));
-  close(fd[0]);
+  const std::string text = read_all(fd[0]);
   int status = 0;
   waitpid(pid, &status, 0);
   Row r = deserialize(text);
@@ -639,11 +645,7 @@ void run_cli(const Input& input, const Settings& s, Row& r) {
     _exit(127);
   }
   close(fd[1]);
-  std::string text;
-  char buf[4096];
-  ssize_t k;
-  while ((k = read(fd[0], buf, sizeof buf)) > 0) text.append(buf, static_cast<std::size_t>(k));
-  close(fd[0]);
+  const std::string text = read_all(fd[0]);
   int status = 0;
   struct rusage use {};
   wait4(pid, &status, 0, &use);
