@@ -19,7 +19,7 @@
 //                      (with --max-faces 0 --gd-seconds 0: the table of the default against circle
 //                      packing, tools/BENCHMARK-flips.md)
 //   --cli PATH         the ricci CLI whose whole `uniformize --no-pictures` process is timed per input
-//                      (default: the one built beside this benchmark)
+//                      (default: the one built beside this benchmark; none when it is not built)
 //   --cli-max-faces N  time the CLI only on inputs up to N faces (default 500000; 0: never)
 //
 // Every input runs in a child process (fork), so that its peak resident memory is its own: the
@@ -611,7 +611,8 @@ Row run_isolated(const Input& input, const Settings& s) {
 /// row has no face count.
 void run_cli(const Input& input, const Settings& s, Row& r) {
   const auto it = r.find("faces");
-  if (it == r.end() || s.cli_max_faces <= 0 || std::atoll(it->second.c_str()) > s.cli_max_faces) return;
+  if (it == r.end() || s.cli.empty() || s.cli_max_faces <= 0 || std::atoll(it->second.c_str()) > s.cli_max_faces)
+    return;
   std::error_code ec;
   const fs::path scratch = fs::temp_directory_path() / ("bench_pipeline_cli_" + std::to_string(getpid()));
   fs::remove_all(scratch, ec);
@@ -824,7 +825,7 @@ int main(int argc, char** argv) {
     doc += " " + get(r, "stage_write") + " | " + fmt("%.3f", job) + " | " + ratio(job, flow) + " | " +
            ratio(num(r, "stage_cut"), ref) + " | " + ratio(num(r, "stage_layout"), ref) + " | " + status + " |\n";
   }
-  if (!s.flow_only) {
+  if (!s.flow_only && !s.cli.empty()) {
     doc += "\n## The CLI's whole job\n\n";
     doc += "`ricci uniformize MESH -o OUTDIR --no-pictures --json -q` in its own process after the input's row above "
            "(generated inputs written to a PLY file first), up to " + std::to_string(s.cli_max_faces) +
