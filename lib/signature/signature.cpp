@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <new>
 #include <span>
 #include <string>
 #include <vector>
@@ -172,8 +173,9 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
     }
   };
   std::vector<Search> searches(static_cast<std::size_t>(letters));
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int first = 0; first < letters; ++first) {
+  int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory)
+  for (int first = 0; first < letters; ++first) try {
     Search& S = searches[static_cast<std::size_t>(first)];
     std::vector<int> word{first};
     std::vector<detail::MoebiusQ> prefix{detail::MoebiusQ{}, letter[static_cast<std::size_t>(first)]};
@@ -215,7 +217,10 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
       }
     };
     visit(visit);
+  } catch (const std::bad_alloc&) {
+    out_of_memory = 1;
   }
+  if (out_of_memory) throw std::bad_alloc();
   Search all;
   std::vector<double> lengths;
   for (const Search& S : searches) {
