@@ -164,12 +164,14 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
     std::size_t best_letters = 0;
     std::vector<double> lengths;
     Search() { best.length = INFINITY; }
+    bool wins(double length, std::size_t count) const {
+      const bool tie = std::abs(length - best.length) <= kSameLength * length;
+      return (!tie && length < best.length) || (tie && count < best_letters);
+    }
     void offer(const WordLength& w, std::size_t count) {
-      const bool tie = std::abs(w.length - best.length) <= kSameLength * w.length;
-      if ((!tie && w.length < best.length) || (tie && count < best_letters)) {
-        best = w;
-        best_letters = count;
-      }
+      if (!wins(w.length, count)) return;
+      best = w;
+      best_letters = count;
     }
   };
   std::vector<Search> searches(static_cast<std::size_t>(letters));
@@ -189,8 +191,7 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
         const double rounding = length_rounding(l, norm_product.back(), len);
         if (l > 0 && rounding <= kReliable) {
           S.lengths.push_back(l);
-          const bool tie = std::abs(l - S.best.length) <= kSameLength * l;
-          if ((!tie && l < S.best.length) || (tie && word.size() < S.best_letters)) {
+          if (S.wins(l, word.size())) {  // the word's name is made only for a winner
             WordLength w;
             w.length = l;
             double residual = 0;
