@@ -63,11 +63,13 @@ EdgeTable build_edge_table(std::span<const Index> faces, Index num_vertices,
   std::vector<Index> offsets, corners;
   bucket_by_key(nc, num_vertices, lo_of, &offsets, &corners);
 
-  EdgeTable t;
-  t.corner_group.assign(static_cast<std::size_t>(nc), kInvalid);
-  t.group_corners.reserve(corners.size());
-  t.group_offsets.reserve(corners.size() / 2 + 2);
-  t.group_offsets.push_back(0);
+  // Per smaller vertex, its corners sorted by (larger vertex, corner); a run of one larger vertex
+  // is a group. Buckets are disjoint, so vertices go in parallel: first the sort and the count of
+  // groups, then (after the counts' prefix sums) the groups' offsets and labels. The result does
+  // not depend on the number of threads.
+  std::vector<Index> groups_before(static_cast<std::size_t>(num_vertices) + 1, 0);
+  const bool parallel = num_vertices > 4096;
+#pragma omp parallel for schedule(static) if (parallel)
   for (Index v = 0; v < num_vertices; ++v) {
     const auto first = corners.begin() + offsets[v], last = corners.begin() + offsets[v + 1];
     // Buckets hold about the valence: insertion sort by (hi, corner) when small (corners arrive
@@ -76,26 +78,50 @@ EdgeTable build_edge_table(std::span<const Index> faces, Index num_vertices,
       std::sort(first, last, [&](Index a, Index b) { return std::pair(hi_of(a), a) < std::pair(hi_of(b), b); });
     } else {
       for (auto it = first; it != last; ++it) {
-      const Index c = *it;
-      auto j = it;
-      while (j != first && hi_of(*(j - 1)) > hi_of(c)) {
-        *j = *(j - 1);
-        --j;
-      }
-      *j = c;
+        const Index c = *it;
+        auto j = it;
+        while (j != first && hi_of(*(j - 1)) > hi_of(c)) {
+          *j = *(j - 1);
+          --j;
+        }
+        *j = c;
       }
     }
-    for (auto it = first; it != last;) {
-      const Index hi = hi_of(*it);
-      const Index g = static_cast<Index>(t.group_offsets.size()) - 1;
-      for (; it != last && hi_of(*it) == hi; ++it) {
-        t.corner_group[*it] = g;
-        t.group_corners.push_back(*it);
-      }
-      t.group_offsets.push_back(static_cast<Index>(t.group_corners.size()));
+    Index groups = 0;
+    for (auto it = first; it != last; ++it)
+      if (it == first || hi_of(*it) != hi_of(*(it - 1))) ++groups;
+    groups_before[v + 1] = groups;
+  }
+  for (Index v = 0; v < num_vertices; ++v) groups_before[v + 1] += groups_before[v];
+
+  EdgeTable t;
+  t.corner_group.assign(static_cast<std::size_t>(nc), kInvalid);
+  t.group_offsets.resize(static_cast<std::size_t>(groups_before[num_vertices]) + 1);
+  t.group_offsets.back() = static_cast<Index>(corners.size());
+#pragma omp parallel for schedule(static) if (parallel)
+  for (Index v = 0; v < num_vertices; ++v) {
+    Index g = groups_before[v];
+    for (Index i = offsets[v]; i < offsets[v + 1]; ++g) {
+      const Index hi = hi_of(corners[i]);
+      t.group_offsets[g] = i;
+      for (; i < offsets[v + 1] && hi_of(corners[i]) == hi; ++i) t.corner_group[corners[i]] = g;
     }
   }
+  t.group_corners = std::move(corners);
   return t;
+}
+
+std::int64_t count_inconsistent_edges(std::span<const Index> faces, const EdgeTable& table) {
+  std::int64_t n = 0;
+  const Index groups = table.num_groups();
+#pragma omp parallel for schedule(static) reduction(+ : n) if (groups > 16384)
+  for (Index g = 0; g < groups; ++g) {
+    if (table.group_size(g) != 2) continue;
+    const Index c0 = table.group_corners[table.group_offsets[g]];
+    const Index c1 = table.group_corners[table.group_offsets[g] + 1];
+    if (edge_from(faces, c0) == edge_from(faces, c1)) ++n;
+  }
+  return n;
 }
 
 TriangleShape triangle_shape(const double* p, const double* q, const double* r) {
@@ -182,12 +208,7 @@ Orientation orient_faces(std::span<const Index> faces, const EdgeTable& table,
   Orientation o;
   o.flip.assign(static_cast<std::size_t>(nf), 0);
   o.patch.assign(static_cast<std::size_t>(nf), kInvalid);
-  for (Index g = 0; g < table.num_groups(); ++g) {
-    if (table.group_size(g) != 2) continue;
-    const Index c0 = table.group_corners[table.group_offsets[g]];
-    const Index c1 = table.group_corners[table.group_offsets[g] + 1];
-    if (edge_from(faces, c0) == edge_from(faces, c1)) ++o.inconsistent_edges;
-  }
+  o.inconsistent_edges = count_inconsistent_edges(faces, table);
   std::vector<Index> queue;
   queue.reserve(static_cast<std::size_t>(nf));
   for (Index seed = 0; seed < nf; ++seed) {

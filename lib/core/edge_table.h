@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "ricci/conventions.h"
+#include "ricci/topology.h"
 
 namespace ricci::detail {
 
@@ -38,6 +39,14 @@ struct EdgeTable {
 /// face must have indices in [0, num_vertices) and three distinct vertices.
 EdgeTable build_edge_table(std::span<const Index> faces, Index num_vertices,
                            std::span<const std::uint8_t> face_ok = {});
+
+/// build_topology() from the soup's edge table (faces: in range, each with three distinct
+/// vertices; table: build_edge_table(faces, num_vertices), or one equal to it), so that a caller
+/// that already has the table does not build it again.
+TopologyResult topology_from_edge_table(std::span<const Index> faces, Index num_vertices, const EdgeTable& table);
+
+/// The manifold edges (groups of two corners) that both their faces traverse in the same direction.
+std::int64_t count_inconsistent_edges(std::span<const Index> faces, const EdgeTable& table);
 
 /// Start and end vertex of the edge opposite corner c, in the orientation of c's face.
 inline Index edge_from(std::span<const Index> faces, Index c) { return faces[next_corner(c)]; }

@@ -119,7 +119,14 @@ TopologyResult build_topology(std::span<const Index> faces, Index num_vertices) 
       return failure(Status::DegenerateFace, Element::Face, f, "face " + std::to_string(f) + " repeats a vertex");
   }
 
-  const detail::EdgeTable table = detail::build_edge_table(faces, num_vertices);
+  return detail::topology_from_edge_table(faces, num_vertices, detail::build_edge_table(faces, num_vertices));
+}
+
+namespace detail {
+
+TopologyResult topology_from_edge_table(std::span<const Index> faces, Index num_vertices, const EdgeTable& table) {
+  const Index nc = static_cast<Index>(faces.size());
+  const Index nf = nc / 3;
   TopologyResult r;
   Topology& t = r.topology;
   t.num_vertices = num_vertices;
@@ -176,6 +183,8 @@ TopologyResult build_topology(std::span<const Index> faces, Index num_vertices) 
   r.message = "ok";
   return r;
 }
+
+}  // namespace detail
 
 namespace {
 

@@ -362,13 +362,23 @@ ValidateResult validate_mesh(const Mesh& input, const ValidateOptions& options) 
   if (auto e = check_faces(input, options, faces, kept_faces)) return *e;
   const detail::EdgeTable table = detail::build_edge_table(faces, nv);
   if (auto e = check_edges(faces, kept_faces, table)) return *e;
-  detail::Orientation orient = detail::orient_faces(faces, table);
+  // Where every edge's two faces already agree, the orientation is the input's own (no search).
+  detail::Orientation orient;
+  if (detail::count_inconsistent_edges(faces, table) > 0) {
+    orient = detail::orient_faces(faces, table);
+  } else {
+    orient.flip.assign(static_cast<std::size_t>(kf), 0);
+  }
   if (auto e = orient_surface(input, options, table, kept_faces, faces, orient, r)) return *e;
   compact_mesh(input, faces, kept_faces, orient.flip, r);
   const Mesh& out = r.mesh;
 
-  // 10: pinched vertices (and every other connectivity invariant) via the topology.
-  TopologyResult topo = build_topology(out.faces, out.num_vertices());
+  // 10: pinched vertices (and every other connectivity invariant) via the topology. With no face
+  // flipped the edge table is out.faces' own (compact_mesh() keeps the corners and renumbers the
+  // vertices in their order), so it is not built again.
+  TopologyResult topo = orient.inconsistent_edges == 0
+                            ? detail::topology_from_edge_table(out.faces, out.num_vertices(), table)
+                            : build_topology(out.faces, out.num_vertices());
   if (topo.status != Status::Ok) {
     ValidateResult e = fail(topo.status, topo.element, topo.element_index, topo.message);
     if (topo.element == Element::Vertex) {

@@ -334,3 +334,73 @@ TEST_CASE("validate: of several zero-area faces the first is named, on 1 and 2 t
   }
   omp_set_num_threads(saved);
 }
+
+// validate_mesh() hands on the edge table it built for its checks to the topology where no face
+// was flipped, and the table's per-vertex work runs in parallel: the topology must still be
+// build_topology() of the validated faces, field by field, and the same on 1 and 2 threads, on
+// meshes with vertices of valence above 32 (the table's std::sort branch), dropped vertices (the
+// renumbering) and flipped faces (the path that builds the table again).
+TEST_CASE("validate: the topology it returns is build_topology() of its faces, on 1 and 2 threads") {
+  using namespace ricci_shapes;
+  std::vector<std::pair<std::string, Mesh>> meshes;
+  meshes.emplace_back("torus", torus(48, 24, 2.0, 0.7));
+  meshes.emplace_back("pretzel", pretzel(3, 6));
+  meshes.emplace_back("annulus", annulus(6, 40));
+  {
+    // A cone of valence 70 at vertex 0 (its corners take the sorted branch), closed by a fan at
+    // vertex 1 on the other side: a sphere with two high-valence poles.
+    Mesh m;
+    const int n = 70;
+    m.positions = {0, 0, 1, 0, 0, -1};
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      m.positions.insert(m.positions.end(), {std::cos(a), std::sin(a), 0});
+    }
+    for (int i = 0; i < n; ++i) {
+      const Index p = 2 + i, q = 2 + (i + 1) % n;
+      m.faces.insert(m.faces.end(), {0, p, q, 1, q, p});
+    }
+    meshes.emplace_back("two poles", m);
+  }
+  std::mt19937_64 rng(7);
+  {
+    // Unreferenced vertices in between: validation drops them and renumbers the rest in order.
+    Mesh m = permute_vertices(torus(30, 14, 2.0, 0.7), rng);
+    Mesh spaced;
+    for (Index v = 0; v < m.num_vertices(); ++v) {
+      spaced.positions.insert(spaced.positions.end(), {m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]});
+      if (v % 5 == 0) spaced.positions.insert(spaced.positions.end(), {9.0, 9.0, 9.0 + v});
+    }
+    for (Index i : m.faces) spaced.faces.push_back(i + (i + 4) / 5);
+    meshes.emplace_back("dropped vertices", spaced);
+  }
+  {
+    // Faces flipped at random: validation orients them again (the table is built anew).
+    Mesh m = permute_faces(pretzel(2, 6), rng);
+    for (Index f = 0; f < m.num_faces(); ++f)
+      if (rng() % 4 == 0) std::swap(m.faces[3 * f + 1], m.faces[3 * f + 2]);
+    meshes.emplace_back("flipped faces", m);
+  }
+  const int saved = omp_get_max_threads();
+  for (const auto& [name, mesh] : meshes) {
+    INFO(name);
+    std::vector<ValidateResult> results;
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      results.push_back(validate_mesh(mesh));
+      const ValidateResult& r = results.back();
+      REQUIRE(r.status == Status::Ok);
+      const TopologyResult b = build_topology(r.mesh.faces, r.mesh.num_vertices());
+      REQUIRE(b.status == Status::Ok);
+      CHECK(ricci_test::same_topology(r.topology, b.topology));
+      CHECK(ricci_test::check_topology(r.topology, r.mesh.faces) == "");
+    }
+    CHECK(ricci_test::same_topology(results[0].topology, results[1].topology));
+    CHECK(results[0].mesh.faces == results[1].mesh.faces);
+  }
+  omp_set_num_threads(saved);
+  CHECK(meshes[4].second.num_vertices() > validate_mesh(meshes[4].second).mesh.num_vertices());
+  bool flipped = false;
+  for (const Repair& rep : validate_mesh(meshes[5].second).repairs) flipped |= rep.kind == RepairKind::FacesFlipped;
+  CHECK(flipped);
+}
