@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <fstream>
 #include <iostream>
 #include <mutex>
@@ -1139,7 +1140,7 @@ ricci::Mesh family_layout(const Run& run, const ricci::ValidateResult& v, const 
 
 // mesh.glb, and the files for GIFTI and FreeSurfer users (see uniformize_outputs.h).
 void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::ValidateResult& v, const ricci::Mesh& surface,
-                  std::vector<OutFile>& files) {
+                  std::vector<OutFile>& files, std::future<ricci::ConformalSignature>& signature) {
   const ricci::UniformizeResult& r = run.result;
   const std::vector<double> uv = corner_uv(r, surface);
   const double repeats = r.geometry == Geometry::Spherical ? 12 : 10;  // half the checks of the pictures
@@ -1150,7 +1151,7 @@ void tool_outputs(const UniformizeCommandOptions& o, Run& run, const ricci::Vali
     files.push_back({"mesh.glb", glb.bytes});
   }
   {
-    ricci::ConformalSignature sig = ricci::conformal_signature(r);
+    ricci::ConformalSignature sig = signature.get();
     signature_vertices_to_file(sig, v.vertex_to_input);
     if (sig.status == Status::Ok || r.has_deck) run.signature = signature_json(sig);
     if (sig.status == Status::Ok) {
@@ -1266,11 +1267,17 @@ std::optional<int> uniformize_surface(const UniformizeCommandOptions& o, Uniform
 
 int uniformize_write(const UniformizeCommandOptions& o, const char* cmd, UniformizeRun& run) {
   const Clock::time_point tw = Clock::now();
+  // The conformal signature reads the result alone: with a second core it is computed there while
+  // the files are made (a closed genus-5 surface's systole search takes as long as they do).
+  const ricci::UniformizeResult& r = run.result;
+  std::future<ricci::ConformalSignature> signature =
+      std::async(ricci::available_threads() >= 2 ? std::launch::async : std::launch::deferred,
+                 [&r] { return ricci::conformal_signature(r); });
   std::vector<OutFile> files;
   ricci::Mesh surface;
   ricci::CoverResult cover;
   if (const auto rc = output_files(o, run, run.start, run.settings, run.input, files, surface, cover)) return *rc;
-  tool_outputs(o, run, run.input, surface, files);
+  tool_outputs(o, run, run.input, surface, files, signature);
   run.write_seconds = std::chrono::duration<double>(Clock::now() - tw).count();
   return write_run(o, cmd, run, run.start, files, surface, cover);
 }
