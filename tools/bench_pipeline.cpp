@@ -331,7 +331,7 @@ Row run_input(const Input& input, const Settings& s) {
   bool stop_after_flow = s.flow_only;
   o.on_stage = [&](const ricci::StageRecord& r) {
     stage_peak[std::string(r.stage)] = peak_bytes();
-    stage_seconds[std::string(r.stage)] = r.seconds;
+    stage_seconds[std::string(r.stage)] += r.seconds;  // a stage reported twice counts twice
     reset_peak();
   };
   if (stop_after_flow) {
@@ -796,8 +796,8 @@ int main(int argc, char** argv) {
              search + " |\n";
     }
   doc += "\n## Stages, seconds (peak MB of the process during the stage)\n\n";
-  const std::vector<std::string> stages = {"initial_metric", "target", "flow",  "cut",  "cut_metric",
-                                           "layout",         "seed_check", "polygon", "deck", "angles"};
+  const std::vector<std::string> stages = {"initial_metric", "target", "flow",       "straighten", "cut",  "layout",
+                                           "atlas",          "seed_check", "polygon", "deck",       "angles"};
   doc += "| input | load | validate | topology |";
   for (const std::string& st : stages) doc += " " + st + " |";
   doc += " write | job | job/flow | cut/ref | layout/ref | status |\n|---|---:|---:|---:|";
@@ -812,14 +812,13 @@ int main(int argc, char** argv) {
     std::string status = get(r, "status");
     if (r.count("message")) status += ": " + get(r, "message");
     if (r.count("error") && !r.count("faces")) status = get(r, "error");
-    // The job: every stage but the topology column (validate_mesh() builds the topology; that
-    // column times it again on its own).
+    // The job: every stage uniformize() reported (whether or not it has a column) and writing, but
+    // not the topology column (validate_mesh() builds the topology; that column times it again).
     double job = 0;
     for (const char* k : {"load", "validate"})
       if (!std::isnan(num(r, k))) job += num(r, k);
-    for (const std::string& st : stages)
-      if (!std::isnan(num(r, "stage_" + st))) job += num(r, "stage_" + st);
-    if (!std::isnan(num(r, "stage_write"))) job += num(r, "stage_write");
+    for (const auto& [key, value] : r)
+      if (key.rfind("stage_", 0) == 0 && !std::isnan(num(r, key))) job += num(r, key);
     const double flow = num(r, "stage_flow"), ref = num(r, "ref");
     auto ratio = [](double a, double b) { return std::isnan(a) || !(b > 0) ? std::string("—") : fmt("%.2f", a / b); };
     doc += " " + get(r, "stage_write") + " | " + fmt("%.3f", job) + " | " + ratio(job, flow) + " | " +
