@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
-#include <unordered_map>
 
 namespace ricci {
 
@@ -30,9 +29,14 @@ Index to_edge_slot(const Topology& t, Index c, Index p, Index count) {
   return t.edge_corners[2 * t.corner_edge[c]] == c ? p : count - 1 - p;
 }
 
-std::uint64_t pair_key(Index a, Index b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+// The edge of `t` joining vertices a and b, found in a's fan; kInvalid when none does.
+Index input_edge_between(const Topology& t, Index a, Index b) {
+  for (Index k = t.vertex_corner_offsets[a]; k < t.vertex_corner_offsets[a + 1]; ++k) {
+    const Index c = t.vertex_corners[k];
+    if (t.corner_vertex[next_corner(c)] == b) return t.corner_edge[prev_corner(c)];
+    if (t.corner_vertex[prev_corner(c)] == b) return t.corner_edge[next_corner(c)];
+  }
+  return kInvalid;
 }
 
 }  // namespace
@@ -62,29 +66,27 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
   for (Index e = 0; e < ne; ++e) slot_offset[e + 1] = slot_offset[e] + std::max<std::int64_t>(0, tri.normal[e]);
   std::vector<std::uint8_t> walked(static_cast<std::size_t>(slot_offset[ne]), 0);
 
-  std::unordered_map<std::uint64_t, Index> input_edge;
-  input_edge.reserve(static_cast<std::size_t>(nin));
-  for (Index a = 0; a < nin; ++a)
-    input_edge.emplace(pair_key(input.edge_vertices[2 * a], input.edge_vertices[2 * a + 1]), a);
-
-  struct Strand {
-    Index first_corner = kInvalid, last_corner = kInvalid;
-    std::vector<Index> edges, slots, corners;
-  };
-  std::vector<Strand> strands(static_cast<std::size_t>(nin));
+  // Per input edge, the walked strand that follows it (kInvalid: none, it is a current edge); the
+  // strands' crossings are kept one after the other in `walk`, each in the input edge's direction.
+  std::vector<Index> strand_of(static_cast<std::size_t>(nin), kInvalid);
+  std::vector<std::int64_t> strand_begin{0};
+  std::vector<Index> walk_edges, walk_slots, walk_corners;
   std::vector<std::uint8_t> found(static_cast<std::size_t>(nin), 0);
   r.along.assign(static_cast<std::size_t>(nin), kInvalid);
+  r.first_corner.assign(static_cast<std::size_t>(nin), kInvalid);
+  r.last_corner.assign(static_cast<std::size_t>(nin), kInvalid);
   auto fail = [&r](std::string why) {
     r.status = Status::NumericalFailure;
     r.message = "the normal coordinates are not those of the input's edges: " + std::move(why);
     return r;
   };
-  // The input edge joining va and vb, marked found; kInvalid when there is none or it was found.
+  // The input edge joining va and vb (looked up in va's fan), marked found; kInvalid when there is
+  // none or it was found.
   auto claim = [&](Index va, Index vb) -> Index {
-    const auto it = input_edge.find(pair_key(va, vb));
-    if (it == input_edge.end() || found[it->second]) return kInvalid;
-    found[it->second] = 1;
-    return it->second;
+    const Index a = input_edge_between(input, va, vb);
+    if (a == kInvalid || found[a]) return kInvalid;
+    found[a] = 1;
+    return a;
   };
 
   // Input edges that are current edges.
@@ -98,8 +100,8 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
     r.along[a] = e;
     const Index c = t.edge_corners[2 * e];
     const bool same = input.edge_vertices[2 * a] == t.corner_vertex[next_corner(c)];
-    strands[a].first_corner = same ? next_corner(c) : prev_corner(c);
-    strands[a].last_corner = same ? prev_corner(c) : next_corner(c);
+    r.first_corner[a] = same ? next_corner(c) : prev_corner(c);
+    r.last_corner[a] = same ? prev_corner(c) : next_corner(c);
   }
 
   // Walks from every arc that leaves a vertex.
@@ -113,14 +115,13 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
       Index e = t.corner_edge[x];
       Index slot = to_edge_slot(t, x, before + static_cast<Index>(s), static_cast<Index>(tri.normal[e]));
       if (walked[slot_offset[e] + slot]) continue;
-      Strand strand;
-      strand.first_corner = x;
+      Index first = x, last = kInvalid;
       for (std::int64_t step = 0;; ++step) {
         if (step > total_slots) return fail("a walk from corner " + std::to_string(x) + " does not end");
         walked[slot_offset[e] + slot] = 1;
-        strand.edges.push_back(e);
-        strand.slots.push_back(slot);
-        strand.corners.push_back(exit);
+        walk_edges.push_back(e);
+        walk_slots.push_back(slot);
+        walk_corners.push_back(exit);
         const Index y = t.opposite[exit];
         if (y == kInvalid) return fail("a walk from corner " + std::to_string(x) + " leaves the surface");
         const Index count = static_cast<Index>(tri.normal[e]);
@@ -133,7 +134,7 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
           e = t.corner_edge[exit];
           slot = to_edge_slot(t, exit, len - 1 - p, len);
         } else if (p < turn_a + ends) {
-          strand.last_corner = y;
+          last = y;
           break;
         } else {
           exit = next_corner(y);  // turns around vertex(prev(y)) into the side opposite next(y)
@@ -144,20 +145,24 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
         if (slot < 0 || slot >= static_cast<Index>(positive_normal(tri, exit)))
           return fail("a walk from corner " + std::to_string(x) + " reaches a side without room for it");
       }
-      const Index va = t.corner_vertex[strand.first_corner], vb = t.corner_vertex[strand.last_corner];
+      const Index va = t.corner_vertex[first], vb = t.corner_vertex[last];
       const Index a = claim(va, vb);
       if (a == kInvalid)
         return fail("a strand joins vertices " + std::to_string(va) + " and " + std::to_string(vb) +
                     ", which no input edge (not yet found) joins");
+      const std::int64_t begin = strand_begin.back();
       if (input.edge_vertices[2 * a] != va) {
         // Walked from the other end: the same crossings backwards, each left from the other side.
-        std::reverse(strand.edges.begin(), strand.edges.end());
-        std::reverse(strand.slots.begin(), strand.slots.end());
-        std::reverse(strand.corners.begin(), strand.corners.end());
-        for (Index& c : strand.corners) c = t.opposite[c];
-        std::swap(strand.first_corner, strand.last_corner);
+        std::reverse(walk_edges.begin() + begin, walk_edges.end());
+        std::reverse(walk_slots.begin() + begin, walk_slots.end());
+        std::reverse(walk_corners.begin() + begin, walk_corners.end());
+        for (auto it = walk_corners.begin() + begin; it != walk_corners.end(); ++it) *it = t.opposite[*it];
+        std::swap(first, last);
       }
-      strands[a] = std::move(strand);
+      strand_of[a] = static_cast<Index>(strand_begin.size()) - 1;
+      strand_begin.push_back(static_cast<std::int64_t>(walk_edges.size()));
+      r.first_corner[a] = first;
+      r.last_corner[a] = last;
     }
   }
   for (Index a = 0; a < nin; ++a)
@@ -165,19 +170,22 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
   for (std::int64_t k = 0; k < total_slots; ++k)
     if (!walked[k]) return fail("a crossing is on no walk from a vertex");
 
+  // The strands in input-edge order.
   r.offsets.assign(static_cast<std::size_t>(nin) + 1, 0);
-  for (Index a = 0; a < nin; ++a) r.offsets[a + 1] = r.offsets[a] + static_cast<Index>(strands[a].edges.size());
-  r.crossed_edge.reserve(static_cast<std::size_t>(r.offsets[nin]));
-  r.crossed_slot.reserve(static_cast<std::size_t>(r.offsets[nin]));
-  r.crossed_corner.reserve(static_cast<std::size_t>(r.offsets[nin]));
-  r.first_corner.resize(static_cast<std::size_t>(nin));
-  r.last_corner.resize(static_cast<std::size_t>(nin));
   for (Index a = 0; a < nin; ++a) {
-    r.crossed_edge.insert(r.crossed_edge.end(), strands[a].edges.begin(), strands[a].edges.end());
-    r.crossed_slot.insert(r.crossed_slot.end(), strands[a].slots.begin(), strands[a].slots.end());
-    r.crossed_corner.insert(r.crossed_corner.end(), strands[a].corners.begin(), strands[a].corners.end());
-    r.first_corner[a] = strands[a].first_corner;
-    r.last_corner[a] = strands[a].last_corner;
+    const Index k = strand_of[a];
+    r.offsets[a + 1] = r.offsets[a] + (k == kInvalid ? 0 : static_cast<Index>(strand_begin[k + 1] - strand_begin[k]));
+  }
+  r.crossed_edge.resize(walk_edges.size());
+  r.crossed_slot.resize(walk_edges.size());
+  r.crossed_corner.resize(walk_edges.size());
+  for (Index a = 0; a < nin; ++a) {
+    const Index k = strand_of[a];
+    if (k == kInvalid) continue;
+    const std::int64_t b = strand_begin[k], n = strand_begin[k + 1] - b;
+    std::copy_n(walk_edges.begin() + b, n, r.crossed_edge.begin() + r.offsets[a]);
+    std::copy_n(walk_slots.begin() + b, n, r.crossed_slot.begin() + r.offsets[a]);
+    std::copy_n(walk_corners.begin() + b, n, r.crossed_corner.begin() + r.offsets[a]);
   }
   r.status = Status::Ok;
   r.message = "ok";
