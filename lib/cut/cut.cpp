@@ -966,9 +966,14 @@ bool tree_cotree(Surface& S, State& st, Index root, std::span<const double> weig
   const Topology& t = S.topo;
   const Index V = t.num_vertices, E = t.num_edges, F = t.num_faces;
   const Index N = V + t.num_boundary_loops();
-  auto w = [&](Index e) {
-    return weights.empty() ? S.length(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) : weights[e];
-  };
+  // Each edge's weight once (a 3D length unless weights are given).
+  std::vector<double> edge_weight;
+  if (weights.empty()) {
+    edge_weight.resize(static_cast<std::size_t>(E));
+    for (Index e = 0; e < E; ++e) edge_weight[e] = S.length(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]);
+    weights = edge_weight;
+  }
+  auto w = [&](Index e) { return weights[e]; };
   auto interior = [&](Index e) { return t.edge_corners[2 * e + 1] != kInvalid; };
   // Ŝ adjacency (CSR) over interior edges that are not self-loops.
   std::vector<Index> off(static_cast<std::size_t>(N) + 1, 0);
@@ -1014,20 +1019,19 @@ bool tree_cotree(Surface& S, State& st, Index root, std::span<const double> weig
   std::vector<char> in_tree(static_cast<std::size_t>(E), 0);
   for (Index x = 0; x < N; ++x)
     if (parent_edge[x] != kInvalid) in_tree[parent_edge[x]] = 1;
-  // Dual tree by descending loop length.
-  std::vector<Index> cand;
-  std::vector<double> len(static_cast<std::size_t>(E), 0);
+  // Dual tree by descending loop length (ties: the smaller edge first), sorted as packed pairs.
+  std::vector<std::pair<double, Index>> cand;
   for (Index e = 0; e < E; ++e) {
     if (!interior(e) || in_tree[e]) continue;
-    cand.push_back(e);
-    len[e] = dhat[S.cls(t.edge_vertices[2 * e])] + w(e) + dhat[S.cls(t.edge_vertices[2 * e + 1])];
+    cand.emplace_back(dhat[S.cls(t.edge_vertices[2 * e])] + w(e) + dhat[S.cls(t.edge_vertices[2 * e + 1])], e);
   }
-  std::sort(cand.begin(), cand.end(),
-            [&](Index a, Index b) { return len[a] > len[b] || (len[a] == len[b] && a < b); });
+  std::sort(cand.begin(), cand.end(), [](const std::pair<double, Index>& a, const std::pair<double, Index>& b) {
+    return a.first > b.first || (a.first == b.first && a.second < b.second);
+  });
   UnionFind uf(F);
   std::vector<char> cut(static_cast<std::size_t>(E), 0);
   Index leftover = 0;
-  for (Index e : cand) {
+  for (const auto& [loop_length, e] : cand) {
     const Index f0 = corner_face(t.edge_corners[2 * e]), f1 = corner_face(t.edge_corners[2 * e + 1]);
     if (!uf.unite(f0, f1)) {
       cut[e] = 1;
