@@ -143,6 +143,21 @@ int spectrum_word_length(Index genus) {
   return std::max(L, 2);
 }
 
+/// The translation length of a product of a few normalised letters, whose determinant is 1 up to
+/// rounding: |Re a|/√det is taken to first order in δ = det − 1, |Re a|·(1 − δ/2), which is exact
+/// in quad while |δ| < 1e-17 (the next term, 3δ²/8, is below 2^-113) and needs no square root or
+/// division; otherwise translation_length_q(), which normalises.
+double product_length(const detail::MoebiusQ& m) {
+  using detail::quad;
+  const quad delta = m.a.norm() - m.b.norm() - 1;
+  if (!(detail::qabs(delta) < static_cast<quad>(1e-17))) return translation_length_q(m);
+  const quad re = detail::qabs(m.a.re) * (1 - delta * static_cast<quad>(0.5));
+  if (!(static_cast<double>(re) > 1)) return 0;
+  // 2·arccosh x = 2·log(x + √(x² − 1)); for x near 1 from the quad difference x − 1.
+  const double d = static_cast<double>(re - 1);
+  return 2 * std::log1p(d + std::sqrt(d * (d + 2)));
+}
+
 /// The shortest cyclically reduced word of length ≤ max_length in the generators (letters as in
 /// signature_words(): k/2 the generator, odd k its inverse). The words are searched depth first,
 /// each first letter's words on their own (in parallel), and the searches are then merged in the
@@ -153,7 +168,7 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
   std::vector<detail::MoebiusQ> letter(static_cast<std::size_t>(letters));
   for (int k = 0; k < letters; ++k) {
     const detail::MoebiusQ& m = generators[static_cast<std::size_t>(k / 2)];
-    letter[static_cast<std::size_t>(k)] = k % 2 == 0 ? m : m.inverse();
+    letter[static_cast<std::size_t>(k)] = (k % 2 == 0 ? m : m.inverse()).normalized();
   }
   std::vector<double> letter_norm(static_cast<std::size_t>(letters));
   for (int k = 0; k < letters; ++k) letter_norm[static_cast<std::size_t>(k)] = matrix_norm(letter[static_cast<std::size_t>(k)]);
@@ -186,7 +201,7 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
       const auto len = static_cast<int>(word.size());
       const bool power = len % 2 == 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
       if (word.back() != inverse_letter(word.front()) && !power) {
-        const double l = translation_length_q(prefix.back());
+        const double l = product_length(prefix.back());
         // Words whose product the arithmetic cannot resolve to kReliable are left out.
         const double rounding = length_rounding(l, norm_product.back(), len);
         if (l > 0 && rounding <= kReliable) {
@@ -209,7 +224,8 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
       for (int k = 0; k < letters; ++k) {
         if (k == inverse_letter(word.back())) continue;
         word.push_back(k);
-        prefix.push_back((prefix.back() * letter[static_cast<std::size_t>(k)]).normalized());
+        // Products of normalised letters stay normalised to a few roundings over ≤ 8 letters.
+        prefix.push_back(prefix.back() * letter[static_cast<std::size_t>(k)]);
         norm_product.push_back(norm_product.back() * letter_norm[static_cast<std::size_t>(k)]);
         self(self);
         norm_product.pop_back();
