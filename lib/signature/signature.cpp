@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <new>
 #include <span>
 #include <string>
@@ -158,22 +159,121 @@ double product_length(const detail::MoebiusQ& m) {
   return 2 * std::log1p(d + std::sqrt(d * (d + 2)));
 }
 
+/// A map of the disk in double, for screening words before their quad product.
+struct MoebiusD {
+  std::complex<double> a{1, 0}, b{0, 0};
+  MoebiusD operator*(const MoebiusD& n) const {
+    return {a * n.a + b * std::conj(n.b), a * n.b + b * std::conj(n.a)};
+  }
+};
+
+/// The translation length of a product of letters normalised in quad and rounded to double, and a
+/// bound on its error: the rounded letters move the product's entries by at most `letters`·2^-53
+/// of Π‖letter‖ (`norm_product`), and each product rounds at 2^-53 of that size; the bound takes
+/// 8·2^-53 per letter. No normalisation in double (|a|² − |b|² cancels there). The error bound is
+/// +∞ where the length is 0 or not finite.
+std::pair<double, double> screening_length(const MoebiusD& m, double norm_product, int letters) {
+  const double x = std::abs(m.a.real());
+  if (!(x > 1) || !std::isfinite(x)) return {0, INFINITY};
+  const double d = x - 1;
+  const double l = 2 * std::log1p(d + std::sqrt(d * (d + 2)));
+  const double dx = letters * 8 * 0x1p-53 * norm_product;
+  return {l, 2 * dx / std::sqrt((x - 1) * (x + 1))};
+}
+
+/// Every cyclically reduced word of length ≤ max_length that is not a proper power, in depth-first
+/// order from one first letter: visit(word, its product in double, Π of its letters' norms).
+struct WordWalk {
+  const std::vector<MoebiusD>& letter;
+  const std::vector<double>& norm;
+  int max_length;
+
+  template <class Visit>
+  void operator()(int first, Visit&& visit) const {
+    const int letters = static_cast<int>(letter.size());
+    std::vector<int> word{first};
+    std::vector<MoebiusD> prefix{MoebiusD{}, letter[static_cast<std::size_t>(first)]};
+    std::vector<double> norm_product{1.0, norm[static_cast<std::size_t>(first)]};
+    auto descend = [&](auto&& self) -> void {
+      const auto len = static_cast<int>(word.size());
+      const bool power = len % 2 == 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
+      if (word.back() != inverse_letter(word.front()) && !power) visit(word, prefix.back(), norm_product.back());
+      if (len == max_length) return;
+      for (int k = 0; k < letters; ++k) {
+        if (k == inverse_letter(word.back())) continue;
+        word.push_back(k);
+        prefix.push_back(prefix.back() * letter[static_cast<std::size_t>(k)]);
+        norm_product.push_back(norm_product.back() * norm[static_cast<std::size_t>(k)]);
+        self(self);
+        norm_product.pop_back();
+        prefix.pop_back();
+        word.pop_back();
+      }
+    };
+    descend(descend);
+  }
+};
+
+/// A length T that the kSpectrumSize-th distinct length of the reliable words cannot exceed: the
+/// 1.5·kSpectrumSize-th distinct upper bound (double length + its error bound) of the words that
+/// are surely reliable (their quad rounding bound well below kReliable), or +∞ when there are
+/// fewer. Each first letter's words in parallel.
+double spectrum_bound(const WordWalk& walk) {
+  const int letters = static_cast<int>(walk.letter.size());
+  std::vector<std::vector<double>> upper(static_cast<std::size_t>(letters));
+  int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory)
+  for (int first = 0; first < letters; ++first) try {
+    std::vector<double>& u = upper[static_cast<std::size_t>(first)];
+    walk(first, [&](const std::vector<int>& word, const MoebiusD& m, double norms) {
+      const int len = static_cast<int>(word.size());
+      const auto [l, error] = screening_length(m, norms, len);
+      if (l > 0 && std::isfinite(error) && length_rounding(l + error, norms, len) <= kReliable / 2) u.push_back(l + error);
+    });
+  } catch (const std::bad_alloc&) {
+    out_of_memory = 1;
+  }
+  if (out_of_memory) throw std::bad_alloc();
+  std::vector<double> all;
+  for (const std::vector<double>& u : upper) all.insert(all.end(), u.begin(), u.end());
+  upper.clear();
+  std::sort(all.begin(), all.end());
+  std::size_t distinct = 0;
+  double last = -1;
+  for (const double l : all) {
+    if (last >= 0 && l - last <= kSameLength * l) continue;
+    last = l;
+    if (++distinct == kSpectrumSize + kSpectrumSize / 2) return l;
+  }
+  return INFINITY;
+}
+
 /// The shortest cyclically reduced word of length ≤ max_length in the generators (letters as in
-/// signature_words(): k/2 the generator, odd k its inverse). The words are searched depth first,
-/// each first letter's words on their own (in parallel), and the searches are then merged in the
-/// order of their first letters, so the result does not depend on the threads.
+/// signature_words(): k/2 the generator, odd k its inverse), and the kSpectrumSize shortest
+/// distinct lengths. The words are searched depth first, each first letter's words on their own
+/// (in parallel), and the searches are then merged in the order of their first letters, so the
+/// result does not depend on the threads. Two passes: the first takes every word's length in
+/// double with an error bound and from them a length T that the kSpectrumSize-th distinct length
+/// cannot exceed (spectrum_bound()); the second takes in quad only the words whose length may be
+/// ≤ T (a few per thousand), so the result is the one an evaluation of every word in quad gives.
 WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::span<const double> residuals,
                           int max_length, std::vector<double>& spectrum) {
   const int letters = static_cast<int>(2 * generators.size());
   std::vector<detail::MoebiusQ> letter(static_cast<std::size_t>(letters));
+  std::vector<MoebiusD> letter_d(static_cast<std::size_t>(letters));
+  std::vector<double> letter_norm(static_cast<std::size_t>(letters));
   for (int k = 0; k < letters; ++k) {
     const detail::MoebiusQ& m = generators[static_cast<std::size_t>(k / 2)];
-    letter[static_cast<std::size_t>(k)] = (k % 2 == 0 ? m : m.inverse()).normalized();
+    const std::size_t i = static_cast<std::size_t>(k);
+    letter[i] = (k % 2 == 0 ? m : m.inverse()).normalized();
+    letter_d[i] = {letter[i].a.to_double(), letter[i].b.to_double()};
+    letter_norm[i] = matrix_norm(letter[i]);
   }
-  std::vector<double> letter_norm(static_cast<std::size_t>(letters));
-  for (int k = 0; k < letters; ++k) letter_norm[static_cast<std::size_t>(k)] = matrix_norm(letter[static_cast<std::size_t>(k)]);
-  // The shortest of one search: a shorter length wins; within 1e-9 relative (the same class), the
-  // word with fewer letters.
+  const WordWalk walk{letter_d, letter_norm, max_length};
+  const double T = spectrum_bound(walk);
+
+  // Pass 2: the words whose length may be ≤ T, in quad. The shortest of one search: a shorter
+  // length wins; within 1e-9 relative (the same class), the word with fewer letters.
   struct Search {
     WordLength best;
     std::size_t best_letters = 0;
@@ -194,46 +294,29 @@ WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::
 #pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory)
   for (int first = 0; first < letters; ++first) try {
     Search& S = searches[static_cast<std::size_t>(first)];
-    std::vector<int> word{first};
-    std::vector<detail::MoebiusQ> prefix{detail::MoebiusQ{}, letter[static_cast<std::size_t>(first)]};
-    std::vector<double> norm_product{1.0, letter_norm[static_cast<std::size_t>(first)]};  // Π of the prefix's letter norms
-    auto visit = [&](auto&& self) -> void {
-      const auto len = static_cast<int>(word.size());
-      const bool power = len % 2 == 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
-      if (word.back() != inverse_letter(word.front()) && !power) {
-        const double l = product_length(prefix.back());
-        // Words whose product the arithmetic cannot resolve to kReliable are left out.
-        const double rounding = length_rounding(l, norm_product.back(), len);
-        if (l > 0 && rounding <= kReliable) {
-          S.lengths.push_back(l);
-          if (S.wins(l, word.size())) {  // the word's name is made only for a winner
-            WordLength w;
-            w.length = l;
-            double residual = 0;
-            for (const int k : word) {
-              if (!w.word.empty()) w.word.push_back(' ');
-              w.word.append(letter_name(k));
-              residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(k / 2)];
-            }
-            w.uncertainty = 2 * residual + rounding;
-            S.offer(w, word.size());
-          }
-        }
+    walk(first, [&](const std::vector<int>& word, const MoebiusD& md, double norms) {
+      const auto [ld, error] = screening_length(md, norms, static_cast<int>(word.size()));
+      if (ld - error > T) return;  // longer than T: not in the spectrum (NaN or +∞ bounds stay)
+      // Products of normalised letters stay normalised to a few roundings over ≤ 8 letters.
+      detail::MoebiusQ m;
+      for (const int k : word) m = m * letter[static_cast<std::size_t>(k)];
+      const double l = product_length(m);
+      // Words whose product the arithmetic cannot resolve to kReliable are left out.
+      const double rounding = length_rounding(l, norms, static_cast<int>(word.size()));
+      if (!(l > 0 && rounding <= kReliable)) return;
+      S.lengths.push_back(l);
+      if (!S.wins(l, word.size())) return;  // the word's name is made only for a winner
+      WordLength w;
+      w.length = l;
+      double residual = 0;
+      for (const int k : word) {
+        if (!w.word.empty()) w.word.push_back(' ');
+        w.word.append(letter_name(k));
+        residual += residuals.empty() ? 0.0 : residuals[static_cast<std::size_t>(k / 2)];
       }
-      if (len == max_length) return;
-      for (int k = 0; k < letters; ++k) {
-        if (k == inverse_letter(word.back())) continue;
-        word.push_back(k);
-        // Products of normalised letters stay normalised to a few roundings over ≤ 8 letters.
-        prefix.push_back(prefix.back() * letter[static_cast<std::size_t>(k)]);
-        norm_product.push_back(norm_product.back() * letter_norm[static_cast<std::size_t>(k)]);
-        self(self);
-        norm_product.pop_back();
-        prefix.pop_back();
-        word.pop_back();
-      }
-    };
-    visit(visit);
+      w.uncertainty = 2 * residual + rounding;
+      S.offer(w, word.size());
+    });
   } catch (const std::bad_alloc&) {
     out_of_memory = 1;
   }

@@ -756,3 +756,68 @@ TEST_CASE("signature: generators far from the origin keep their digits through m
   MESSAGE("far frame without low parts: largest change of a two-letter word " << lost);
   CHECK(lost > 1e-6);
 }
+
+// The systole search screens every word's length in double and takes in quad only those that may
+// be among the spectrum's: its systole and spectrum must be those of every word evaluated, here
+// independently in long double (each cyclically reduced word that is not a proper power, up to
+// the same word length), on the genus-2 and genus-3 fixtures.
+TEST_CASE("signature: the screened systole search gives the spectrum of every word evaluated") {
+  for (const char* name : {"genus2.obj", "genus3.obj"}) {
+    INFO(name);
+    const ricci::ReadResult read = ricci::read_mesh((ricci_test::fixtures_dir() / name).string());
+    REQUIRE(read.status == ricci::Status::Ok);
+    const ricci::ConformalSignature sig = signature_of(read.mesh);
+    REQUIRE(sig.status == ricci::Status::Ok);
+    const ricci::ConformalSignature h = ricci::hyperbolic_signature(sig.generators);
+    REQUIRE(h.status == ricci::Status::Ok);
+    using C = std::complex<long double>;
+    struct M {
+      C a, b;
+      M operator*(const M& n) const { return {a * n.a + b * std::conj(n.b), a * n.b + b * std::conj(n.a)}; }
+    };
+    std::vector<M> letter;
+    for (const ricci::Moebius& g : sig.generators) {
+      const M m{C(g.a.real(), g.a.imag()), C(g.b.real(), g.b.imag())};
+      letter.push_back(m);
+      letter.push_back({std::conj(m.a), -m.b});
+    }
+    const int letters = static_cast<int>(letter.size()), max_length = h.spectrum_word_length;
+    std::vector<double> lengths;
+    std::vector<int> word;
+    std::vector<M> prefix{M{C(1), C(0)}};
+    auto visit = [&](auto&& self) -> void {
+      const int len = static_cast<int>(word.size());
+      if (len > 0) {
+        const bool power = len % 2 == 0 && std::equal(word.begin(), word.begin() + len / 2, word.begin() + len / 2);
+        if ((word.back() ^ 1) != word.front() && !power) {
+          const M& m = prefix.back();
+          const long double det = std::norm(m.a) - std::norm(m.b);
+          const long double x = std::abs(m.a.real()) / std::sqrt(det);
+          if (x > 1) lengths.push_back(static_cast<double>(2 * std::acosh(x)));
+        }
+      }
+      if (len == max_length) return;
+      for (int k = 0; k < letters; ++k) {
+        if (len > 0 && k == (word.back() ^ 1)) continue;
+        word.push_back(k);
+        prefix.push_back(prefix.back() * letter[static_cast<std::size_t>(k)]);
+        self(self);
+        prefix.pop_back();
+        word.pop_back();
+      }
+    };
+    visit(visit);
+    std::sort(lengths.begin(), lengths.end());
+    std::vector<double> spectrum;
+    for (const double l : lengths) {
+      if (!spectrum.empty() && l - spectrum.back() <= 1e-9 * l) continue;
+      spectrum.push_back(l);
+      if (spectrum.size() == h.spectrum.size()) break;
+    }
+    MESSAGE(std::string(name) << ": " << lengths.size() << " words up to " << max_length << " letters, systole " << h.systole.length);
+    CHECK(h.spectrum.size() == 32);
+    REQUIRE(spectrum.size() == h.spectrum.size());
+    for (std::size_t i = 0; i < spectrum.size(); ++i) CHECK(std::abs(spectrum[i] - h.spectrum[i]) <= 1e-10 * spectrum[i]);
+    CHECK(std::abs(h.systole.length - lengths.front()) <= 1e-10 * lengths.front());
+  }
+}
