@@ -569,22 +569,51 @@ double perimeter_at(const std::vector<MoebiusQ>& Y, CQ z) {
   return sum;
 }
 
+/// The gradient and Hessian (hxx, hyy, hxy) of D(p) = Σ_k d(p, Y_k p) at the frame's origin, in
+/// closed form. Moving the frame to p (z ↦ (z − p)/(1 − p̄ z)) turns Y = [[a, b], [b̄, ā]] into a
+/// map whose b is β(p) = (b + (a − ā) p − b̄ p²)/(1 − |p|²), and d(p, Y p) = 2 asinh|β(p)|. To
+/// second order in p, |β|² = |b|² + 2 Re(b̄ c p) + (|c|² + 2|b|²)|p|² − 2 Re(b̄² p²) with
+/// c = a − ā, and each term is g(|β|²) with g(u) = 2 asinh √u. The entries are rounded to double
+/// (the terms are of the size of the entries: no cancellation). False when an element nearly
+/// fixes the origin (|b|² tiny: a side element is hyperbolic and moves every point).
+bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double& gy, double& hxx, double& hyy,
+                              double& hxy) {
+  gx = gy = hxx = hyy = hxy = 0;
+  for (const MoebiusQ& M : Y) {
+    const cplx a = M.a.to_double(), b = M.b.to_double();
+    const double u = std::norm(b);
+    if (!(u > 1e-24) || !std::isfinite(u)) return false;
+    const cplx c(0, 2 * a.imag());
+    const cplx w = std::conj(b) * c;
+    const cplx v = std::conj(b) * std::conj(b);
+    const double ux = 2 * w.real(), uy = -2 * w.imag();
+    const double diag = 2 * (std::norm(c) + 2 * u);
+    const double uxx = diag - 4 * v.real(), uyy = diag + 4 * v.real(), uxy = 4 * v.imag();
+    const double r = std::sqrt(u), q = std::sqrt(1 + u);
+    const double g1 = 1 / (r * q);                                    // g'(u)
+    const double g2 = -0.5 / (u * r * q) - 0.5 / (r * q * (1 + u));   // g''(u)
+    gx += g1 * ux;
+    gy += g1 * uy;
+    hxx += g2 * ux * ux + g1 * uxx;
+    hyy += g2 * uy * uy + g1 * uyy;
+    hxy += g2 * ux * uy + g1 * uxy;
+  }
+  return std::isfinite(gx + gy + hxx + hyy + hxy);
+}
+
 /// Moves the frame to the point p minimising D(p) = Σ_k d(p, Y_k p) (a convex function: each term
-/// is an isometry's displacement): Newton with finite differences (in quad) at the frame's origin,
-/// each step at most hyperbolic distance 2 and backtracked so D does not grow, then the frame moved
-/// there (Y conjugated in place, F ← T F). Returns the steps taken, −1 when D is not finite.
+/// is an isometry's displacement): Newton at the frame's origin with D's derivatives in closed form
+/// (displacement_derivatives()), each step at most hyperbolic distance 2 and backtracked so D (in
+/// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F). Returns the
+/// steps taken, −1 when D is not finite.
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) {
-  constexpr double h = 1e-5;
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
   for (int it = 0; it < max_steps; ++it) {
     auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
-    const double f0 = f(0, 0), fxp = f(h, 0), fxm = f(-h, 0), fyp = f(0, h), fym = f(0, -h);
-    const double fpp = f(h, h), fpm = f(h, -h), fmp = f(-h, h), fmm = f(-h, -h);
-    if (!std::isfinite(f0 + fxp + fxm + fyp + fym + fpp + fpm + fmp + fmm)) return -1;
-    const double gx = (fxp - fxm) / (2 * h), gy = (fyp - fym) / (2 * h);
-    const double hxx = (fxp - 2 * f0 + fxm) / (h * h), hyy = (fyp - 2 * f0 + fym) / (h * h);
-    const double hxy = (fpp - fpm - fmp + fmm) / (4 * h * h);
+    const double f0 = f(0, 0);
+    double gx, gy, hxx, hyy, hxy;
+    if (!std::isfinite(f0) || !displacement_derivatives(Y, gx, gy, hxx, hyy, hxy)) return -1;
     const double det = hxx * hyy - hxy * hxy;
     cplx step;
     if (hxx > 0 && det > 0) step = cplx(-(hyy * gx - hxy * gy) / det, -(hxx * gy - hxy * gx) / det);
