@@ -665,11 +665,28 @@ bool SymmetricSolver::inverse_block(std::span<double> out) {
       out.size() != static_cast<std::size_t>(k * k))
     return false;
   s.forward_paths(p);
-  // ZᵀZ: column a scattered into the workspace, dotted with the paths of the columns b ≤ a.
-  for (std::int64_t a = 0; a < k; ++a) {
-    s.scatter(p, a);
-    for (std::int64_t b = 0; b <= a; ++b) out[a * k + b] = out[b * k + a] = s.scattered_dot(p, b);
-    s.unscatter(p, a);
+  // ZᵀZ: column a scattered into a workspace, dotted with the paths of the columns b ≤ a. Rows in
+  // parallel, each thread with its own workspace (zero off the path it holds): every entry is the
+  // same sum in the same order on any number of threads.
+  const SuiteSparse_long* super = s.supers();
+#pragma omp parallel if (k >= 64)
+  {
+    std::vector<double> work(static_cast<std::size_t>(s.n), 0.0);
+#pragma omp for schedule(dynamic, 8)
+    for (std::int64_t a = 0; a < k; ++a) {
+      const double* za = p.values.data() + p.value_offsets[a];
+      for (std::int64_t i = p.offsets[a]; i < p.offsets[a + 1]; ++i)
+        for (std::int64_t j = super[p.super[i]]; j < super[p.super[i] + 1]; ++j) work[j] = *za++;
+      for (std::int64_t b = 0; b <= a; ++b) {
+        const double* zb = p.values.data() + p.value_offsets[b];
+        double sum = 0;
+        for (std::int64_t i = p.offsets[b]; i < p.offsets[b + 1]; ++i)
+          for (std::int64_t j = super[p.super[i]]; j < super[p.super[i] + 1]; ++j) sum += work[j] * *zb++;
+        out[a * k + b] = out[b * k + a] = sum;
+      }
+      for (std::int64_t i = p.offsets[a]; i < p.offsets[a + 1]; ++i)
+        std::fill(work.begin() + super[p.super[i]], work.begin() + super[p.super[i] + 1], 0.0);
+    }
   }
   // Pins (Woodbury): + Wᵀ C⁻¹ W with W = Zᵀ_pins Z_I.
   const auto kp = static_cast<std::int64_t>(s.pins.size());
