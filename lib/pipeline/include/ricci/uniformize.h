@@ -102,8 +102,8 @@ namespace ricci {
 
 /// What on_stage receives when a stage ends.
 struct StageRecord {
-  /// "initial_metric", "target", "flow", "cut", "layout", "atlas" (only when the layout needs
-  /// charts), "seed_check", "polygon", "deck" or "angles".
+  /// "initial_metric", "target", "flow", "straighten" (with intrinsic flips), "cut", "layout",
+  /// "atlas" (only when the layout needs charts), "seed_check", "polygon", "deck" or "angles".
   std::string_view stage;
   double seconds = 0;      ///< time the stage took
   std::string summary;     ///< one line: what it found (e.g. the layout's edge error)
