@@ -214,36 +214,56 @@ struct WordWalk {
   }
 };
 
-/// A length T that the kSpectrumSize-th distinct length of the reliable words cannot exceed: the
-/// 1.5·kSpectrumSize-th distinct upper bound (double length + its error bound) of the words that
-/// are surely reliable (their quad rounding bound well below kReliable), or +∞ when there are
-/// fewer. Each first letter's words in parallel.
+/// A length T below which the reliable words' lengths already give kSpectrumSize entries of the
+/// spectrum, from every word's length in double with its error bound (each first letter's words in
+/// parallel). Each word that may be reliable (its quad rounding bound at the top of its interval
+/// within kReliable) is an interval [l − e, l + e] holding its quad length. Sorted by their lower
+/// ends, the intervals fall into clusters, a new one starting where an interval's lower end lies
+/// more than kSameLength of its upper end above every upper end before it: the lengths of two
+/// clusters are then more than kSameLength apart, so the spectrum takes at least one length from
+/// each cluster that holds a word surely reliable (its rounding bound within kReliable at the
+/// bottom of its interval). T is the largest upper end of the 1.5·kSpectrumSize-th such cluster,
+/// or +∞ when there are fewer; every word whose length may be ≤ T is then taken in quad.
 double spectrum_bound(const WordWalk& walk) {
   const int letters = static_cast<int>(walk.letter.size());
-  std::vector<std::vector<double>> upper(static_cast<std::size_t>(letters));
+  struct Interval {
+    double low, high;
+    bool sure;
+  };
+  std::vector<std::vector<Interval>> found(static_cast<std::size_t>(letters));
   int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
 #pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory)
   for (int first = 0; first < letters; ++first) try {
-    std::vector<double>& u = upper[static_cast<std::size_t>(first)];
+    std::vector<Interval>& out = found[static_cast<std::size_t>(first)];
     walk(first, [&](const std::vector<int>& word, const MoebiusD& m, double norms) {
       const int len = static_cast<int>(word.size());
       const auto [l, error] = screening_length(m, norms, len);
-      if (l > 0 && std::isfinite(error) && length_rounding(l + error, norms, len) <= kReliable / 2) u.push_back(l + error);
+      if (!std::isfinite(error)) {
+        out.push_back({0, INFINITY, false});  // unresolved in double: anywhere
+        return;
+      }
+      if (!(length_rounding(l + error, norms, len) <= kReliable)) return;  // never reliable
+      const double low = l - error;
+      out.push_back({low, l + error, low > 0 && length_rounding(low, norms, len) <= kReliable});
     });
   } catch (const std::bad_alloc&) {
     out_of_memory = 1;
   }
   if (out_of_memory) throw std::bad_alloc();
-  std::vector<double> all;
-  for (const std::vector<double>& u : upper) all.insert(all.end(), u.begin(), u.end());
-  upper.clear();
-  std::sort(all.begin(), all.end());
-  std::size_t distinct = 0;
-  double last = -1;
-  for (const double l : all) {
-    if (last >= 0 && l - last <= kSameLength * l) continue;
-    last = l;
-    if (++distinct == kSpectrumSize + kSpectrumSize / 2) return l;
+  std::vector<Interval> all;
+  for (const std::vector<Interval>& f : found) all.insert(all.end(), f.begin(), f.end());
+  found.clear();
+  std::sort(all.begin(), all.end(), [](const Interval& x, const Interval& y) { return x.low < y.low; });
+  std::size_t clusters = 0;
+  double top = -INFINITY;  // the largest upper end so far
+  bool sure = false;       // the current cluster holds a surely reliable word
+  for (const Interval& i : all) {
+    if (i.low - top > kSameLength * i.high) {  // a new cluster: close the current one
+      if (sure && ++clusters == kSpectrumSize + kSpectrumSize / 2) return top;
+      sure = false;
+    }
+    top = std::max(top, i.high);
+    sure = sure || i.sure;
   }
   return INFINITY;
 }
@@ -253,9 +273,9 @@ double spectrum_bound(const WordWalk& walk) {
 /// distinct lengths. The words are searched depth first, each first letter's words on their own
 /// (in parallel), and the searches are then merged in the order of their first letters, so the
 /// result does not depend on the threads. Two passes: the first takes every word's length in
-/// double with an error bound and from them a length T that the kSpectrumSize-th distinct length
-/// cannot exceed (spectrum_bound()); the second takes in quad only the words whose length may be
-/// ≤ T (a few per thousand), so the result is the one an evaluation of every word in quad gives.
+/// double with an error bound and from them a length T below which the spectrum is complete
+/// (spectrum_bound()); the second takes in quad only the words whose length may be ≤ T (a few per
+/// thousand), so the result is the one an evaluation of every word in quad gives.
 WordLength systole_search(const std::vector<detail::MoebiusQ>& generators, std::span<const double> residuals,
                           int max_length, std::vector<double>& spectrum) {
   const int letters = static_cast<int>(2 * generators.size());

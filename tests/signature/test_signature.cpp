@@ -819,5 +819,17 @@ TEST_CASE("signature: the screened systole search gives the spectrum of every wo
     REQUIRE(spectrum.size() == h.spectrum.size());
     for (std::size_t i = 0; i < spectrum.size(); ++i) CHECK(std::abs(spectrum[i] - h.spectrum[i]) <= 1e-10 * spectrum[i]);
     CHECK(std::abs(h.systole.length - lengths.front()) <= 1e-10 * lengths.front());
+    // The same group seen from farther off (conjugated by a translation of hyperbolic distance 4):
+    // the letters' entries grow by up to e², the double screening's error bounds by up to e^10 over
+    // five letters; the spectrum is a conjugacy invariant and must not move. (Much farther, words
+    // leave the spectrum as their quad products stop resolving 1e-9, screened or not.)
+    const ricci::Moebius T = ricci::Moebius::translation_real(4.0);
+    std::vector<ricci::Moebius> far;
+    for (const ricci::Moebius& g : sig.generators) far.push_back((T * g * T.inverse()).normalized());
+    const ricci::ConformalSignature hf = ricci::hyperbolic_signature(far);
+    REQUIRE(hf.status == ricci::Status::Ok);
+    REQUIRE(hf.spectrum.size() == h.spectrum.size());
+    for (std::size_t i = 0; i < h.spectrum.size(); ++i) CHECK(std::abs(hf.spectrum[i] - h.spectrum[i]) <= 1e-9 * h.spectrum[i]);
+    CHECK(std::abs(hf.systole.length - h.systole.length) <= 1e-9 * h.systole.length);
   }
 }
