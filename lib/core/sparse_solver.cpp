@@ -572,9 +572,8 @@ void SymmetricSolver::Impl::forward_paths(Paths& p) {
   const auto* li = static_cast<const SuiteSparse_long*>(L->i);
   const auto* lnz = static_cast<const SuiteSparse_long*>(L->nz);
   const auto* lx = static_cast<const double*>(L->x);
-  double* work = block_work.data();
   // Supernode q: its dense block (columns k1 …, rows pi[q] …), the path's values out to z.
-  auto supernode = [&](std::int64_t q, double*& z) {
+  auto supernode = [&](double* work, std::int64_t q, double*& z) {
     const std::int64_t k1 = super[q], nscol = super[q + 1] - k1, psi = pi[q], nsrow = pi[q + 1] - psi;
     const double* Lq = lx + px[q];
     double* x = work + k1;
@@ -592,7 +591,7 @@ void SymmetricSolver::Impl::forward_paths(Paths& p) {
     }
   };
   // Simplicial column j: its diagonal first, then rows that are all ancestors of j.
-  auto column = [&](std::int64_t j, double*& z) {
+  auto column = [&](double* work, std::int64_t j, double*& z) {
     const std::int64_t first = lp[j], end = first + lnz[j];
     const double xj = work[j] / lx[first];
     work[j] = 0;
@@ -600,16 +599,29 @@ void SymmetricSolver::Impl::forward_paths(Paths& p) {
     if (xj != 0)
       for (std::int64_t r = first + 1; r < end; ++r) work[li[r]] -= lx[r] * xj;
   };
+  // One path per column, each in its own slice of p.values: in parallel for many columns, each
+  // thread with its own workspace (zero again after every path), the same values on any number of
+  // threads.
   const auto k = static_cast<std::int64_t>(p.column.size());
-  for (std::int64_t c = 0; c < k; ++c) {
+  auto path = [&](double* work, std::int64_t c) {
     work[p.column[c]] = 1;
     double* z = p.values.data() + p.value_offsets[c];
     for (std::int64_t t = p.offsets[c]; t < p.offsets[c + 1]; ++t) {
       if (super_layout)
-        supernode(p.super[t], z);
+        supernode(work, p.super[t], z);
       else
-        column(p.super[t], z);
+        column(work, p.super[t], z);
     }
+  };
+  if (k < 64) {
+    for (std::int64_t c = 0; c < k; ++c) path(block_work.data(), c);
+    return;
+  }
+#pragma omp parallel
+  {
+    std::vector<double> work(static_cast<std::size_t>(n), 0.0);
+#pragma omp for schedule(dynamic, 8)
+    for (std::int64_t c = 0; c < k; ++c) path(work.data(), c);
   }
 }
 
