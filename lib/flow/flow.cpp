@@ -772,7 +772,12 @@ bool FlowSolver::boundary_direct_solve() {
       boundary_pivot_[j] = static_cast<Index>(pivot_row);
       if (pivot_row != j)
         for (std::size_t c = 0; c < P; ++c) std::swap(S[j * P + c], S[pivot_row * P + c]);
-      for (std::size_t i = j + 1; i < P; ++i) {
+      // The rows below the pivot, each on its own (in parallel when there are many): the same
+      // factors on any number of threads.
+      const auto rows = static_cast<std::int64_t>(P - j - 1);
+#pragma omp parallel for schedule(static) if (rows >= 256)
+      for (std::int64_t d = 1; d <= rows; ++d) {
+        const std::size_t i = j + static_cast<std::size_t>(d);
         const double f = S[i * P + j] / pivot;
         S[i * P + j] = f;
         if (f != 0)
