@@ -1,6 +1,7 @@
 // The solver's parts (flow_parts.h): their methods, and the shared helpers.
 #include "flow_parts.h"
 
+#include <cmath>
 #include <limits>
 #include <numbers>
 
@@ -175,6 +176,8 @@ void VertexClasses::remove_gauge_mean(const Topology& t, std::span<double> step,
 // formula of metric.h: F(l) = Q/D with F = l², sinh²(l/2) or sin²(l/2)).
 void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, std::span<const double> u,
                               std::span<const double> lengths) {
+  radius_.assign(static_cast<std::size_t>(t.num_boundary_loops()), std::numeric_limits<double>::quiet_NaN());
+  radius_lengths_ = lengths.data();
   const double sigma =
       s.geometry == Geometry::Euclidean ? 0.0 : (s.geometry == Geometry::Hyperbolic ? 1.0 : -1.0);
   const double eps = s.epsilon;
@@ -213,7 +216,12 @@ void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geomet
       dL += dl;
     }
     const double T = target.loop_total[loop];
-    const double R = inscribed_circle_loop(target, g, loop) ? inscribed_radius(t, loop, lengths) : 0.0;
+    double R = 0;
+    if (inscribed_circle_loop(target, g, loop)) {
+      const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
+      if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
+      R = cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
+    }
     if (R > 0) {
       // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
       // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).

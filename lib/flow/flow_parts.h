@@ -128,6 +128,11 @@ class LoopTargetDerivative {
  private:
   std::vector<double> dl_du_, dl_;
   std::vector<double> arc_;  // per position: scratch of apply()
+  // Per loop, the inscribed circle's radius at the lengths at() was given (NaN until apply() first
+  // needs it): it depends on the lengths alone, and the boundary system applies this derivative
+  // once per boundary position in a step.
+  std::vector<double> radius_;
+  const double* radius_lengths_ = nullptr;
 };
 
 // How finely each vertex's curvature is resolved in double precision (see the design notes at the
