@@ -715,6 +715,7 @@ class DomainDeckRun {
     X_.resize(static_cast<std::size_t>(domain_.num_generators()));
     side_pairs_.resize(X_.size());
     out_.side_maps.resize(X_.size());
+    std::vector<Index> sides;  // one side of each pairing, in side order
     for (Index s = 0; s < domain_.num_sides(); ++s) {
       if (domain_.side_orientation[s] != 1) continue;
       const Index k = domain_.side_generator[s], p = domain_.side_partner[s];
@@ -724,13 +725,35 @@ class DomainDeckRun {
       std::vector<Pair>& pairs = side_pairs_[k];
       for (Index i = 0; i < n; ++i)
         pairs.push_back({dz(domain_.side_vertices[b0 + i]), dz(domain_.side_vertices[bp + n - 1 - i])});
-      DeckGenerator G;
+      sides.push_back(s);
+    }
+    // The pairings are fitted independently (each its own Ceres problem), in parallel; the results
+    // are taken in side order, so the first failure named is the one a serial loop would name.
+    const auto m = static_cast<std::int64_t>(sides.size());
+    std::vector<DeckGenerator> fitted(static_cast<std::size_t>(m));
+    std::vector<int> iterations(static_cast<std::size_t>(m), 0);
+    std::vector<std::uint8_t> ok(static_cast<std::size_t>(m), 0);
+    int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory) if (m >= 4)
+    for (std::int64_t j = 0; j < m; ++j) try {
+      const Index s = sides[static_cast<std::size_t>(j)];
+      DeckGenerator& G = fitted[static_cast<std::size_t>(j)];
       G.name = domain_.side_label[s];
       G.side = s;
-      G.partner = p;
-      G.pairs = n;
-      if (!fit_hyperbolic(pairs, options_, G, r_.ceres_iterations))
+      G.partner = domain_.side_partner[s];
+      G.pairs = domain_.side_offsets[s + 1] - domain_.side_offsets[s];
+      ok[static_cast<std::size_t>(j)] = fit_hyperbolic(side_pairs_[static_cast<std::size_t>(domain_.side_generator[s])],
+                                                       options_, G, iterations[static_cast<std::size_t>(j)]);
+    } catch (const std::bad_alloc&) {
+      out_of_memory = 1;
+    }
+    if (out_of_memory) throw std::bad_alloc();
+    for (std::int64_t j = 0; j < m; ++j) {
+      DeckGenerator& G = fitted[static_cast<std::size_t>(j)];
+      r_.ceres_iterations += iterations[static_cast<std::size_t>(j)];
+      if (!ok[static_cast<std::size_t>(j)])
         return fail(Status::NumericalFailure, "domain side pairing " + G.name + " maps its side outside the disk.");
+      const Index k = domain_.side_generator[sides[static_cast<std::size_t>(j)]];
       X_[k] = MoebiusQ(G.map);
       out_.side_maps[k] = std::move(G);
     }

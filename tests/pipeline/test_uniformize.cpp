@@ -3,6 +3,8 @@
 // failures name their stage and keep what ran before; angle distortion is measured per corner.
 #include <doctest/doctest.h>
 
+#include <omp.h>
+
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -570,4 +572,35 @@ TEST_CASE("uniformize: a circle domain solved through the direct boundary system
   CHECK(r[0].flow.u == r[1].flow.u);
   CHECK(r[0].flow.l == r[1].flow.l);
   CHECK(r[0].layout.positions == r[1].layout.positions);
+}
+
+// The compact domain's side pairings are fitted in parallel (one Ceres problem each): the pairings,
+// the canonical generators and the polygon must be the same bit for bit on 1 and 2 threads.
+TEST_CASE("uniformize: a closed genus-3 surface's pairings and polygon are the same on 1 and 2 threads") {
+  const ReadResult read = read_mesh((ricci_test::fixtures_dir() / "genus3.obj").string());
+  REQUIRE(read.status == Status::Ok);
+  const ValidateResult v = validate_mesh(read.mesh);
+  REQUIRE(v.status == Status::Ok);
+  const int saved = omp_get_max_threads();
+  UniformizeResult r[2];
+  for (int threads = 1; threads <= 2; ++threads) {
+    omp_set_num_threads(threads);
+    UniformizeOptions o;
+    o.seed_checks = 0;
+    r[threads - 1] = uniformize(v.mesh, v.topology, o);
+    REQUIRE_MESSAGE(r[threads - 1].status == Status::Ok, r[threads - 1].message);
+  }
+  omp_set_num_threads(saved);
+  REQUIRE(r[0].domain_maps.size() == r[1].domain_maps.size());
+  REQUIRE(r[0].domain_maps.size() >= 6);
+  for (std::size_t k = 0; k < r[0].domain_maps.size(); ++k) {
+    CHECK(r[0].domain_maps[k].map.a == r[1].domain_maps[k].map.a);
+    CHECK(r[0].domain_maps[k].map.b == r[1].domain_maps[k].map.b);
+  }
+  REQUIRE(r[0].deck.generators.size() == r[1].deck.generators.size());
+  for (std::size_t k = 0; k < r[0].deck.generators.size(); ++k) {
+    CHECK(r[0].deck.generators[k].map.a == r[1].deck.generators[k].map.a);
+    CHECK(r[0].deck.generators[k].map.b == r[1].deck.generators[k].map.b);
+  }
+  CHECK(r[0].deck.relation_error == r[1].deck.relation_error);
 }
