@@ -214,6 +214,9 @@ struct WordWalk {
   }
 };
 
+/// Translation lengths past which length_rounding() is not evaluated (its cosh would overflow).
+constexpr double kLongest = 1400;
+
 /// A length T below which the reliable words' lengths already give kSpectrumSize entries of the
 /// spectrum, from every word's length in double with its error bound (each first letter's words in
 /// parallel). Each word that may be reliable (its quad rounding bound at the top of its interval
@@ -238,13 +241,15 @@ double spectrum_bound(const WordWalk& walk) {
     walk(first, [&](const std::vector<int>& word, const MoebiusD& m, double norms) {
       const int len = static_cast<int>(word.size());
       const auto [l, error] = screening_length(m, norms, len);
-      if (!std::isfinite(error)) {
-        out.push_back({0, INFINITY, false});  // unresolved in double: anywhere
+      if (!(error < l)) {  // unresolved in double (the bound not below the length): anywhere
+        out.push_back({0, INFINITY, false});
         return;
       }
-      if (!(length_rounding(l + error, norms, len) <= kReliable)) return;  // never reliable
-      const double low = l - error;
-      out.push_back({low, l + error, low > 0 && length_rounding(low, norms, len) <= kReliable});
+      // The quad rounding bound falls as the length grows; past kLongest (where cosh overflows)
+      // it is below any tolerance. Never reliable: above kReliable even at the interval's top.
+      const double low = l - error, high = l + error;
+      if (high < kLongest && !(length_rounding(high, norms, len) <= kReliable)) return;
+      out.push_back({low, high, low >= kLongest || length_rounding(low, norms, len) <= kReliable});
     });
   } catch (const std::bad_alloc&) {
     out_of_memory = 1;
