@@ -92,15 +92,6 @@ struct Surface {
   Index cls(Index v) const { return vertex_loop[v] >= 0 ? nv() + vertex_loop[v] : v; }
 };
 
-/// The edge joining u and v, or kInvalid.
-Index find_edge(const Topology& t, Index u, Index v) {
-  for (Index k = t.vertex_corner_offsets[u]; k < t.vertex_corner_offsets[u + 1]; ++k) {
-    const Index c = t.vertex_corners[k];
-    if (t.corner_vertex[next_corner(c)] == v) return t.corner_edge[prev_corner(c)];
-    if (t.corner_vertex[prev_corner(c)] == v) return t.corner_edge[next_corner(c)];
-  }
-  return kInvalid;
-}
 
 /// Input-vertex weights of surface vertex v (up to three (vertex, weight) pairs).
 void vertex_weights(const Surface& S, Index v, std::array<Index, 3>& ov, std::array<double, 3>& w) {
@@ -791,7 +782,7 @@ bool realize_path(Surface& S, const Disk& R, PathSearch& ps, std::optional<Surfa
 /// Sets the cut flags from vertex pairs (after a refinement renumbered the edges).
 bool set_cut(const Surface& S, State& st, const std::vector<Pair>& pairs, bool value) {
   for (const auto& [u, v] : pairs) {
-    const Index e = find_edge(S.topo, u, v);
+    const Index e = S.topo.edge_between(u, v);
     if (e == kInvalid) return false;
     st.cut[e] = value ? 1 : 0;
   }
@@ -1655,7 +1646,7 @@ int form_along(const Topology& t, const std::vector<int>& form, std::span<const 
   if (b.size() < 2 || b.front() != b.back()) return 0;
   int sum = 0;
   for (std::size_t k = 0; k + 1 < b.size(); ++k) {
-    const Index e = find_edge(t, b[k], b[k + 1]);
+    const Index e = t.edge_between(b[k], b[k + 1]);
     if (e == kInvalid) return 0;
     sum += t.edge_vertices[2 * e] == b[k] ? form[e] : -form[e];
   }

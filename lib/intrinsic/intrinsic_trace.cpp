@@ -29,15 +29,6 @@ Index to_edge_slot(const Topology& t, Index c, Index p, Index count) {
   return t.edge_corners[2 * t.corner_edge[c]] == c ? p : count - 1 - p;
 }
 
-// The edge of `t` joining vertices a and b, found in a's fan; kInvalid when none does.
-Index input_edge_between(const Topology& t, Index a, Index b) {
-  for (Index k = t.vertex_corner_offsets[a]; k < t.vertex_corner_offsets[a + 1]; ++k) {
-    const Index c = t.vertex_corners[k];
-    if (t.corner_vertex[next_corner(c)] == b) return t.corner_edge[prev_corner(c)];
-    if (t.corner_vertex[prev_corner(c)] == b) return t.corner_edge[next_corner(c)];
-  }
-  return kInvalid;
-}
 
 }  // namespace
 
@@ -83,7 +74,7 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
   // The input edge joining va and vb (looked up in va's fan), marked found; kInvalid when there is
   // none or it was found.
   auto claim = [&](Index va, Index vb) -> Index {
-    const Index a = input_edge_between(input, va, vb);
+    const Index a = input.edge_between(va, vb);
     if (a == kInvalid || found[a]) return kInvalid;
     found[a] = 1;
     return a;

@@ -303,14 +303,7 @@ bool develop_by_shapes(const Topology& t, std::span<const double> l, std::span<c
                        Index s1, std::vector<double>& x) {
   const Index nv = t.num_vertices, nf = t.num_faces;
   const std::int64_t n = 2 * static_cast<std::int64_t>(nv);
-  const Index s01 = [&] {  // the edge s0–s1
-    for (Index k = t.vertex_corner_offsets[s0]; k < t.vertex_corner_offsets[s0 + 1]; ++k) {
-      const Index c = t.vertex_corners[k];
-      if (t.corner_vertex[next_corner(c)] == s1) return t.corner_edge[prev_corner(c)];
-      if (t.corner_vertex[prev_corner(c)] == s1) return t.corner_edge[next_corner(c)];
-    }
-    return kInvalid;
-  }();
+  const Index s01 = t.edge_between(s0, s1);
   if (s01 == kInvalid) return false;
   // Fixed unknowns and their values.
   std::vector<double> fixed_value(static_cast<std::size_t>(n), 0.0);

@@ -78,6 +78,15 @@ struct Topology {
   }
   /// Number of corners (faces) around vertex v.
   Index valence(Index v) const { return vertex_corner_offsets[v + 1] - vertex_corner_offsets[v]; }
+  /// The edge joining vertices u and v, found in u's fan (O(valence)); kInvalid when none does.
+  Index edge_between(Index u, Index v) const {
+    for (Index k = vertex_corner_offsets[u]; k < vertex_corner_offsets[u + 1]; ++k) {
+      const Index c = vertex_corners[k];
+      if (corner_vertex[next_corner(c)] == v) return corner_edge[prev_corner(c)];
+      if (corner_vertex[prev_corner(c)] == v) return corner_edge[next_corner(c)];
+    }
+    return kInvalid;
+  }
 };
 
 /// What build_topology() returns.
