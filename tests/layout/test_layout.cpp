@@ -325,6 +325,20 @@ TEST_CASE("layout: normalisations") {
   CHECK(std::abs(h.positions[2 * hv + 1]) < 1e-15);
   CHECK(h.positions[2 * hv] >= 0);
   for (Index v = 0; v < d.topo.num_vertices; ++v) CHECK(std::hypot(h.positions[2 * v], h.positions[2 * v + 1]) < 1);
+  // The propagation runs again in the normalised frame (at most 4 times, until the frame moves by
+  // less than 1e-6), also from a seed at the disk's edge; without the normalisation it runs once.
+  CHECK(h.propagation_passes >= 1);
+  CHECK(h.propagation_passes <= 4);
+  LayoutOptions off = o;
+  off.unit_box = false;
+  off.seed_face = h.seed_face == 0 ? d.topo.num_faces - 1 : 0;
+  const Layout hf = layout_disk(d.topo, Geometry::Hyperbolic, lh, off);
+  REQUIRE(hf.status == Status::Ok);
+  CHECK(hf.propagation_passes >= 1);
+  CHECK(hf.propagation_passes <= 4);
+  CHECK(hf.centre_of_mass < 1e-12);
+  off.normalize = false;
+  CHECK(layout_disk(d.topo, Geometry::Hyperbolic, lh, off).propagation_passes == 0);
   // S: isometric (rotation only) vs Möbius-centred.
   const Uniformized s = load_uniformized(ricci_test::fixtures_dir() / "icosphere.obj");
   LayoutOptions so;

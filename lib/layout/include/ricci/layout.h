@@ -55,8 +55,9 @@
 //      putting the seed face's corner-0 vertex on the positive real axis (corner 1 if corner 0 is
 //      at 0). An isometry: lengths are unchanged. Then the propagation runs a second time in this
 //      final frame, from the seed face's normalised position, and the map is re-fitted; repeated
-//      (at most 4 times) until the fitted map moves the centre by less than 1e-6: Poincaré coordinates resolve hyperbolic distance only to
-//      ~2^-52 / (1 − |z|²), so no vertex should be computed farther out than it ends up.
+//      (at most 4 times) until the fitted map moves the centre by less than 1e-6: Poincaré
+//      coordinates resolve hyperbolic distance only to ~2^-52 / (1 − |z|²), so no vertex should
+//      be computed farther out than it ends up.
 //   S  Möbius centring (Baden, Crane, Kazhdan 2018, "Möbius registration"): with fixed weights
 //      w_i (vertex areas of the metric), Newton iterations c = −J⁻¹ μ on the centre of mass
 //      μ = Σ w_i x_i / Σ w_i, J = 2 Σ w_i (I − x_i x_iᵀ) / Σ w_i, each applying the Möbius map
