@@ -115,6 +115,26 @@ using model::sphere_distance;  // great circle of two unit vectors
 Cx to_origin(Cx p, Cx z) { return model::disk_to_origin(p, z); }
 Cx from_origin(Cx p, Cx z) { return (z + p) / (1.0 + std::conj(p) * z); }
 
+/// (cos θ, sin θ) of the angle θ opposite side a in the triangle with sides a, b, c (H, S; E
+/// places by the cosine law), from the two products of the half-angle formula —
+/// sin²(θ/2) ∝ f(σ−b)·f(σ−c), cos²(θ/2) ∝ f(σ)·f(σ−a), σ the half perimeter, f = sinh or sin —
+/// without forming θ (angle_from_lengths() takes its arctangent): as exact as θ from the same
+/// products, and no arctangent, sine or cosine after them. (1, 0) when both products vanish.
+Cx turn_at_first(Geometry g, double a, double b, double c) {
+  const double half = (a + b + c) / 2;
+  const double sin2 = std::max(0.0, side_function(g, std::max(0.0, half - b)) * side_function(g, std::max(0.0, half - c)));
+  const double cos2 = std::max(0.0, side_function(g, half) * side_function(g, std::max(0.0, half - a)));
+  const double sum = sin2 + cos2;
+  return sum > 0 ? Cx((cos2 - sin2) / sum, 2 * std::sqrt(sin2 * cos2) / sum) : Cx(1, 0);
+}
+
+/// a / b for a divisor bounded away from 0 and ∞ (the disk maps' 1 − p̄z with |p|, |z| < 1):
+/// the plain formula, without the scaling of the library's complex division.
+Cx disk_quotient(Cx a, Cx b) {
+  const double n = std::norm(b);
+  return {(a.real() * b.real() + a.imag() * b.imag()) / n, (a.imag() * b.real() - a.real() * b.imag()) / n};
+}
+
 /// Hyperboloid point (t, x, y) of a Poincaré disk point.
 V3 hyperboloid(Cx z) {
   const double r2 = std::norm(z);
@@ -198,13 +218,25 @@ struct Positions {
         break;
       }
       case Geometry::Hyperbolic: {
+        // P moved to the origin by the disk isometry, Q to w; geodesics through the origin are
+        // diameters and the model is conformal, so the vertex lies at tanh(rp/2)·e^{iθ}·w/|w|, θ the
+        // triangle's angle at P. cos θ and sin θ come from the half-angle formula's two products
+        // (sin²(θ/2) ∝ sinh(σ−s)·sinh(σ−rp), cos²(θ/2) ∝ sinh σ·sinh(σ−rq), σ the half perimeter)
+        // without forming θ: no arctangent, sine or cosine, and θ as exact as the formula's.
         const Cx P = z(pv);
-        const Cx w = to_origin(P, z(qv));
-        const double aw = std::abs(w);
-        const double s = aw < 1 ? 2 * std::atanh(aw) : kInf;
-        const double th = angle_from_lengths(g, rq, std::min(s, 1e300), rp);
-        const Cx local = std::polar(std::tanh(rp / 2), std::arg(w) + th);
-        set(v, from_origin(P, local));
+        const Cx w = disk_quotient(z(qv) - P, 1.0 - std::conj(P) * z(qv));
+        const double T = std::sqrt(std::norm(w));
+        Cx local;
+        if (T > 0 && T < 1 && rp < 300 && rq < 300) {
+          local = (std::tanh(rp / 2) / T) * w * turn_at_first(g, rq, 2 * std::atanh(T), rp);
+        } else {
+          // Ends that coincide or lie a disk apart in double, or lengths beyond the disk's
+          // resolution (tanh(rp/2) rounds to 1 from rp ≈ 38): by the angle itself, which stays
+          // finite there; the measured layout shows what rounding did.
+          const double s = T < 1 ? 2 * std::atanh(T) : kInf;
+          local = std::polar(std::tanh(rp / 2), std::arg(w) + angle_from_lengths(g, rq, std::min(s, 1e300), rp));
+        }
+        set(v, disk_quotient(local + P, 1.0 + std::conj(P) * local));
         break;
       }
       default: {
@@ -213,8 +245,8 @@ struct Positions {
         const double s = std::atan2(norm(n), dot(P, Q));
         const V3 U = normalized(cross(n, P));  // tangent at P towards Q
         const V3 W = cross(P, U);
-        const double th = angle_from_lengths(g, rq, s, rp);
-        const double c = std::cos(th), sn = std::sin(th), cr = std::cos(rp), sr = std::sin(rp);
+        const Cx turn = turn_at_first(g, rq, s, rp);
+        const double c = turn.real(), sn = turn.imag(), cr = std::cos(rp), sr = std::sin(rp);
         V3 X;
         for (int d = 0; d < 3; ++d) X[d] = cr * P[d] + sr * (c * U[d] + sn * W[d]);
         set(v, normalized(X));

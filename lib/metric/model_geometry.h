@@ -99,6 +99,10 @@ inline double sphere_distance(const P3& x, const P3& y) {
 // Hyperbolic distance of two Poincaré-disk points (accurate for close points); +∞ for points on
 // or outside the unit circle.
 inline double disk_distance(std::complex<double> z, std::complex<double> w) {
+  // sinh²(d/2) = |z − w|² / ((1 − |z|²)(1 − |w|²)) from the squared moduli (no hypot), while
+  // |z − w|² is a normal number and the points are inside the disk; the moduli otherwise.
+  const double nz = std::norm(z), nw = std::norm(w), nd = std::norm(z - w);
+  if (nd >= 0x1p-1000 && nz < 1 && nw < 1) return 2 * std::asinh(std::sqrt(nd / ((1 - nz) * (1 - nw))));
   const double az = std::abs(z), aw = std::abs(w);
   const double dz = (1 - az) * (1 + az), dw = (1 - aw) * (1 + aw);
   if (!(dz > 0 && dw > 0)) return std::numeric_limits<double>::infinity();
