@@ -56,7 +56,9 @@
 // K(u) − K̄(l(u)) = 0 with the Jacobian J = ∂K/∂u − ∂K̄/∂u: the second term lives on the boundary
 // loops only, so J δ = g reduces to a system of the size of the boundary, solved directly from the
 // factorization of ∂K/∂u (or by GMRES with it when the boundary is long; see coupled_direction()
-// and setup_boundary_direct()), and the line search uses the residual merit
+// and setup_boundary_direct()) — with vertex scaling instead through the split of ∂K̄/∂u into a
+// loop-local part factorized with the Newton matrix and one rank-one term per loop
+// (split_direction()) — and the line search uses the residual merit
 // ½‖K̄(l) − K‖² with K̄ recomputed at each trial. (Holding K̄ fixed within a step converges
 // linearly at best — 20–110 steps on disks, annuli and spheres with holes — and oscillates without
 // converging on surfaces with several holes; the coupled step takes 3–5.)
@@ -299,6 +301,8 @@ class FlowSolver {
   void setup_boundary_direct(bool force = false);
   bool boundary_direct_solve();
   bool coupled_direction(std::span<const double> g);
+  bool split_values();
+  bool split_direction(std::span<const double> g);
   bool moebius_direction();
   Validity evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
                        ConformalStructure& s, bool& flipped);
@@ -385,6 +389,21 @@ class FlowSolver {
   std::vector<std::int64_t> block_unknown_;
   std::vector<double> block_gram_, boundary_lu_;
   std::vector<Index> boundary_pivot_;
+  // The split coupling (see split_direction()): per position its loop-local weight w and the
+  // factors a, b of its loop's rank-one term, the value slots of its diagonal entry and of the
+  // entry to the next position of its loop (-1 where an end is not an unknown); the pins; F⁻¹ of
+  // the low-rank columns (n each) and the LU factors of the small system (row pivots) and its
+  // right-hand side; whether the values hold F this step and whether the small system's factors
+  // are this factorization's.
+  bool split_ = false;
+  bool split_applied_ = false, split_ready_ = false;
+  int split_fallbacks_ = 0;
+  Index split_pin_count_ = 8;               // pins per positive loop of the next split factorization
+  std::vector<Index> split_pins_;           // the pinned unknowns
+  std::vector<double> split_rho_;           // their weights
+  std::vector<double> split_w_, split_a_, split_b_, split_z_, split_c_, split_small_;
+  std::vector<std::int64_t> split_diag_, split_next_;
+  std::vector<Index> split_pivot_;
   // Circle domains: the Möbius normalization (CircleDomainModes).
   CircleDomainModes modes_;
   const std::vector<Index>* order_hint_ = nullptr;
@@ -512,7 +531,7 @@ bool FlowSolver::refresh_pattern() {
       if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
     }
   }
-  if (analysis == detail::FactorOutcome::Ok && coupled_) {
+  if (analysis == detail::FactorOutcome::Ok && coupled_ && !split_) {
     boundary_direct_ = false;
     setup_boundary_direct();
   }
@@ -667,6 +686,9 @@ void FlowSolver::setup_coupling() {
   }
   loop_dK_.resize(positions);
   position_dK_.assign(positions, 0.0);
+  // Vertex scaling: each loop edge's length has the same derivative in the u of its two ends, so
+  // the target's derivative splits (split_direction()).
+  split_ = options_.split_loop_coupling && s_.epsilon == 0;
   full_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
   K_target_trial_.assign(static_cast<std::size_t>(t_.num_vertices), 0.0);
   gmres_.resize(positions);
@@ -804,6 +826,7 @@ bool FlowSolver::boundary_direct_solve() {
 // slope_ = d/dt ½‖K̄ − K‖² along it. Leaves x_ and slope_ for the held target when GMRES fails
 // (and returns false).
 bool FlowSolver::coupled_direction(std::span<const double> g) {
+  if (split_applied_) return split_direction(g);
   const Index n = pattern_.num_unknowns;
   const auto positions = static_cast<Index>(position_unknown_.size());
   loop_edge_derivatives();
@@ -861,6 +884,202 @@ bool FlowSolver::coupled_direction(std::span<const double> g) {
   }
   slope_ = -sum_(n, [&](std::int64_t j) { return g[j] * tmp_[j]; });
   return ok;
+}
+
+// The split coupling. With vertex scaling each loop edge's length has the same derivative in the
+// u of its two ends, and the target's derivative is a loop-local symmetric part plus one rank-one
+// term per loop (LoopTargetDerivative::split()): ∂K̄/∂u = D_loc + A Bᵀ (k loops, A and B n×k), so
+//     J = H − D_loc − A Bᵀ.
+// M = H − D_loc has the pattern of H (loop edges are edges) but need not be definite: on the
+// near-constant direction its form is about the pinned vertex's cotangent weight minus 2π for the
+// outer loop, and on a circle domain J itself is singular along the Möbius directions (the modes'
+// bordering fixes them). Its negative directions live along the loops whose local part is
+// subtracted (positive totals: a bump on an arc of such a loop costs less Dirichlet energy than
+// the loop's part takes away), so the factorized matrix is F = M + Σ ρ_i e_i e_iᵀ with soft pins
+// evenly along each of those loops (8 per loop, ρ_i = kSplitPinWeight × the diagonal entry; twice
+// as many while F is not positive definite, up to kSplitMaxPins per loop), and J = F − U Vᵀ with
+// U = [ρ_i e_i | A], V = [e_i | B] (m = pins + k columns). The Newton step — with the circle
+// domain's modes, the bordered one: J δ − N Δ = g, Nₙᵀ δ = r (N the two modes, Nₙ the two
+// normalization rows; see below) — is δ = Y + Z s + Z_N Δ with Y = F⁻¹g, Z = F⁻¹U, Z_N = F⁻¹N
+// and (s, Δ) from the (m + 2)-square system
+//     [I − VᵀZ   −VᵀZ_N] [s]   [VᵀY    ]
+//     [Nₙᵀ Z     Nₙᵀ Z_N] [Δ] = [r − NₙᵀY],
+// nonsingular exactly when the bordered Newton system is (whatever M's definiteness). Per Newton
+// step: one factorization of F and m + 2 solves set it up; each right-hand side is one solve.
+// The boundary system of the size of the boundary (a dense LU of P³, or GMRES at 10–16 solves per
+// system, three systems per step on circle domains) is what this replaces; it is used again from
+// the step where the split fails (no positive definite F, or a singular small system).
+constexpr Index kSplitMaxPins = 64;
+constexpr double kSplitPinWeight = 8;
+
+// Subtracts D_loc from the assembled Hessian (after split() at the current lengths) and adds the
+// pins; false (values untouched) when the split does not apply.
+bool FlowSolver::split_values() {
+  loop_edge_derivatives();
+  if (!loop_dK_.split(t_, target_, s_.geometry, cur_.l, split_w_, split_a_, split_b_)) {
+    return false;
+  }
+  const auto positions = static_cast<Index>(position_unknown_.size());
+  const Index n = pattern_.num_unknowns;
+  split_diag_.assign(static_cast<std::size_t>(positions), -1);
+  split_next_.assign(static_cast<std::size_t>(positions), -1);
+  // The value slot of (i, j), i ≤ j, in the upper triangle's compressed columns (rows sorted).
+  auto slot = [&](Index i, Index j) -> std::int64_t {
+    const auto first = pattern_.row.begin() + pattern_.col_ptr[j], last = pattern_.row.begin() + pattern_.col_ptr[j + 1];
+    const auto it = std::lower_bound(first, last, i);
+    return it != last && *it == i ? static_cast<std::int64_t>(it - pattern_.row.begin()) : -1;
+  };
+  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
+    const Index begin = t_.boundary_offsets[loop], end = t_.boundary_offsets[loop + 1];
+    for (Index p = begin; p < end; ++p) {
+      const Index next = p + 1 < end ? p + 1 : begin;
+      const Index i = position_unknown_[p], j = position_unknown_[next];
+      if (i != kInvalid) split_diag_[p] = slot(i, i);
+      if (i != kInvalid && j != kInvalid) split_next_[p] = slot(std::min(i, j), std::max(i, j));
+      if ((i != kInvalid && split_diag_[p] < 0) || (i != kInvalid && j != kInvalid && split_next_[p] < 0)) return false;
+    }
+  }
+  const std::span<double> values = solver_.values();
+  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
+    const Index begin = t_.boundary_offsets[loop], end = t_.boundary_offsets[loop + 1];
+    for (Index p = begin; p < end; ++p) {
+      const Index next = p + 1 < end ? p + 1 : begin;
+      const double w = split_w_[p];
+      if (split_diag_[p] >= 0) values[split_diag_[p]] -= w;
+      if (split_diag_[next] >= 0) values[split_diag_[next]] -= w;
+      if (split_next_[p] >= 0) values[split_next_[p]] -= w;
+    }
+  }
+  double largest = 0;
+  for (Index j = 0; j < n; ++j) largest = std::max(largest, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
+  // The pins: split_pin_count_ evenly along each loop whose local part is subtracted (positive
+  // total, or the target proportional to length with T > 0), where M's negative directions live.
+  split_pins_.clear();
+  split_rho_.clear();
+  for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
+    if (!(target_.loop_total[loop] > 0)) continue;
+    std::vector<Index> unknowns;
+    for (Index p = t_.boundary_offsets[loop]; p < t_.boundary_offsets[loop + 1]; ++p)
+      if (position_unknown_[p] != kInvalid) unknowns.push_back(position_unknown_[p]);
+    const auto count = static_cast<Index>(unknowns.size());
+    const Index pins = std::min(split_pin_count_, count);
+    for (Index i = 0; i < pins; ++i) {
+      const Index j = unknowns[static_cast<std::size_t>((static_cast<std::int64_t>(i) * count) / pins)];
+      if (std::find(split_pins_.begin(), split_pins_.end(), j) != split_pins_.end()) continue;
+      double& diagonal = values[pattern_.col_ptr[j + 1] - 1];
+      const double d = std::abs(diagonal);
+      split_pins_.push_back(j);
+      split_rho_.push_back(kSplitPinWeight * (std::isfinite(d) && d > 0 ? d : std::max(largest, 1.0)));
+      diagonal += split_rho_.back();
+    }
+  }
+  return std::isfinite(largest);
+}
+
+// x_ = F⁻¹g on entry (the factor holds F, or F + μI); on return the Newton step (above), with
+// modes_.d_alpha, d_beta on a circle domain, and slope_ = d/dt ½‖g‖² = −gᵀ(g − μ x_). False when
+// a solve fails, the small system is singular or a value is not finite.
+bool FlowSolver::split_direction(std::span<const double> g) {
+  const Index n = pattern_.num_unknowns;
+  const auto N = static_cast<std::size_t>(n);
+  const Index pins = static_cast<Index>(split_pins_.size()), k = t_.num_boundary_loops();
+  const Index m = pins + k, modes = modes_.active ? 2 : 0, size = m + modes;
+  const auto S = static_cast<std::size_t>(size);
+  // Vᵀ x, column c (a pin's value, or Σ b_p x_p over a loop's unknowns), and Nₙᵀ x, row r.
+  auto v_dot = [&](Index c, const double* x) {
+    if (c < pins) return x[split_pins_[c]];
+    double sum = 0;
+    for (Index p = t_.boundary_offsets[c - pins]; p < t_.boundary_offsets[c - pins + 1]; ++p)
+      if (position_unknown_[p] != kInvalid) sum += split_b_[p] * x[position_unknown_[p]];
+    return sum;
+  };
+  auto n_dot = [&](Index r, const double* x) {
+    const std::vector<double>& row = r == 0 ? modes_.norm_c : modes_.norm_s;
+    double sum = 0;
+    for (const Index v : modes_.vertices) {
+      const Index j = pattern_.vertex_unknown[v];
+      if (j != kInvalid) sum += row[v] * x[j];
+    }
+    return sum;
+  };
+  if (!split_ready_) {
+    split_z_.assign(S * N, 0.0);
+    split_c_.assign(S * S, 0.0);
+    split_pivot_.assign(S, 0);
+    for (Index c = 0; c < size; ++c) {
+      // Column c of U (pins, loops), then the modes N (with the gauge mean removed, as the
+      // right-hand sides are).
+      std::fill(tmp_.begin(), tmp_.end(), 0.0);
+      if (c < pins) {
+        tmp_[split_pins_[c]] = split_rho_[c];
+      } else if (c < m) {
+        for (Index p = t_.boundary_offsets[c - pins]; p < t_.boundary_offsets[c - pins + 1]; ++p)
+          if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] += split_a_[p];
+      } else {
+        std::copy((c == m ? modes_.a : modes_.b).begin(), (c == m ? modes_.a : modes_.b).end(), modes_.full.begin());
+        remove_gauge_mean(modes_.full);
+        for (Index j = 0; j < n; ++j) tmp_[j] = modes_.full[pattern_.unknown_vertex[j]];
+      }
+      const std::span<double> z(split_z_.data() + static_cast<std::size_t>(c) * N, N);
+      if (!solver_.solve(tmp_, z)) return false;
+      for (Index r = 0; r < size; ++r) {
+        double& entry = split_c_[static_cast<std::size_t>(r) * S + static_cast<std::size_t>(c)];
+        if (r < m) entry = (c < m ? (r == c ? 1.0 : 0.0) - v_dot(r, z.data()) : -v_dot(r, z.data()));
+        else entry = n_dot(r - m, z.data());
+      }
+    }
+    // LU with partial pivoting of the small system (row-major).
+    double largest = 0;
+    for (const double v : split_c_) largest = std::max(largest, std::abs(v));
+    if (!std::isfinite(largest)) return false;
+    double* C = split_c_.data();
+    for (std::size_t j = 0; j < S; ++j) {
+      std::size_t pr = j;
+      for (std::size_t i = j + 1; i < S; ++i)
+        if (std::abs(C[i * S + j]) > std::abs(C[pr * S + j])) pr = i;
+      if (!(std::abs(C[pr * S + j]) > 1e-13 * largest)) return false;
+      split_pivot_[j] = static_cast<Index>(pr);
+      if (pr != j)
+        for (std::size_t c = 0; c < S; ++c) std::swap(C[j * S + c], C[pr * S + c]);
+      for (std::size_t i = j + 1; i < S; ++i) {
+        const double f = C[i * S + j] / C[j * S + j];
+        C[i * S + j] = f;
+        for (std::size_t c = j + 1; c < S; ++c) C[i * S + c] -= f * C[j * S + c];
+      }
+    }
+    split_ready_ = true;
+  }
+  // The small right-hand side: VᵀY, then r − NₙᵀY with r = n·(u at the start) − n·u.
+  split_small_.assign(S, 0.0);
+  for (Index r = 0; r < m; ++r) split_small_[static_cast<std::size_t>(r)] = v_dot(r, x_.data());
+  for (Index r = 0; r < modes; ++r) {
+    double nu = 0;
+    for (const Index v : modes_.vertices) nu += (r == 0 ? modes_.norm_c[v] : modes_.norm_s[v]) * u_[v];
+    split_small_[static_cast<std::size_t>(m + r)] = ((r == 0 ? modes_.norm_c0 : modes_.norm_s0) - nu) - n_dot(r, x_.data());
+  }
+  double* w = split_small_.data();
+  const double* C = split_c_.data();
+  for (std::size_t j = 0; j < S; ++j) std::swap(w[j], w[static_cast<std::size_t>(split_pivot_[j])]);
+  for (std::size_t i = 0; i < S; ++i)
+    for (std::size_t c = 0; c < i; ++c) w[i] -= C[i * S + c] * w[c];
+  for (std::size_t i = S; i-- > 0;) {
+    for (std::size_t c = i + 1; c < S; ++c) w[i] -= C[i * S + c] * w[c];
+    w[i] /= C[i * S + i];
+  }
+  for (std::size_t r = 0; r < S; ++r)
+    if (!std::isfinite(w[r])) return false;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) {
+    double add = 0;
+    for (std::size_t r = 0; r < S; ++r) add += split_z_[r * N + static_cast<std::size_t>(j)] * w[r];
+    x_[j] += add;
+  }
+  if (modes > 0) {
+    modes_.d_alpha = w[m];
+    modes_.d_beta = w[m + 1];
+  }
+  slope_ = -sum_(n, [&](std::int64_t j) { return g[j] * (g[j] - shift_ * x_[j]); });
+  return std::isfinite(slope_);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -959,6 +1178,7 @@ bool FlowSolver::compute_direction() {
   iter_.derivatives += lap(mark);
   const std::span<double> values = solver_.values();
   assemble_hessian(t_, pattern_, blocks_, values);
+  split_applied_ = coupled_ && split_ && split_values();
   // The right-hand side K̄ − K. On an E gauge component its mean is removed: it is zero in exact
   // arithmetic (Gauss–Bonnet), but the computed curvatures sum to 2πχ only up to rounding, and
   // that remainder must not be pushed onto the pinned vertex.
@@ -975,6 +1195,17 @@ bool FlowSolver::compute_direction() {
   iter_.assembly += lap(mark);
   shift_ = 0;
   detail::FactorOutcome outcome = solver_.factorize(0);
+  if (split_applied_ && outcome != detail::FactorOutcome::Ok && outcome != detail::FactorOutcome::OutOfMemory) {
+    // The pinned split matrix is not positive definite: twice the pins, or the boundary system.
+    iter_.factorization += lap(mark);
+    if (split_pin_count_ < kSplitMaxPins) {
+      split_pin_count_ *= 2;
+    } else {
+      split_ = false;
+      ++split_fallbacks_;
+    }
+    return compute_direction();
+  }
   if (outcome == detail::FactorOutcome::NotPositiveDefinite || outcome == detail::FactorOutcome::Failed) {
     double mu = kFirstShift * max_diagonal;
     for (int k = 0; k < kMaxShifts; ++k, mu *= kShiftGrowth) {
@@ -990,6 +1221,7 @@ bool FlowSolver::compute_direction() {
   }
   iter_.factorization += lap(mark);
   boundary_factored_ = false;
+  split_ready_ = false;
   // GMRES needed more full solves in the last step than the direct solve's estimated work: the
   // direct solve from now on (the estimate of GMRES's iterations in setup_boundary_direct() is a
   // guess; this is the count).
@@ -1033,11 +1265,19 @@ bool FlowSolver::compute_direction() {
   // Circle / LoopTotals: correct the step for the dependence of K̄ on the lengths.
   modes_.d_alpha = modes_.d_beta = 0;
   if (ok && coupled_) {
-    if (!coupled_direction(rhs_)) {
+    bool coupled = true;
+    if (split_applied_) {
+      if (!split_direction(rhs_)) {
+        // The split failed (a singular rank-k system): the boundary system from here on.
+        split_ = false;
+        ++split_fallbacks_;
+        return compute_direction();
+      }
+    } else if (!coupled_direction(rhs_)) {
       ++gmres_failures_;
-    } else if (modes_.active && !moebius_direction()) {
-      ++modes_.failures;
+      coupled = false;
     }
+    if (coupled && !split_applied_ && modes_.active && !moebius_direction()) ++modes_.failures;
   }
   if (ok) {
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
@@ -1054,6 +1294,10 @@ bool FlowSolver::compute_direction() {
   // residual merit the negative gradient H(K̄ − K) of ½‖K̄ − K‖² (K̄ held).
   ++gradient_fallbacks_;
   shift_ = 0;
+  if (split_applied_) {  // the values hold the split matrix: the Hessian again
+    assemble_hessian(t_, pattern_, blocks_, values);
+    split_applied_ = false;
+  }
   if (residual_merit_) {
     detail::multiply_hessian(pattern_, values, rhs_, tmp_);
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
@@ -1482,7 +1726,7 @@ void FlowSolver::run() {
         for (Index k = 0; k < n; ++k) (*order_out_)[k] = pattern_.unknown_vertex[ordering[k]];
       }
     }
-    if (analysis == detail::FactorOutcome::Ok && coupled_) setup_boundary_direct();
+    if (analysis == detail::FactorOutcome::Ok && coupled_ && !split_) setup_boundary_direct();
     r_.timings.analysis += lap(mark);
     if (analysis != detail::FactorOutcome::Ok) {
       fail(analysis == detail::FactorOutcome::OutOfMemory ? Status::OutOfMemory : Status::NumericalFailure,
@@ -1581,6 +1825,9 @@ void FlowSolver::finish() {
   if (direct_fallbacks_ > 0)
     r_.notes.push_back("GMRES did not converge on the boundary system of the length-dependent target in " +
                        std::to_string(direct_fallbacks_) + " solve(s); it was solved directly (dense LU) instead");
+  if (split_fallbacks_ > 0)
+    r_.notes.push_back("the split of the length-dependent target's derivative failed (no positive definite pinned "
+                       "matrix, or a singular small system); the boundary system was solved from then on");
   if (gmres_failures_ > 0)
     r_.notes.push_back("the boundary system of the length-dependent target did not converge in " +
                        std::to_string(gmres_failures_) + " step(s); the step with the target held was used");

@@ -256,6 +256,63 @@ void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geomet
   }
 }
 
+// The split of apply()'s derivative. With dl_p = g_p·(x_p + x_p') (g_p the common derivative of
+// edge p's length in the u of its ends):
+//   inscribed polygon (R > 0): dK_p = (s/2)·(dα_{p−1} + dα_p), dα_j = (dl_j − l_j·ρ)/(R c_j),
+//     ρ = Σ_j (dl_j/c_j)/D, D = Σ_j l_j/c_j, s the sign of the total: the loop-local part has
+//     w_j = (s/2)·g_j/(R c_j) per edge, and −(s/2)·h_p·ρ, h_p = l_{p−1}/(R c_{p−1}) + l_p/(R c_p),
+//     is a_p = −(s/(2D))·h_p times bᵀx, b_q = g_{q−1}/c_{q−1} + g_q/c_q;
+//   proportional to length: dK_p = T/L·(½(dl_{p−1} + dl_p) − m_p·dL/L): w_j = T/(2L)·g_j, and
+//     a_p = −T·m_p/L², b_q = g_{q−1} + g_q.
+bool LoopTargetDerivative::split(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
+                                 std::vector<double>& w, std::vector<double>& a, std::vector<double>& b) {
+  const auto positions = static_cast<std::size_t>(t.num_boundary_edges());
+  w.assign(positions, 0.0);
+  a.assign(positions, 0.0);
+  b.assign(positions, 0.0);
+  for (std::size_t p = 0; p < positions; ++p)
+    if (!(dl_du_[2 * p] == dl_du_[2 * p + 1]) || !std::isfinite(dl_du_[2 * p])) return false;
+  auto edge_length = [&](Index p) { return lengths[t.corner_edge[t.boundary_corners[p]]]; };
+  for (Index loop = 0; loop < t.num_boundary_loops(); ++loop) {
+    const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
+    if (end - begin < 3) return false;
+    const double T = target.loop_total[loop];
+    double R = 0;
+    if (inscribed_circle_loop(target, g, loop)) {
+      const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
+      if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
+      R = cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
+    }
+    if (R > 0) {
+      double D = 0;
+      for (Index p = begin; p < end; ++p) {
+        const double half_chord = std::min(edge_length(p) / (2 * R), 1.0);
+        arc_[p] = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);  // c_p
+        D += edge_length(p) / arc_[p];
+      }
+      const double sign = T > 0 ? 1.0 : -1.0;
+      for (Index p = begin; p < end; ++p) {
+        const Index before = p > begin ? p - 1 : end - 1;
+        w[p] = sign * 0.5 * dl_du_[2 * p] / (R * arc_[p]);
+        a[p] = -sign / (2 * D) * (edge_length(before) / (R * arc_[before]) + edge_length(p) / (R * arc_[p]));
+        b[p] = dl_du_[2 * before] / arc_[before] + dl_du_[2 * p] / arc_[p];
+      }
+    } else {
+      double L = 0;
+      for (Index p = begin; p < end; ++p) L += edge_length(p);
+      for (Index p = begin; p < end; ++p) {
+        const Index before = p > begin ? p - 1 : end - 1;
+        w[p] = T / (2 * L) * dl_du_[2 * p];
+        a[p] = -T / (L * L) * 0.5 * (edge_length(before) + edge_length(p));
+        b[p] = dl_du_[2 * before] + dl_du_[2 * p];
+      }
+    }
+  }
+  for (std::size_t p = 0; p < positions; ++p)
+    if (!std::isfinite(w[p]) || !std::isfinite(a[p]) || !std::isfinite(b[p])) return false;
+  return true;
+}
+
 // resolution_v = ε·Σ over the corners at v of Σ_b |∂θ/∂u_b|·(1 + |u_b|), from the derivative
 // blocks (of u): the rounding of each length (its log carries ε·(1 + |u|)) seen
 // through the angles' sensitivity to it.

@@ -124,6 +124,13 @@ class LoopTargetDerivative {
   void at(const Topology& t, const ConformalStructure& s, std::span<const double> u, std::span<const double> lengths);
   void apply(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
              std::span<const double> x, std::span<double> dK);
+  // The same derivative split (after at()) where every loop edge's length has the same derivative
+  // in the u of its two ends (vertex scaling): ∂K̄/∂u = Σ_p w_p (e_p + e_p')(e_p + e_p')ᵀ +
+  // Σ_loops a bᵀ, e_p and e_p' the vertices of position p and of the next one on its loop (its
+  // outgoing edge); w, a and b per position (a and b zero off their loop). False where the two
+  // ends' derivatives differ or a value is not finite.
+  bool split(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
+             std::vector<double>& w, std::vector<double>& a, std::vector<double>& b);
 
  private:
   std::vector<double> dl_du_, dl_;

@@ -554,24 +554,28 @@ TEST_CASE("uniformize: a metric that is not flat fails the edge gate, and withou
 // direct: the Gram block of the inverse, its forward solves along elimination-tree paths and the
 // dense LU of the 800-position boundary matrix then run in parallel. The whole result must be the
 // same bit for bit on 1 and 2 threads.
-TEST_CASE("uniformize: a circle domain solved through the direct boundary system is the same on 1 and 2 threads") {
+TEST_CASE("uniformize: a circle domain solved through the split or the direct boundary system is the same on 1 and 2 threads") {
   const Mesh m = ricci_shapes::annulus(20, 400);
   const ValidateResult v = validate_mesh(m);
   REQUIRE(v.status == Status::Ok);
-  UniformizeResult r[2];
-  for (int threads = 1; threads <= 2; ++threads) {
-    UniformizeOptions o;
-    o.seed_checks = 0;
-    o.flow.threads = threads;
-    r[threads - 1] = uniformize(v.mesh, v.topology, o);
-    REQUIRE_MESSAGE(r[threads - 1].status == Status::Ok, r[threads - 1].message);
+  for (const bool split : {true, false}) {
+    CAPTURE(split);
+    UniformizeResult r[2];
+    for (int threads = 1; threads <= 2; ++threads) {
+      UniformizeOptions o;
+      o.seed_checks = 0;
+      o.flow.threads = threads;
+      o.flow.split_loop_coupling = split;
+      r[threads - 1] = uniformize(v.mesh, v.topology, o);
+      REQUIRE_MESSAGE(r[threads - 1].status == Status::Ok, r[threads - 1].message);
+    }
+    bool direct = false;
+    for (const std::string& note : r[1].flow.notes) direct = direct || note.find("solved directly") != std::string::npos;
+    CHECK(direct == !split);
+    CHECK(r[0].flow.u == r[1].flow.u);
+    CHECK(r[0].flow.l == r[1].flow.l);
+    CHECK(r[0].layout.positions == r[1].layout.positions);
   }
-  bool direct = false;
-  for (const std::string& note : r[1].flow.notes) direct = direct || note.find("solved directly") != std::string::npos;
-  CHECK(direct);
-  CHECK(r[0].flow.u == r[1].flow.u);
-  CHECK(r[0].flow.l == r[1].flow.l);
-  CHECK(r[0].layout.positions == r[1].layout.positions);
 }
 
 // The compact domain's side pairings are fitted in parallel (one Ceres problem each): the pairings,

@@ -170,6 +170,13 @@ struct FlowOptions {
   /// proportional to length is invariant only nearly, and fine meshes then converge slowly to a
   /// strongly distorted map).
   bool normalize_circle_domains = true;
+  /// Circle and LoopTotals targets with vertex scaling (Newton): the derivative of the
+  /// length-dependent target is split into its loop-local part, factorized with the Newton matrix,
+  /// and one rank-one term per boundary loop (Woodbury): a Newton step costs one factorization and
+  /// a solve per loop more than with a fixed target. Off (and for the other schemes, whose loop
+  /// edges' lengths depend unequally on their ends): the boundary system of the size of the
+  /// boundary, solved directly (dense LU) or by GMRES. The solutions agree to the tolerance.
+  bool split_loop_coupling = true;
   /// Newton: once the tolerance is met, up to this many further Newton steps, each kept only when
   /// it lowers max |K̄ − K| (a layout closes up to the metric's residual curvature, so the last
   /// digits matter there); the first step that does not ends the polishing, and none is tried once
