@@ -536,11 +536,17 @@ void cycle_residual(const std::vector<MoebiusQ>& P, const Cycle& c, double* out)
   out[2] = static_cast<double>(s * M.b.im);
 }
 
-/// The pairings X_k · E(ξ_k), E(ξ) = [[1 + iξ0, ξ1 + iξ2], conj] normalised.
-std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vector<quad>& xi) {
+/// The pairings X_k · C_k⁻¹ E(ξ_k) C_k, E(ξ) = [[1 + iξ0, ξ1 + iξ2], conj] normalised and C_k the
+/// disk map taking pairing k's side centre to the origin: ξ_k moves the side's points by about
+/// |ξ_k| whatever their distance from the origin (E(ξ) alone moves a point at distance r by about
+/// |ξ|·cosh r, so a minimum-norm ξ would let the sides far out in the disk move the most).
+std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vector<quad>& xi,
+                                const std::vector<MoebiusQ>& C) {
   std::vector<MoebiusQ> Y(X.size());
-  for (std::size_t k = 0; k < X.size(); ++k)
-    Y[k] = (X[k] * MoebiusQ(CQ{1, xi[3 * k]}, CQ{xi[3 * k + 1], xi[3 * k + 2]}).normalized()).normalized();
+  for (std::size_t k = 0; k < X.size(); ++k) {
+    const MoebiusQ E = MoebiusQ(CQ{1, xi[3 * k]}, CQ{xi[3 * k + 1], xi[3 * k + 2]}).normalized();
+    Y[k] = (X[k] * (C[k].inverse() * E * C[k])).normalized();
+  }
   return Y;
 }
 
@@ -549,7 +555,8 @@ std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vecto
 /// minimum-norm solution of the linearised equations (Jacobian at ξ = 0 by central differences in
 /// quad; the correction is of the size of the fit residuals, so that Jacobian stays exact to the
 /// same relative size and each step gains as many digits). Returns the largest cycle residual left.
-double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycles) {
+double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycles,
+                       const std::vector<MoebiusQ>& C) {
   const Eigen::Index m = static_cast<Eigen::Index>(X.size()), nr = 3 * static_cast<Eigen::Index>(cycles.size());
   if (m == 0 || nr == 0) return 0;
   auto residual = [&](const std::vector<MoebiusQ>& Y, Eigen::VectorXd& r) {
@@ -562,9 +569,9 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
   const double h = 1e-9;
   for (Eigen::Index j = 0; j < 3 * m; ++j) {
     xi[static_cast<std::size_t>(j)] = h;
-    residual(perturbed(X, xi), rp);
+    residual(perturbed(X, xi, C), rp);
     xi[static_cast<std::size_t>(j)] = -h;
-    residual(perturbed(X, xi), rm);
+    residual(perturbed(X, xi, C), rm);
     xi[static_cast<std::size_t>(j)] = 0;
     J.col(j) = (rp - rm) / (2 * h);
   }
@@ -576,13 +583,13 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
     const Eigen::VectorXd delta = cod.solve(-r);
     if (!delta.allFinite()) break;
     for (Eigen::Index j = 0; j < 3 * m; ++j) xi[static_cast<std::size_t>(j)] += delta[j];
-    residual(perturbed(X, xi), r);
+    residual(perturbed(X, xi, C), r);
     const double err = r.lpNorm<Eigen::Infinity>();
     if (!(err < 0.5 * best_err)) break;
     best_err = err;
     best = xi;
   }
-  X = perturbed(X, best);
+  X = perturbed(X, best, C);
   return best_err;
 }
 
@@ -851,7 +858,11 @@ class DomainDeckRun {
     out_.adjusted_cycle_error = out_.cycle_error;
     if (!options_.adjust_pairings || cycles_.empty()) return true;
     out_.fitted_side_maps = out_.side_maps;
-    out_.adjusted_cycle_error = adjust_pairings(X_, cycles_);
+    // Each pairing's side centre: its middle fitted point.
+    std::vector<MoebiusQ> centres(X_.size());
+    for (std::size_t k = 0; k < X_.size(); ++k)
+      if (!side_pairs_[k].empty()) centres[k] = MoebiusQ::to_origin(CQ(side_pairs_[k][side_pairs_[k].size() / 2].z));
+    out_.adjusted_cycle_error = adjust_pairings(X_, cycles_, centres);
     // The adjusted maps replace the fitted ones; their residuals on the domain's sides.
     for (std::size_t k = 0; k < X_.size(); ++k) {
       DeckGenerator& G = out_.side_maps[k];

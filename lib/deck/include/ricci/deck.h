@@ -240,7 +240,9 @@ DeckResult fit_deck_transformations(const CutResult& cut, Geometry geometry,
 // residuals (~1e-13), and a relation whose word reaches hyperbolic distance r amplifies that by
 // ~e^r (the canonical relation of a genus-4 polygon reaching r ≈ 20: 1e-5). With
 // DeckOptions::adjust_pairings the pairings are first moved, by the least change of their
-// parameters (Gauss–Newton, minimum-norm steps), onto pairings whose every vertex cycle is the
+// parameters in a frame centred on each pairing's side (Gauss–Newton, minimum-norm steps; so the
+// change is about how far the side's points move, however far out the side lies), onto pairings
+// whose every vertex cycle is the
 // identity to quad precision (113 bits): a representation of the surface group next to the fitted
 // maps. `pairing_adjustment` says how far any domain side vertex moved (the size of the fit
 // residuals when the layout is consistent), and side_maps then hold the adjusted maps with their
