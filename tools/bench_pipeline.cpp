@@ -65,7 +65,7 @@ namespace {
 
 /// Flows shorter than this (flips and circle packing together, seconds) are timed kShortRepeats
 /// times each for the comparison table, the best kept.
-constexpr double kShortFlow = 1.0;
+constexpr double kShortFlow = 4.0;
 constexpr int kShortRepeats = 5;
 
 
