@@ -670,6 +670,48 @@ bool FlowSolver::project_moebius() {
 
 constexpr int kGmresMaxIterations = 400;
 
+// LU with partial pivoting of the n×n row-major matrix A, in place, with the row swaps in pivot;
+// false when the matrix is not finite or a pivot is at most `tiny` times its largest entry. The
+// rows below each pivot are updated each on its own (in parallel when there are many): the same
+// factors on any number of threads.
+bool lu_factor(double* A, std::size_t n, std::vector<Index>& pivot, double tiny) {
+  double largest = 0;
+  for (std::size_t i = 0; i < n * n; ++i) largest = std::max(largest, std::abs(A[i]));
+  if (!std::isfinite(largest)) return false;
+  pivot.assign(n, 0);
+  for (std::size_t j = 0; j < n; ++j) {
+    std::size_t pivot_row = j;
+    for (std::size_t i = j + 1; i < n; ++i)
+      if (std::abs(A[i * n + j]) > std::abs(A[pivot_row * n + j])) pivot_row = i;
+    const double p = A[pivot_row * n + j];
+    if (!(std::abs(p) > tiny * largest)) return false;
+    pivot[j] = static_cast<Index>(pivot_row);
+    if (pivot_row != j)
+      for (std::size_t c = 0; c < n; ++c) std::swap(A[j * n + c], A[pivot_row * n + c]);
+    const auto rows = static_cast<std::int64_t>(n - j - 1);
+#pragma omp parallel for schedule(static) if (rows >= 256)
+    for (std::int64_t d = 1; d <= rows; ++d) {
+      const std::size_t i = j + static_cast<std::size_t>(d);
+      const double f = A[i * n + j] / p;
+      A[i * n + j] = f;
+      if (f != 0)
+        for (std::size_t c = j + 1; c < n; ++c) A[i * n + c] -= f * A[j * n + c];
+    }
+  }
+  return true;
+}
+
+// w ← A⁻¹w with lu_factor()'s factors.
+void lu_solve(const double* A, std::size_t n, const std::vector<Index>& pivot, double* w) {
+  for (std::size_t j = 0; j < n; ++j) std::swap(w[j], w[static_cast<std::size_t>(pivot[j])]);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t c = 0; c < i; ++c) w[i] -= A[i * n + c] * w[c];
+  for (std::size_t i = n; i-- > 0;) {
+    for (std::size_t c = i + 1; c < n; ++c) w[i] -= A[i * n + c] * w[c];
+    w[i] /= A[i * n + i];
+  }
+}
+
 void FlowSolver::setup_coupling() {
   const auto positions = static_cast<std::size_t>(t_.num_boundary_edges());
   if (positions == 0) return;
@@ -782,41 +824,12 @@ bool FlowSolver::boundary_direct_solve() {
       for (Index p = 0; p < positions; ++p)
         if (position_unknown_[p] != kInvalid) S[p * P + q] -= position_dK_[p];
     }
-    double largest = 0;
-    for (const double v : boundary_lu_) largest = std::max(largest, std::abs(v));
-    if (!std::isfinite(largest)) return false;
-    for (std::size_t j = 0; j < P; ++j) {
-      std::size_t pivot_row = j;
-      for (std::size_t i = j + 1; i < P; ++i)
-        if (std::abs(S[i * P + j]) > std::abs(S[pivot_row * P + j])) pivot_row = i;
-      const double pivot = S[pivot_row * P + j];
-      if (!(std::abs(pivot) > 1e-14 * largest)) return false;
-      boundary_pivot_[j] = static_cast<Index>(pivot_row);
-      if (pivot_row != j)
-        for (std::size_t c = 0; c < P; ++c) std::swap(S[j * P + c], S[pivot_row * P + c]);
-      // The rows below the pivot, each on its own (in parallel when there are many): the same
-      // factors on any number of threads.
-      const auto rows = static_cast<std::int64_t>(P - j - 1);
-#pragma omp parallel for schedule(static) if (rows >= 256)
-      for (std::int64_t d = 1; d <= rows; ++d) {
-        const std::size_t i = j + static_cast<std::size_t>(d);
-        const double f = S[i * P + j] / pivot;
-        S[i * P + j] = f;
-        if (f != 0)
-          for (std::size_t c = j + 1; c < P; ++c) S[i * P + c] -= f * S[j * P + c];
-      }
-    }
+    if (!lu_factor(S, P, boundary_pivot_, 1e-14)) return false;
     boundary_factored_ = true;
   }
   double* w = gmres_.w.data();
   std::copy(gmres_.b.begin(), gmres_.b.end(), w);
-  for (std::size_t j = 0; j < P; ++j) std::swap(w[j], w[boundary_pivot_[j]]);
-  for (std::size_t i = 0; i < P; ++i)
-    for (std::size_t c = 0; c < i; ++c) w[i] -= S[i * P + c] * w[c];
-  for (std::size_t i = P; i-- > 0;) {
-    for (std::size_t c = i + 1; c < P; ++c) w[i] -= S[i * P + c] * w[c];
-    w[i] /= S[i * P + i];
-  }
+  lu_solve(S, P, boundary_pivot_, w);
   for (std::size_t i = 0; i < P; ++i)
     if (!std::isfinite(w[i])) return false;
   return true;
@@ -1028,25 +1041,7 @@ bool FlowSolver::split_direction(std::span<const double> g) {
         else entry = n_dot(r - m, z.data());
       }
     }
-    // LU with partial pivoting of the small system (row-major).
-    double largest = 0;
-    for (const double v : split_c_) largest = std::max(largest, std::abs(v));
-    if (!std::isfinite(largest)) return false;
-    double* C = split_c_.data();
-    for (std::size_t j = 0; j < S; ++j) {
-      std::size_t pr = j;
-      for (std::size_t i = j + 1; i < S; ++i)
-        if (std::abs(C[i * S + j]) > std::abs(C[pr * S + j])) pr = i;
-      if (!(std::abs(C[pr * S + j]) > 1e-13 * largest)) return false;
-      split_pivot_[j] = static_cast<Index>(pr);
-      if (pr != j)
-        for (std::size_t c = 0; c < S; ++c) std::swap(C[j * S + c], C[pr * S + c]);
-      for (std::size_t i = j + 1; i < S; ++i) {
-        const double f = C[i * S + j] / C[j * S + j];
-        C[i * S + j] = f;
-        for (std::size_t c = j + 1; c < S; ++c) C[i * S + c] -= f * C[j * S + c];
-      }
-    }
+    if (!lu_factor(split_c_.data(), S, split_pivot_, 1e-13)) return false;
     split_ready_ = true;
   }
   // The small right-hand side: VᵀY, then r − NₙᵀY with r = n·(u at the start) − n·u.
@@ -1058,14 +1053,7 @@ bool FlowSolver::split_direction(std::span<const double> g) {
     split_small_[static_cast<std::size_t>(m + r)] = ((r == 0 ? modes_.norm_c0 : modes_.norm_s0) - nu) - n_dot(r, x_.data());
   }
   double* w = split_small_.data();
-  const double* C = split_c_.data();
-  for (std::size_t j = 0; j < S; ++j) std::swap(w[j], w[static_cast<std::size_t>(split_pivot_[j])]);
-  for (std::size_t i = 0; i < S; ++i)
-    for (std::size_t c = 0; c < i; ++c) w[i] -= C[i * S + c] * w[c];
-  for (std::size_t i = S; i-- > 0;) {
-    for (std::size_t c = i + 1; c < S; ++c) w[i] -= C[i * S + c] * w[c];
-    w[i] /= C[i * S + i];
-  }
+  lu_solve(split_c_.data(), S, split_pivot_, w);
   for (std::size_t r = 0; r < S; ++r)
     if (!std::isfinite(w[r])) return false;
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)

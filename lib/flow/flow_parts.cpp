@@ -201,6 +201,16 @@ void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, st
   }
 }
 
+// The loop's inscribed circle's radius (0 when its target is not the inscribed polygon), once per
+// lengths at() was given.
+double LoopTargetDerivative::loop_radius(const Topology& t, const Target& target, Geometry g,
+                                         std::span<const double> lengths, Index loop) {
+  if (!inscribed_circle_loop(target, g, loop)) return 0;
+  const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
+  if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
+  return cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
+}
+
 // dK[p] = (∂K̄/∂u · x) at the vertex of boundary position p, for x given per vertex (#V).
 void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
                                  std::span<const double> x, std::span<double> dK) {
@@ -216,12 +226,7 @@ void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geomet
       dL += dl;
     }
     const double T = target.loop_total[loop];
-    double R = 0;
-    if (inscribed_circle_loop(target, g, loop)) {
-      const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
-      if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
-      R = cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
-    }
+    const double R = loop_radius(t, target, g, lengths, loop);
     if (R > 0) {
       // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
       // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
@@ -277,12 +282,7 @@ bool LoopTargetDerivative::split(const Topology& t, const Target& target, Geomet
     const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
     if (end - begin < 3) return false;
     const double T = target.loop_total[loop];
-    double R = 0;
-    if (inscribed_circle_loop(target, g, loop)) {
-      const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
-      if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
-      R = cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
-    }
+    const double R = loop_radius(t, target, g, lengths, loop);
     if (R > 0) {
       double D = 0;
       for (Index p = begin; p < end; ++p) {

@@ -133,6 +133,7 @@ class LoopTargetDerivative {
              std::vector<double>& w, std::vector<double>& a, std::vector<double>& b);
 
  private:
+  double loop_radius(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths, Index loop);
   std::vector<double> dl_du_, dl_;
   std::vector<double> arc_;  // per position: scratch of apply()
   // Per loop, the inscribed circle's radius at the lengths at() was given (NaN until apply() first

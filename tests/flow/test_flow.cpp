@@ -741,6 +741,16 @@ TEST_CASE("flow: S safeguards — a planar start for the round sphere, a continu
 
 namespace {
 
+/// A disk bent into a saddle: its map to the unit disk is far from the identity.
+Mesh bent_disk() {
+  Mesh bent = ricci_shapes::disk(20);
+  for (std::size_t i = 0; i < bent.positions.size(); i += 3) {
+    const double x = bent.positions[i], y = bent.positions[i + 1];
+    bent.positions[i + 2] = 0.6 * (x * x - 0.5 * y * y) + 0.3 * x;
+  }
+  return bent;
+}
+
 /// Largest relative deviation of a loop's K̄ from the inscribed polygon's ±(α_in + α_out)/2.
 double inscribed_deviation(const Topology& t, const FlowResult& r, Index loop, double total) {
   const double R = inscribed_radius(t, loop, r.l);
@@ -761,12 +771,7 @@ double inscribed_deviation(const Topology& t, const FlowResult& r, Index loop, d
 
 TEST_CASE("flow: circle domains are Möbius-normalized — few Newton steps, loop totals kept, small modes") {
   using namespace ricci_shapes;
-  // A disk bent into a saddle: its map to the unit disk is far from the identity.
-  Mesh bent = disk(20);
-  for (std::size_t i = 0; i < bent.positions.size(); i += 3) {
-    const double x = bent.positions[i], y = bent.positions[i + 1];
-    bent.positions[i + 2] = 0.6 * (x * x - 0.5 * y * y) + 0.3 * x;
-  }
+  const Mesh bent = bent_disk();
   for (const auto& [name, mesh] : {std::pair<const char*, Mesh>{"bent disk", bent},
                                    {"annulus", annulus(6, 32)},
                                    {"sphere with 3 holes", remove_vertex_stars(icosphere(3), {0, 5, 9})}}) {
@@ -814,11 +819,7 @@ TEST_CASE("flow: vertex scaling's split coupling takes the boundary system's New
   // soft pins along the positive loops) solves the same Newton system as the boundary system of
   // the size of the boundary: the same solution, on a disk, an annulus, spheres with 3
   // and 8 holes (circle domains, with the Möbius bordering), loop totals with a cone (E) and in H.
-  Mesh bent = disk(20);
-  for (std::size_t i = 0; i < bent.positions.size(); i += 3) {
-    const double x = bent.positions[i], y = bent.positions[i + 1];
-    bent.positions[i + 2] = 0.6 * (x * x - 0.5 * y * y) + 0.3 * x;
-  }
+  const Mesh bent = bent_disk();
   std::vector<Problem> problems;
   problems.push_back(make_problem("bent disk", bent, Geometry::Euclidean, Scheme::Yamabe, BoundaryMode::Circle));
   problems.push_back(make_problem("annulus", annulus(6, 32), Geometry::Euclidean, Scheme::Yamabe, BoundaryMode::Circle));
