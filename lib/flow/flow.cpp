@@ -797,7 +797,6 @@ void FlowSolver::setup_boundary_direct(bool force) {
   const auto k = block_unknown_.size();
   block_gram_.assign(k * k, 0.0);
   boundary_lu_.assign(static_cast<std::size_t>(positions) * static_cast<std::size_t>(positions), 0.0);
-  boundary_pivot_.assign(static_cast<std::size_t>(positions), 0);
   boundary_direct_ = true;
 }
 
@@ -929,11 +928,13 @@ constexpr double kSplitPinWeight = 8;
 // pins; false (values untouched) when the split does not apply.
 bool FlowSolver::split_values() {
   loop_edge_derivatives();
-  if (!loop_dK_.split(t_, target_, s_.geometry, cur_.l, split_w_, split_a_, split_b_)) {
-    return false;
-  }
+  if (!loop_dK_.split(t_, target_, s_.geometry, cur_.l, split_w_, split_a_, split_b_)) return false;
   const auto positions = static_cast<Index>(position_unknown_.size());
   const Index n = pattern_.num_unknowns;
+  const std::span<double> values = solver_.values();
+  double largest = 0;
+  for (Index j = 0; j < n; ++j) largest = std::max(largest, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
+  if (!std::isfinite(largest)) return false;
   split_diag_.assign(static_cast<std::size_t>(positions), -1);
   split_next_.assign(static_cast<std::size_t>(positions), -1);
   // The value slot of (i, j), i ≤ j, in the upper triangle's compressed columns (rows sorted).
@@ -952,7 +953,6 @@ bool FlowSolver::split_values() {
       if ((i != kInvalid && split_diag_[p] < 0) || (i != kInvalid && j != kInvalid && split_next_[p] < 0)) return false;
     }
   }
-  const std::span<double> values = solver_.values();
   for (Index loop = 0; loop < t_.num_boundary_loops(); ++loop) {
     const Index begin = t_.boundary_offsets[loop], end = t_.boundary_offsets[loop + 1];
     for (Index p = begin; p < end; ++p) {
@@ -963,8 +963,6 @@ bool FlowSolver::split_values() {
       if (split_next_[p] >= 0) values[split_next_[p]] -= w;
     }
   }
-  double largest = 0;
-  for (Index j = 0; j < n; ++j) largest = std::max(largest, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
   // The pins: split_pin_count_ evenly along each loop whose local part is subtracted (positive
   // total, or the target proportional to length with T > 0), where M's negative directions live.
   split_pins_.clear();
@@ -986,7 +984,7 @@ bool FlowSolver::split_values() {
       diagonal += split_rho_.back();
     }
   }
-  return std::isfinite(largest);
+  return true;
 }
 
 // x_ = F⁻¹g on entry (the factor holds F, or F + μI); on return the Newton step (above), with
@@ -1018,7 +1016,6 @@ bool FlowSolver::split_direction(std::span<const double> g) {
   if (!split_ready_) {
     split_z_.assign(S * N, 0.0);
     split_c_.assign(S * S, 0.0);
-    split_pivot_.assign(S, 0);
     for (Index c = 0; c < size; ++c) {
       // Column c of U (pins, loops), then the modes N (with the gauge mean removed, as the
       // right-hand sides are).

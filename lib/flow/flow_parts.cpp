@@ -201,6 +201,12 @@ void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, st
   }
 }
 
+// cos(α/2) of a chord of length l in a circle of radius R (α = 2·arcsin(l/2R)), kept above 0.
+double half_chord_cosine(double l, double R) {
+  const double half_chord = std::min(l / (2 * R), 1.0);
+  return std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
+}
+
 // The loop's inscribed circle's radius (0 when its target is not the inscribed polygon), once per
 // lengths at() was given.
 double LoopTargetDerivative::loop_radius(const Topology& t, const Target& target, Geometry g,
@@ -233,8 +239,7 @@ void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geomet
       double num = 0, den = 0;
       for (Index p = begin; p < end; ++p) {
         const double l = lengths[t.corner_edge[t.boundary_corners[p]]];
-        const double half_chord = std::min(l / (2 * R), 1.0);
-        const double c = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
+        const double c = half_chord_cosine(l, R);
         arc_[p] = c;
         num += dl_[p] / c;
         den += l / c;
@@ -286,8 +291,7 @@ bool LoopTargetDerivative::split(const Topology& t, const Target& target, Geomet
     if (R > 0) {
       double D = 0;
       for (Index p = begin; p < end; ++p) {
-        const double half_chord = std::min(edge_length(p) / (2 * R), 1.0);
-        arc_[p] = std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);  // c_p
+        arc_[p] = half_chord_cosine(edge_length(p), R);  // c_p
         D += edge_length(p) / arc_[p];
       }
       const double sign = T > 0 ? 1.0 : -1.0;

@@ -111,10 +111,6 @@ using detail::angle_from_lengths;
 using model::disk_distance;    // Poincaré disk; +∞ on or outside the unit circle
 using model::sphere_distance;  // great circle of two unit vectors
 
-/// z ↦ (z − p)/(1 − p̄ z), the disk automorphism taking p to 0, and its inverse.
-Cx to_origin(Cx p, Cx z) { return model::disk_to_origin(p, z); }
-Cx from_origin(Cx p, Cx z) { return (z + p) / (1.0 + std::conj(p) * z); }
-
 /// (cos θ, sin θ) of the angle θ opposite side a in the triangle with sides a, b, c (H, S; E
 /// places by the cosine law), from the two products of the half-angle formula —
 /// sin²(θ/2) ∝ f(σ−b)·f(σ−c), cos²(θ/2) ∝ f(σ)·f(σ−a), σ the half perimeter, f = sinh or sin —
@@ -134,6 +130,10 @@ Cx disk_quotient(Cx a, Cx b) {
   const double n = std::norm(b);
   return {(a.real() * b.real() + a.imag() * b.imag()) / n, (a.imag() * b.real() - a.real() * b.imag()) / n};
 }
+
+/// z ↦ (z − p)/(1 − p̄ z), the disk automorphism taking p to 0, and its inverse.
+Cx to_origin(Cx p, Cx z) { return disk_quotient(z - p, 1.0 - std::conj(p) * z); }
+Cx from_origin(Cx p, Cx z) { return disk_quotient(z + p, 1.0 + std::conj(p) * z); }
 
 /// Hyperboloid point (t, x, y) of a Poincaré disk point.
 V3 hyperboloid(Cx z) {
@@ -224,7 +224,7 @@ struct Positions {
         // (sin²(θ/2) ∝ sinh(σ−s)·sinh(σ−rp), cos²(θ/2) ∝ sinh σ·sinh(σ−rq), σ the half perimeter)
         // without forming θ: no arctangent, sine or cosine, and θ as exact as the formula's.
         const Cx P = z(pv);
-        const Cx w = disk_quotient(z(qv) - P, 1.0 - std::conj(P) * z(qv));
+        const Cx w = to_origin(P, z(qv));
         const double T = std::sqrt(std::norm(w));
         Cx local;
         if (T > 0 && T < 1 && rp < 300 && rq < 300) {
@@ -236,7 +236,7 @@ struct Positions {
           const double s = T < 1 ? 2 * std::atanh(T) : kInf;
           local = std::polar(std::tanh(rp / 2), std::arg(w) + angle_from_lengths(g, rq, std::min(s, 1e300), rp));
         }
-        set(v, disk_quotient(local + P, 1.0 + std::conj(P) * local));
+        set(v, from_origin(P, local));
         break;
       }
       default: {
