@@ -755,4 +755,8 @@ double SymmetricSolver::factor_nonzeros() const {
   return impl_->analyzed ? impl_->common.lnz : 0;
 }
 
+double SymmetricSolver::factor_flops() const {
+  return impl_->analyzed ? impl_->common.fl : 0;
+}
+
 }  // namespace ricci::detail

@@ -103,6 +103,8 @@ class SymmetricSolver {
   double rcond() const;
   /// Nonzeros of the factor L after the first factorization (0 before).
   double factor_nonzeros() const;
+  /// Floating-point operations of one numeric factorization with the last analysis (0 before).
+  double factor_flops() const;
 
  private:
   struct Impl;

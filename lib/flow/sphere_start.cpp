@@ -217,6 +217,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
   double c_shift = 0;
   IntrinsicTriangulation disk_tri;
   FlowResult plane;
+  std::vector<Index> disk_order;  // the last planar solve's ordering, as disk vertices
   FlowOptions eo = options;
   eo.on_iteration = nullptr;
   eo.max_iterations = std::min(options.max_iterations, kMaxPlanarIterations);
@@ -287,7 +288,10 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
     }
     {
       const IntrinsicTriangulation fresh = disk_tri;
-      plane = solve_flow_with_flips(disk_tri, u0, target, eo);
+      // A later round's disk differs from the last by one flip at the link: the last ordering
+      // serves it (sphere_start.h's order, FlowSolver::set_ordering()).
+      const std::vector<Index> hint = disk_order;
+      plane = solve_flow_with_flips_ordered(disk_tri, u0, target, eo, &hint, &disk_order);
       out.iterations += plane.iterations;
       spent += plane.iterations + 1;
       if (plane.status == Status::TriangleInequality && plane.iterations == 0) {
@@ -297,7 +301,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
         std::vector<double> u_t(u0.size(), 0.0), trial(u0.size());
         double t = 0, step = 1;
         disk_tri = fresh;
-        plane = solve_flow_with_flips(disk_tri, u_t, target, eo);
+        plane = solve_flow_with_flips_ordered(disk_tri, u_t, target, eo, nullptr, &disk_order);
         out.iterations += plane.iterations;
         spent += plane.iterations + 1;
         for (int k = 0; plane.status == Status::Ok && t < 1 && k < kMaxContinuation && spent < budget; ++k) {
@@ -306,7 +310,8 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
           for (std::size_t v = 0; v < u0.size(); ++v)
             if (target.fixed_u[v]) trial[v] = next * u0[v];
           IntrinsicTriangulation attempt = disk_tri;
-          FlowResult f = solve_flow_with_flips(attempt, trial, target, eo);
+          std::vector<Index> attempt_order;
+          FlowResult f = solve_flow_with_flips_ordered(attempt, trial, target, eo, &disk_order, &attempt_order);
           out.iterations += f.iterations;
           spent += f.iterations + 1;
           if (f.status == Status::Ok) {
@@ -314,6 +319,7 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
             step *= 2;
             plane = std::move(f);
             disk_tri = std::move(attempt);
+            disk_order = std::move(attempt_order);
           } else {
             step /= 2;
           }
@@ -469,6 +475,8 @@ static SphereStart start_from(const IntrinsicTriangulation& tri, Index n, const 
       for (int a = 0; a < 3; ++a) x[a] = (1 - c2) * w[a] / w2 + c[a];
     }
   }
+  out.order.reserve(disk_order.size());
+  for (const Index p : disk_order) out.order.push_back(p < n ? p : p + 1);
   out.status = Status::Ok;
   out.message = "ok";
   return out;

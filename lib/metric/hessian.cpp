@@ -87,6 +87,69 @@ HessianPattern build_hessian_pattern(const Topology& t, std::span<const std::uin
   return p;
 }
 
+namespace {
+
+// Whether the upper-triangle pattern has an entry at unknowns (i, j), i != j.
+bool has_entry(const HessianPattern& p, Index i, Index j) {
+  const Index col = std::max(i, j), r = std::min(i, j);
+  const auto begin = p.row.begin() + p.col_ptr[col], end = p.row.begin() + p.col_ptr[col + 1] - 1;
+  return std::binary_search(begin, end, static_cast<std::int64_t>(r));
+}
+
+}  // namespace
+
+std::vector<std::int64_t> repair_ordering(const Topology& t, const HessianPattern& before, const HessianPattern& after,
+                                          std::span<const std::int64_t> order) {
+  const Index n = after.num_unknowns;
+  std::vector<std::int64_t> out(order.begin(), order.end());
+  if (before.num_unknowns != n || static_cast<Index>(order.size()) != n) return out;
+  std::vector<std::int64_t> pos(static_cast<std::size_t>(n));
+  for (Index k = 0; k < n; ++k) pos[order[k]] = k;
+  // target[x]: the position x moves to the front of (the latest over x's new entries), or −1.
+  std::vector<std::int64_t> target(static_cast<std::size_t>(n), -1);
+  bool moved = false;
+  for (Index j = 0; j < n; ++j) {
+    for (std::int64_t k = after.col_ptr[j]; k < after.col_ptr[j + 1] - 1; ++k) {
+      const auto i = static_cast<Index>(after.row[k]);
+      if (has_entry(before, i, j)) continue;
+      const Index e = after.entry_edge[k];
+      const std::int64_t hi = std::max(pos[i], pos[j]);
+      std::int64_t common = -1;  // earliest position of an old common neighbour across e
+      bool related = false;
+      for (int side = 0; side < 2 && !related; ++side) {
+        const Index c = t.edge_corners[2 * e + side];
+        if (c == kInvalid) continue;
+        const Index w = after.vertex_unknown[t.corner_vertex[c]];
+        if (w == kInvalid || w == i || w == j || !has_entry(before, w, i) || !has_entry(before, w, j)) continue;
+        if (pos[w] < hi) related = true;  // w lies below one of i, j and is adjacent to both
+        else if (common < 0 || pos[w] < common) common = pos[w];
+      }
+      if (related || common < 0) continue;
+      const Index later = pos[i] > pos[j] ? i : j;
+      target[later] = std::max(target[later], common);
+      moved = true;
+    }
+  }
+  if (!moved) return out;
+  // Moved unknowns go in front of their target position, in their old order.
+  std::vector<Index> head(static_cast<std::size_t>(n), kInvalid), tail(static_cast<std::size_t>(n), kInvalid),
+      link(static_cast<std::size_t>(n), kInvalid);
+  for (Index k = 0; k < n; ++k) {
+    const auto x = static_cast<Index>(order[k]);
+    const std::int64_t to = target[x];
+    if (to < 0) continue;
+    if (head[to] == kInvalid) head[to] = x;
+    else link[tail[to]] = x;
+    tail[to] = x;
+  }
+  std::size_t m = 0;
+  for (Index k = 0; k < n; ++k) {
+    for (Index x = head[k]; x != kInvalid; x = link[x]) out[m++] = x;
+    if (target[order[k]] < 0) out[m++] = order[k];
+  }
+  return out;
+}
+
 void assemble_hessian(const Topology& t, const HessianPattern& p, std::span<const double> blocks,
                       std::span<double> values) {
   const Index n = p.num_unknowns;

@@ -65,6 +65,18 @@ inline double hessian_edge_entry(const Topology& t, std::span<const double> bloc
 /// vertices share one entry (HessianPattern::more_edges).
 HessianPattern build_hessian_pattern(const Topology& topology, std::span<const std::uint8_t> is_unknown);
 
+/// A fill-reducing ordering of `before` (order[k]: the unknown eliminated k-th) carried over to
+/// `after`, the pattern of the same unknowns on `topology` after edge flips. An entry new in
+/// `after` joins the two ends a, b of a flipped-in edge. Where the ordering eliminates both before
+/// the two vertices c, d across that edge (old neighbours of both), a and b sit in different
+/// subtrees of the elimination tree below c and d (a nested-dissection separator crossed by the
+/// flip), and the new entry would merge the two subtrees' fill; the one of a, b eliminated later
+/// moves to just before the earlier of c, d, i.e. into the separator. Otherwise one of them is an
+/// ancestor of the other already and the entry only fills their path. Linear time; the caller
+/// still checks the fill of the result (a heuristic: moves are decided on the old positions).
+std::vector<std::int64_t> repair_ordering(const Topology& topology, const HessianPattern& before,
+                                          const HessianPattern& after, std::span<const std::int64_t> order);
+
 /// Writes the entries of ∂K/∂u (pattern order, num_nonzeros() values) from the per-face blocks
 /// (#F×9). Allocates nothing; OpenMP over columns.
 void assemble_hessian(const Topology& topology, const HessianPattern& pattern, std::span<const double> blocks,

@@ -2,7 +2,7 @@
 // Ptolemy's relation, flips commuting with vertex scaling, the Delaunay test against angles, the
 // metric's independence of the flip path, Gauss–Bonnet, the Hessian on flipped triangulations,
 // Delaunay after every Newton step, thread invariance, and convergence on hard meshes and known
-// answers in E, H and S.
+// answers in E, H and S; the fill-reducing ordering carried over a pattern changed by flips.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -16,6 +16,8 @@
 #include "ricci/flow.h"
 #include "ricci/intrinsic.h"
 #include "ricci/validate.h"
+#include "hessian.h"
+#include "sparse_solver.h"
 #include "shapes.h"
 #include "stress_shapes.h"
 #include "support.h"
@@ -459,5 +461,71 @@ TEST_CASE("intrinsic flow: the regular tetrahedron, octahedron and an icosphere 
     double total = 0;
     for (const double a : area) total += a;
     CHECK(std::abs(total - 4 * kPi) <= 1e-9);
+  }
+}
+
+namespace {
+
+// Nonzeros of the Cholesky factor of `p` with `order` (empty: a fresh AMD / METIS ordering), and
+// that ordering.
+double factor_fill(const detail::HessianPattern& p, std::span<const std::int64_t> order,
+                   std::vector<std::int64_t>* used = nullptr) {
+  detail::SymmetricSolver s;
+  REQUIRE(s.analyze(p.num_unknowns, p.col_ptr, p.row, detail::FactorKind::PositiveDefinite, order) ==
+          detail::FactorOutcome::Ok);
+  if (used) {
+    used->resize(static_cast<std::size_t>(p.num_unknowns));
+    REQUIRE(s.ordering(*used));
+  }
+  return s.factor_nonzeros();
+}
+
+}  // namespace
+
+TEST_CASE("intrinsic: the ordering carried over flips keeps the factor near a fresh ordering's, where the old one fills") {
+  // A genus-2 surface (METIS nested dissection: a flip across a separator joins its two halves)
+  // and a torus (AMD), each with random flips of a few percent of its edges.
+  using namespace ricci_shapes;
+  struct Surface {
+    const char* name;
+    Mesh mesh;
+  };
+  Mesh pretzel_fine = pretzel(2, 8);
+  for (int i = 0; i < 2; ++i) pretzel_fine = subdivide_midpoint(pretzel_fine);
+  const Surface surfaces[] = {{"genus-2, 2 subdivisions", pretzel_fine}, {"torus 160x80", torus(160, 80, 2.0, 0.7)}};
+  // Random flips of 1 % of the edges, spread over the whole surface (a flow's flips gather where the
+  // metric changes most).
+  for (const Surface& surface : surfaces) {
+    const Case c = make_case(surface.name, surface.mesh, Geometry::Euclidean);
+    const IntrinsicTriangulation start = intrinsic(c, false);
+    ricci_test::for_each_seed(1, 3, [&](std::uint64_t seed) {
+      const std::string name = surface.name;
+      INFO(name << ", seed " << seed);
+      IntrinsicTriangulation tri = start;
+      const Topology& t = tri.topology;
+      std::vector<std::uint8_t> unknown(static_cast<std::size_t>(t.num_vertices), 1);
+      unknown[0] = 0;  // one vertex held, as the flow's gauge
+      const detail::HessianPattern before = detail::build_hessian_pattern(t, unknown);
+      std::vector<std::int64_t> order;
+      factor_fill(before, {}, &order);
+      // Unchanged pattern: unchanged ordering.
+      CHECK(detail::repair_ordering(t, before, before, order) == order);
+      std::mt19937_64 rng(seed);
+      for (Index k = 0; k < t.num_edges / 100; ++k) flip_edge(tri, random_flippable_edge(tri, rng));
+      refresh_vertex_corners(tri.topology);
+      const detail::HessianPattern after = detail::build_hessian_pattern(tri.topology, unknown);
+      const std::vector<std::int64_t> repaired = detail::repair_ordering(tri.topology, before, after, order);
+      std::vector<std::int64_t> sorted = repaired;
+      std::sort(sorted.begin(), sorted.end());
+      std::vector<std::int64_t> identity(sorted.size());
+      for (std::size_t k = 0; k < identity.size(); ++k) identity[k] = static_cast<std::int64_t>(k);
+      REQUIRE(sorted == identity);  // a permutation of the unknowns
+      const double old_fill = factor_fill(after, order), repaired_fill = factor_fill(after, repaired),
+                   fresh_fill = factor_fill(after, {});
+      MESSAGE(name << " seed " << seed << ": factor nonzeros, old ordering " << old_fill << ", carried over "
+                           << repaired_fill << ", fresh " << fresh_fill);
+      CHECK(repaired_fill < old_fill);
+      CHECK(repaired_fill <= 1.25 * fresh_fill);  // FlowSolver's kRefillGrowth
+    });
   }
 }

@@ -412,9 +412,15 @@ TEST_CASE("uniformize: the canonical words and polygon do not depend on the flow
     CHECK(du < 1e-10);
     CHECK(a.cut.cut_faces == b.cut.cut_faces);
     CHECK(a.canonical_words == b.canonical_words);
-    CHECK(a.geodesic_polygon.perimeter == doctest::Approx(b.geodesic_polygon.perimeter).epsilon(1e-9));
-    CHECK(a.geodesic_polygon.reach == doctest::Approx(b.geodesic_polygon.reach).epsilon(1e-9));
-    MESSAGE(in.name << ": flow solutions apart by " << du << "; " << b.geodesic_polygon.message);
+    // The same polygon up to the rounding of its far corners: each run's own angle tolerance
+    // (max(1e-9, relation error × e^reach); pretzel_grid(4, 2, 4), reach 18.5, moves by 2.8e-9
+    // relative between factor layouts whose solutions differ by 3e-15).
+    const double tolerance = std::max(a.geodesic_polygon.angle_tolerance, b.geodesic_polygon.angle_tolerance);
+    CHECK(a.geodesic_polygon.perimeter == doctest::Approx(b.geodesic_polygon.perimeter).epsilon(tolerance));
+    CHECK(a.geodesic_polygon.reach == doctest::Approx(b.geodesic_polygon.reach).epsilon(tolerance));
+    MESSAGE(in.name << ": flow solutions apart by " << du << "; perimeters apart by "
+                    << std::abs(a.geodesic_polygon.perimeter - b.geodesic_polygon.perimeter) << " (tolerance "
+                    << tolerance << " relative); " << b.geodesic_polygon.message);
   }
 }
 
