@@ -330,6 +330,7 @@ Json flow_json(const FlowReport& r) {
   j["cycles_relaxed"] = packing ? Json(r.cycles_relaxed) : Json(nullptr);
   const ricci::FlowResult& f = r.flow;
   j["iterations"] = r.have_flow ? Json(f.iterations) : Json(nullptr);
+  j["chord_steps"] = r.have_flow ? Json(f.chord_steps) : Json(nullptr);
   j["max_curvature_error"] = r.have_flow ? real(f.max_curvature_error) : Json(nullptr);
   j["curvature_resolution"] = r.have_flow ? real(f.curvature_resolution) : Json(nullptr);
   j["resolution_vertices"] = r.have_flow ? Json(f.resolution_vertices) : Json(nullptr);
@@ -343,6 +344,7 @@ Json flow_json(const FlowReport& r) {
                            {"max_error", real(h.max_error)},
                            {"energy", real(h.energy)},
                            {"step", real(h.step)},
+                           {"chord", h.chord},
                            {"seconds", real(h.seconds)}});
   }
   j["history"] = std::move(history);

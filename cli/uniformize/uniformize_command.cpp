@@ -647,6 +647,7 @@ Json report_json(const Run& run) {
                                         : Json(nullptr);
   const bool flowed = have && !run.from_metric && r.flow.status != Status::NotRun;
   j["iterations"] = flowed ? Json(r.flow.iterations) : Json(nullptr);
+  j["chord_steps"] = flowed ? Json(r.flow.chord_steps) : Json(nullptr);
   j["max_curvature_error"] = flowed ? real(r.flow.max_curvature_error) : Json(nullptr);
   j["curvature_resolution"] = flowed ? real(r.flow.curvature_resolution) : Json(nullptr);
   j["gauss_bonnet_error"] = flowed ? real(r.flow.gauss_bonnet_error) : Json(nullptr);

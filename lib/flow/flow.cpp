@@ -276,10 +276,13 @@ class FlowSolver {
   bool newton_step();
   bool gradient_step();
   bool compute_direction();
+  bool factorize_newton_matrix(Clock::time_point& mark, detail::FactorOutcome& outcome);
   bool project_moebius();
   bool gram_solve();
   bool line_search();
   bool polish_step();
+  bool chord_step(double bound);
+  bool chord_pays();
   /// max |K̄ − K| at the rounding level of the angle sums (kPolishUlps ulps of the largest).
   double curvature_rounding() const;
   // Curvature resolution (see the design notes).
@@ -455,6 +458,15 @@ class FlowSolver {
   // Polishing (FlowOptions::polish_steps): a step is kept only when it lowers the maximal error.
   bool polishing_ = false;
   int polish_tried_ = 0, polished_ = 0;
+  // Chord steps (polish_step()): the last factor reused for a new right-hand side. factor_current_:
+  // the factor is of the current pattern's Newton matrix at the last Newton point, unshifted.
+  bool chord_ = false, factor_current_ = false;
+  int chords_ = 0, polish_chords_ = 0;
+  double chord_bound_ = 0;  // a chord step is kept only at a judged error at most this
+  // The last full Newton step (t = 1, a new factor): its gain γ = e/e′ in judged error and the
+  // quadratic constant M = e/e′² it shows.
+  double newton_gain_ = 1, newton_constant_ = 0;
+  int chords_in_row_ = 0;
   double error_before_polish_ = 0;
   double search_kernels_ = 0;
   double shift_ = 0;  // μ of the last factorization
@@ -521,6 +533,7 @@ bool FlowSolver::refresh_pattern() {
   const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                      : detail::FactorKind::PositiveDefinite;
   solver_.reset();
+  factor_current_ = false;
   detail::FactorOutcome analysis =
       solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
   ++reanalyses_;
@@ -1168,35 +1181,19 @@ bool FlowSolver::gram_solve() {
 }
 
 // Newton direction into step_ (with the fallbacks of the design notes); sets slope_.
-bool FlowSolver::compute_direction() {
-  const Index nv = t_.num_vertices;
+// The Newton matrix in the solver's values factorized: unshifted, else with growing diagonal shifts
+// (shift_); the state that depends on the factor reset. False when the direction must be computed
+// again (the split's pinned matrix was not positive definite: more pins, or the boundary system).
+bool FlowSolver::factorize_newton_matrix(Clock::time_point& mark, detail::FactorOutcome& outcome) {
   const Index n = pattern_.num_unknowns;
-
-  if (pattern_stale_ && !refresh_pattern()) return false;  // timed as analysis
-  Clock::time_point mark = Clock::now();
-  if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
-  blocks_at_u_ = true;
-  if (!resolution_.current) update_resolution();
-  iter_.derivatives += lap(mark);
-  const std::span<double> values = solver_.values();
-  assemble_hessian(t_, pattern_, blocks_, values);
-  split_applied_ = coupled_ && split_ && split_values();
-  // The right-hand side K̄ − K. On an E gauge component its mean is removed: it is zero in exact
-  // arithmetic (Gauss–Bonnet), but the computed curvatures sum to 2πχ only up to rounding, and
-  // that remainder must not be pushed onto the pinned vertex.
-#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
-  for (Index v = 0; v < nv; ++v) grad_[v] = vc_.condition[v] ? K_target_[v] - cur_.K[v] : 0.0;
-  remove_gauge_mean(grad_);
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-  for (Index j = 0; j < n; ++j) rhs_[j] = grad_[pattern_.unknown_vertex[j]];
-
+  const std::span<const double> values = solver_.values();
   double max_diagonal = 0;
   for (Index j = 0; j < n; ++j)
     max_diagonal = std::max(max_diagonal, std::abs(values[pattern_.col_ptr[j + 1] - 1]));
   if (!std::isfinite(max_diagonal) || max_diagonal <= 0) max_diagonal = 1;
-  iter_.assembly += lap(mark);
   shift_ = 0;
-  detail::FactorOutcome outcome = solver_.factorize(0);
+  factor_current_ = false;
+  outcome = solver_.factorize(0);
   if (split_applied_ && outcome != detail::FactorOutcome::Ok && outcome != detail::FactorOutcome::OutOfMemory) {
     // The pinned split matrix is not positive definite: twice the pins, or the boundary system.
     iter_.factorization += lap(mark);
@@ -1206,7 +1203,7 @@ bool FlowSolver::compute_direction() {
       split_ = false;
       ++split_fallbacks_;
     }
-    return compute_direction();
+    return false;
   }
   if (outcome == detail::FactorOutcome::NotPositiveDefinite || outcome == detail::FactorOutcome::Failed) {
     double mu = kFirstShift * max_diagonal;
@@ -1222,6 +1219,7 @@ bool FlowSolver::compute_direction() {
     }
   }
   iter_.factorization += lap(mark);
+  factor_current_ = outcome == detail::FactorOutcome::Ok && shift_ == 0;
   boundary_factored_ = false;
   split_ready_ = false;
   // GMRES needed more full solves in the last step than the direct solve's estimated work: the
@@ -1235,6 +1233,37 @@ bool FlowSolver::compute_direction() {
     setup_boundary_direct(true);
   }
   operator_solves_ = 0;
+  return true;
+}
+
+bool FlowSolver::compute_direction() {
+  const Index nv = t_.num_vertices;
+  const Index n = pattern_.num_unknowns;
+
+  // A chord step (chord_step()) solves with the last factor as it is: no kernels, no assembly.
+  if (!chord_ && pattern_stale_ && !refresh_pattern()) return false;  // timed as analysis
+  Clock::time_point mark = Clock::now();
+  const std::span<double> values = solver_.values();
+  if (!chord_) {
+    if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+    blocks_at_u_ = true;
+    if (!resolution_.current) update_resolution();
+    iter_.derivatives += lap(mark);
+    assemble_hessian(t_, pattern_, blocks_, values);
+    split_applied_ = coupled_ && split_ && split_values();
+  }
+  // The right-hand side K̄ − K. On an E gauge component its mean is removed: it is zero in exact
+  // arithmetic (Gauss–Bonnet), but the computed curvatures sum to 2πχ only up to rounding, and
+  // that remainder must not be pushed onto the pinned vertex.
+#pragma omp parallel for schedule(static) if (nv >= kParallelMin)
+  for (Index v = 0; v < nv; ++v) grad_[v] = vc_.condition[v] ? K_target_[v] - cur_.K[v] : 0.0;
+  remove_gauge_mean(grad_);
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (Index j = 0; j < n; ++j) rhs_[j] = grad_[pattern_.unknown_vertex[j]];
+
+  iter_.assembly += lap(mark);
+  detail::FactorOutcome outcome = detail::FactorOutcome::Ok;
+  if (!chord_ && !factorize_newton_matrix(mark, outcome)) return compute_direction();
   if (outcome == detail::FactorOutcome::OutOfMemory) {
     fail(Status::OutOfMemory,
          "out of memory in the sparse Cholesky factorization at Newton step " + std::to_string(iteration_));
@@ -1292,9 +1321,11 @@ bool FlowSolver::compute_direction() {
   }
   if (ok) return true;
 
+  if (chord_) return false;  // not kept: the caller takes a full Newton step instead
   // Fallback: the Ricci flow direction K̄ − K (E, H: the negative gradient of E), or with a
   // residual merit the negative gradient H(K̄ − K) of ½‖K̄ − K‖² (K̄ held).
   ++gradient_fallbacks_;
+  factor_current_ = false;
   shift_ = 0;
   if (split_applied_) {  // the values hold the split matrix: the Hessian again
     assemble_hessian(t_, pattern_, blocks_, values);
@@ -1348,7 +1379,7 @@ bool FlowSolver::line_search() {
   // Below the rounding level the merit function cannot rank trial points; a step is then taken
   // if it lowers the maximal curvature error, and only a few halvings are tried.
   const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
-  const double min_step = rounding_level ? 1.0 / 16 : kMinStep;
+  const double min_step = chord_ ? 1 : rounding_level ? 1.0 / 16 : kMinStep;
   // E and H: the energy slope f(s) = (K(u + sδ) − K̄)·δ at s = 0 and its derivative δᵀ(∂K/∂u)δ
   // there, for the one-evaluation estimate of the energy change (see below).
   auto energy_slope = [&](const std::vector<double>& K) {
@@ -1377,7 +1408,9 @@ bool FlowSolver::line_search() {
     const double trial_error = max_error(trial_.K, trial_target, vc_.condition);
     // Ranked by the judged error (the plain one unless some vertex resolves less than the tolerance).
     const double trial_judged = resolution ? judged_error(trial_.K, trial_target) : trial_error;
-    if (!std::isfinite(trial_error) || (polishing_ && !(trial_judged < judged_))) continue;
+    if (!std::isfinite(trial_error) || ((polishing_ || chord_) && !(trial_judged < judged_)) ||
+        (chord_ && !(trial_judged <= chord_bound_)))
+      continue;
     double dE = 0;
     bool accepted = false;
     if (spherical) {
@@ -1389,7 +1422,7 @@ bool FlowSolver::line_search() {
       accepted = !rounding_level && merit <= merit0 + kArmijo * t * slope_;
       if (!accepted && std::abs(merit - merit0) <= noise && trial_judged < judged_) {
         accepted = true;
-        ++noise_accepts_;
+        if (!chord_) ++noise_accepts_;  // chord steps are ranked by the error by design
       }
       // The energy is recorded only: a bad quadrature node does not veto the step.
       if (accepted && !energy_difference(t, dE)) dE = 0;
@@ -1424,7 +1457,7 @@ bool FlowSolver::line_search() {
           accepted = true;
         } else if (std::abs(estimate) + spread <= t * noise && trial_judged < judged_) {
           accepted = true;
-          ++noise_accepts_;
+          if (!chord_) ++noise_accepts_;  // chord steps are ranked by the error by design
         }
       }
       if (accepted) {
@@ -1440,7 +1473,7 @@ bool FlowSolver::line_search() {
       accepted = !rounding_level && dE <= kArmijo * t * slope_;
       if (!accepted && std::abs(dE) <= t * noise && trial_judged < judged_) {
         accepted = true;
-        ++noise_accepts_;
+        if (!chord_) ++noise_accepts_;  // chord steps are ranked by the error by design
       }
     }
     if (!accepted) continue;
@@ -1464,6 +1497,7 @@ bool FlowSolver::line_search() {
 }
 
 void FlowSolver::accept(double step_length, double dE) {
+  const double judged_before = judged_;
   u_.swap(u_trial_);
   cur_.swap(trial_);
   if (trial_flipped_) {
@@ -1489,12 +1523,18 @@ void FlowSolver::accept(double step_length, double dE) {
   error_ = max_error(cur_.K, K_target_, vc_.condition);
   resolution_.current = false;
   judged_ = resolution_.active ? judged_error(cur_.K, K_target_) : error_;
+  if (!chord_) {
+    const bool full = step_length == 1 && judged_before > 0;
+    newton_gain_ = full ? judged_ / judged_before : 1;
+    newton_constant_ = full ? judged_ / (judged_before * judged_before) : 0;
+  }
   energy_ += dE;
   IterationRecord record;
   record.iteration = iteration_;
   record.max_error = error_;
   record.energy = energy_;
   record.step = step_length;
+  record.chord = chord_;
   record.seconds = seconds();
   // The trial's derivative blocks are the next step's kernels (see line_search()).
   blocks_at_u_ = blocks_at_trial_;
@@ -1522,6 +1562,7 @@ bool FlowSolver::newton_step() {
     iter_.line_search = lap(mark);
     add_timings(iter_);
   }
+  if (!chord_) chords_in_row_ = 0;
   return ok;
 }
 
@@ -1584,6 +1625,66 @@ double FlowSolver::judged_error(std::span<const double> K, std::span<const doubl
   return resolution_.judged_error(K, target, vc_.condition, tolerance_);
 }
 
+// A chord step: the last Newton matrix, factorized one step back, for the current residual K̄ − K:
+// a solve and one evaluation instead of kernels, assembly and a factorization. Only the full step
+// (t = 1) is tried, kept when it lowers the judged error to `bound` or below; only where that
+// factor is of the current triangulation and unshifted, with no boundary system to update. False
+// (state unchanged) when not tried or not kept.
+//
+// When (chord_pays()): a full Newton step that took the judged error from e′ to e (gain γ = e/e′,
+// quadratic constant M = e/e′²) leaves a factor with which chord steps converge linearly at the
+// rate ‖H⁻¹(H_last − H)‖ = O(‖Δu‖ of that step) = O(γ); measured, about kChordRate γ (kitten-5k
+// 1.3e-6 → 8.9e-10 after γ = 3.4e-4, camelhead 4.4e-3 → 3.0e-4 after γ = 0.033). The next Newton
+// step would reach M e² (or the rounding level); chord steps are taken while the ones needed to
+// get there cost less than that Newton step, at most kMaxChords in a row, and each must gain what
+// the rate promises within kChordMargin and lower it. Where Newton overshoots the tolerance by
+// squaring the error, a run of chord steps goes on to 4 ulps of the largest angle sum, or until
+// one no longer lowers the error (not only to the tolerance), so the result has the digits the
+// Newton step would have given. Typically the last step of a solve becomes a chord step, and on
+// large meshes, where the factorization dominates, one or two before it.
+// Costs are counted, not timed (the steps taken must not depend on the machine's load), in flops
+// of the factor (CHOLMOD's count), its triangular solves and per face: one evaluation of lengths,
+// angles and curvature, and one of the derivative kernels and assembly, each worth about
+// kFaceFlops at the factorization's rate (measured with Debian's ATLAS on 2 cores: 150–200 ns per
+// face, 1–3 GFlop/s). The spherical gauge adds a solve per pin to every step.
+constexpr double kChordRate = 2;
+constexpr double kChordMargin = 4;
+constexpr int kMaxChords = 4;
+constexpr double kChordFloor = 0.25;  // × curvature_rounding() (16 ulps): where a run of chord steps ends
+constexpr double kFaceFlops = 500;
+
+bool FlowSolver::chord_pays() {
+  if (!options_.chord_steps || !factor_current_ || pattern_stale_ || (coupled_ && !split_applied_) || chords_in_row_ >= kMaxChords) return false;
+  const double rate = kChordRate * newton_gain_;
+  if (!(rate < 0.5) || !(judged_ > 0)) return false;
+  // The level the Newton step from here would reach (M e²), or where rounding stops both.
+  const double target = std::max(newton_constant_ * judged_ * judged_, kChordFloor * curvature_rounding());
+  const double steps = target >= judged_ ? 1 : std::ceil(std::log(target / judged_) / std::log(rate));
+  const double solves = 1 + static_cast<double>(vc_.spherical_gauge ? vc_.spherical_pins.size() : 0);
+  const double faces = static_cast<double>(t_.num_faces);
+  const double chord = solves * 4 * solver_.factor_nonzeros() + kFaceFlops * faces;
+  const double newton = solver_.factor_flops() + chord + kFaceFlops * faces;
+  return steps <= kMaxChords - chords_in_row_ && steps * chord < newton;
+}
+
+bool FlowSolver::chord_step(double bound) {
+  if (!options_.chord_steps || !factor_current_ || pattern_stale_ || (coupled_ && !split_applied_)) return false;
+  const Status status = r_.status;
+  const std::string message = r_.message;
+  chord_ = true;
+  chord_bound_ = bound;
+  const bool kept = newton_step();
+  chord_ = false;
+  if (kept) {
+    ++chords_;
+    ++chords_in_row_;
+  } else {
+    r_.status = status;
+    r_.message = message;
+  }
+  return kept;
+}
+
 bool FlowSolver::polish_step() {
   if (polish_tried_ >= options_.polish_steps || polish_tried_ > polished_) return false;
   // At the rounding level of the curvatures (a few ulps of the angle sums, kPolishUlps) no step
@@ -1593,7 +1694,10 @@ bool FlowSolver::polish_step() {
   ++polish_tried_;
   ++iteration_;
   polishing_ = true;
-  const bool kept = newton_step();
+  // First a chord step (chord_step()).
+  bool kept = chord_step(judged_);
+  if (kept) ++polish_chords_;
+  if (!kept) kept = newton_step();
   polishing_ = false;
   if (kept) ++polished_;
   return kept;
@@ -1745,12 +1849,21 @@ void FlowSolver::run() {
     // Within the resolution with the resolution of an earlier point: confirmed at this one.
     if (resolution_.active && judged_ < tolerance_ && !(error_ < tolerance_)) resolution_at_u();
     if (judged_ < tolerance_) {
+      // A run of chord steps goes on to the rounding level, while they lower the error, where the
+      // Newton step it replaces would have ended too: not at the tolerance.
+      if (newton && chords_in_row_ > 0 && judged_ > kChordFloor * curvature_rounding() &&
+          iteration_ < options_.max_iterations && chord_pays()) {
+        ++iteration_;
+        if (chord_step(judged_)) continue;
+        --iteration_;
+      }
       if (newton && polish_step()) continue;
       r_.status = Status::Ok;
       r_.message = "converged";
       if (resolution_.active && !(error_ < tolerance_)) note_resolution();
       if (polished_ > 0)
         r_.notes.push_back("polished by " + std::to_string(polished_) + " Newton step" + (polished_ == 1 ? "" : "s") +
+                           (polish_chords_ > 0 ? " (" + std::to_string(polish_chords_) + " of them with the last factor)" : std::string()) +
                            " after the tolerance was met: max |K̄ − K| " + format_double("%.3g", error_before_polish_) +
                            " → " + format_double("%.3g", error_));
       return;
@@ -1773,6 +1886,9 @@ void FlowSolver::run() {
       return;
     }
     ++iteration_;
+    if (newton && chord_pays() &&
+        chord_step(std::max(kChordMargin * kChordRate * newton_gain_ * judged_, kChordFloor * curvature_rounding())))
+      continue;
     if (!(newton ? newton_step() : gradient_step())) return;
   }
 }
@@ -1780,6 +1896,7 @@ void FlowSolver::run() {
 void FlowSolver::finish() {
   const Geometry g = s_.geometry;
   r_.iterations = static_cast<int>(r_.history.size());
+  r_.chord_steps = chords_;
   if (r_.status == Status::InvalidArgument || r_.status == Status::OutOfMemory) {
     r_.u.clear();
   } else {

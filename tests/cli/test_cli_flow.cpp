@@ -177,7 +177,7 @@ TEST_CASE("cli flow: the embedded default mesh converges in hyperbolic geometry"
   check_converged(f);
   const Json& j = f.j;
   for (const char* key : {"status", "message", "file", "geometry", "scheme", "boundary", "target", "method",
-                          "iterations", "max_curvature_error", "gauss_bonnet_error", "seconds", "edges_clamped",
+                          "iterations", "chord_steps", "max_curvature_error", "gauss_bonnet_error", "seconds", "edges_clamped",
                           "history", "notes", "vertices", "edges", "faces", "genus"}) {
     CAPTURE(key);
     CHECK(j.contains(key));

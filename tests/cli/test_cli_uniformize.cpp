@@ -108,7 +108,7 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   const Json j = parse(r.out);
   REQUIRE(j.is_object());
   for (const char* key : {"status", "message", "input", "mesh", "geometry", "scheme", "boundary", "iterations",
-                          "max_curvature_error", "layout", "seed_independence_error", "cut", "generators",
+                          "chord_steps", "max_curvature_error", "layout", "seed_independence_error", "cut", "generators",
                           "relation_error", "angle_distortion", "timings", "total_seconds", "outputs", "history",
                           "notes", "repairs"})
     CHECK_MESSAGE(j.contains(key), key);
@@ -121,6 +121,8 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(j["fallback"].is_null());
   CHECK(j["mesh"]["genus"] == 2);
   CHECK(j["iterations"].get<int>() >= 1);
+  CHECK(j["chord_steps"].get<int>() >= 0);
+  CHECK(j["chord_steps"].get<int>() < j["iterations"].get<int>());  // the first step factorizes
   CHECK(j["max_curvature_error"].get<double>() < 1e-12);
   CHECK(j["layout"]["max_edge_length_error"].get<double>() < 1e-9);
   CHECK(j["layout"]["flipped_faces"] == 0);

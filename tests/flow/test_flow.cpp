@@ -14,6 +14,7 @@
 #include <string>
 
 #include "ricci/flow.h"
+#include "ricci/intrinsic.h"
 #include "ricci/validate.h"
 #include "shapes.h"
 #include "support.h"
@@ -991,5 +992,55 @@ TEST_CASE("flow: polishing steps continue the same solve and never raise the err
       CHECK(again.iterations == 0);
       CHECK(again.max_curvature_error == polished.max_curvature_error);
     }
+  }
+}
+
+TEST_CASE("flow: chord steps reach the Newton-only solution with no more factorizations, to the rounding level") {
+  // Circle packing on a fine torus (E), a genus-2 pretzel (H) and a squashed sphere (S); vertex
+  // scaling with circle boundaries (the split coupling) on a disk with intrinsic flips.
+  using namespace ricci_shapes;
+  std::vector<Problem> problems;
+  problems.push_back(make_problem("torus 160x80", torus(160, 80, 3.0, 1.0), Geometry::Euclidean));
+  problems.push_back(make_problem("pretzel(2, 8)", pretzel(2, 8), Geometry::Hyperbolic));
+  problems.push_back(make_problem("icosphere(4)", icosphere(4), Geometry::Spherical));
+  int chords = 0;
+  for (const Problem& p : problems) {
+    INFO(p.name);
+    FlowOptions with, without;
+    with.tolerance = without.tolerance = 1e-12;
+    without.chord_steps = false;
+    const FlowResult a = solve(p, with), b = solve(p, without);
+    REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
+    REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+    CHECK(b.chord_steps == 0);
+    CHECK(a.iterations - a.chord_steps <= b.iterations);  // full Newton steps: never more
+    CHECK(max_abs_difference(a.u, b.u) < 1e-9);
+    // A run of chord steps goes on to the rounding level, where the Newton step would have ended.
+    if (a.chord_steps > 0 && a.history.back().chord) CHECK(a.max_curvature_error < 1e-13);
+    int in_history = 0;
+    for (const IterationRecord& h : a.history) in_history += h.chord ? 1 : 0;
+    CHECK(in_history == a.chord_steps);
+    chords += a.chord_steps;
+    MESSAGE(p.name << ": " << a.iterations << " steps (" << a.chord_steps << " chord), max error "
+                   << a.max_curvature_error << "; Newton only " << b.iterations << " steps, " << b.max_curvature_error);
+  }
+  CHECK(chords > 0);
+  // Vertex scaling with flips and circle boundaries: the split's factor is reused as well.
+  const ValidateResult v = validate_mesh(disk(24));
+  REQUIRE(v.status == Status::Ok);
+  for (const bool chord : {true, false}) {
+    IntrinsicResult ir = mesh_intrinsic_triangulation(v.mesh, v.topology, Geometry::Euclidean);
+    REQUIRE(ir.status == Status::Ok);
+    FlowOptions o;
+    o.tolerance = 1e-12;
+    o.polish_steps = 2;
+    o.chord_steps = chord;
+    const std::vector<double> u0(static_cast<std::size_t>(v.topology.num_vertices), 0.0);
+    const FlowResult r = solve_flow_with_flips(ir.triangulation, u0, uniform_target(v.topology, BoundaryMode::Circle), o);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.max_curvature_error < 1e-13);
+    if (!chord) CHECK(r.chord_steps == 0);
+    MESSAGE("disk(24) with flips, chord steps " << std::string(chord ? "on" : "off") << ": " << r.iterations << " steps ("
+                                                << r.chord_steps << " chord), max error " << r.max_curvature_error);
   }
 }

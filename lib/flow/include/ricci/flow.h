@@ -183,6 +183,9 @@ struct FlowOptions {
   /// the error is at the rounding level, 4 ε (4π + max |K̄|). The steps reuse the
   /// solve's symbolic analysis, are counted in `iterations` and `history`, and a note reports them.
   int polish_steps = 0;
+  /// Newton: reuse the last factor for chord steps where they reach what a new factor would for
+  /// less (FlowResult::chord_steps); off: every step factorizes anew.
+  bool chord_steps = true;
   /// Newton's factor. Automatic takes the simplicial layout where it was measured faster with
   /// Debian's ATLAS (systems of up to ~1e9 flops: 20–50 % faster flows at 5k–53k unknowns) and
   /// the supernodal one above; fix it for another BLAS. The solution agrees to rounding, and the
@@ -213,6 +216,9 @@ struct IterationRecord {
   double max_error = 0;   ///< max |K̄ − K| after the step
   double energy = 0;      ///< E(u) − E(u_start)
   double step = 0;        ///< accepted step length (Newton: fraction of the Newton step)
+  /// Newton: the step reused the last factor (a chord step: no new Hessian, no factorization;
+  /// taken where it reaches what a new factor would, see FlowResult::chord_steps).
+  bool chord = false;
   double seconds = 0;     ///< time since the start of the solve
   /// This iteration's share of FlowResult::timings (setup and analysis stay 0 here).
   FlowTimings timings;
@@ -232,7 +238,12 @@ struct FlowResult {
   std::vector<double> K;         ///< #V
   std::vector<double> K_target;  ///< #V: the final target (boundary modes derive it from lengths)
   Geometry geometry = Geometry::Euclidean;  ///< the background geometry that was solved in
-  int iterations = 0;
+  int iterations = 0;  ///< steps taken (history entries), chord steps included
+  /// Newton steps among `iterations` that reused the last factor (IterationRecord::chord): after a
+  /// full Newton step that gained γ, the old factor converges at a rate of about 2γ, so where the
+  /// chord steps needed to reach what the next Newton step would cost less than it (timed in the
+  /// solve), they replace it; typically the last step of a solve and polishing.
+  int chord_steps = 0;
   double max_curvature_error = 0;
   /// Vertices whose computed curvature resolves less than the tolerance (the ends of an edge far
   /// shorter than its neighbours: their angles follow from double lengths only to about ε·l/s),
