@@ -388,9 +388,15 @@ Row run_input(const Input& input, const Settings& s) {
     row["polish_iterations"] = std::to_string(f.iterations - to_tolerance);
     row["polish"] = fmt("%.4f", f.seconds - solve_seconds);
     row["flow"] = fmt("%.4f", solve_seconds);
-    // Per iteration: the Newton iterations of the solve proper (their records' shares).
+    // Chord steps (the last factor reused) among all steps.
+    row["chords"] = std::to_string(f.chord_steps);
+    // Per iteration: the full Newton iterations of the solve proper (their records' shares; chord
+    // steps, which factorize nothing, left out of the mean).
     ricci::FlowTimings ft;
+    int full = 0;
     for (int i = 0; i < to_tolerance && i < static_cast<int>(f.history.size()); ++i) {
+      if (f.history[i].chord) continue;
+      ++full;
       const ricci::FlowTimings& h = f.history[i].timings;
       ft.derivatives += h.derivatives;
       ft.assembly += h.assembly;
@@ -407,20 +413,20 @@ Row run_input(const Input& input, const Settings& s) {
       row["iter_" + index] =
           fmt("%.1e", h.max_error) + " " + fmt("%.3g", h.step) + " " + fmt("%.4f", t.derivatives) + " " +
           fmt("%.4f", t.assembly) + " " + fmt("%.4f", t.factorization) + " " + fmt("%.4f", t.solve) + " " +
-          fmt("%.4f", t.line_search) + " " + (static_cast<int>(i) < to_tolerance ? "newton" : "polish");
+          fmt("%.4f", t.line_search) + " " + (static_cast<int>(i) < to_tolerance ? "newton" : "polish") +
+          (h.chord ? "-chord" : "");
     }
     ft.setup = f.timings.setup;
     ft.analysis = f.timings.analysis;
     const double per_iter =
-        to_tolerance > 0 ? (ft.derivatives + ft.assembly + ft.factorization + ft.solve + ft.line_search) / to_tolerance
-                         : 0;
+        full > 0 ? (ft.derivatives + ft.assembly + ft.factorization + ft.solve + ft.line_search) / full : 0;
     row["per_iter"] = fmt("%.4f", per_iter);
     for (const auto& [k, x] : {std::pair{"setup", ft.setup}, std::pair{"analysis", ft.analysis},
                                std::pair{"derivatives", ft.derivatives}, std::pair{"assembly", ft.assembly},
                                std::pair{"factorization", ft.factorization}, std::pair{"solve", ft.solve},
                                std::pair{"line_search", ft.line_search}})
-      row[std::string("t_") + k] = fmt("%.4f", to_tolerance > 0 && std::string(k) != "setup" && std::string(k) != "analysis"
-                                                    ? x / to_tolerance
+      row[std::string("t_") + k] = fmt("%.4f", full > 0 && std::string(k) != "setup" && std::string(k) != "analysis"
+                                                    ? x / full
                                                     : x);
     row["lnz"] = fmt("%.0f", f.factor_nonzeros);
     if (ref.ok && ref.total() > 0) {
@@ -484,7 +490,7 @@ Row run_input(const Input& input, const Settings& s) {
       row["flips_stage"] = fmt("%.4f", flips_best);
       row["cp_status"] = std::string(ricci::status_name(c.status));
       row["cp_flow"] = fmt("%.4f", cp_best);
-      row["cp_iterations"] = std::to_string(c.iterations);
+      row["cp_iterations"] = std::to_string(c.iterations) + (c.chord_steps > 0 ? ", " + std::to_string(c.chord_steps) + " chord" : "");
       if (cp_best > 0) row["flips_over_cp"] = fmt("%.2f", flips_best / cp_best);
       row["cp_distortion"] = fmt("%.4f", ricci::angle_distortion(v.mesh, topo, u.geometry, c.l).mean_abs_log);
     }
@@ -759,19 +765,21 @@ int main(int argc, char** argv) {
          "analysis included, from the call to the first iterate below 1e-10), *+ polish* the steps `uniformize()` "
          "adds after it (kept only when they lower the error; the stage table's *flow* has both); *flow/ref* and "
          "*it/ref* are the solve and one mean Newton iteration (kernels + assembly + factorization + solve + line "
-         "search) over ref. Each input runs in its own process; peaks are VmHWM per stage.\n\n";
+         "search; the full steps, chord steps — the last factor reused, counted as *k chord* — left out) over ref. "
+         "Each input runs in its own process; peaks are VmHWM per stage.\n\n";
   doc += "## Flow against the reference\n\n";
   doc += "| input | geometry | #F | Newton it. + polish | max error | flow s + polish s | ref s | flow/ref | it/ref | "
          "kernels 1→N thr | flow peak MB | bytes/face |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : rows) {
     std::string it = get(r, "iterations") + " + " + get(r, "polish_iterations");
+    if (get(r, "chords") != "0" && !get(r, "chords").empty()) it += ", " + get(r, "chords") + " chord";
     if (get(r, "flow_status", "ok") != "ok") it += " (" + get(r, "flow_status") + ")";
     doc += "| " + name + " | " + get(r, "geometry") + " | " + get(r, "faces") + " | " + it + " | " + get(r, "error") +
            " | " + get(r, "flow") + " + " + get(r, "polish") + " | " + get(r, "ref") + " | " + get(r, "ratio_flow") +
            " | " + get(r, "ratio_iter") +
            " | " + get(r, "kernel_speedup") + "× | " + mb(r, "peak_flow") + " | " + get(r, "bytes_per_face") + " |\n";
   }
-  doc += "\n## Newton iteration, mean seconds per iteration\n\n";
+  doc += "\n## Newton iteration, mean seconds per full iteration (chord steps left out)\n\n";
   doc += "| input | setup s | analysis s | kernels | assembly | factorization | solve | line search | L nnz | ref "
          "analysis | ref factor | ref solve |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : rows)
@@ -791,7 +799,11 @@ int main(int argc, char** argv) {
       std::string error, step, kernels, assembly, factorization, solve, search, kind;
       in >> error >> step >> kernels >> assembly >> factorization >> solve >> search >> kind;
       const int index = std::atoi(key.c_str() + 5) + 1;
-      doc += "| " + name + " | " + std::to_string(index) + (kind == "polish" ? " (polish)" : "") + " | " + error +
+      const std::string mark = kind == "polish"         ? " (polish)"
+                               : kind == "polish-chord" ? " (polish, chord)"
+                               : kind == "newton-chord" ? " (chord)"
+                                                        : "";
+      doc += "| " + name + " | " + std::to_string(index) + mark + " | " + error +
              " | " + step + " | " + kernels + " | " + assembly + " | " + factorization + " | " + solve + " | " +
              search + " |\n";
     }
@@ -852,7 +864,8 @@ int main(int argc, char** argv) {
          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : rows) {
     if (!r.count("flips")) continue;
-    doc += "| " + name + " | " + get(r, "faces") + " | " + get(r, "iterations") + " + " + get(r, "polish_iterations") +
+    const std::string chords = get(r, "chords") != "0" && !get(r, "chords").empty() ? ", " + get(r, "chords") + " chord" : "";
+    doc += "| " + name + " | " + get(r, "faces") + " | " + get(r, "iterations") + " + " + get(r, "polish_iterations") + chords +
            " | " + get(r, "flips") + " | " + get(r, "flips_stage") + " | " + get(r, "cp_iterations") + " | " +
            get(r, "cp_flow") + " | " + get(r, "flips_over_cp") + " | " + get(r, "distortion") + " | " +
            get(r, "cp_distortion") + " |\n";
