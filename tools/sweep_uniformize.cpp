@@ -8,7 +8,8 @@
 //   --patches N         LayoutOptions::patches: divide-and-conquer layouts with N patches (default: off)
 //   --only TEXT         only the meshes whose path (e.g. "genus1/kitten") contains TEXT
 //
-// Columns: geometry; #F; Newton iterations (with the polishing steps) and max |K̄ − K|; the
+// Columns: geometry; #F; Newton iterations (with the polishing steps; chord steps, which reuse the
+// last factor, counted in them and apart) and max |K̄ − K|; the
 // layout's max relative edge-length error and flipped faces; the largest deviation between
 // layouts from four seed faces after the fitted isometry; closed genus ≥ 2: the compact domain's
 // vertex-cycle error, the canonical polygon's relation error Π[A_i^-1, B_i] − 1 and the polygon's
@@ -112,7 +113,9 @@ int main(int argc, char** argv) {
           std::snprintf(secs, sizeof secs, "%.1f", s);
           row += std::string(ricci::status_name(r.status)) + " (" + r.failed_stage + ") | | | | | | | | | | | " + secs + " |\n";
         } else {
-          row += std::to_string(r.flow.iterations) + " | " + sci(r.flow.max_curvature_error) + " | ";
+          row += std::to_string(r.flow.iterations) +
+                 (r.flow.chord_steps > 0 ? " (" + std::to_string(r.flow.chord_steps) + " chord)" : std::string()) + " | " +
+                 sci(r.flow.max_curvature_error) + " | ";
           if (r.layout.status == ricci::Status::Ok)
             row += sci(r.layout.max_edge_length_error) + " | " + sci(r.layout.rounding_floor) + " | " +
                    std::to_string(r.layout.flipped_faces) + " | " +
@@ -154,7 +157,7 @@ int main(int argc, char** argv) {
                       " base vertices for a canonical polygon of the mesh where the geodesic one is not made; the layout refined only where it misses its "
                       "metric by more than 1e-10 above its rounding floor). Hardware threads: " +
                       std::to_string(std::thread::hardware_concurrency()) +
-                      ".\n\nColumns: *layout edge error* — max relative edge-length error of the layout (the compact "
+                      ".\n\nColumns: *Newton it.* — steps with the polishing ones, in parentheses those that reused the last factor (chord steps); *layout edge error* — max relative edge-length error of the layout (the compact "
                       "domain for closed and bordered H surfaces); *rounding floor* — the largest relative change of an "
                       "edge's length that rounding its ends' coordinates can make (Layout::rounding_floor); *seed independence* — largest deviation of the "
                       "extra seeds' layouts from the layout after the fitted isometry; *domain cycles* — the compact domain's fitted side "
