@@ -12,6 +12,7 @@
 #include <numbers>
 #include <random>
 #include <string>
+#include <utility>
 
 #include "ricci/flow.h"
 #include "ricci/intrinsic.h"
@@ -65,6 +66,15 @@ std::vector<Problem> closed_problems(Scheme scheme = Scheme::CirclePacking) {
 
 FlowResult solve(const Problem& p, const FlowOptions& o = {}) {
   return solve_flow(p.topology, p.metric.structure, p.metric.u, p.target, o);
+}
+
+// The problem solved to 1e-12 with a flag of FlowOptions on (first) and off (second).
+std::pair<FlowResult, FlowResult> solve_on_and_off(const Problem& p, bool FlowOptions::*flag) {
+  FlowOptions on, off;
+  on.tolerance = off.tolerance = 1e-12;
+  on.*flag = true;
+  off.*flag = false;
+  return {solve(p, on), solve(p, off)};
 }
 
 bool all_finite(const std::vector<double>& x) {
@@ -840,10 +850,7 @@ TEST_CASE("flow: vertex scaling's split coupling takes the boundary system's New
   problems.push_back(holed);
   for (const Problem& p : problems) {
     CAPTURE(p.name);
-    FlowOptions split, schur;
-    split.tolerance = schur.tolerance = 1e-12;
-    schur.split_loop_coupling = false;
-    const FlowResult a = solve(p, split), b = solve(p, schur);
+    const auto [a, b] = solve_on_and_off(p, &FlowOptions::split_loop_coupling);
     INFO(a.brief_report() << " — " << a.message);
     INFO(b.brief_report() << " — " << b.message);
     REQUIRE(a.status == Status::Ok);
@@ -1006,10 +1013,7 @@ TEST_CASE("flow: chord steps reach the Newton-only solution with no more factori
   int chords = 0;
   for (const Problem& p : problems) {
     INFO(p.name);
-    FlowOptions with, without;
-    with.tolerance = without.tolerance = 1e-12;
-    without.chord_steps = false;
-    const FlowResult a = solve(p, with), b = solve(p, without);
+    const auto [a, b] = solve_on_and_off(p, &FlowOptions::chord_steps);
     REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
     REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
     CHECK(b.chord_steps == 0);
