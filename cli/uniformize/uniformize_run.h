@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <functional>
+#include <future>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -33,6 +34,9 @@ struct OutFile {
   /// When set, the file's bytes are what this hands its sink (and `data` is not used): large
   /// meshes are written without ever being one string. False: it could not make them.
   std::function<bool(const ricci::ByteSink&)> stream = {};
+  /// When valid, `data` is being made on another thread (text files made beside the mesh.glb and
+  /// the signature): write_run() takes it before anything reads `data`.
+  std::shared_future<std::string> later = {};
 };
 
 /// What the command's options say: the library's options and the target and boundary specs.
