@@ -283,6 +283,7 @@ class FlowSolver {
   bool polish_step();
   bool chord_step(double bound);
   bool chord_pays();
+  bool chord_possible() const;
   /// max |K̄ − K| at the rounding level of the angle sums (kPolishUlps ulps of the largest).
   double curvature_rounding() const;
   // Curvature resolution (see the design notes).
@@ -313,6 +314,7 @@ class FlowSolver {
   const Topology& trial_topology() const { return trial_flipped_ ? trial_tri_.topology : t_; }
   const ConformalStructure& trial_structure() const { return trial_flipped_ ? trial_s_ : s_; }
   bool refresh_pattern();
+  void keep_ordering(bool fresh);
   void compute_pin_edges();
   void fail(Status status, std::string message) {
     r_.status = status;
@@ -458,7 +460,7 @@ class FlowSolver {
   // Polishing (FlowOptions::polish_steps): a step is kept only when it lowers the maximal error.
   bool polishing_ = false;
   int polish_tried_ = 0, polished_ = 0;
-  // Chord steps (polish_step()): the last factor reused for a new right-hand side. factor_current_:
+  // Chord steps (chord_step()): the last factor reused for a new right-hand side. factor_current_:
   // the factor is of the current pattern's Newton matrix at the last Newton point, unshifted.
   bool chord_ = false, factor_current_ = false;
   int chords_ = 0, polish_chords_ = 0;
@@ -515,6 +517,24 @@ Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, Intr
 constexpr double kRefillGrowth = 1.25;
 constexpr double kRefillFlops = 1.5;
 
+// After a successful symbolic analysis: its ordering (CHOLMOD's, postordered) handed out as
+// vertices (set_ordering()) and, with intrinsic flips, kept to be carried over to the next
+// pattern; `fresh`: a new ordering, whose factor the carried-over ones are measured against.
+void FlowSolver::keep_ordering(bool fresh) {
+  const auto n = static_cast<std::size_t>(pattern_.num_unknowns);
+  std::vector<std::int64_t> order(n);
+  if (!solver_.ordering(order)) order.clear();
+  if (order_out_ && !order.empty()) {
+    order_out_->resize(n);
+    for (std::size_t k = 0; k < n; ++k) (*order_out_)[k] = pattern_.unknown_vertex[order[k]];
+  }
+  if (fresh) {
+    ordered_fill_ = solver_.factor_nonzeros();
+    ordered_flops_ = solver_.factor_flops();
+  }
+  if (tri_) analysis_order_ = std::move(order);
+}
+
 bool FlowSolver::refresh_pattern() {
   Clock::time_point mark = Clock::now();  // the new pattern and its analysis count as analysis
   pattern_stale_ = false;
@@ -547,19 +567,13 @@ bool FlowSolver::refresh_pattern() {
     if (fresh != detail::FactorOutcome::Ok) {
       solver_.reset();
       analysis = solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
+      if (analysis == detail::FactorOutcome::Ok) keep_ordering(false);
     } else {
       ++reorderings_;
-      ordered_fill_ = solver_.factor_nonzeros();
-      ordered_flops_ = solver_.factor_flops();
+      keep_ordering(true);
     }
-  }
-  if (analysis == detail::FactorOutcome::Ok) {
-    analysis_order_.resize(static_cast<std::size_t>(pattern_.num_unknowns));
-    if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
-    if (order_out_ && !analysis_order_.empty()) {
-      order_out_->resize(analysis_order_.size());
-      for (std::size_t k = 0; k < analysis_order_.size(); ++k) (*order_out_)[k] = pattern_.unknown_vertex[analysis_order_[k]];
-    }
+  } else if (analysis == detail::FactorOutcome::Ok) {
+    keep_ordering(false);
   }
   if (analysis == detail::FactorOutcome::Ok && coupled_ && !split_) {
     boundary_direct_ = false;
@@ -1653,8 +1667,12 @@ constexpr int kMaxChords = 4;
 constexpr double kChordFloor = 0.25;  // × curvature_rounding() (16 ulps): where a run of chord steps ends
 constexpr double kFaceFlops = 500;
 
+bool FlowSolver::chord_possible() const {
+  return options_.chord_steps && factor_current_ && !pattern_stale_ && (!coupled_ || split_applied_);
+}
+
 bool FlowSolver::chord_pays() {
-  if (!options_.chord_steps || !factor_current_ || pattern_stale_ || (coupled_ && !split_applied_) || chords_in_row_ >= kMaxChords) return false;
+  if (!chord_possible() || chords_in_row_ >= kMaxChords) return false;
   const double rate = kChordRate * newton_gain_;
   if (!(rate < 0.5) || !(judged_ > 0)) return false;
   // The level the Newton step from here would reach (M e²), or where rounding stops both.
@@ -1668,7 +1686,7 @@ bool FlowSolver::chord_pays() {
 }
 
 bool FlowSolver::chord_step(double bound) {
-  if (!options_.chord_steps || !factor_current_ || pattern_stale_ || (coupled_ && !split_applied_)) return false;
+  if (!chord_possible()) return false;
   const Status status = r_.status;
   const std::string message = r_.message;
   chord_ = true;
@@ -1820,19 +1838,7 @@ void FlowSolver::run() {
                        : options_.factorization == Factorization::Simplicial ? detail::FactorLayout::Simplicial
                                                                              : detail::FactorLayout::Automatic);
     const detail::FactorOutcome analysis = solver_.analyze(n, pattern_.col_ptr, pattern_.row, kind, ordering);
-    if (analysis == detail::FactorOutcome::Ok && tri_) {
-      analysis_order_.resize(static_cast<std::size_t>(n));
-      if (!solver_.ordering(analysis_order_)) analysis_order_.clear();
-      ordered_fill_ = solver_.factor_nonzeros();
-      ordered_flops_ = solver_.factor_flops();
-    }
-    if (analysis == detail::FactorOutcome::Ok && order_out_) {
-      ordering.resize(static_cast<std::size_t>(n));
-      if (solver_.ordering(ordering)) {
-        order_out_->resize(static_cast<std::size_t>(n));
-        for (Index k = 0; k < n; ++k) (*order_out_)[k] = pattern_.unknown_vertex[ordering[k]];
-      }
-    }
+    if (analysis == detail::FactorOutcome::Ok) keep_ordering(true);
     if (analysis == detail::FactorOutcome::Ok && coupled_ && !split_) setup_boundary_direct();
     r_.timings.analysis += lap(mark);
     if (analysis != detail::FactorOutcome::Ok) {
