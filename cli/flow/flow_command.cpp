@@ -77,7 +77,8 @@ constexpr int kGradientMaxIterations = 20000;
 constexpr const char* kVertexNumberingNote =
     "vertices are numbered 0-based after validation: vertices used by no face are dropped (and, "
     "with --largest-component, those of the other components); input_vertex is the 0-based index "
-    "of the same vertex in the input file (-1 for a vertex added by splitting an ear; those come last)";
+    "of the same vertex in the input file (-1 for a vertex added by splitting an ear, or by `ricci uniformize`'s "
+    "Steiner subdivision, whose edges are listed then; those come last)";
 
 }  // namespace
 

@@ -642,6 +642,18 @@ Json report_json(const Run& run) {
   } else {
     j["intrinsic"] = nullptr;
   }
+  if (have && (r.steiner.used || !r.steiner.note.empty())) {
+    const ricci::SteinerSummary& st = r.steiner;
+    j["steiner"] = Json{{"used", st.used},
+                        {"levels", st.levels},
+                        {"median_jump", real(st.median_jump)},
+                        {"refined_median_jump", st.used ? real(st.refined_median_jump) : Json(nullptr)},
+                        {"vertices_added", st.vertices_added},
+                        {"faces", st.used ? Json(r.steiner_mesh.topology.num_faces) : Json(nullptr)},
+                        {"note", st.note.empty() ? Json(nullptr) : Json(st.note)}};
+  } else {
+    j["steiner"] = nullptr;
+  }
   j["fallback"] = have && !r.intrinsic.fallback.empty() ? Json(r.intrinsic.fallback) : Json(nullptr);
   j["boundary"] = have && run.have_mesh ? (run.topo.is_closed() ? Json("none") : Json(std::string(ricci::boundary_mode_name(r.boundary))))
                                         : Json(nullptr);
@@ -782,6 +794,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   const std::optional<ricci::Scheme> scheme = parse_scheme(o.scheme == "auto" ? std::string("yamabe") : o.scheme);
   if (!scheme) return usage("unknown scheme '" + o.scheme + "'");
   uo.intrinsic_flips = !o.no_flips;
+  uo.steiner_max_levels = o.steiner_levels;
   const std::optional<TargetSpec> target_spec = parse_target(o.target, &why);
   if (!target_spec) return usage(why);
   const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
@@ -1095,7 +1108,11 @@ std::optional<int> output_files(const UniformizeCommandOptions& o, Run& run, Clo
                               r.intrinsic.used,
                               !r.intrinsic.used || r.intrinsic.straight_tiles};
     files.push_back({"metric.csv", {}, {}, beside([header, &r, &topo, &v] {
-                       return metric_file_text(header, r.flow, topo, v.vertex_to_input, false);
+                       if (!r.steiner.used) return metric_file_text(header, r.flow, topo, v.vertex_to_input, false);
+                       // The subdivided surface's vertices: the input's, then the Steiner vertices (-1).
+                       std::vector<Index> to_input(static_cast<std::size_t>(r.steiner_mesh.topology.num_vertices), -1);
+                       std::copy(v.vertex_to_input.begin(), v.vertex_to_input.end(), to_input.begin());
+                       return metric_file_text(header, r.flow, r.steiner_mesh.topology, to_input, false);
                      })});
   }
   if (!r.polygon_note.empty()) add_note(o, run, r.polygon_note);
@@ -1419,6 +1436,14 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
   cmd->add_flag("--no-flips", o.no_flips,
                 "Vertex scaling on the input's triangulation as it is, without intrinsic Delaunay flips (stops on "
                 "many non-Delaunay meshes; for comparison).");
+  cmd->add_option("--steiner-levels", o.steiner_levels,
+                  "Vertex scaling with flips in euclidean and spherical geometry: where the input's triangles, made "
+                  "straight, would fold and the solution's conformal factor jumps by more than 0.05 across "
+                  "the median edge (the map is not resolved by one scale per vertex), subdivide the surface on its "
+                  "own faces (every edge split at its midpoint) by the levels that bring it there, at most N and at "
+                  "most 65536 faces, and solve again; mesh.obj keeps the input's faces, refinement.obj and metric.csv "
+                  "hold the Steiner vertices after the input's. 0: never. Default: 3.")
+      ->check(CLI::Range(0, 8));
   cmd->add_option("--target", o.target,
                   "Target curvature: auto (= uniform), uniform, cones=FILE or single-vertex=I (as for `ricci flow`). "
                   "Default: auto.")

@@ -411,11 +411,27 @@ bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOption
 
 // Cut weights on the common subdivision: the 3D length, 100 times that off the input's edges (an
 // edge of the subdivision lies on an input edge when its ends are two input vertices, two crossings
-// of the same input edge, or a crossing and an end of its input edge).
-std::vector<double> refinement_cut_weights(const CommonSubdivision& s, const Topology& input) {
+// of the same input edge, or a crossing and an end of its input edge). With Steiner points (the
+// input here is `steiner`'s subdivision of the user's surface), an edge of the subdivision lies on
+// a user's edge when it lies on an edge of the subdivided surface and both its ends lie on that
+// user's edge (steiner.h: SteinerPlace).
+std::vector<double> refinement_cut_weights(const CommonSubdivision& s, const Topology& input,
+                                           const SteinerMesh* steiner = nullptr) {
   const Topology& t = s.topology;
   const Index nv = input.num_vertices;
   auto ends_at = [&](Index a, Index v) { return input.edge_vertices[2 * a] == v || input.edge_vertices[2 * a + 1] == v; };
+  // The user's vertex or edge a vertex of the subdivision lies on (kind Face: neither).
+  auto place = [&](Index v) {
+    if (v < nv) return steiner->place[v];
+    const Index e = steiner->edge_input[s.vertex_input_edge[v]];
+    return e == kInvalid ? SteinerPlace{SteinerPlace::Kind::Face, kInvalid} : SteinerPlace{SteinerPlace::Kind::Edge, e};
+  };
+  auto on_user_edge = [&](Index a, Index b) {
+    const SteinerPlace p = place(a), q = place(b);
+    if (p.kind == SteinerPlace::Kind::Face || q.kind == SteinerPlace::Kind::Face) return false;
+    if (p.kind == SteinerPlace::Kind::Edge && q.kind == SteinerPlace::Kind::Edge) return p.index == q.index;
+    return true;  // a user's vertex and a point on an edge of the subdivided surface from it
+  };
   std::vector<double> w(static_cast<std::size_t>(t.num_edges));
   for (Index e = 0; e < t.num_edges; ++e) {
     const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
@@ -428,6 +444,7 @@ std::vector<double> refinement_cut_weights(const CommonSubdivision& s, const Top
     if (a >= nv && b >= nv) on_input = s.vertex_input_edge[a] == s.vertex_input_edge[b];
     else if (a >= nv) on_input = ends_at(s.vertex_input_edge[a], b);
     else if (b >= nv) on_input = ends_at(s.vertex_input_edge[b], a);
+    if (on_input && steiner) on_input = on_user_edge(a, b);
     w[e] = std::sqrt(d2) * (on_input ? 1.0 : 100.0);
   }
   return w;
@@ -658,14 +675,42 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
 
 namespace {
 
+// Steiner levels asked for by a run of uniformize_unit() (it stops after the metric stages).
+struct SteinerPlan {
+  int levels = 0;
+  double median_jump = 0;
+};
+
+// The whole job on (mesh, topology). With `plan`: when Steiner points apply (the header comment;
+// UniformizeOptions::steiner_max_levels), returns right after the metric stages with plan->levels
+// set. With `steiner`: (mesh, topology) is that subdivision of the user's surface, and the later
+// stages always run on the common subdivision, its cut preferring the user's edges.
 UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                                 const Target* target) {
+                                 const Target* target, SteinerPlan* plan = nullptr,
+                                 const SteinerMesh* steiner = nullptr) {
   const Clock::time_point start = Clock::now();
   UniformizeResult r;
   StageClock stage_done{r, options};
   MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done);
   if (!m.ok) return r;
-  if (!m.flips || m.straight.tiles()) {
+  if (plan && m.flips && !m.doubled && !m.straight.tiles() && r.geometry != Geometry::Hyperbolic &&
+      options.steiner_max_levels > 0) {
+    plan->median_jump = median_edge_jump(topology, r.flow.u);
+    plan->levels = steiner_levels(plan->median_jump, options.steiner_resolution, options.steiner_max_levels,
+                                  topology.num_faces, options.steiner_max_faces);
+    if (plan->levels > 0) {
+      r.seconds = since(start);
+      return r;
+    }
+  }
+  if (steiner && m.doubled) {
+    r.status = Status::NumericalFailure;
+    r.failed_stage = "straighten";
+    r.message = "straighten: the subdivided surface was solved on its double";
+    r.seconds = since(start);
+    return r;
+  }
+  if (!m.flips || (m.straight.tiles() && !steiner)) {
     if (m.flips)
       stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles "
                                "tile the surface (angle sums to " + sci(m.straight.max_angle_sum_error) + ")");
@@ -691,7 +736,7 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
                                " vertices where straight input triangles fold; the common subdivision has " +
                                std::to_string(r.refinement.topology.num_faces) + " faces");
   UniformizeOptions ro = options;
-  ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology);
+  ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology, steiner);
   layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start, &r.refinement.frames);
   if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
   return r;
@@ -792,14 +837,18 @@ void record_unit(const UnitMesh& u, UniformizeResult& r) {
   if (u.scale == 1) return;
   if (r.metric.status != Status::NotRun) r.metric.length_scale *= u.scale;
   for (double& x : r.refinement.mesh.positions) x /= u.scale;
+  for (double& x : r.steiner_mesh.mesh.positions) x /= u.scale;
 }
 
 }  // namespace
 
-UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                            const Target* target) {
-  const UnitMesh u = unit_mesh(mesh);
-  UniformizeResult r = uniformize_unit(*u.mesh, topology, options, target);
+namespace {
+
+// uniformize_unit() with the fallbacks to circle packing (uniformize()).
+UniformizeResult uniformize_with_fallbacks(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                           const Target* target, SteinerPlan* plan) {
+  UniformizeResult r = uniformize_unit(mesh, topology, options, target, plan);
+  if (plan && plan->levels > 0) return r;
   // Vertex scaling with flips converged only to the curvature resolution of near-coincident
   // vertices (FlowResult::resolution_vertices), and a stage after the flow could not represent it
   // (a layout closes around such vertices, and its coordinates reproduce their short edges, only to
@@ -809,7 +858,7 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
       !(r.flow.max_curvature_error < options.flow.tolerance)) {
     UniformizeOptions packing = options;
     packing.metric.scheme = Scheme::CirclePacking;
-    UniformizeResult p = uniformize_unit(*u.mesh, topology, packing, target);
+    UniformizeResult p = uniformize_unit(mesh, topology, packing, target);
     p.intrinsic.fallback = "vertex scaling with intrinsic flips converged only to the curvature resolution of " +
                            std::to_string(r.flow.resolution_vertices) + " near-coincident vertices (max |K̄ − K| " +
                            sci(r.flow.max_curvature_error) + ", resolution " + sci(r.flow.curvature_resolution) +
@@ -822,12 +871,75 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
     // as on the surface itself), circle packing instead, as before the double.
     UniformizeOptions packing = options;
     packing.metric.scheme = Scheme::CirclePacking;
-    UniformizeResult p = uniformize_unit(*u.mesh, topology, packing, target);
+    UniformizeResult p = uniformize_unit(mesh, topology, packing, target);
     p.intrinsic.fallback = "vertex scaling with intrinsic flips, solved on the surface's double (" +
                            std::to_string(r.intrinsic.inconsistent_vertices) +
                            " vertices where its straight input triangles fold), failed at " + r.message;
     p.flow.notes.insert(p.flow.notes.begin(), p.intrinsic.fallback + "; the paper's circle packing was solved instead");
     r = std::move(p);
+  }
+  return r;
+}
+
+// The run on the Steiner subdivision `s` of (mesh, topology), its outputs brought back to the
+// user's faces; status not Ok when it failed (the caller keeps the input's own run).
+UniformizeResult uniformize_subdivided(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                       const Target& target, const SteinerPlan& plan, SteinerMesh s) {
+  const Target st = steiner_target(s, topology, target);
+  UniformizeResult r = uniformize_unit(s.mesh, s.topology, options, &st, nullptr, &s);
+  if (r.status != Status::Ok) return r;
+  if (!r.intrinsic.refined || !r.intrinsic.fallback.empty()) {
+    r.status = Status::NumericalFailure;
+    r.failed_stage = "straighten";
+    r.message = "straighten: the subdivided surface was not solved with flips";
+    return r;
+  }
+  for (Index& f : r.refinement.face_input) f = s.face_input[f];
+  r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
+  r.steiner.used = true;
+  r.steiner.levels = plan.levels;
+  r.steiner.median_jump = plan.median_jump;
+  r.steiner.refined_median_jump = median_edge_jump(s.topology, r.flow.u);
+  r.steiner.vertices_added = s.topology.num_vertices - topology.num_vertices;
+  r.steiner_mesh = std::move(s);
+  return r;
+}
+
+}  // namespace
+
+UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                            const Target* target) {
+  const Clock::time_point start = Clock::now();
+  const UnitMesh u = unit_mesh(mesh);
+  SteinerPlan plan;
+  UniformizeResult r = uniformize_with_fallbacks(*u.mesh, topology, options, target, &plan);
+  if (plan.levels > 0) {
+    // Solved on the input to learn its conformal factor; the job itself runs on the subdivision.
+    const std::vector<std::pair<std::string, double>> probe = r.timings;
+    const double probe_seconds = since(start);
+    SteinerMesh s = subdivide_on_faces(*u.mesh, topology, plan.levels);
+    const Target given = target ? *target : uniform_target(topology, r.boundary);
+    UniformizeResult sub = s.status == Status::Ok
+                               ? uniformize_subdivided(*u.mesh, topology, options, given, plan, std::move(s))
+                               : UniformizeResult{};
+    if (s.status != Status::Ok) sub.message = s.message;
+    if (sub.status == Status::Ok) {
+      r = std::move(sub);
+    } else {
+      r = uniformize_with_fallbacks(*u.mesh, topology, options, target, nullptr);
+      r.steiner.levels = plan.levels;
+      r.steiner.median_jump = plan.median_jump;
+      r.steiner.note = "the surface subdivided " + std::to_string(plan.levels) + " times (median |u_i − u_j| " +
+                       sci(plan.median_jump) + " over the input's edges) failed (" + sub.message +
+                       "); the input's own triangulation is used";
+      r.flow.notes.push_back(r.steiner.note);
+    }
+    // The probe's stages first, then the run's (whose names repeat).
+    std::vector<std::pair<std::string, double>> t;
+    for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
+    t.insert(t.end(), r.timings.begin(), r.timings.end());
+    r.timings = std::move(t);
+    r.seconds += probe_seconds;
   }
   record_unit(u, r);
   return r;

@@ -602,6 +602,62 @@ TEST_CASE("cli uniformize: where straight input faces would fold, refinement.obj
   for (const char* name : {"report.json", "domain.obj", "metric.csv"}) CHECK_MESSAGE(fs::exists(out / name), name);
 }
 
+TEST_CASE("cli uniformize: Steiner points where the input's faces cannot carry the map, none with --steiner-levels 0") {
+  // The needle torus above: its straight input triangles fold and its conformal factor jumps by
+  // more than 0.05 across the median edge, so the default subdivides it on its own faces.
+  std::mt19937_64 rng(3);
+  const ricci::Mesh m = ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02);
+  TempDir dir;
+  const fs::path mesh = dir / "needles.obj";
+  REQUIRE(ricci::write_mesh(mesh.string(), m).status == ricci::Status::Ok);
+  // Rows of metric.csv's vertex section: (input_vertex) per vertex.
+  auto metric_rows = [](const fs::path& file) {
+    std::vector<long> input;
+    std::istringstream lines(ricci_test::read_bytes(file));
+    bool vertices = false;
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("# vertex,", 0) == 0) vertices = true;
+      else if (line.rfind("#", 0) == 0) vertices = false;  // the edge section's comments
+      else if (vertices) input.push_back(std::stol(line.substr(line.find(',') + 1)));
+    }
+    return input;
+  };
+  double distortion[2] = {0, 0};
+  for (const bool steiner : {true, false}) {
+    CAPTURE(steiner);
+    const fs::path out = dir / (steiner ? "on" : "off");
+    std::vector<std::string> args = {"uniformize", mesh.string(), "-o", out.string(), "--no-pictures", "--json", "-q"};
+    if (!steiner) args.insert(args.end(), {"--steiner-levels", "0"});
+    const auto r = run_cli(args);
+    REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+    const Json j = parse(r.out);
+    REQUIRE(j.is_object());
+    distortion[steiner ? 0 : 1] = j["angle_distortion"]["mean"].get<double>();
+    const std::vector<long> rows = metric_rows(out / "metric.csv");
+    const ricci::ReadResult back = ricci::read_mesh((out / "mesh.obj").string());
+    REQUIRE(back.status == ricci::Status::Ok);
+    CHECK(back.mesh.faces == m.faces);  // the user's faces either way
+    if (steiner) {
+      REQUIRE(j["steiner"].is_object());
+      CHECK(j["steiner"]["used"] == true);
+      const int levels = j["steiner"]["levels"].get<int>();
+      CHECK(levels >= 1);
+      CHECK(j["steiner"]["faces"].get<long>() == (static_cast<long>(m.num_faces()) << (2 * levels)));
+      CHECK(j["steiner"]["median_jump"].get<double>() > 0.05);
+      CHECK(j["steiner"]["refined_median_jump"].get<double>() < j["steiner"]["median_jump"].get<double>());
+      // metric.csv: the input's vertices in order, then the Steiner vertices (input_vertex -1).
+      const long added = j["steiner"]["vertices_added"].get<long>();
+      REQUIRE(rows.size() == static_cast<std::size_t>(m.num_vertices() + added));
+      for (std::size_t w = 0; w < rows.size(); ++w) CHECK(rows[w] == (w < static_cast<std::size_t>(m.num_vertices()) ? static_cast<long>(w) : -1));
+      CHECK(j["timings"].contains("probe_flow"));
+    } else {
+      CHECK(j["steiner"].is_null());
+      CHECK(rows.size() == static_cast<std::size_t>(m.num_vertices()));
+    }
+  }
+  CHECK(distortion[0] < distortion[1]);
+}
+
 TEST_CASE("cli uniformize: --no-flips and the paper's scheme run without flips") {
   TempDir dir;
   for (const std::vector<std::string>& extra : {std::vector<std::string>{"--no-flips"},

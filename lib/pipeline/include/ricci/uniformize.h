@@ -59,6 +59,19 @@
 //     the slivers between them never place a vertex. Should that layout fail the accuracy gate
 //     (a solve converged only to its curvature resolution: the coarse faces carry its residual),
 //     the development through the pieces themselves is tried and kept when it passes.
+// Steiner points (steiner.h), in E and S. Where the straight input triangles fold and the
+// solution's conformal factor jumps by more than steiner_resolution (0.05) across the median input
+// edge — one scale per vertex does not resolve the map, and the input's faces cannot carry it — the surface is
+// subdivided on its own faces by the levels that bring that jump to the resolution (each halves
+// it; at most steiner_max_levels, at most steiner_max_faces faces) and the job runs on the
+// subdivision with the same target (steiner_target()), always through the common subdivision,
+// whose face_input then names the input's faces; `angles` are measured on the input's corners and
+// input_surface_layout() gives the input's own faces. The first solve only measured the jump
+// (its stages are in `timings` as probe_initial_metric, probe_target, probe_flow). Should the run
+// on the subdivision fail, the input's own run is returned and steiner.note says why. Not in H:
+// there the canonical polygon's search grows faster than the faces on hard surfaces (a random
+// closed genus-11 surface of 1772 faces: its polygon stage 0.3 s on the input, 29.7 s on the
+// subdivision, 16 times the faces).
 // Should the solve with flips fail, the paper's circle packing is solved instead and
 // `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
 // solve converged only to the curvature resolution of near-coincident vertices
@@ -82,6 +95,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -96,6 +110,7 @@
 #include "ricci/mesh.h"
 #include "ricci/metric.h"
 #include "ricci/status.h"
+#include "ricci/steiner.h"
 #include "ricci/topology.h"
 
 namespace ricci {
@@ -125,6 +140,14 @@ struct UniformizeOptions {
   /// Vertex scaling (Scheme::Yamabe) with intrinsic Delaunay flips (the header comment). Off: the
   /// flow on the input's triangulation as it is (stops on many non-Delaunay meshes).
   bool intrinsic_flips = true;
+  /// Steiner points for conformality (steiner.h; the header comment): E and S, with vertex scaling
+  /// and flips, where the straight input triangles fold and the solution's median |u_i − u_j| over
+  /// the input's edges is above `steiner_resolution`: the surface is subdivided on its own faces by the levels that
+  /// bring it there (each halves it), at most `steiner_max_levels` and at most
+  /// `steiner_max_faces` faces, and solved again. 0 levels: off.
+  int steiner_max_levels = 3;
+  double steiner_resolution = 0.05;
+  std::int64_t steiner_max_faces = std::int64_t{1} << 16;
   /// Newton to max |K̄ − K| < 1e-12 by default.
   FlowOptions flow = [] {
     FlowOptions f;
@@ -224,6 +247,18 @@ struct IntrinsicSummary {
   std::string fallback;
 };
 
+/// What the Steiner points did (UniformizeResult::steiner).
+struct SteinerSummary {
+  bool used = false;           ///< the result is that of the subdivided surface
+  int levels = 0;              ///< midpoint subdivisions (0: none)
+  double median_jump = 0;      ///< median |u_i − u_j| over the input's edges, solved on the input
+  double refined_median_jump = 0;  ///< the same over the subdivided surface's edges, solved there
+  Index vertices_added = 0;    ///< Steiner vertices (after the input's)
+  /// Why a subdivision that was asked for is not used (its run failed; the input's run is
+  /// returned instead); empty otherwise.
+  std::string note;
+};
+
 /// What uniformize() and lay_out_metric() return: every stage's result.
 struct UniformizeResult {
   /// Ok when every stage that applies succeeded. Otherwise the status of the first stage that
@@ -316,6 +351,12 @@ struct UniformizeResult {
   AngleDistortion angles;  ///< angle_distortion() of the final metric (on the input's corners)
 
   IntrinsicSummary intrinsic;  ///< the intrinsic flips, when used
+  /// Steiner points (UniformizeOptions::steiner_max_levels). When steiner.used, every stage from
+  /// initial_metric on ran on `steiner_mesh` (metric, target, flow and intrinsic refer to its
+  /// vertices and edges, the input's vertices first), always through the common subdivision,
+  /// whose face_input names the input's faces (the user's), and `angles` are on the input's corners.
+  SteinerSummary steiner;
+  SteinerMesh steiner_mesh;
   /// When intrinsic.refined: the common subdivision the stages from `cut` on ran on.
   CommonSubdivision refinement;
 
