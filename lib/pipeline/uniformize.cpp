@@ -478,6 +478,10 @@ bool UniformizeOptions::is_valid(std::string* why) const {
   if (!(polygon_tolerance >= 0) || !std::isfinite(polygon_tolerance))
     return fail("polygon_tolerance must be finite and >= 0");
   if (seed_checks < 0) return fail("seed_checks must be >= 0");
+  if (steiner_max_levels < 0 || steiner_max_levels > 8) return fail("steiner_max_levels must be in [0, 8]");
+  if (!(steiner_resolution > 0) || !std::isfinite(steiner_resolution))
+    return fail("steiner_resolution must be finite and > 0");
+  if (steiner_max_faces < 1) return fail("steiner_max_faces must be >= 1");
   if (!(max_layout_error > 0)) return fail("max_layout_error must be > 0");
   std::string w;
   if (!flow.is_valid(&w)) return fail(w);

@@ -182,6 +182,18 @@ TEST_CASE("steiner: levels halve the median jump to the resolution, within the f
   CHECK(steiner_levels(10.0, 0.05, 3, 20000, 1 << 16) == 0);  // 80000 > 65536
   CHECK(steiner_levels(10.0, 0.05, 0, 891, 1 << 16) == 0);
   CHECK(steiner_levels(std::nan(""), 0.05, 3, 891, 1 << 16) == 0);
+  UniformizeOptions o;
+  std::string why;
+  CHECK(o.is_valid(&why));
+  o.steiner_max_levels = 9;
+  CHECK_FALSE(o.is_valid(&why));
+  CHECK(why.find("steiner_max_levels") != std::string::npos);
+  o = {};
+  o.steiner_resolution = 0;
+  CHECK_FALSE(o.is_valid(&why));
+  o = {};
+  o.steiner_max_faces = 0;
+  CHECK_FALSE(o.is_valid(&why));
   const ValidateResult v = validate_mesh(ricci_shapes::icosphere(1));
   std::vector<double> u(static_cast<std::size_t>(v.topology.num_vertices), 0.0);
   CHECK(median_edge_jump(v.topology, u) == 0);

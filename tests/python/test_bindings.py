@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import ricci
-from conftest import FIXTURES, GOOD_FIXTURES, read_metric_csv, read_obj_uv, run_cli
+from conftest import FIXTURES, GOOD_FIXTURES, SHARED, read_metric_csv, read_obj_uv, run_cli
 
 
 @pytest.mark.parametrize("name", GOOD_FIXTURES)
@@ -275,3 +275,23 @@ def test_atlas_face_chart_matches_the_report():
         ricci.uniformize(str(FIXTURES / "genus2-finger.obj"), seed_checks=0, atlas=False)
     assert "layout" in str(e.value)
     assert (ricci.uniformize(str(FIXTURES / "genus2.obj"), seed_checks=0).face_chart == 0).all()
+
+
+def test_steiner_subdivision_is_exposed_with_its_own_edges():
+    pig = SHARED / "boundary" / "pig-7holes.off"
+    if not pig.exists():
+        pytest.skip("the shared meshes are absent")
+    r = ricci.uniformize(str(pig), seed_checks=0)
+    st = r.report["steiner"]
+    assert st["used"] and st["levels"] >= 1
+    positions, faces, face_input = r.steiner
+    n = len(r.V)
+    assert np.array_equal(positions[:n], r.V)  # the input's vertices first
+    assert len(positions) == n + st["vertices_added"] and len(faces) == st["faces"]
+    assert len(r.u) == len(positions) and len(r.edge_lengths) == len(r.edges)
+    assert face_input.min() >= 0 and face_input.max() < len(r.F)
+    assert r.report["angle_distortion"]["mean"] <= 0.06
+    off = ricci.uniformize(str(pig), seed_checks=0, steiner_levels=0)
+    assert off.steiner is None and off.report["steiner"] is None
+    assert len(off.u) == n and len(off.edges) == len(off.edge_lengths)
+    assert off.report["angle_distortion"]["mean"] > r.report["angle_distortion"]["mean"]

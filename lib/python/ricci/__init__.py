@@ -101,8 +101,12 @@ class UniformizeResult(_Result):
     """What uniformize() returns.
 
     status, message, failed_stage, geometry ("euclidean", "hyperbolic", "spherical")
-    V, F, vertex_to_input, edges   the validated mesh (ears split when the boundary needs it)
-    u, K, K_target, edge_lengths   the flow's solution (per vertex / per edge of V, F)
+    V, F, vertex_to_input   the validated mesh (ears split when the boundary needs it)
+    u, K, K_target, edges, edge_lengths   the flow's solution, per vertex / edge of V, F — or of
+                       `steiner` when it is not None
+    steiner            (positions, faces, face_input) of the surface subdivided on its own faces
+                       (Steiner points: V's vertices first, then the new ones; each face's face of F)
+                       where the input's faces could not carry the map, else None
     surface            (positions, faces) of mesh.obj: the input's faces, or the surface refined
                        by the cut (input vertices first)
     uv                 (#faces of surface, 3, 2) per-corner layout (plane or Poincare disk);
@@ -123,7 +127,7 @@ class UniformizeResult(_Result):
 
     __slots__ = ()
     _fields = ("status", "message", "failed_stage", "geometry", "V", "F", "vertex_to_input", "edges",
-               "u", "K", "K_target", "edge_lengths", "iterations", "surface", "uv", "sphere",
+               "steiner", "u", "K", "K_target", "edge_lengths", "iterations", "surface", "uv", "sphere",
                "face_chart", "layout_positions", "cut", "generators", "relation_error", "timings", "notes",
                "repairs", "report")
 

@@ -187,7 +187,8 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"layout_refine_above", real(&O::layout_refine_above, o)},
                   {"unit_box", flag(&O::unit_box, o, false)},
                   {"mesh_polygon", flag(&O::mesh_polygon, o, false)},
-                  {"atlas", flag(&O::no_atlas, o, true)}});
+                  {"atlas", flag(&O::no_atlas, o, true)},
+                  {"steiner_levels", integer(&O::steiner_levels, o)}});
   apply(options, setters, "uniformize");
 }
 

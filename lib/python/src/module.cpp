@@ -353,7 +353,19 @@ PYBIND11_MODULE(_ricci, m) {
       .def_property_readonly("vertex_to_input", [](py::object self) {
         return view(self.cast<const UniformizeJob&>().run.input.vertex_to_input, 0, self);
       })
-      .def_property_readonly("edges", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.input.topology.edge_vertices, 2, self); })
+      .def_property_readonly("edges", [](py::object self) {
+        // The edges edge_lengths belong to: the Steiner subdivision's when it was used.
+        const UniformizeJob& j = self.cast<const UniformizeJob&>();
+        return view(j.run.result.steiner.used ? j.run.result.steiner_mesh.topology.edge_vertices
+                                              : j.run.input.topology.edge_vertices, 2, self);
+      })
+      .def_property_readonly("steiner", [](py::object self) -> py::object {
+        const UniformizeJob& j = self.cast<const UniformizeJob&>();
+        if (!j.run.result.steiner.used) return py::none();
+        const ricci::Mesh& sub = j.run.result.steiner_mesh.mesh;
+        return py::make_tuple(view(sub.positions, 3, self), view(sub.faces, 3, self),
+                              view(j.run.result.steiner_mesh.face_input, 0, self));
+      })
       .def_property_readonly("u", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.result.flow.u, 0, self); })
       .def_property_readonly("K", [](py::object self) { return view(self.cast<const UniformizeJob&>().run.result.flow.K, 0, self); })
       .def_property_readonly("K_target", [](py::object self) {
