@@ -2,9 +2,9 @@
 // (vertex scaling with intrinsic Delaunay flips), vertex scaling without flips, the paper's circle
 // packing and inversive distance. Runs the CLI (`ricci uniformize MESH -o TMP --no-pictures --json
 // --seed-checks 0 -q [--scheme S] [--no-flips]`) and prints a Markdown table: per mesh and scheme
-// the Newton iterations, the flips, max |K̄ − K|, the mean angle distortion (mean |log θ_input /
-// θ_output| over the input's corners) and the seconds of the whole run, or the status it ended
-// with. A benchmark, not a test.
+// the Newton iterations, the flips, the Steiner subdivision levels (where used), max |K̄ − K|,
+// the mean angle distortion (mean |log θ_input / θ_output| over the input's corners) and the
+// seconds of the whole run, or the status it ended with. A benchmark, not a test.
 //
 //   build/tools/scheme_sweep [--ricci build/ricci] [--out FILE] MESH...
 #include <array>
@@ -70,6 +70,8 @@ std::string cell(const Json& j, double seconds) {
     s += ", " + std::to_string(flips) + " flips";
     if (in.value("refined", false)) s += " (refined)";
   }
+  if (j["steiner"].is_object() && j["steiner"].value("used", false))
+    s += ", Steiner " + fixed(j["steiner"]["levels"], "%.0f") + " (" + fixed(j["steiner"]["faces"], "%.0f") + " faces)";
   if (j["fallback"].is_string()) s += ", circle packing after flips stopped";
   s += ", " + sci(j["max_curvature_error"]) + ", " + fixed(j["angle_distortion"]["mean"], "%.4f");
   char b[32];
