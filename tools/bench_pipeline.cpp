@@ -859,7 +859,9 @@ int main(int argc, char** argv) {
          "the Newton solve with flips, polishing included); *CP flow s*: `solve_flow()` with circle packing on "
          "the same input, target, tolerance and polishing; where the two take under " + fmt("%g", kShortFlow) +
          " s together, each is the best of " + std::to_string(kShortRepeats) + " runs; iterations include the "
-         "polishing steps; angle distortion is the mean |log θ_input/θ_output| over the input's corners.\n\n";
+         "polishing steps; angle distortion is the mean |log θ_input/θ_output| over the input's corners, of the "
+         "flow on the input's own triangulation (`uniformize()` adds Steiner points where its faces cannot carry "
+         "the map: brain.obj and pig-7holes, tools/SWEEP-schemes.md).\n\n";
   doc += "| input | #F | Newton it. | flips | flow s | CP it. | CP flow s | flow/CP | distortion | CP distortion |\n"
          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const auto& [name, r] : rows) {
