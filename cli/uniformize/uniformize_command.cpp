@@ -1437,7 +1437,7 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                 "Vertex scaling on the input's triangulation as it is, without intrinsic Delaunay flips (stops on "
                 "many non-Delaunay meshes; for comparison).");
   cmd->add_option("--steiner-levels", o.steiner_levels,
-                  "Vertex scaling with flips in euclidean and spherical geometry: where the input's triangles, made "
+                  "Vertex scaling with flips (not on closed hyperbolic surfaces): where the input's triangles, made "
                   "straight, would fold and the solution's conformal factor jumps by more than 0.05 across "
                   "the median edge (the map is not resolved by one scale per vertex), subdivide the surface on its "
                   "own faces (every edge split at its midpoint) by the levels that bring it there, at most N and at "

@@ -697,8 +697,8 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   StageClock stage_done{r, options};
   MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done);
   if (!m.ok) return r;
-  if (plan && m.flips && !m.doubled && !m.straight.tiles() && r.geometry != Geometry::Hyperbolic &&
-      options.steiner_max_levels > 0) {
+  if (plan && m.flips && !m.doubled && !m.straight.tiles() &&
+      (r.geometry != Geometry::Hyperbolic || !topology.is_closed()) && options.steiner_max_levels > 0) {
     plan->median_jump = median_edge_jump(topology, r.flow.u);
     plan->levels = steiner_levels(plan->median_jump, options.steiner_resolution, options.steiner_max_levels,
                                   topology.num_faces, options.steiner_max_faces);

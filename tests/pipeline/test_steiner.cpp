@@ -1,6 +1,7 @@
 // Steiner points for conformality (steiner.h): the subdivision is the input surface itself, the
-// target carries over, and uniformize() runs on it where the input's faces cannot carry the map —
-// with every guarantee of the layout, the outputs on the user's faces, and a more conformal map.
+// target carries over, and uniformize() runs on it where the input's faces cannot carry the map
+// (E, S and bordered H) — with every guarantee of the layout, the outputs on the user's faces, and
+// a more conformal map.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -57,6 +58,7 @@ std::vector<std::pair<std::string, Mesh>> hard_cases() {
   out.emplace_back("needles annulus (E, circles)", insert_needles_and_caps(annulus(6, 24), rng, 0.3, 0.02));
   std::mt19937_64 rng2(2);
   out.emplace_back("needles pancake (S)", insert_needles_and_caps(pancake(2, 0.2), rng2, 0.4, 0.03));
+  out.emplace_back("random surface 13 (H, genus 5, 2 geodesic loops)", random_surface(13, 1500).mesh);
   return out;
 }
 
@@ -204,7 +206,9 @@ TEST_CASE("steiner: levels halve the median jump to the resolution, within the f
 TEST_CASE("uniformize: where straight input triangles fold and the factor jumps, Steiner points make the map more conformal") {
   for (const auto& [name, mesh] : hard_cases()) {
     INFO(name);
-    const ValidateResult v = validate_mesh(mesh);
+    ValidateOptions vo;
+    vo.split_ears = true;  // as the CLI does for circle and geodesic loops
+    const ValidateResult v = validate_mesh(mesh, vo);
     REQUIRE(v.status == Status::Ok);
     const Topology& t = v.topology;
     UniformizeOptions o;
@@ -258,7 +262,7 @@ TEST_CASE("uniformize: where straight input triangles fold and the factor jumps,
   }
 }
 
-TEST_CASE("uniformize: no Steiner points where the straight input triangles tile, nor in H") {
+TEST_CASE("uniformize: no Steiner points where the straight input triangles tile, nor on closed H surfaces") {
   std::mt19937_64 rng(3);
   const std::pair<std::string, Mesh> cases[] = {
       {"torus (tiles)", ricci_shapes::torus(24, 12, 2.0, 0.7)},

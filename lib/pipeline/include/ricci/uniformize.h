@@ -59,7 +59,7 @@
 //     the slivers between them never place a vertex. Should that layout fail the accuracy gate
 //     (a solve converged only to its curvature resolution: the coarse faces carry its residual),
 //     the development through the pieces themselves is tried and kept when it passes.
-// Steiner points (steiner.h), in E and S. Where the straight input triangles fold and the
+// Steiner points (steiner.h), in E, S and bordered H. Where the straight input triangles fold and the
 // solution's conformal factor jumps by more than steiner_resolution (0.05) across the median input
 // edge — one scale per vertex does not resolve the map, and the input's faces cannot carry it — the surface is
 // subdivided on its own faces by the levels that bring that jump to the resolution (each halves
@@ -68,10 +68,10 @@
 // whose face_input then names the input's faces; `angles` are measured on the input's corners and
 // input_surface_layout() gives the input's own faces. The first solve only measured the jump
 // (its stages are in `timings` as probe_initial_metric, probe_target, probe_flow). Should the run
-// on the subdivision fail, the input's own run is returned and steiner.note says why. Not in H:
-// there the canonical polygon's search grows faster than the faces on hard surfaces (a random
-// closed genus-11 surface of 1772 faces: its polygon stage 0.3 s on the input, 29.7 s on the
-// subdivision, 16 times the faces).
+// on the subdivision fail, the input's own run is returned and steiner.note says why. Not on
+// closed H surfaces: their canonical polygon's search grows faster than the faces on hard
+// surfaces (a random closed genus-11 surface of 1772 faces: its polygon stage 0.3 s on the input,
+// 29.7 s on the subdivision, 16 times the faces).
 // Should the solve with flips fail, the paper's circle packing is solved instead and
 // `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
 // solve converged only to the curvature resolution of near-coincident vertices
@@ -140,7 +140,7 @@ struct UniformizeOptions {
   /// Vertex scaling (Scheme::Yamabe) with intrinsic Delaunay flips (the header comment). Off: the
   /// flow on the input's triangulation as it is (stops on many non-Delaunay meshes).
   bool intrinsic_flips = true;
-  /// Steiner points for conformality (steiner.h; the header comment): E and S, with vertex scaling
+  /// Steiner points for conformality (steiner.h; the header comment): E, S and bordered H, with vertex scaling
   /// and flips, where the straight input triangles fold and the solution's median |u_i − u_j| over
   /// the input's edges is above `steiner_resolution`: the surface is subdivided on its own faces by the levels that
   /// bring it there (each halves it), at most `steiner_max_levels` and at most
