@@ -920,13 +920,13 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   if (plan.levels > 0) {
     // Solved on the input to learn its conformal factor; the job itself runs on the subdivision.
     const std::vector<std::pair<std::string, double>> probe = r.timings;
-    const double probe_seconds = since(start);
     SteinerMesh s = subdivide_on_faces(*u.mesh, topology, plan.levels);
     const Target given = target ? *target : uniform_target(topology, r.boundary);
-    UniformizeResult sub = s.status == Status::Ok
-                               ? uniformize_subdivided(*u.mesh, topology, options, given, plan, std::move(s))
-                               : UniformizeResult{};
-    if (s.status != Status::Ok) sub.message = s.message;
+    UniformizeResult sub;
+    if (s.status == Status::Ok)
+      sub = uniformize_subdivided(*u.mesh, topology, options, given, plan, std::move(s));
+    else
+      sub.message = s.message;
     if (sub.status == Status::Ok) {
       r = std::move(sub);
     } else {
@@ -943,7 +943,7 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
     for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
     t.insert(t.end(), r.timings.begin(), r.timings.end());
     r.timings = std::move(t);
-    r.seconds += probe_seconds;
+    r.seconds = since(start);
   }
   record_unit(u, r);
   return r;
