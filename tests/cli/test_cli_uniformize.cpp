@@ -564,13 +564,24 @@ TEST_CASE("cli uniformize: an interrupted run leaves no partial output and keeps
   for (const std::string& name : listing(tmp.path())) CHECK_MESSAGE(name.rfind(".", 0) != 0, name);
 }
 
-TEST_CASE("cli uniformize: where straight input faces would fold, refinement.obj holds the common subdivision") {
-  // A torus with needles and caps: its straight input triangles fold at a few vertices.
+namespace {
+
+// A torus with needles and caps, written to dir/needles.obj: its straight input triangles fold at
+// a few vertices, and its conformal factor jumps by more than 0.05 across the median edge.
+ricci::Mesh needle_torus(const TempDir& dir, fs::path& file) {
   std::mt19937_64 rng(3);
   const ricci::Mesh m = ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02);
+  file = dir / "needles.obj";
+  REQUIRE(ricci::write_mesh(file.string(), m).status == ricci::Status::Ok);
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("cli uniformize: where straight input faces would fold, refinement.obj holds the common subdivision") {
   TempDir dir;
-  const fs::path mesh = dir / "needles.obj";
-  REQUIRE(ricci::write_mesh(mesh.string(), m).status == ricci::Status::Ok);
+  fs::path mesh;
+  const ricci::Mesh m = needle_torus(dir, mesh);
   const fs::path out = dir / "out";
   const auto r = run_cli({"uniformize", mesh.string(), "-o", out.string(), "--no-pictures", "--json", "-q"});
   REQUIRE_MESSAGE(r.exit_code == 0, r.err);
@@ -603,13 +614,10 @@ TEST_CASE("cli uniformize: where straight input faces would fold, refinement.obj
 }
 
 TEST_CASE("cli uniformize: Steiner points where the input's faces cannot carry the map, none with --steiner-levels 0") {
-  // The needle torus above: its straight input triangles fold and its conformal factor jumps by
-  // more than 0.05 across the median edge, so the default subdivides it on its own faces.
-  std::mt19937_64 rng(3);
-  const ricci::Mesh m = ricci_shapes::insert_needles_and_caps(ricci_shapes::torus(16, 8, 2.0, 0.7), rng, 0.3, 0.02);
+  // The needle torus: the default subdivides it on its own faces.
   TempDir dir;
-  const fs::path mesh = dir / "needles.obj";
-  REQUIRE(ricci::write_mesh(mesh.string(), m).status == ricci::Status::Ok);
+  fs::path mesh;
+  const ricci::Mesh m = needle_torus(dir, mesh);
   // Rows of metric.csv's vertex section: (input_vertex) per vertex.
   auto metric_rows = [](const fs::path& file) {
     std::vector<long> input;
