@@ -148,7 +148,8 @@ double median_edge_jump(const Topology& topology, const std::vector<double>& u) 
 }
 
 int steiner_levels(double median_jump, double resolution, int max_levels, Index faces, std::int64_t max_faces) {
-  if (!(median_jump > resolution) || !(resolution > 0) || max_levels <= 0) return 0;
+  // Quiet comparisons: a NaN jump asks for nothing and raises no floating-point exception.
+  if (!std::isgreater(median_jump, resolution) || !std::isgreater(resolution, 0.0) || max_levels <= 0) return 0;
   int k = std::min(max_levels, static_cast<int>(std::ceil(std::log2(median_jump / resolution))));
   while (k > 0 && static_cast<std::int64_t>(faces) << (2 * k) > max_faces) --k;
   return std::max(k, 0);
