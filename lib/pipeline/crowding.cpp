@@ -13,38 +13,12 @@
 #include <vector>
 
 #include "ricci/intrinsic.h"
+#include "ricci/steiner.h"
 #include "sparse_solver.h"
 
 namespace ricci::detail {
 
 namespace {
-
-/// The mesh with every edge split at its midpoint and every face into four; parent[v] (new #V) is
-/// v for an old vertex and an end of the split edge for a new one.
-Mesh subdivided(const Mesh& mesh, const Topology& t, std::vector<Index>& parent) {
-  const Index nv = t.num_vertices, ne = t.num_edges, nf = t.num_faces;
-  Mesh m;
-  m.positions = mesh.positions;
-  m.positions.resize(3 * static_cast<std::size_t>(nv + ne));
-  parent.resize(static_cast<std::size_t>(nv + ne));
-  for (Index v = 0; v < nv; ++v) parent[v] = v;
-  for (Index e = 0; e < ne; ++e) {
-    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-    for (int d = 0; d < 3; ++d)
-      m.positions[3 * static_cast<std::size_t>(nv + e) + d] =
-          0.5 * (mesh.positions[3 * static_cast<std::size_t>(a) + d] + mesh.positions[3 * static_cast<std::size_t>(b) + d]);
-    parent[nv + e] = a;
-  }
-  m.faces.reserve(12 * static_cast<std::size_t>(nf));
-  for (Index f = 0; f < nf; ++f) {
-    const Index v[3] = {t.corner_vertex[3 * f], t.corner_vertex[3 * f + 1], t.corner_vertex[3 * f + 2]};
-    const Index mid[3] = {nv + t.corner_edge[3 * f], nv + t.corner_edge[3 * f + 1], nv + t.corner_edge[3 * f + 2]};
-    // mid[k] splits the edge opposite corner k.
-    const Index quads[4][3] = {{v[0], mid[2], mid[1]}, {v[1], mid[0], mid[2]}, {v[2], mid[1], mid[0]}, {mid[0], mid[1], mid[2]}};
-    for (const auto& q : quads) m.faces.insert(m.faces.end(), q, q + 3);
-  }
-  return m;
-}
 
 Crowding measure(const Mesh& mesh, const Topology& topology) {
   Crowding out;
@@ -201,24 +175,22 @@ Crowding circle_domain_crowding(const Mesh& mesh, const Topology& topology) {
   bool interior = false;
   for (Index v = 0; v < topology.num_vertices && !interior; ++v)
     interior = topology.valence(v) > 0 && !topology.is_boundary_vertex(v);
-  std::vector<Index> parent;
-  Mesh fine;
-  Topology fine_topology;
-  if (!interior) {
-    fine = subdivided(mesh, topology, parent);
-    TopologyResult tr = build_topology(fine.faces, static_cast<Index>(fine.positions.size() / 3));
-    if (tr.status != Status::Ok) {
-      out.why_not = tr.message;
-      return out;
-    }
-    fine_topology = std::move(tr.topology);
+  if (interior) return measure(mesh, topology);
+  const SteinerMesh fine = subdivide_on_faces(mesh, topology, 1);
+  if (fine.status != Status::Ok) {
+    out.why_not = fine.message;
+    return out;
   }
-  const Crowding c = interior ? measure(mesh, topology) : measure(fine, fine_topology);
-  out = c;
-  if (!interior && out.computed) {
-    out.centre = parent[out.centre];
-    out.vertex = parent[out.vertex];
-    out.other = parent[out.other];
+  out = measure(fine.mesh, fine.topology);
+  if (out.computed) {
+    // A new vertex (the midpoint of an input edge) is named by the edge's first end.
+    auto parent = [&](Index v) {
+      const SteinerPlace p = fine.place[v];
+      return p.kind == SteinerPlace::Kind::Vertex ? p.index : topology.edge_vertices[2 * p.index];
+    };
+    out.centre = parent(out.centre);
+    out.vertex = parent(out.vertex);
+    out.other = parent(out.other);
   }
   return out;
 }

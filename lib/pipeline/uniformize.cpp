@@ -742,7 +742,8 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   UniformizeOptions ro = options;
   ro.cut.edge_weights = refinement_cut_weights(r.refinement, topology, steiner);
   layout_stages(r.refinement.mesh, r.refinement.topology, ro, r.refinement.l, r, start, &r.refinement.frames);
-  if (r.status == Status::Ok) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
+  // On a Steiner subdivision the angles are measured on the user's corners (uniformize_subdivided()).
+  if (r.status == Status::Ok && !steiner) r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
   return r;
 }
 
