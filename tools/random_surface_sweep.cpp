@@ -5,7 +5,10 @@
 //
 //   cmake --build build --target random_surface_sweep
 //   build/tools/random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md]
+//                                    [--write DIR]
 //
+// --write DIR also writes each draw as DIR/random-SEED.obj (as generated, before validation), so
+// a draw can be run through `ricci uniformize` with its progress lines.
 // Each draw's face count is log-uniform in [min, max] (defaults 1000 and 50000), drawn from its
 // seed. Columns: the surface; how the run ended (ok, or the status and failing stage); Newton
 // iterations and max |K̄ − K|; the layout's max relative edge error (over its charts, with their
@@ -24,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "ricci/io.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "stress_shapes.h"
@@ -41,6 +45,7 @@ struct Args {
   std::uint64_t first = 1;
   ricci::Index min_faces = 1000, max_faces = 50000;
   std::string out;
+  std::string write_dir;
 };
 
 bool parse(int argc, char** argv, Args& a) {
@@ -53,6 +58,7 @@ bool parse(int argc, char** argv, Args& a) {
     else if (k == "--min-faces") a.min_faces = std::atoi(v.c_str());
     else if (k == "--max-faces") a.max_faces = std::atoi(v.c_str());
     else if (k == "--out") a.out = v;
+    else if (k == "--write") a.write_dir = v;
     else return false;
   }
   return a.count > 0 && a.min_faces >= 500 && a.max_faces <= 200000 && a.min_faces <= a.max_faces;
@@ -63,7 +69,7 @@ bool parse(int argc, char** argv, Args& a) {
 int main(int argc, char** argv) {
   Args a;
   if (!parse(argc, argv, a)) {
-    std::fprintf(stderr, "usage: random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md]\n");
+    std::fprintf(stderr, "usage: random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md] [--write DIR]\n");
     return 2;
   }
   std::ostringstream table, failures, fallbacks;
@@ -79,6 +85,14 @@ int main(int argc, char** argv) {
     const auto target = static_cast<ricci::Index>(
         std::lround(static_cast<double>(a.min_faces) * std::pow(static_cast<double>(a.max_faces) / static_cast<double>(a.min_faces), t)));
     const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, target);
+    if (!a.write_dir.empty()) {
+      const std::string path = a.write_dir + "/random-" + std::to_string(seed) + ".obj";
+      const ricci::WriteResult w = ricci::write_mesh(path, s.mesh);
+      if (w.status != ricci::Status::Ok) {
+        std::fprintf(stderr, "random_surface_sweep: cannot write %s: %s\n", path.c_str(), w.message.c_str());
+        return 1;
+      }
+    }
     ricci::ValidateOptions vo;
     vo.split_ears = true;  // as the CLI does
     const ricci::ValidateResult v = ricci::validate_mesh(s.mesh, vo);

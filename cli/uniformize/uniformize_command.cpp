@@ -649,6 +649,8 @@ Json report_json(const Run& run) {
                         {"median_jump", real(st.median_jump)},
                         {"refined_median_jump", st.used ? real(st.refined_median_jump) : Json(nullptr)},
                         {"vertices_added", st.vertices_added},
+                        {"boundary_splits", st.boundary_splits},
+                        {"boundary_split_rounds", st.boundary_split_rounds},
                         {"faces", st.used ? Json(r.steiner_mesh.topology.num_faces) : Json(nullptr)},
                         {"note", st.note.empty() ? Json(nullptr) : Json(st.note)}};
   } else {
@@ -795,6 +797,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   if (!scheme) return usage("unknown scheme '" + o.scheme + "'");
   uo.intrinsic_flips = !o.no_flips;
   uo.steiner_max_levels = o.steiner_levels;
+  uo.boundary_split_rounds = o.boundary_split_rounds;
   const std::optional<TargetSpec> target_spec = parse_target(o.target, &why);
   if (!target_spec) return usage(why);
   const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
@@ -1444,6 +1447,13 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "most 65536 faces, and solve again; mesh.obj keeps the input's faces, refinement.obj and metric.csv "
                   "hold the Steiner vertices after the input's. 0: never. Default: 3.")
       ->check(CLI::Range(0, 8));
+  cmd->add_option("--boundary-split-rounds", o.boundary_split_rounds,
+                  "Vertex scaling with flips on circle or loop-totals boundaries: where the solve stops because "
+                  "triangles lean over boundary edges (a boundary edge never flips; its opposite angle reaches pi), "
+                  "split those edges at their midpoints (a flat boundary vertex each) and solve again, up to N "
+                  "rounds; mesh.obj keeps the input's faces, refinement.obj and metric.csv hold the split vertices "
+                  "after the input's. 0: never. Default: 4.")
+      ->check(CLI::Range(0, 16));
   cmd->add_option("--target", o.target,
                   "Target curvature: auto (= uniform), uniform, cones=FILE or single-vertex=I (as for `ricci flow`). "
                   "Default: auto.")

@@ -100,6 +100,67 @@ SteinerMesh subdivide_on_faces(const Mesh& mesh, const Topology& topology, int l
   return s;
 }
 
+SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> edges, Index* split) {
+  SteinerMesh out;
+  if (split) *split = 0;
+  const Topology& t = s.topology;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  for (const Index e : edges)
+    if (e < 0 || e >= t.num_edges) {
+      out.status = Status::InvalidArgument;
+      out.message = "edge " + std::to_string(e) + " is not an edge (the surface has " + std::to_string(t.num_edges) + ")";
+      return out;
+    }
+  out.mesh.positions = s.mesh.positions;
+  out.mesh.faces = s.mesh.faces;
+  out.place = s.place;
+  out.face_input = s.face_input;
+  // The input edge under each corner's opposite edge (kInvalid inside an input face).
+  std::vector<Index> opposite_input(3 * static_cast<std::size_t>(nf));
+  for (Index c = 0; c < 3 * nf; ++c) opposite_input[c] = s.edge_input[t.corner_edge[c]];
+  std::vector<std::uint8_t> touched(static_cast<std::size_t>(nf), 0);
+  Index n = 0;
+  for (const Index e : edges) {
+    const Index c = t.edge_corners[2 * e];  // the corner opposite e in its only face
+    if (t.edge_corners[2 * e + 1] != kInvalid || c == kInvalid || touched[corner_face(c)]) continue;
+    const Index f = corner_face(c);
+    touched[f] = 1;
+    const Index cn = next_corner(c), cp = prev_corner(c);
+    const Index a = t.corner_vertex[c], b = t.corner_vertex[cn], d = t.corner_vertex[cp];
+    const Index m = nv + n++;
+    for (int k = 0; k < 3; ++k)
+      out.mesh.positions.push_back(0.5 * (s.mesh.positions[3 * static_cast<std::size_t>(b) + k] +
+                                          s.mesh.positions[3 * static_cast<std::size_t>(d) + k]));
+    out.place.push_back({SteinerPlace::Kind::Edge, s.edge_input[e]});
+    const Index on_e = s.edge_input[e], under_ab = opposite_input[cp], under_da = opposite_input[cn];
+    // (a, b, d) becomes (a, b, m) in place and (a, m, d) after the faces.
+    const Index first[3] = {a, b, m}, second[3] = {a, m, d};
+    const Index first_under[3] = {on_e, kInvalid, under_ab}, second_under[3] = {on_e, under_da, kInvalid};
+    for (int k = 0; k < 3; ++k) {
+      out.mesh.faces[3 * static_cast<std::size_t>(f) + k] = first[k];
+      opposite_input[3 * static_cast<std::size_t>(f) + k] = first_under[k];
+      out.mesh.faces.push_back(second[k]);
+      opposite_input.push_back(second_under[k]);
+    }
+    out.face_input.push_back(s.face_input[f]);
+  }
+  TopologyResult tr = build_topology(out.mesh.faces, nv + n);
+  if (tr.status != Status::Ok) {
+    out.status = tr.status;
+    out.message = "the split surface is not a manifold triangulation: " + tr.message;
+    return out;
+  }
+  out.topology = std::move(tr.topology);
+  out.edge_input.assign(static_cast<std::size_t>(out.topology.num_edges), kInvalid);
+  for (Index c = 0; c < out.topology.num_corners(); ++c)
+    if (opposite_input[c] != kInvalid) out.edge_input[out.topology.corner_edge[c]] = opposite_input[c];
+  out.levels = s.levels;
+  out.status = Status::Ok;
+  out.message = "ok";
+  if (split) *split = n;
+  return out;
+}
+
 Target steiner_target(const SteinerMesh& s, const Topology& input, const Target& target) {
   const Index nv = input.num_vertices, nr = s.topology.num_vertices;
   Target out;

@@ -189,8 +189,26 @@ AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology,
 // solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
 // and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
 // false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed.
+// Angle opposite a boundary edge above which its triangle leans over it (leaning_boundary_edges()).
+constexpr double kLeaningAngle = 0.75 * std::numbers::pi;
+
+// The boundary edges of a stopped solve's last iterate (its triangulation `tri`, lengths l) whose
+// triangle leans over them: the angle opposite the edge above kLeaningAngle (π where the apex
+// reached the chord). Boundary edges never flip, so their indices are the input topology's.
+std::vector<Index> leaning_boundary_edges(const IntrinsicTriangulation& tri, std::span<const double> l) {
+  const Topology& t = tri.topology;
+  std::vector<Index> out;
+  if (l.size() != static_cast<std::size_t>(t.num_edges)) return out;
+  std::vector<double> theta(static_cast<std::size_t>(t.num_corners()));
+  corner_angles(t, tri.geometry, l, theta);
+  for (const Index c : t.boundary_corners)
+    if (theta[c] > kLeaningAngle) out.push_back(t.corner_edge[c]);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
-                     UniformizeResult& r, IntrinsicTriangulation& tri) {
+                     UniformizeResult& r, IntrinsicTriangulation& tri, std::vector<Index>* leaning = nullptr) {
   r.intrinsic.used = true;
   IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry, mollify_margin);
   if (ir.status != Status::Ok) {
@@ -213,6 +231,8 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
     return true;
   }
   r.intrinsic.used = false;
+  if (leaning && !r.target.loop_total.empty()) *leaning = leaning_boundary_edges(tri, f.l);
+  r.flow.status = f.status;
   r.flow.notes = f.notes;
   r.intrinsic.fallback = "vertex scaling with intrinsic flips stopped (" + std::string(status_name(f.status)) + ": " +
                          f.message + ")";
@@ -482,6 +502,7 @@ bool UniformizeOptions::is_valid(std::string* why) const {
   if (!(steiner_resolution > 0) || !std::isfinite(steiner_resolution))
     return fail("steiner_resolution must be finite and > 0");
   if (steiner_max_faces < 1) return fail("steiner_max_faces must be >= 1");
+  if (boundary_split_rounds < 0 || boundary_split_rounds > 16) return fail("boundary_split_rounds must be in [0, 16]");
   if (!(max_layout_error > 0)) return fail("max_layout_error must be > 0");
   std::string w;
   if (!flow.is_valid(&w)) return fail(w);
@@ -548,8 +569,12 @@ struct MetricStages {
 // The stages initial_metric, target, flow and (with flips) the input's edges traced and made
 // straight in the solution's metric, into r (r.flow.l: the input's edges' lengths). The
 // `straighten` stage is timed by the caller, which decides what it includes.
+// With `leaning`: where the solve with flips stops on triangles leaning over boundary edges
+// (leaning_boundary_edges()), those edges are put there and the stages fail at once, without the
+// fallbacks (the caller splits them and runs again).
 MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                           const Target* target, UniformizeResult& r, Clock::time_point start, StageClock& stage_done) {
+                           const Target* target, UniformizeResult& r, Clock::time_point start, StageClock& stage_done,
+                           std::vector<Index>* leaning = nullptr) {
   MetricStages m;
   auto fail = [&](Status s, const std::string& stage, const std::string& message) {
     r.status = s;
@@ -586,7 +611,10 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    bool solved = flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri);
+    bool solved = flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri, leaning);
+    if (!solved && leaning && !leaning->empty())
+      return fail(r.flow.status, "flow", r.intrinsic.fallback + "; " + std::to_string(leaning->size()) +
+                                             " boundary edges with triangles leaning over them");
     if (!solved && !r.intrinsic.fallback.empty()) {
       // A bordered surface whose solve stopped: its double, where boundary edges can flip.
       std::vector<std::string> notes = r.flow.notes;
@@ -683,6 +711,10 @@ namespace {
 struct SteinerPlan {
   int levels = 0;
   double median_jump = 0;
+  // Boundary splits: asked for with want_leaning; the boundary edges to split when the solve with
+  // flips stopped on triangles leaning over them (metric_stages()), the run then failed.
+  bool want_leaning = false;
+  std::vector<Index> leaning;
 };
 
 // The whole job on (mesh, topology). With `plan`: when Steiner points apply (the header comment;
@@ -695,9 +727,10 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   const Clock::time_point start = Clock::now();
   UniformizeResult r;
   StageClock stage_done{r, options};
-  MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done);
+  MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done,
+                                 plan && plan->want_leaning ? &plan->leaning : nullptr);
   if (!m.ok) return r;
-  if (plan && m.flips && !m.doubled && !m.straight.tiles() &&
+  if (plan && !steiner && m.flips && !m.doubled && !m.straight.tiles() &&
       (r.geometry != Geometry::Hyperbolic || !topology.is_closed()) && options.steiner_max_levels > 0) {
     plan->median_jump = median_edge_jump(topology, r.flow.u);
     plan->levels = steiner_levels(plan->median_jump, options.steiner_resolution, options.steiner_max_levels,
@@ -910,6 +943,56 @@ UniformizeResult uniformize_subdivided(const Mesh& mesh, const Topology& topolog
   return r;
 }
 
+// Boundary splits (the header comment): the edges `leaning` of (mesh, topology) split, the job run
+// on the split surface, and again with the edges its own stalled solve names, up to
+// options.boundary_split_rounds rounds; status not Ok when no round succeeded (its message says
+// why; the caller runs the input's own job with its fallbacks).
+UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                           const Target& target, std::vector<Index> leaning) {
+  SteinerMesh s = subdivide_on_faces(mesh, topology, 0);
+  UniformizeResult sub;
+  Index splits = 0;
+  for (int round = 1; round <= options.boundary_split_rounds && s.status == Status::Ok; ++round) {
+    Index n = 0;
+    SteinerMesh next = split_boundary_edges(s, leaning, &n);
+    if (next.status != Status::Ok || n == 0) {
+      sub = UniformizeResult{};
+      sub.status = next.status == Status::Ok ? Status::NumericalFailure : next.status;
+      sub.message = "round " + std::to_string(round) + " split no boundary edge" +
+                    (next.status == Status::Ok ? std::string() : ": " + next.message);
+      return sub;
+    }
+    splits += n;
+    s = std::move(next);
+    const Target st = steiner_target(s, topology, target);
+    SteinerPlan p;
+    p.want_leaning = round < options.boundary_split_rounds;
+    sub = uniformize_unit(s.mesh, s.topology, options, &st, &p, &s);
+    if (sub.status == Status::Ok && sub.intrinsic.refined && sub.intrinsic.fallback.empty()) {
+      for (Index& f : sub.refinement.face_input) f = s.face_input[f];
+      sub.angles = refined_angle_distortion(mesh, topology, sub.geometry, sub.refinement);
+      sub.steiner.used = true;
+      sub.steiner.refined_median_jump = median_edge_jump(s.topology, sub.flow.u);
+      sub.steiner.vertices_added = s.topology.num_vertices - topology.num_vertices;
+      sub.steiner.boundary_split_rounds = round;
+      sub.steiner.boundary_splits = splits;
+      sub.flow.notes.push_back(std::to_string(splits) + " boundary edges split at their midpoints in " +
+                               std::to_string(round) + (round == 1 ? " round" : " rounds") +
+                               ", where triangles leaned over them and vertex scaling with flips stopped");
+      sub.steiner_mesh = std::move(s);
+      return sub;
+    }
+    if (sub.status == Status::Ok) {
+      sub.status = Status::NumericalFailure;
+      sub.message = "the split surface was not solved with flips";
+      return sub;
+    }
+    if (p.leaning.empty()) return sub;
+    leaning = std::move(p.leaning);
+  }
+  return sub;
+}
+
 }  // namespace
 
 UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
@@ -917,8 +1000,27 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   const Clock::time_point start = Clock::now();
   const UnitMesh u = unit_mesh(mesh);
   SteinerPlan plan;
+  plan.want_leaning = options.boundary_split_rounds > 0;
   UniformizeResult r = uniformize_with_fallbacks(*u.mesh, topology, options, target, &plan);
-  if (plan.levels > 0) {
+  if (!plan.leaning.empty()) {
+    const std::vector<std::pair<std::string, double>> probe = r.timings;
+    const std::string stopped = r.message;
+    const Target given = target ? *target : uniform_target(topology, r.boundary);
+    UniformizeResult sub = uniformize_boundary_split(*u.mesh, topology, options, given, plan.leaning);
+    if (sub.status == Status::Ok) {
+      r = std::move(sub);
+    } else {
+      r = uniformize_with_fallbacks(*u.mesh, topology, options, target, nullptr);
+      r.steiner.note = "vertex scaling with flips stopped on triangles leaning over boundary edges (" + stopped +
+                       "), and splitting those edges did not solve it (" + sub.message + ")";
+      r.flow.notes.push_back(r.steiner.note);
+    }
+    std::vector<std::pair<std::string, double>> t;
+    for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
+    t.insert(t.end(), r.timings.begin(), r.timings.end());
+    r.timings = std::move(t);
+    r.seconds = since(start);
+  } else if (plan.levels > 0) {
     // Solved on the input to learn its conformal factor; the job itself runs on the subdivision.
     const std::vector<std::pair<std::string, double>> probe = r.timings;
     SteinerMesh s = subdivide_on_faces(*u.mesh, topology, plan.levels);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <set>
 #include <string>
 
 #include "ricci/uniformize.h"
@@ -62,6 +63,63 @@ std::vector<std::pair<std::string, Mesh>> hard_cases() {
   return out;
 }
 
+// `s` is a subdivision of the input (v.mesh, t) on its own faces (angle sums `sums`): the input's
+// vertices first, where they were; every new vertex, face and edge on the input element it names;
+// the same piecewise-flat surface.
+void check_on_input(const Mesh& in, const Topology& t, const std::vector<double>& sums, const SteinerMesh& s) {
+  const Topology& st = s.topology;
+  CHECK(st.euler_characteristic() == t.euler_characteristic());
+  CHECK(st.genus() == t.genus());
+  CHECK(st.num_boundary_loops() == t.num_boundary_loops());
+  CHECK(st.num_components == 1);
+  // The input's vertices first, where they were.
+  for (Index k = 0; k < 3 * t.num_vertices; ++k) CHECK(s.mesh.positions[k] == in.positions[k]);
+  // Every vertex lies on the input element it names: an edge's segment or a face's triangle.
+  for (Index w = 0; w < st.num_vertices; ++w) {
+    const SteinerPlace p = s.place[w];
+    if (w < t.num_vertices) {
+      CHECK(p.kind == SteinerPlace::Kind::Vertex);
+      CHECK(p.index == w);
+    } else if (p.kind == SteinerPlace::Kind::Edge) {
+      const double* a = at(in, t.edge_vertices[2 * p.index]);
+      const double* b = at(in, t.edge_vertices[2 * p.index + 1]);
+      CHECK(std::abs(dist(a, at(s.mesh, w)) + dist(at(s.mesh, w), b) - dist(a, b)) < 1e-12 * dist(a, b));
+    } else {
+      REQUIRE(p.kind == SteinerPlace::Kind::Face);
+      const Index* f = &in.faces[3 * p.index];
+      const double whole = face_area(in, p.index);
+      const double parts = area(at(s.mesh, w), at(in, f[1]), at(in, f[2])) +
+                           area(at(in, f[0]), at(s.mesh, w), at(in, f[2])) +
+                           area(at(in, f[0]), at(in, f[1]), at(s.mesh, w));
+      CHECK(std::abs(parts - whole) < 1e-12 * whole);
+    }
+  }
+  // The faces of each input face cover exactly its area, with its orientation (no fold).
+  std::vector<double> covered(static_cast<std::size_t>(t.num_faces), 0.0);
+  for (Index f = 0; f < st.num_faces; ++f) covered[s.face_input[f]] += face_area(s.mesh, f);
+  for (Index f = 0; f < t.num_faces; ++f) CHECK(std::abs(covered[f] - face_area(in, f)) < 1e-12 * face_area(in, f));
+  // Edges said to lie on an input edge have both ends on it; the boundary is made of them.
+  for (Index e = 0; e < st.num_edges; ++e) {
+    const Index ie = s.edge_input[e];
+    if (st.edge_corners[2 * e + 1] == kInvalid) CHECK(ie != kInvalid);
+    if (ie == kInvalid) continue;
+    for (int end = 0; end < 2; ++end) {
+      const SteinerPlace p = s.place[st.edge_vertices[2 * e + end]];
+      const bool on = (p.kind == SteinerPlace::Kind::Edge && p.index == ie) ||
+                      (p.kind == SteinerPlace::Kind::Vertex &&
+                       (p.index == t.edge_vertices[2 * ie] || p.index == t.edge_vertices[2 * ie + 1]));
+      CHECK(on);
+    }
+  }
+  // The same piecewise-flat surface: cone angles unchanged at the input's vertices, 2π (π on
+  // the boundary) at the new ones.
+  const std::vector<double> refined = angle_sums(s.mesh, st);
+  for (Index w = 0; w < st.num_vertices; ++w) {
+    const double expected = w < t.num_vertices ? sums[w] : (st.is_boundary_vertex(w) ? std::numbers::pi : 2 * std::numbers::pi);
+    CHECK(std::abs(refined[w] - expected) < 1e-11);
+  }
+}
+
 }  // namespace
 
 TEST_CASE("steiner: the subdivision is the input surface, each new vertex, edge and face where it says") {
@@ -79,61 +137,72 @@ TEST_CASE("steiner: the subdivision is the input surface, each new vertex, edge 
       REQUIRE_MESSAGE(s.status == Status::Ok, s.message);
       const Topology& st = s.topology;
       CHECK(st.num_faces == t.num_faces << (2 * levels));
-      CHECK(st.euler_characteristic() == t.euler_characteristic());
-      CHECK(st.genus() == t.genus());
-      CHECK(st.num_boundary_loops() == t.num_boundary_loops());
-      CHECK(st.num_components == 1);
-      // The input's vertices first, where they were.
-      for (Index k = 0; k < 3 * t.num_vertices; ++k) CHECK(s.mesh.positions[k] == v.mesh.positions[k]);
-      // Every vertex lies on the input element it names: an edge's segment or a face's triangle.
-      for (Index w = 0; w < st.num_vertices; ++w) {
-        const SteinerPlace p = s.place[w];
-        if (w < t.num_vertices) {
-          CHECK(p.kind == SteinerPlace::Kind::Vertex);
-          CHECK(p.index == w);
-        } else if (p.kind == SteinerPlace::Kind::Edge) {
-          const double* a = at(v.mesh, t.edge_vertices[2 * p.index]);
-          const double* b = at(v.mesh, t.edge_vertices[2 * p.index + 1]);
-          CHECK(std::abs(dist(a, at(s.mesh, w)) + dist(at(s.mesh, w), b) - dist(a, b)) < 1e-12 * dist(a, b));
-        } else {
-          REQUIRE(p.kind == SteinerPlace::Kind::Face);
-          const Index* f = &v.mesh.faces[3 * p.index];
-          const double whole = face_area(v.mesh, p.index);
-          const double parts = area(at(s.mesh, w), at(v.mesh, f[1]), at(v.mesh, f[2])) +
-                               area(at(v.mesh, f[0]), at(s.mesh, w), at(v.mesh, f[2])) +
-                               area(at(v.mesh, f[0]), at(v.mesh, f[1]), at(s.mesh, w));
-          CHECK(std::abs(parts - whole) < 1e-12 * whole);
-        }
-      }
-      // The faces of each input face cover exactly its area, with its orientation (no fold).
-      std::vector<double> covered(static_cast<std::size_t>(t.num_faces), 0.0);
-      for (Index f = 0; f < st.num_faces; ++f) covered[s.face_input[f]] += face_area(s.mesh, f);
-      for (Index f = 0; f < t.num_faces; ++f) CHECK(std::abs(covered[f] - face_area(v.mesh, f)) < 1e-12 * face_area(v.mesh, f));
-      // Edges said to lie on an input edge have both ends on it; the boundary is made of them.
-      for (Index e = 0; e < st.num_edges; ++e) {
-        const Index ie = s.edge_input[e];
-        if (st.edge_corners[2 * e + 1] == kInvalid) CHECK(ie != kInvalid);
-        if (ie == kInvalid) continue;
-        for (int end = 0; end < 2; ++end) {
-          const SteinerPlace p = s.place[st.edge_vertices[2 * e + end]];
-          const bool on = (p.kind == SteinerPlace::Kind::Edge && p.index == ie) ||
-                          (p.kind == SteinerPlace::Kind::Vertex &&
-                           (p.index == t.edge_vertices[2 * ie] || p.index == t.edge_vertices[2 * ie + 1]));
-          CHECK(on);
-        }
-      }
-      // The same piecewise-flat surface: cone angles unchanged at the input's vertices, 2π (π on
-      // the boundary) at the new ones.
-      const std::vector<double> refined = angle_sums(s.mesh, st);
-      for (Index w = 0; w < st.num_vertices; ++w) {
-        const double expected = w < t.num_vertices ? sums[w] : (st.is_boundary_vertex(w) ? std::numbers::pi : 2 * std::numbers::pi);
-        CHECK(std::abs(refined[w] - expected) < 1e-11);
-      }
+      check_on_input(v.mesh, t, sums, s);
     }
   }
   const ValidateResult v = validate_mesh(ricci_shapes::icosphere(0));
   CHECK(subdivide_on_faces(v.mesh, v.topology, 9).status == Status::InvalidArgument);
   CHECK(subdivide_on_faces(v.mesh, v.topology, -1).status == Status::InvalidArgument);
+}
+
+TEST_CASE("steiner: boundary splits keep the input surface, one split per face and round, interior edges left alone") {
+  using namespace ricci_shapes;
+  std::mt19937_64 rng(5);
+  const Mesh inputs[] = {insert_needles_and_caps(annulus(4, 12), rng, 0.3, 0.05),
+                         remove_vertex_stars(icosphere(2), {0, 5, 40})};
+  for (const Mesh& in : inputs) {
+    const ValidateResult v = validate_mesh(in);
+    REQUIRE(v.status == Status::Ok);
+    const Topology& t = v.topology;
+    const std::vector<double> sums = angle_sums(v.mesh, t);
+    const Target target = uniform_target(t, BoundaryMode::Circle);
+    SteinerMesh s = subdivide_on_faces(v.mesh, t, 0);
+    REQUIRE(s.status == Status::Ok);
+    for (int round = 0; round < 3; ++round) {
+      CAPTURE(round);
+      // Every boundary edge in loop order, the first of them again, and one interior edge.
+      const Topology& st = s.topology;
+      std::vector<Index> edges;
+      std::set<Index> faces;
+      for (const Index c : st.boundary_corners) {
+        edges.push_back(st.corner_edge[c]);
+        faces.insert(corner_face(c));
+      }
+      edges.push_back(edges.front());
+      for (Index e = 0; e < st.num_edges; ++e)
+        if (st.edge_corners[2 * e + 1] != kInvalid) {
+          edges.push_back(e);
+          break;
+        }
+      Index n = -1;
+      SteinerMesh next = split_boundary_edges(s, edges, &n);
+      REQUIRE_MESSAGE(next.status == Status::Ok, next.message);
+      // One split per face (a face with two boundary edges waits for the next round).
+      CHECK(n == static_cast<Index>(faces.size()));
+      CHECK(next.topology.num_vertices == st.num_vertices + n);
+      CHECK(next.topology.num_faces == st.num_faces + n);
+      CHECK(next.topology.num_boundary_edges() == st.num_boundary_edges() + n);
+      for (Index w = 0; w < st.num_vertices; ++w) {
+        CHECK(next.place[w].kind == s.place[w].kind);
+        CHECK(next.place[w].index == s.place[w].index);
+      }
+      for (Index w = st.num_vertices; w < next.topology.num_vertices; ++w) {
+        CHECK(next.topology.is_boundary_vertex(w));
+        REQUIRE(next.place[w].kind == SteinerPlace::Kind::Edge);
+        CHECK(t.edge_corners[2 * next.place[w].index + 1] == kInvalid);
+      }
+      check_on_input(v.mesh, t, sums, next);
+      // The loops keep their totals: the same multiset, Gauss–Bonnet with the flat new vertices.
+      const Target split = steiner_target(next, t, target);
+      std::vector<double> a = target.loop_total, b = split.loop_total;
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      CHECK(a == b);
+      s = std::move(next);
+    }
+    const Index bad[] = {s.topology.num_edges};
+    CHECK(split_boundary_edges(s, bad).status == Status::InvalidArgument);
+  }
 }
 
 TEST_CASE("steiner: the target carries over: Gauss–Bonnet, loop totals by loop, held boundaries") {

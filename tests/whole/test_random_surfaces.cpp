@@ -164,19 +164,50 @@ TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is 
   CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
 }
 
-TEST_CASE("uniformize: a circle domain that neither solve reaches says so and names the fixed-target modes") {
-  // The sweep's seed 44: with circle boundaries both vertex scaling with flips and circle packing
-  // stop; the failure says why circles are harder and which boundary modes are fixed targets —
-  // and the fixed boundary the message names maps this surface.
+TEST_CASE("uniformize: a circle domain whose triangles lean over its boundary maps with flips once those edges are split") {
+  // The sweep's seed 44 (an annulus stretched 11:1, its circle domain's inner circle e^-13 of the
+  // outer): with circle boundaries vertex scaling with flips stalls with a triangle's angle
+  // opposite a boundary edge at π (a boundary edge never flips), and circle packing stops too.
   const ValidateResult v = sweep_seed_44();
   UniformizeOptions o;
   o.seed_checks = 0;
-  const UniformizeResult circles = uniformize(v.mesh, v.topology, o);
-  REQUIRE(circles.status != Status::Ok);
-  CHECK(circles.failed_stage == "flow");
-  CHECK(circles.message.find("circle boundaries make each loop's target follow its lengths") != std::string::npos);
-  CHECK(circles.message.find("--boundary fixed") != std::string::npos);
-  MESSAGE(circles.message);
+  o.boundary_split_rounds = 0;
+  const UniformizeResult stalled = uniformize(v.mesh, v.topology, o);
+  REQUIRE(stalled.status != Status::Ok);
+  CHECK(stalled.failed_stage == "flow");
+  CHECK(stalled.message.find("circle boundaries make each loop's target follow its lengths") != std::string::npos);
+  CHECK(stalled.message.find("--boundary fixed") != std::string::npos);
+  MESSAGE(stalled.message);
+  // Split where the triangles lean (the default): vertex scaling with flips converges.
+  o.boundary_split_rounds = UniformizeOptions{}.boundary_split_rounds;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.brief_report() << "; " << r.steiner.boundary_splits << " boundary edges split in "
+                           << r.steiner.boundary_split_rounds << " rounds; angle distortion " << r.angles.mean_abs_log);
+  CHECK(r.intrinsic.used);
+  CHECK(r.intrinsic.fallback.empty());
+  CHECK(r.steiner.used);
+  CHECK(r.steiner.levels == 0);
+  CHECK(r.steiner.boundary_split_rounds >= 1);
+  CHECK(r.steiner.boundary_splits > 0);
+  CHECK(r.steiner.vertices_added == r.steiner.boundary_splits);
+  CHECK(r.flow.max_curvature_error < 1e-12);
+  // Each loop is a circle: every boundary vertex of the split surface (the flow's vertices) has
+  // the inscribed polygon's turning, and the layout closes around both holes.
+  const Topology& st = r.steiner_mesh.topology;
+  REQUIRE(r.flow.K.size() == static_cast<std::size_t>(st.num_vertices));
+  for (Index b : st.boundary_vertices) CHECK(std::abs(r.flow.K[b] - r.flow.K_target[b]) < 1e-12);
+  CHECK(r.intrinsic.refined);
+  for (const Index f : r.refinement.face_input) CHECK((f >= 0 && f < v.topology.num_faces));
+  if (r.has_atlas) {
+    CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
+    CHECK(r.atlas.flipped_faces == 0);
+  } else {
+    CHECK((r.layout.max_edge_length_error <= o.max_layout_error || r.layout_excused.edges > 0));
+    CHECK(r.layout.flipped_faces == 0);
+  }
+  CHECK(std::isfinite(r.angles.mean_abs_log));
+  // The fixed boundary the stalled run's message names maps this surface too.
   o.boundary = BoundaryMode::FixedLengths;
   const UniformizeResult fixed = uniformize(v.mesh, v.topology, o);
   CHECK_MESSAGE(fixed.status == Status::Ok, fixed.message);

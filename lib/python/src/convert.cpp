@@ -188,7 +188,8 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"unit_box", flag(&O::unit_box, o, false)},
                   {"mesh_polygon", flag(&O::mesh_polygon, o, false)},
                   {"atlas", flag(&O::no_atlas, o, true)},
-                  {"steiner_levels", integer(&O::steiner_levels, o)}});
+                  {"steiner_levels", integer(&O::steiner_levels, o)},
+                  {"boundary_split_rounds", integer(&O::boundary_split_rounds, o)}});
   apply(options, setters, "uniformize");
 }
 

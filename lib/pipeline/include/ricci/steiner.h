@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "ricci/flow.h"
@@ -48,6 +49,14 @@ struct SteinerMesh {
 /// Subdivides every face into 4^levels faces by repeated midpoint splits (levels in [0, 8]).
 /// O(4^levels · #F).
 SteinerMesh subdivide_on_faces(const Mesh& mesh, const Topology& topology, int levels);
+
+/// Splits the given boundary edges of `s` (edge indices of s.topology) at their midpoints, each
+/// one's triangle into two (a boundary vertex more, on the same input edge; the surface and its
+/// metric unchanged), into a subdivision of the same input: the vertices of `s` keep their indices,
+/// the new ones follow in the order of `edges`. An edge that is not a boundary edge, or whose
+/// triangle an earlier edge of the list already split, is left alone; `split` counts the rest.
+/// InvalidArgument for an edge index out of range. O(#F).
+SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> edges, Index* split = nullptr);
 
 /// The same target on the subdivided surface: the input's vertices keep theirs, a Steiner vertex
 /// gets K̄ = 0 (flat inside a face or on an interior edge; on a boundary edge the boundary does

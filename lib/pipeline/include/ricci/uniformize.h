@@ -72,6 +72,17 @@
 // closed H surfaces: their canonical polygon's search grows faster than the faces on hard
 // surfaces (a random closed genus-11 surface of 1772 faces: its polygon stage 0.3 s on the input,
 // 29.7 s on the subdivision, 16 times the faces).
+// Boundary splits (steiner.h: split_boundary_edges()). A boundary edge never flips, so where a
+// circle or loop-totals target (whose loops cannot be doubled: their targets follow the loops'
+// lengths) needs a triangle to fold over a boundary edge — its apex pushed past the chord, as on
+// a stretched surface whose circle domain spaces its boundary vertices very unevenly — vertex
+// scaling with flips stalls with that triangle's angle opposite the boundary edge at π. Such edges
+// (angle above 3π/4 at the last iterate) are split at their midpoints, each triangle into two
+// (the surface unchanged, a flat boundary vertex more), and the job runs again on the split surface,
+// always through the common subdivision as with Steiner points (steiner.boundary_splits,
+// steiner.boundary_split_rounds; the split vertices after the input's); up to
+// boundary_split_rounds rounds, each splitting the edges its own stalled solve names. Should every
+// round fail, the input's own run with its fallbacks is returned and steiner.note says why.
 // Should the solve with flips fail, the paper's circle packing is solved instead and
 // `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
 // solve converged only to the curvature resolution of near-coincident vertices
@@ -148,6 +159,11 @@ struct UniformizeOptions {
   int steiner_max_levels = 3;
   double steiner_resolution = 0.05;
   std::int64_t steiner_max_faces = std::int64_t{1} << 16;
+  /// Boundary splits (the header comment): where vertex scaling with flips stops on a circle or
+  /// loop-totals target because triangles lean over boundary edges (their angle opposite a boundary
+  /// edge above 3π/4 at the last iterate), those boundary edges are split at their midpoints and
+  /// the job runs again on the split surface, up to this many rounds. 0: off.
+  int boundary_split_rounds = 4;
   /// Newton to max |K̄ − K| < 1e-12 by default.
   FlowOptions flow = [] {
     FlowOptions f;
@@ -254,6 +270,10 @@ struct SteinerSummary {
   double median_jump = 0;      ///< median |u_i − u_j| over the input's edges, solved on the input
   double refined_median_jump = 0;  ///< the same over the subdivided surface's edges, solved there
   Index vertices_added = 0;    ///< Steiner vertices (after the input's)
+  /// Boundary splits (UniformizeOptions::boundary_split_rounds): the rounds run and the boundary
+  /// edges split in all (each a Steiner vertex on a boundary edge); 0 when none was needed.
+  int boundary_split_rounds = 0;
+  Index boundary_splits = 0;
   /// Why a subdivision that was asked for is not used (its run failed; the input's run is
   /// returned instead); empty otherwise.
   std::string note;
