@@ -666,6 +666,49 @@ TEST_CASE("cli uniformize: Steiner points where the input's faces cannot carry t
   CHECK(distortion[0] < distortion[1]);
 }
 
+TEST_CASE("cli uniformize: boundary splits where triangles lean over a circle domain's boundary, none with --boundary-split-rounds 0") {
+  // tools/random_surface_sweep's seed 44: an annulus stretched 11:1 whose circle domain needs
+  // triangles to fold over boundary edges.
+  TempDir dir;
+  const fs::path mesh = dir / "seed44.obj";
+  const ricci::Mesh m = ricci_shapes::random_surface(44, 1292).mesh;
+  REQUIRE(ricci::write_mesh(mesh.string(), m).status == ricci::Status::Ok);
+  const fs::path out = dir / "on";
+  const auto r = run_cli({"uniformize", mesh.string(), "-o", out.string(), "--no-pictures", "--json", "-q",
+                          "--seed-checks", "0"});
+  REQUIRE_MESSAGE(r.exit_code == 0, r.err);
+  const Json j = parse(r.out);
+  REQUIRE(j.is_object());
+  REQUIRE(j["steiner"].is_object());
+  CHECK(j["steiner"]["used"] == true);
+  CHECK(j["steiner"]["levels"] == 0);
+  const long splits = j["steiner"]["boundary_splits"].get<long>();
+  CHECK(splits > 0);
+  CHECK(j["steiner"]["boundary_split_rounds"].get<int>() >= 1);
+  CHECK(j["steiner"]["vertices_added"].get<long>() == splits);
+  CHECK(j["fallback"].is_null());
+  CHECK(j["max_curvature_error"].get<double>() < 1e-12);
+  CHECK(fs::exists(out / "refinement.obj"));
+  // metric.csv: the validated input's vertices (an ear split among them), then the split ones.
+  long appended = 0, rows = 0;
+  std::istringstream lines(ricci_test::read_bytes(out / "metric.csv"));
+  bool vertices = false;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("# vertex,", 0) == 0) vertices = true;
+    else if (line.rfind("#", 0) == 0) vertices = false;
+    else if (vertices) {
+      ++rows;
+      if (std::stol(line.substr(line.find(',') + 1)) == -1) ++appended;
+    }
+  }
+  CHECK(rows >= m.num_vertices() + splits);
+  CHECK(appended >= splits);
+  const auto off = run_cli({"uniformize", mesh.string(), "-o", (dir / "off").string(), "--no-pictures", "-q",
+                            "--seed-checks", "0", "--boundary-split-rounds", "0"});
+  CHECK(off.exit_code == 7);
+  CHECK(!fs::exists(dir / "off"));
+}
+
 TEST_CASE("cli uniformize: --no-flips and the paper's scheme run without flips") {
   TempDir dir;
   for (const std::vector<std::string>& extra : {std::vector<std::string>{"--no-flips"},
