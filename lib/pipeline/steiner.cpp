@@ -9,6 +9,25 @@ namespace ricci {
 
 namespace {
 
+// The topology of out.mesh.faces (num_vertices vertices) and its edges' input edges from the
+// input edge under each corner's opposite edge; false with out.status set when not a manifold.
+bool finish_subdivision(SteinerMesh& out, Index num_vertices, const std::vector<Index>& opposite_input,
+                        const char* what) {
+  TopologyResult tr = build_topology(out.mesh.faces, num_vertices);
+  if (tr.status != Status::Ok) {
+    out.status = tr.status;
+    out.message = std::string(what) + " is not a manifold triangulation: " + tr.message;
+    return false;
+  }
+  out.topology = std::move(tr.topology);
+  out.edge_input.assign(static_cast<std::size_t>(out.topology.num_edges), kInvalid);
+  for (Index c = 0; c < out.topology.num_corners(); ++c)
+    if (opposite_input[c] != kInvalid) out.edge_input[out.topology.corner_edge[c]] = opposite_input[c];
+  out.status = Status::Ok;
+  out.message = "ok";
+  return true;
+}
+
 // One midpoint split of `in` (level k) into `out` (level k + 1).
 bool split_once(const SteinerMesh& in, SteinerMesh& out) {
   const Topology& t = in.topology;
@@ -50,19 +69,8 @@ bool split_once(const SteinerMesh& in, SteinerMesh& out) {
       }
     }
   }
-  TopologyResult tr = build_topology(out.mesh.faces, nv + ne);
-  if (tr.status != Status::Ok) {
-    out.status = tr.status;
-    out.message = "the subdivision is not a manifold triangulation: " + tr.message;
-    return false;
-  }
-  out.topology = std::move(tr.topology);
-  out.edge_input.assign(static_cast<std::size_t>(out.topology.num_edges), kInvalid);
-  for (Index c = 0; c < out.topology.num_corners(); ++c)
-    if (opposite_input[c] != kInvalid) out.edge_input[out.topology.corner_edge[c]] = opposite_input[c];
+  if (!finish_subdivision(out, nv + ne, opposite_input, "the subdivision")) return false;
   out.levels = in.levels + 1;
-  out.status = Status::Ok;
-  out.message = "ok";
   return true;
 }
 
@@ -144,19 +152,8 @@ SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> ed
     }
     out.face_input.push_back(s.face_input[f]);
   }
-  TopologyResult tr = build_topology(out.mesh.faces, nv + n);
-  if (tr.status != Status::Ok) {
-    out.status = tr.status;
-    out.message = "the split surface is not a manifold triangulation: " + tr.message;
-    return out;
-  }
-  out.topology = std::move(tr.topology);
-  out.edge_input.assign(static_cast<std::size_t>(out.topology.num_edges), kInvalid);
-  for (Index c = 0; c < out.topology.num_corners(); ++c)
-    if (opposite_input[c] != kInvalid) out.edge_input[out.topology.corner_edge[c]] = opposite_input[c];
+  if (!finish_subdivision(out, nv + n, opposite_input, "the split surface")) return out;
   out.levels = s.levels;
-  out.status = Status::Ok;
-  out.message = "ok";
   if (split) *split = n;
   return out;
 }

@@ -993,6 +993,16 @@ UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& top
   return sub;
 }
 
+// The probe's stages first (probe_NAME), then the run's (whose names repeat); seconds from `start`.
+void after_probe(UniformizeResult& r, const std::vector<std::pair<std::string, double>>& probe,
+                 Clock::time_point start) {
+  std::vector<std::pair<std::string, double>> t;
+  for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
+  t.insert(t.end(), r.timings.begin(), r.timings.end());
+  r.timings = std::move(t);
+  r.seconds = since(start);
+}
+
 }  // namespace
 
 UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
@@ -1015,11 +1025,7 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
                        "), and splitting those edges did not solve it (" + sub.message + ")";
       r.flow.notes.push_back(r.steiner.note);
     }
-    std::vector<std::pair<std::string, double>> t;
-    for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
-    t.insert(t.end(), r.timings.begin(), r.timings.end());
-    r.timings = std::move(t);
-    r.seconds = since(start);
+    after_probe(r, probe, start);
   } else if (plan.levels > 0) {
     // Solved on the input to learn its conformal factor; the job itself runs on the subdivision.
     const std::vector<std::pair<std::string, double>> probe = r.timings;
@@ -1041,12 +1047,7 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
                        "); the input's own triangulation is used";
       r.flow.notes.push_back(r.steiner.note);
     }
-    // The probe's stages first, then the run's (whose names repeat).
-    std::vector<std::pair<std::string, double>> t;
-    for (const auto& [name, sec] : probe) t.emplace_back("probe_" + name, sec);
-    t.insert(t.end(), r.timings.begin(), r.timings.end());
-    r.timings = std::move(t);
-    r.seconds = since(start);
+    after_probe(r, probe, start);
   }
   record_unit(u, r);
   return r;
