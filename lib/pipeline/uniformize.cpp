@@ -185,10 +185,6 @@ AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology,
   return a;
 }
 
-// Vertex scaling with intrinsic flips: the mesh's intrinsic Delaunay triangulation, then the
-// solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
-// and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
-// false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed.
 // Angle opposite a boundary edge above which its triangle leans over it (leaning_boundary_edges()).
 constexpr double kLeaningAngle = 0.75 * std::numbers::pi;
 
@@ -207,6 +203,11 @@ std::vector<Index> leaning_boundary_edges(const IntrinsicTriangulation& tri, std
   return out;
 }
 
+// Vertex scaling with intrinsic flips: the mesh's intrinsic Delaunay triangulation, then the
+// solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
+// and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
+// false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed (with `leaning`, for loop targets, the boundary edges
+// leaning_boundary_edges() finds).
 bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
                      UniformizeResult& r, IntrinsicTriangulation& tri, std::vector<Index>* leaning = nullptr) {
   r.intrinsic.used = true;
@@ -919,27 +920,35 @@ UniformizeResult uniformize_with_fallbacks(const Mesh& mesh, const Topology& top
   return r;
 }
 
+// A run r on the subdivision `s` of (mesh, topology) brought back to the user's faces: the
+// refinement's faces named by input face, angles on the input's corners, s kept in r. False (r not
+// Ok) when the run failed or was not solved with flips through the common subdivision.
+bool onto_input(const Mesh& mesh, const Topology& topology, SteinerMesh& s, UniformizeResult& r) {
+  if (r.status != Status::Ok) return false;
+  if (!r.intrinsic.refined || !r.intrinsic.fallback.empty()) {
+    r.status = Status::NumericalFailure;
+    r.failed_stage = "straighten";
+    r.message = "straighten: the subdivided surface was not solved with flips";
+    return false;
+  }
+  for (Index& f : r.refinement.face_input) f = s.face_input[f];
+  r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
+  r.steiner.used = true;
+  r.steiner.refined_median_jump = median_edge_jump(s.topology, r.flow.u);
+  r.steiner.vertices_added = s.topology.num_vertices - topology.num_vertices;
+  r.steiner_mesh = std::move(s);
+  return true;
+}
+
 // The run on the Steiner subdivision `s` of (mesh, topology), its outputs brought back to the
 // user's faces; status not Ok when it failed (the caller keeps the input's own run).
 UniformizeResult uniformize_subdivided(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                                        const Target& target, const SteinerPlan& plan, SteinerMesh s) {
   const Target st = steiner_target(s, topology, target);
   UniformizeResult r = uniformize_unit(s.mesh, s.topology, options, &st, nullptr, &s);
-  if (r.status != Status::Ok) return r;
-  if (!r.intrinsic.refined || !r.intrinsic.fallback.empty()) {
-    r.status = Status::NumericalFailure;
-    r.failed_stage = "straighten";
-    r.message = "straighten: the subdivided surface was not solved with flips";
-    return r;
-  }
-  for (Index& f : r.refinement.face_input) f = s.face_input[f];
-  r.angles = refined_angle_distortion(mesh, topology, r.geometry, r.refinement);
-  r.steiner.used = true;
+  if (!onto_input(mesh, topology, s, r)) return r;
   r.steiner.levels = plan.levels;
   r.steiner.median_jump = plan.median_jump;
-  r.steiner.refined_median_jump = median_edge_jump(s.topology, r.flow.u);
-  r.steiner.vertices_added = s.topology.num_vertices - topology.num_vertices;
-  r.steiner_mesh = std::move(s);
   return r;
 }
 
@@ -965,26 +974,17 @@ UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& top
     splits += n;
     s = std::move(next);
     const Target st = steiner_target(s, topology, target);
+    // Every round stops at the flow when triangles still lean (no fallback run on a surface
+    // whose result would be dropped); the last round's edges are then left unsplit.
     SteinerPlan p;
-    p.want_leaning = round < options.boundary_split_rounds;
+    p.want_leaning = true;
     sub = uniformize_unit(s.mesh, s.topology, options, &st, &p, &s);
-    if (sub.status == Status::Ok && sub.intrinsic.refined && sub.intrinsic.fallback.empty()) {
-      for (Index& f : sub.refinement.face_input) f = s.face_input[f];
-      sub.angles = refined_angle_distortion(mesh, topology, sub.geometry, sub.refinement);
-      sub.steiner.used = true;
-      sub.steiner.refined_median_jump = median_edge_jump(s.topology, sub.flow.u);
-      sub.steiner.vertices_added = s.topology.num_vertices - topology.num_vertices;
+    if (onto_input(mesh, topology, s, sub)) {
       sub.steiner.boundary_split_rounds = round;
       sub.steiner.boundary_splits = splits;
       sub.flow.notes.push_back(std::to_string(splits) + " boundary edges split at their midpoints in " +
                                std::to_string(round) + (round == 1 ? " round" : " rounds") +
                                ", where triangles leaned over them and vertex scaling with flips stopped");
-      sub.steiner_mesh = std::move(s);
-      return sub;
-    }
-    if (sub.status == Status::Ok) {
-      sub.status = Status::NumericalFailure;
-      sub.message = "the split surface was not solved with flips";
       return sub;
     }
     if (p.leaning.empty()) return sub;
