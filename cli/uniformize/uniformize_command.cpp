@@ -668,6 +668,9 @@ Json report_json(const Run& run) {
   const bool laid = have && r.layout.status == Status::Ok;
   j["layout"] = laid ? layout_json(r) : Json(nullptr);
   j["seed_independence_error"] = laid && !r.seed_faces_checked.empty() ? real(r.seed_independence_error) : Json(nullptr);
+  j["seed_check_vertices"] = laid && !r.seed_faces_checked.empty() && r.geometry != Geometry::Spherical
+                                 ? Json(r.seed_check_vertices)
+                                 : Json(nullptr);
   j["seed_faces_checked"] = have ? Json(r.seed_faces_checked) : Json::array();
   auto cut_json = [](const ricci::CutResult& c) {
     return Json{{"genus", c.genus},

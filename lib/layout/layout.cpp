@@ -1947,6 +1947,23 @@ LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const dou
   return m;
 }
 
+std::vector<std::uint8_t> resolved_vertices(const Topology& disk, Geometry g, std::span<const double> l,
+                                            std::span<const double> positions, double limit) {
+  const int dims = g == Geometry::Spherical ? 3 : 2;
+  std::vector<std::uint8_t> ok(static_cast<std::size_t>(disk.num_vertices), 0);
+  if (l.size() != static_cast<std::size_t>(disk.num_edges) ||
+      positions.size() != static_cast<std::size_t>(disk.num_vertices) * static_cast<std::size_t>(dims))
+    return ok;
+  std::fill(ok.begin(), ok.end(), 1);
+  std::vector<double> x(positions.begin(), positions.end());
+  const Positions P{g, dims, x};
+  for (Index e = 0; e < disk.num_edges; ++e) {
+    const Index a = disk.edge_vertices[2 * e], b = disk.edge_vertices[2 * e + 1];
+    if (!(std::abs(P.distance(a, b) - l[e]) / l[e] <= limit)) ok[a] = ok[b] = 0;
+  }
+  return ok;
+}
+
 Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> l, std::span<const double> positions) {
   Layout out;
   out.geometry = g;

@@ -1356,13 +1356,18 @@ bool cut_and_lay_out(LayoutRun& run) {
       stage_done("layout", "through the faces: " + r.layout.brief_report());
     }
   }
-  // Faces the root chart's coordinates cannot resolve get charts of their own.
-  if (!excused && options.use_atlas && !sphere && misses(r.layout)) {
+  // Faces the root chart's coordinates cannot resolve get charts of their own: where the layout
+  // misses the limit, and where it passes but flips a face. The metric is converged, so each
+  // triangle has positive area and a flipped face is one the coordinates cannot resolve (a sliver
+  // far out in the disk); the atlas is kept then only when it flips none.
+  const bool flips_only = !misses(r.layout) && r.layout.flipped_faces > 0;
+  if (!excused && options.use_atlas && !sphere && (misses(r.layout) || flips_only)) {
     AtlasOptions ao = options.atlas;
     if (r.layout.by_frames) ao.frames = run.layout_frames;
     r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, ao);
-    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error;
-    stage_done("atlas", r.atlas.message);
+    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error &&
+                  (!flips_only || r.atlas.flipped_faces == 0);
+    stage_done("atlas", r.atlas.message + (flips_only && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
   }
   if (!excused && !r.has_atlas && misses(r.layout)) {
     r.layout.status = Status::NumericalFailure;
@@ -1391,48 +1396,63 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   std::vector<double> own = r.layout.positions;
   if (r.geometry == Geometry::Euclidean && r.layout.scale != 1)
     for (double& x : own) x /= r.layout.scale;
-  // With an atlas, the layouts are compared on the vertices of the first chart's faces: the others
-  // are exactly those one chart's coordinates cannot resolve (or could not place).
-  std::vector<Index> kept;
-  if (r.has_atlas) {
-    std::vector<std::uint8_t> in_root(static_cast<std::size_t>(r.disk.num_vertices), 0);
+  // The layouts are compared on the vertices both resolve: every edge at the vertex within
+  // max_layout_error in each (and, with an atlas, in the first chart's faces: the others are
+  // exactly those one chart's coordinates cannot resolve). A propagation from a far seed may reach
+  // where its coordinates resolve nothing (the surface's far end in the disk); its positions there
+  // are rounding, not a second opinion on the layout.
+  const std::vector<std::uint8_t> own_ok =
+      resolved_vertices(r.disk, r.geometry, r.disk_lengths, own, run.options.max_layout_error);
+  std::vector<std::uint8_t> in_root(static_cast<std::size_t>(r.disk.num_vertices), r.has_atlas ? 0 : 1);
+  if (r.has_atlas)
     for (Index f = 0; f < r.disk.num_faces; ++f)
       if (r.atlas.face_chart[f] == 0)
         for (int c = 0; c < 3; ++c) in_root[r.disk.corner_vertex[3 * f + c]] = 1;
-    for (Index v = 0; v < r.disk.num_vertices; ++v)
-      if (in_root[v]) kept.push_back(v);
-  }
-  auto restrict = [&](const std::vector<double>& x) {
-    if (!r.has_atlas) return x;
+  auto restrict = [&](const std::vector<double>& x, const std::vector<std::uint8_t>& keep) {
     std::vector<double> y;
-    y.reserve(2 * kept.size());
-    for (Index v : kept) y.insert(y.end(), {x[2 * v], x[2 * v + 1]});
+    for (Index v = 0; v < r.disk.num_vertices; ++v)
+      if (keep[v]) y.insert(y.end(), {x[2 * v], x[2 * v + 1]});
     return y;
   };
-  own = restrict(own);
   // In the plane such a layout can span many orders of magnitude, so there the distance is taken
   // relative to the first chart's extent (its largest distance from its points' mean).
   double scale = 1;
-  if (r.has_atlas && r.geometry == Geometry::Euclidean && !kept.empty()) {
-    double mx = 0, my = 0, far = 0;
-    for (std::size_t i = 0; i < kept.size(); ++i) {
-      mx += own[2 * i];
-      my += own[2 * i + 1];
-    }
-    mx /= static_cast<double>(kept.size());
-    my /= static_cast<double>(kept.size());
-    for (std::size_t i = 0; i < kept.size(); ++i) far = std::max(far, std::hypot(own[2 * i] - mx, own[2 * i + 1] - my));
+  if (r.has_atlas && r.geometry == Geometry::Euclidean) {
+    double mx = 0, my = 0, far = 0, n = 0;
+    for (Index v = 0; v < r.disk.num_vertices; ++v)
+      if (in_root[v]) mx += own[2 * v], my += own[2 * v + 1], n += 1;
+    if (n > 0) mx /= n, my /= n;
+    for (Index v = 0; v < r.disk.num_vertices; ++v)
+      if (in_root[v]) far = std::max(far, std::hypot(own[2 * v] - mx, own[2 * v + 1] - my));
     if (far > 0) scale = far;
   }
+  const bool sphere = r.geometry == Geometry::Spherical;
   for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
     const Layout& other = sc.layouts[k];
     if (other.status != Status::Ok) return run.fail(other.status, "seed_check", other.message);
     r.seed_faces_checked.push_back(sc.seeds[k]);
-    r.seed_independence_error = std::max(r.seed_independence_error,
-                                         layout_alignment_error(r.geometry, own, restrict(other.positions)) / scale);
+    if (sphere) {  // Möbius-centred positions: both resolve the whole sphere or the gate failed
+      r.seed_independence_error =
+          std::max(r.seed_independence_error, layout_alignment_error(r.geometry, own, other.positions));
+      continue;
+    }
+    std::vector<std::uint8_t> keep =
+        resolved_vertices(r.disk, r.geometry, r.disk_lengths, other.positions, run.options.max_layout_error);
+    Index compared = 0;
+    for (Index v = 0; v < r.disk.num_vertices; ++v) {
+      keep[v] = keep[v] && own_ok[v] && in_root[v];
+      compared += keep[v];
+    }
+    r.seed_check_vertices = k == 0 ? compared : std::min(r.seed_check_vertices, compared);
+    r.seed_independence_error = std::max(
+        r.seed_independence_error, layout_alignment_error(r.geometry, restrict(own, keep), restrict(other.positions, keep)) / scale);
   }
   run.stage_done("seed_check", "max deviation " + sci(r.seed_independence_error) + " over " +
-                                   std::to_string(r.seed_faces_checked.size()) + " seeds, laid out in " +
+                                   std::to_string(r.seed_faces_checked.size()) + " seeds" +
+                                   (sphere ? std::string()
+                                           : " on the " + std::to_string(r.seed_check_vertices) + " of " +
+                                                 std::to_string(r.disk.num_vertices) + " vertices both resolve") +
+                                   ", laid out in " +
                                    sci(sc.seconds) + " s" + (sc.beside ? " beside the layout and the stages after it" : ""));
   return true;
 }

@@ -127,6 +127,8 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(j["layout"]["max_edge_length_error"].get<double>() < 1e-9);
   CHECK(j["layout"]["flipped_faces"] == 0);
   CHECK(j["seed_independence_error"].get<double>() < 1e-9);
+  // One chart resolving every vertex: the check compared all of them.
+  CHECK(j["seed_check_vertices"].get<long long>() == j["cut"]["cut_vertices"].get<long long>());
   CHECK(j["relation_error"].get<double>() < 1e-9);
   REQUIRE(j["generators"].size() == 4);
   for (const Json& g : j["generators"]) {

@@ -7,7 +7,9 @@
 #include <doctest/doctest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cmath>
 #include <complex>
 #include <limits>
@@ -364,6 +366,43 @@ TEST_CASE("layout: normalisations") {
   // A layout far from centred gets centred: push the isometric one by a Möbius map first.
   MESSAGE("icosphere Möbius centring: " << mob.normalization_iterations << " steps, length change "
                                         << mob.mobius_length_change);
+}
+
+TEST_CASE("layout: resolved_vertices marks the vertices of edges that miss their length, in E and H") {
+  for (const char* name : {"torus.obj", "genus2.obj"}) {
+    CAPTURE(name);
+    const Uniformized u = load_uniformized(ricci_test::fixtures_dir() / name);
+    const Disk d = cut_disk(u);
+    const Layout base = lay_out(u, &d, -1, false);
+    REQUIRE(base.status == Status::Ok);
+    const Index nv = d.topo.num_vertices;
+    std::vector<std::uint8_t> ok = resolved_vertices(d.topo, u.geometry, d.l, base.positions, 1e-9);
+    REQUIRE(ok.size() == static_cast<std::size_t>(nv));
+    CHECK(std::count(ok.begin(), ok.end(), 1) == nv);
+    // One vertex moved by a tenth of its shortest edge: it and its neighbours, nothing else.
+    const Index w = nv / 3;
+    std::vector<double> x = base.positions;
+    double shortest = std::numeric_limits<double>::infinity();
+    std::vector<std::uint8_t> near(static_cast<std::size_t>(nv), 0);
+    near[w] = 1;
+    for (Index e = 0; e < d.topo.num_edges; ++e) {
+      const Index a = d.topo.edge_vertices[2 * e], b = d.topo.edge_vertices[2 * e + 1];
+      if (a != w && b != w) continue;
+      near[a] = near[b] = 1;
+      shortest = std::min(shortest, std::hypot(x[2 * a] - x[2 * b], x[2 * a + 1] - x[2 * b + 1]));
+    }
+    x[2 * w] += 0.1 * shortest;
+    ok = resolved_vertices(d.topo, u.geometry, d.l, x, 1e-9);
+    for (Index v = 0; v < nv; ++v) CHECK(ok[v] == 1 - near[v]);
+    // The limit decides: a move of 1e-3 of the shortest edge changes no edge by 1e-1 of its length.
+    x = base.positions;
+    x[2 * w] += 1e-3 * shortest;
+    ok = resolved_vertices(d.topo, u.geometry, d.l, x, 1e-1);
+    CHECK(std::count(ok.begin(), ok.end(), 1) == nv);
+    // Sizes that do not match: nothing resolved.
+    ok = resolved_vertices(d.topo, u.geometry, d.l, std::vector<double>(x.begin(), x.end() - 2), 1e-9);
+    CHECK(std::count(ok.begin(), ok.end(), 0) == nv);
+  }
 }
 
 TEST_CASE("layout: alignment recovers known isometries") {

@@ -62,6 +62,9 @@ TEST_CASE("uniformize: every fixture, stage by stage, with the promised accuracy
     // Seed independence: the face farthest from the seed, aligned by the fitted isometry.
     CHECK(r.seed_faces_checked.size() == 1);
     CHECK(r.seed_independence_error < 1e-9);
+    // On every vertex both layouts resolve: all of them with one chart, the first chart's with an atlas.
+    if (r.has_cut && !r.has_atlas) CHECK(r.seed_check_vertices == r.disk.num_vertices);
+    if (r.has_atlas) CHECK((r.seed_check_vertices > 0 && r.seed_check_vertices < r.disk.num_vertices));
     // Closed genus >= 1: the canonical polygon and its deck transformations. E: the cut and its
     // layout. H: the layout is the compact domain; the canonical generators are words in its side
     // pairings and the polygon is their geodesic 4g-gon, a fundamental domain.

@@ -141,6 +141,49 @@ TEST_CASE("uniformize: bordered surfaces whose triangles lean on the boundary ar
   }
 }
 
+TEST_CASE("uniformize: a layout that passes the edge limit but flips a face far out in the disk gets an atlas, and its seed check compares where both layouts resolve") {
+  // tools/random_surface_sweep's seed 51 (genus 8, 4 loops, 4029 faces, stretched 4.8:1), solved
+  // on the double: one chart reaches hyperbolic distance 15 and there resolves a sliver of the
+  // common subdivision only to 3e-7 of its edges, under the 1e-6 gate but flipped. The layout
+  // from the farthest seed reaches twice as far, where its coordinates resolve next to nothing.
+  std::mt19937_64 size_rng(51 ^ 0x5eed5eedULL);
+  const double t = ricci_shapes::unit_double(size_rng);
+  const auto target = static_cast<Index>(std::lround(1000 * std::pow(50.0, t)));
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(51, target);
+  CAPTURE(s.description);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  const ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  REQUIRE(v.topology.genus() == 8);
+  const UniformizeOptions o;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.brief_report() << "; seed check " << r.seed_independence_error << " on " << r.seed_check_vertices << " of "
+                           << r.disk.num_vertices << " vertices");
+  CHECK(r.intrinsic.doubled);
+  // The one chart passes the gate with a flipped face: the atlas is made all the same.
+  CHECK(r.layout.max_edge_length_error <= o.max_layout_error);
+  CHECK(r.layout.flipped_faces > 0);
+  REQUIRE(r.has_atlas);
+  CHECK(r.atlas.num_charts() > 1);
+  CHECK(r.atlas.flipped_faces == 0);
+  CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
+  // Without atlases, one chart (refined, since no vertex is kept aside for another chart).
+  UniformizeOptions one = o;
+  one.use_atlas = false;
+  const UniformizeResult r1 = uniformize(v.mesh, v.topology, one);
+  REQUIRE_MESSAGE(r1.status == Status::Ok, r1.message);
+  MESSAGE("one chart: " << r1.brief_report());
+  CHECK(!r1.has_atlas);
+  CHECK(r1.layout.max_edge_length_error <= o.max_layout_error);
+  // The seed check: compared on vertices both layouts resolve (it had measured the far layout's
+  // rounding, a deviation of 19.6), and within what they resolve there.
+  CHECK(r.seed_check_vertices > 0);
+  CHECK(r.seed_check_vertices < r.disk.num_vertices);
+  CHECK(r.seed_independence_error < 1e-4);
+}
+
 TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is solved on the double too") {
   // The sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1) with the free boundary:
   // the solve with flips on the surface stops (a boundary edge never flips); on the double, where

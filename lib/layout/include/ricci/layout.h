@@ -315,6 +315,11 @@ struct LayoutMisses {
 LayoutMisses layout_misses(const Topology& disk, Geometry g, std::span<const double> l,
                            std::span<const double> positions, std::span<const double> face_area, double limit);
 
+/// Per vertex of `disk` (#V): 1 when every edge at it reproduces its length l (#E) to `limit`
+/// (relative) in positions (#V×dims, geometry g), else 0. On a size mismatch, all 0.
+std::vector<std::uint8_t> resolved_vertices(const Topology& disk, Geometry g, std::span<const double> l,
+                                            std::span<const double> positions, double limit);
+
 /// The figures of a Layout (max_edge_length_error, worst_edge, rounding_floor, flipped_faces)
 /// for positions computed elsewhere (e.g. deck_through_domain()'s canonical polygon): `l` #E of
 /// `disk`, positions #V×dims. Status NonFiniteCoordinate names a vertex without a valid position.

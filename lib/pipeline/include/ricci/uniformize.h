@@ -328,10 +328,14 @@ struct UniformizeResult {
   bool has_atlas = false;
   LayoutAtlas atlas;
   /// Max over the extra seeds of the deviation from `layout` after alignment (distance of the
-  /// geometry; E: before the unit box). 0 when seed_checks is 0. With an atlas: over the vertices
-  /// of the first chart's faces only, and in E relative to that chart's extent (such a plane
-  /// layout can span more orders of magnitude than an absolute distance means anything across).
+  /// geometry; E: before the unit box). 0 when seed_checks is 0. E and H: over the vertices both
+  /// layouts resolve (every edge at them within max_layout_error in each; a propagation from a far
+  /// seed may reach where its coordinates resolve nothing), with an atlas only those of the first
+  /// chart's faces, and in E then relative to that chart's extent (such a plane layout can span
+  /// more orders of magnitude than an absolute distance means anything across).
   double seed_independence_error = 0;
+  /// E and H: the fewest vertices a seed check compared (of disk.num_vertices); 0 without checks.
+  Index seed_check_vertices = 0;
   std::vector<Index> seed_faces_checked;  ///< the extra seed faces, in the order they were laid out
 
   /// Closed genus ≥ 1: the canonical polygon a1 b1 a1^-1 b1^-1 … laid out (E: the cut and layout
