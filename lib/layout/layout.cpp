@@ -1957,10 +1957,15 @@ std::vector<std::uint8_t> resolved_vertices(const Topology& disk, Geometry g, st
   std::fill(ok.begin(), ok.end(), 1);
   std::vector<double> x(positions.begin(), positions.end());
   const Positions P{g, dims, x};
+  // The edges' verdicts in parallel (one byte each), the vertices marked after them in order.
+  std::vector<std::uint8_t> edge_ok(static_cast<std::size_t>(disk.num_edges));
+#pragma omp parallel for schedule(static)
   for (Index e = 0; e < disk.num_edges; ++e) {
     const Index a = disk.edge_vertices[2 * e], b = disk.edge_vertices[2 * e + 1];
-    if (!(std::abs(P.distance(a, b) - l[e]) / l[e] <= limit)) ok[a] = ok[b] = 0;
+    edge_ok[e] = std::abs(P.distance(a, b) - l[e]) / l[e] <= limit ? 1 : 0;
   }
+  for (Index e = 0; e < disk.num_edges; ++e)
+    if (!edge_ok[e]) ok[disk.edge_vertices[2 * e]] = ok[disk.edge_vertices[2 * e + 1]] = 0;
   return ok;
 }
 

@@ -1444,6 +1444,7 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
       compared += keep[v];
     }
     r.seed_check_vertices = k == 0 ? compared : std::min(r.seed_check_vertices, compared);
+    if (compared < 3) continue;  // nothing both resolve to align on: seed_check_vertices says so
     r.seed_independence_error = std::max(
         r.seed_independence_error, layout_alignment_error(r.geometry, restrict(own, keep), restrict(other.positions, keep)) / scale);
   }

@@ -335,6 +335,7 @@ struct UniformizeResult {
   /// more orders of magnitude than an absolute distance means anything across).
   double seed_independence_error = 0;
   /// E and H: the fewest vertices a seed check compared (of disk.num_vertices); 0 without checks.
+  /// Below 3 that check aligned nothing and added nothing to seed_independence_error.
   Index seed_check_vertices = 0;
   std::vector<Index> seed_faces_checked;  ///< the extra seed faces, in the order they were laid out
 
