@@ -374,6 +374,8 @@ Json atlas_json(const ricci::UniformizeResult& r) {
               {"root_rounding_floor", real(r.layout.rounding_floor)},
               {"root_flipped_faces", r.layout.flipped_faces},
               {"max_transition_error", real(a.max_transition_error)},
+              {"unresolvable_faces", a.unresolvable_faces},
+              {"unresolvable_error", real(a.unresolvable_error)},
               {"charts", std::move(charts)},
               {"face_chart_of", r.intrinsic.refined ? "refinement.obj" : "mesh.obj"},
               {"face_chart", a.face_chart}};

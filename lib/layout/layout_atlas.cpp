@@ -44,6 +44,10 @@ struct AtlasBuild {
   std::vector<double> face_error;  ///< #F: max relative edge error of the face in its chart
   std::vector<double> face_floor;  ///< #F: its rounding floor there (rounding_drift() / length)
   std::vector<Index> owner;        ///< scratch labels for a chart's propagation (-1 elsewhere)
+  /// #F: the face stays unresolved in the chart made for its own group (laid out from that
+  /// group's smallest face, near its origin): no further chart resolves it better, so it starts
+  /// no group of its own (see LayoutAtlas::unresolvable_faces).
+  std::vector<std::uint8_t> settled;
 
   Cx corner(Index f, int c) const { return {out.corner_positions[6 * f + 2 * c], out.corner_positions[6 * f + 2 * c + 1]}; }
 
@@ -93,7 +97,7 @@ struct AtlasBuild {
     std::vector<std::vector<Index>> groups;
     std::vector<std::uint8_t> seen(static_cast<std::size_t>(t.num_faces), 0);
     for (Index f0 = 0; f0 < t.num_faces; ++f0) {
-      if (seen[f0] || out.face_chart[f0] != k || !unresolved(f0)) continue;
+      if (seen[f0] || out.face_chart[f0] != k || !unresolved(f0) || settled[f0]) continue;
       std::vector<Index> group{f0};
       seen[f0] = 1;
       for (std::size_t h = 0; h < group.size(); ++h) {
@@ -240,11 +244,16 @@ struct AtlasBuild {
       }
       measure_face(f, face_error[f], face_floor[f]);
       if (!unresolved(f)) ++resolved;
+      else settled[f] = 1;
     }
-    if (resolved == 0)
-      return fail(Element::Face, ch.seed_face, "the chart around face " + std::to_string(ch.seed_face) + " resolves none of its " +
-                                                   std::to_string(group.size()) + " faces (edge error " +
-                                                   sci(face_error[ch.seed_face]) + " at its own origin)");
+    // A face its own chart misses by more than a collar may: not rounding, the lengths do not close.
+    for (Index f : group)
+      if (!(face_error[f] <= options.max_transition_error))
+        return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
+                                          " even in the chart around face " + std::to_string(ch.seed_face) +
+                                          " made for it (" + std::to_string(resolved) + " of its group's " +
+                                          std::to_string(group.size()) + " faces resolved; limit " +
+                                          sci(options.max_transition_error) + "): the lengths are not one metric there");
     out.charts.push_back(ch);
     return true;
   }
@@ -272,6 +281,10 @@ struct AtlasBuild {
       LayoutChart& ch = out.charts[static_cast<std::size_t>(out.face_chart[f])];
       const double err = face_error[f], floor = face_floor[f];
       if (!(orientation(f) > 0) && out.flipped_faces++ == 0) out.first_flipped_face = f;
+      if (unresolved(f)) {
+        ++out.unresolvable_faces;
+        out.unresolvable_error = std::isnan(err) ? err : std::max(out.unresolvable_error, err);
+      }
       ++ch.faces;
       ch.rounding_floor = std::max(ch.rounding_floor, floor);
       if (ch.worst_face == kInvalid || err > ch.max_edge_length_error) {
@@ -331,7 +344,8 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   LayoutChart root;
   out.charts.push_back(root);
   AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
-               std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1)};
+               std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1),
+               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0)};
 #pragma omp parallel for schedule(static)
   for (Index f = 0; f < nf; ++f) b.measure_face(f, b.face_error[f], b.face_floor[f]);
   for (Index k = 0; k < out.num_charts(); ++k) {
@@ -347,7 +361,11 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   out.status = Status::Ok;
   out.message = std::to_string(out.num_charts()) + (out.num_charts() == 1 ? " chart" : " charts") +
                 ", max edge-length error " + sci(out.max_edge_length_error) + ", transitions to " +
-                sci(out.max_transition_error);
+                sci(out.max_transition_error) +
+                (out.unresolvable_faces > 0 ? "; " + std::to_string(out.unresolvable_faces) +
+                                                  " faces no chart resolves to " + sci(options.limit) + " (worst " +
+                                                  sci(out.unresolvable_error) + " in the chart made for them)"
+                                            : "");
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

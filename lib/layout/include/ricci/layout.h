@@ -405,9 +405,11 @@ struct LayoutChart {
 
 /// What layout_atlas() returns.
 struct LayoutAtlas {
-  /// Ok: every face resolved within AtlasOptions::limit in its chart. InvalidArgument (sizes,
-  /// options, S); NumericalFailure (a group its chart does not resolve, charts too deep, a
-  /// propagation leaving double range), naming the face or vertex.
+  /// Ok: every face resolved within AtlasOptions::limit in its chart, but unresolvable_faces.
+  /// InvalidArgument (sizes,
+  /// options, S); NumericalFailure (a face its own chart misses beyond max_transition_error, a
+  /// chart's collar missing its parent, charts too deep, a propagation leaving double range),
+  /// naming the face or vertex.
   Status status = Status::NotRun;
   std::string message = "not run";
   Element element = Element::None;
@@ -420,6 +422,13 @@ struct LayoutAtlas {
   std::vector<double> corner_positions;
   double max_edge_length_error = 0;  ///< max over the charts
   double max_transition_error = 0;   ///< max over the charts
+  /// Faces above AtlasOptions::limit in the chart made for their own group, laid out from that
+  /// group's smallest face: what no chart's coordinates resolve better (with coarse frames, a
+  /// sliver of the common subdivision far smaller than its coarse face, whose corners that face's
+  /// isometry places to its own scale's rounding). They start no further chart; their worst
+  /// error is unresolvable_error (within max_edge_length_error).
+  Index unresolvable_faces = 0;
+  double unresolvable_error = 0;
   /// Faces negatively oriented in their chart (H: in Klein coordinates), and the smallest.
   Index flipped_faces = 0;
   Index first_flipped_face = kInvalid;
