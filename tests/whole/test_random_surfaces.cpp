@@ -56,6 +56,23 @@ ValidateResult sweep_draw(std::uint64_t seed, ricci_shapes::RandomSurface* surfa
   return v;
 }
 
+// That draw through the default job, which must succeed.
+struct DrawRun {
+  ValidateResult v;
+  UniformizeResult r;
+};
+DrawRun default_job(std::uint64_t seed) {
+  ricci_shapes::RandomSurface s;
+  DrawRun d{sweep_draw(seed, &s), {}};
+  CAPTURE(s.description);
+  d.r = uniformize(d.v.mesh, d.v.topology, UniformizeOptions{});
+  REQUIRE_MESSAGE(d.r.status == Status::Ok, d.r.message);
+  MESSAGE(s.description << ": " << d.r.brief_report() << "; " << d.r.atlas.message << "; seed check "
+                        << d.r.seed_independence_error << " on " << d.r.seed_check_vertices << " of "
+                        << d.r.disk.num_vertices << " vertices");
+  return d;
+}
+
 }  // namespace
 
 TEST_CASE("property: random surfaces of genus 0-12 with 0-8 boundary loops map with every guarantee or end with a named status") {
@@ -165,15 +182,11 @@ TEST_CASE("uniformize: a layout that passes the edge limit but flips a face far 
   // on the double: one chart reaches hyperbolic distance 15 and there resolves a sliver of the
   // common subdivision only to 3e-7 of its edges, under the 1e-6 gate but flipped. The layout
   // from the farthest seed reaches twice as far, where its coordinates resolve next to nothing.
-  ricci_shapes::RandomSurface s;
-  const ValidateResult v = sweep_draw(51, &s);
-  CAPTURE(s.description);
-  REQUIRE(v.topology.genus() == 8);
+  const DrawRun d = default_job(51);
+  const ValidateResult& v = d.v;
+  const UniformizeResult& r = d.r;
   const UniformizeOptions o;
-  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
-  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
-  MESSAGE(r.brief_report() << "; seed check " << r.seed_independence_error << " on " << r.seed_check_vertices << " of "
-                           << r.disk.num_vertices << " vertices");
+  REQUIRE(v.topology.genus() == 8);
   CHECK(r.intrinsic.doubled);
   // The one chart passes the gate with a flipped face: the atlas is made all the same.
   CHECK(r.layout.max_edge_length_error <= o.max_layout_error);
@@ -204,14 +217,10 @@ TEST_CASE("atlas: slivers of the common subdivision that no chart resolves to 1e
   // leaves it above 1e-9 (the atlas had failed on them and the job had fallen back to circle
   // packing). Such faces start no further chart; a face its own chart misses beyond
   // max_transition_error still ends the atlas (test_atlas.cpp: lengths that are not one metric).
-  ricci_shapes::RandomSurface s;
-  const ValidateResult v = sweep_draw(6, &s);
-  CAPTURE(s.description);
-  REQUIRE(v.topology.num_boundary_loops() == 6);
+  const DrawRun d = default_job(6);
+  const UniformizeResult& r = d.r;
   const UniformizeOptions o;
-  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
-  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
-  MESSAGE(r.brief_report() << "; " << r.atlas.message);
+  REQUIRE(d.v.topology.num_boundary_loops() == 6);
   CHECK(r.intrinsic.doubled);
   CHECK(r.intrinsic.fallback.empty());  // vertex scaling with flips, not circle packing
   CHECK(r.intrinsic.refined);
