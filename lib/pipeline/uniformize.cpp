@@ -206,8 +206,8 @@ std::vector<Index> leaning_boundary_edges(const IntrinsicTriangulation& tri, std
 // Vertex scaling with intrinsic flips: the mesh's intrinsic Delaunay triangulation, then the
 // solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
 // and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
-// false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed (with `leaning`, for loop targets, the boundary edges
-// leaning_boundary_edges() finds).
+// false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed, and then in
+// `leaning` (loop targets) the boundary edges leaning_boundary_edges() finds.
 bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
                      UniformizeResult& r, IntrinsicTriangulation& tri, std::vector<Index>* leaning = nullptr) {
   r.intrinsic.used = true;
@@ -1401,8 +1401,10 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   // exactly those one chart's coordinates cannot resolve). A propagation from a far seed may reach
   // where its coordinates resolve nothing (the surface's far end in the disk); its positions there
   // are rounding, not a second opinion on the layout.
+  const bool sphere = r.geometry == Geometry::Spherical;
   const std::vector<std::uint8_t> own_ok =
-      resolved_vertices(r.disk, r.geometry, r.disk_lengths, own, run.options.max_layout_error);
+      sphere ? std::vector<std::uint8_t>{}
+             : resolved_vertices(r.disk, r.geometry, r.disk_lengths, own, run.options.max_layout_error);
   std::vector<std::uint8_t> in_root(static_cast<std::size_t>(r.disk.num_vertices), r.has_atlas ? 0 : 1);
   if (r.has_atlas)
     for (Index f = 0; f < r.disk.num_faces; ++f)
@@ -1426,7 +1428,6 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
       if (in_root[v]) far = std::max(far, std::hypot(own[2 * v] - mx, own[2 * v + 1] - my));
     if (far > 0) scale = far;
   }
-  const bool sphere = r.geometry == Geometry::Spherical;
   for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
     const Layout& other = sc.layouts[k];
     if (other.status != Status::Ok) return run.fail(other.status, "seed_check", other.message);

@@ -406,10 +406,9 @@ struct LayoutChart {
 /// What layout_atlas() returns.
 struct LayoutAtlas {
   /// Ok: every face resolved within AtlasOptions::limit in its chart, but unresolvable_faces.
-  /// InvalidArgument (sizes,
-  /// options, S); NumericalFailure (a face its own chart misses beyond max_transition_error, a
-  /// chart's collar missing its parent, charts too deep, a propagation leaving double range),
-  /// naming the face or vertex.
+  /// InvalidArgument (sizes, options, S); NumericalFailure (a face its own chart misses beyond
+  /// max_transition_error, a chart's collar missing its parent, charts too deep, a propagation
+  /// leaving double range), naming the face or vertex.
   Status status = Status::NotRun;
   std::string message = "not run";
   Element element = Element::None;
