@@ -1761,15 +1761,6 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   r.base_vertex = x;
   r.moves = C.moves;
   r.refinements = C.refinements;
-  r.surface_positions = S.pos;
-  r.surface_faces = S.faces;
-  r.surface_face_to_input = S.face_origin;
-  r.refined_vertex_face = S.rec_face;
-  r.refined_vertex_bary = S.rec_bary;
-  for (Index f : S.rec_face)
-    for (int k = 0; k < 3; ++k) r.refined_vertex_corners.push_back(mesh.faces[3 * f + k]);
-  r.cut_faces = R.faces;
-  r.cut_to_surface = R.to_surface;
 
   Index s_start = side_with_first_edge(Pg, R, names.anchor_edge);
   if (s_start == kInvalid) s_start = 0;
@@ -1780,6 +1771,16 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
     names.word_canonical = false;
     names.reason = "the intersection numbers of the loops are not canonical";
   }
+  // The cutter's surface and disk move into the result (no second copy at the peak).
+  for (Index f : S.rec_face)
+    for (int k = 0; k < 3; ++k) r.refined_vertex_corners.push_back(mesh.faces[3 * f + k]);
+  r.surface_positions = std::move(C.S.pos);
+  r.surface_faces = std::move(C.S.faces);
+  r.surface_face_to_input = std::move(C.S.face_origin);
+  r.refined_vertex_face = std::move(C.S.rec_face);
+  r.refined_vertex_bary = std::move(C.S.rec_bary);
+  r.cut_faces = std::move(C.R.faces);
+  r.cut_to_surface = std::move(C.R.to_surface);
   r.surface_topology = std::move(C.S.topo);
   r.disk_topology = std::move(C.R.topo);
   r.canonical = names.word_canonical && names.reason.empty();

@@ -10,7 +10,11 @@
 #include <exception>
 #include <limits>
 #include <memory>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <numbers>
+#include <omp.h>
 #include <optional>
 #include <queue>
 #include <thread>
@@ -126,11 +130,39 @@ struct DiskBuild {
   std::string stage;
 };
 
+// The cones of a target K̄: interior vertices (among the first min(#V, K.size())) with K̄ ≠ 0.
+std::vector<Index> cone_vertices(const Topology& topology, std::span<const double> K) {
+  std::vector<Index> cones;
+  for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(K.size())); ++v)
+    if (!topology.is_boundary_vertex(v) && std::abs(K[v]) > 1e-12) cones.push_back(v);
+  return cones;
+}
+
+// A cut of (mesh, topology) made beside the flow (cut_beside_flow()): cut_surface() reads the
+// connectivity and the 3D positions, not the metric, so on a second core it overlaps the flow's
+// factorizations (which leave that core idle) and the cut stage only waits for it.
+struct CutBeside {
+  const Mesh* mesh = nullptr;
+  const Topology* topology = nullptr;
+  std::optional<CutResult> cut;  // set by the worker; empty when it ran out of memory
+  // The disk's central face (the layout's default seed) and the face farthest from it (the first
+  // seed check's), found there too (kInvalid: not found).
+  Index central = kInvalid, farthest = kInvalid;
+  std::jthread worker;           // last: joined before `cut` is destroyed
+
+  // The cut, once the worker is done, when it was made of exactly this mesh and topology; else null.
+  CutResult* take(const Mesh& m, const Topology& t) {
+    if (worker.joinable()) worker.join();
+    return mesh == &m && topology == &t && cut ? &*cut : nullptr;
+  }
+};
+
 /// cut → metric on the cut → the disk's connectivity and lengths, for one set of cut options.
+/// With `beside`: the cut already made of (mesh, topology) with those options, moved from.
 DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std::span<const double> l,
-                     const CutOptions& co) {
+                     const CutOptions& co, CutResult* beside = nullptr) {
   DiskBuild d;
-  d.cut = cut_surface(mesh, topology, co);
+  d.cut = beside != nullptr ? std::move(*beside) : cut_surface(mesh, topology, co);
   if (d.cut.status != Status::Ok) {
     d.status = d.cut.status;
     d.message = d.cut.message;
@@ -160,7 +192,7 @@ DiskBuild build_disk(const Mesh& mesh, const Topology& topology, Geometry g, std
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                    std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start,
-                   const FaceFrames* frames = nullptr);
+                   const FaceFrames* frames = nullptr, CutBeside* cut_beside = nullptr);
 
 // AngleDistortion of the metric's corner angles tm (#F×3) against the mesh's 3D angles.
 AngleDistortion distortion_of_angles(const Mesh& mesh, const Topology& topology, std::span<const double> tm) {
@@ -708,6 +740,54 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
 
 namespace {
 
+// Starts cut_surface() of (mesh, topology) beside the flow (CutBeside) when the layout will take
+// exactly that cut: two threads available, valid options, a connected surface that is not a sphere
+// and not one of those the compact domain takes (hyperbolic and not a disk; a target with cones).
+// Run on the input's own faces only (the layout stages take it when the straight input triangles
+// tile the surface, or with no flips); a common subdivision is cut after the flow. The worker
+// runs its OpenMP loops on one thread: the flow's own loops keep both.
+void cut_beside_flow(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                     const Target* target, CutBeside& out) {
+  const FlowOptions& f = options.flow;
+  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
+  if (threads < 2 || !options.is_valid(nullptr) || topology.num_components != 1 ||
+      mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
+      mesh.num_vertices() != topology.num_vertices)
+    return;
+  const Geometry g = options.geometry ? *options.geometry : natural_geometry(topology);
+  const bool sphere = topology.is_closed() && topology.euler_characteristic() == 2;
+  const bool disk = topology.genus() == 0 && topology.num_boundary_loops() == 1;
+  if (sphere || (g == Geometry::Hyperbolic && !disk)) return;
+  if (target != nullptr && (target->K.size() != static_cast<std::size_t>(topology.num_vertices) ||
+                            !cone_vertices(topology, target->K).empty()))
+    return;
+  out.mesh = &mesh;
+  out.topology = &topology;
+  out.worker = std::jthread([&out, &options] {
+    omp_set_num_threads(1);
+    try {
+      out.cut = cut_surface(*out.mesh, *out.topology, options.cut);
+      // The two connectivities are not held beside the flow, where memory peaks: a surface the
+      // cut did not refine is the input's, which refined_edge_lengths() takes then, and the disk's
+      // is built again from its faces (take_disk_topology()) at a small part of the cut's cost.
+      CutResult& c = *out.cut;
+      if (c.status == Status::Ok && c.num_refined_vertices() == 0 &&
+          is_topology_of(*out.topology, c.surface_faces, c.num_input_vertices))
+        c.surface_topology = Topology{};
+      if (c.status == Status::Ok && is_topology_of(c.disk_topology, c.cut_faces, c.num_cut_vertices())) {
+        out.central = central_face(c.disk_topology);
+        if (out.central != kInvalid) out.farthest = farthest_face(c.disk_topology, out.central);
+      }
+      c.disk_topology = Topology{};
+    } catch (const std::bad_alloc&) {
+      out.cut.reset();  // cut again after the flow, where its memory is back
+    }
+#if defined(__GLIBC__)
+    malloc_trim(0);  // the cut's working memory back to the system before the flow's peak
+#endif
+  });
+}
+
 // Steiner levels asked for by a run of uniformize_unit() (it stops after the metric stages).
 struct SteinerPlan {
   int levels = 0;
@@ -726,6 +806,8 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
                                  const Target* target, SteinerPlan* plan = nullptr,
                                  const SteinerMesh* steiner = nullptr) {
   const Clock::time_point start = Clock::now();
+  CutBeside cut_beside;  // joined on every return
+  if (!steiner) cut_beside_flow(mesh, topology, options, target, cut_beside);
   UniformizeResult r;
   StageClock stage_done{r, options};
   MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done,
@@ -752,7 +834,7 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
     if (m.flips)
       stage_done("straighten", std::to_string(r.intrinsic.crossings) + " crossings; the straight input triangles "
                                "tile the surface (angle sums to " + sci(m.straight.max_angle_sum_error) + ")");
-    layout_stages(mesh, topology, options, r.flow.l, r, start);
+    layout_stages(mesh, topology, options, r.flow.l, r, start, nullptr, &cut_beside);
     return r;
   }
   if (m.doubled) {
@@ -1141,6 +1223,9 @@ struct LayoutRun {
   bool closed_h = false;   // closed genus >= 2 in H: the compact domain and a canonical polygon
   std::vector<Index> cones;  // interior vertices with target K̄ ≠ 0
   SeedCheck* seed_check = nullptr;  // started beside the layout (options.seed_checks > 0)
+  CutBeside* cut_beside = nullptr;  // a cut of (mesh, topology) made beside the flow, or null
+  // When the disk is that cut's: its central face and the face farthest from it (CutBeside).
+  Index known_central = kInvalid, known_farthest = kInvalid;
   // A common subdivision's frames (its current faces), and the same for what is laid out (the
   // surface itself, or the cut disk): the layouts develop those coarse faces (FaceFrames).
   const FaceFrames* surface_frames = nullptr;
@@ -1176,10 +1261,11 @@ std::vector<double> cut_face_areas(const CutResult& cut) {
 
 // The face farthest from `seed` in steps across edges (breadth-first; the smallest index among the
 // farthest), and the seeds of the checks after it: evenly spread over the faces (F/2 for one).
-std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count) {
+// `farthest`: that face when already known (kInvalid: found here).
+std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count, Index farthest = kInvalid) {
   std::vector<Index> seeds;
   if (count <= 0 || seed < 0 || seed >= t.num_faces) return seeds;
-  seeds.push_back(farthest_face(t, seed));
+  seeds.push_back(farthest != kInvalid ? farthest : farthest_face(t, seed));
   const int spread = count - 1;
   for (int k = 0; k < spread; ++k)
     seeds.push_back(spread == 1 ? t.num_faces / 2
@@ -1205,14 +1291,16 @@ struct SeedCheck {
   std::jthread worker;    // last: joined before the layouts it writes are destroyed
 };
 
+// The seeds are found on the worker too (a breadth-first search over the faces for the first).
 void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Index seed) {
   const bool sphere = run.sphere;
-  sc.seeds = check_seed_faces(faces, seed, run.options.seed_checks);
-  sc.layouts.resize(sc.seeds.size());
-  auto work = [&run, &sc, sphere] {
+  const Index farthest = seed == run.known_central ? run.known_farthest : kInvalid;
+  auto work = [&run, &sc, &faces, seed, farthest, sphere] {
     const UniformizeResult& res = run.r;
     const auto t0 = Clock::now();
     try {
+      sc.seeds = check_seed_faces(faces, seed, run.options.seed_checks, farthest);
+      sc.layouts.resize(sc.seeds.size());
       for (std::size_t k = 0; k < sc.seeds.size(); ++k) {
         LayoutOptions o = run.options.layout;
         o.seed_face = sc.seeds[k];
@@ -1241,7 +1329,7 @@ LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
   // With an atlas, vertices beyond one chart's range are left to it (not for the sphere).
   if (run.options.use_atlas && !run.sphere) lo.keep_unresolved = true;
   lo.frames = run.layout_frames;
-  if (lo.seed_face < 0) lo.seed_face = central_face(faces);
+  if (lo.seed_face < 0) lo.seed_face = run.known_central != kInvalid ? run.known_central : central_face(faces);
   if (run.seed_check != nullptr && lo.seed_face >= 0 && lo.seed_face < faces.num_faces)
     start_seed_check(run, *run.seed_check, faces, lo.seed_face);
   run.layout_options = lo;
@@ -1308,13 +1396,18 @@ bool cut_and_lay_out(LayoutRun& run) {
     stage_done("layout", r.layout.brief_report());
   } else {
     r.has_cut = true;
-    DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut);
+    CutResult* beside = run.cut_beside != nullptr ? run.cut_beside->take(mesh, topology) : nullptr;
+    DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut, beside);
     r.cut = std::move(d.cut);
     r.cut_metric = std::move(d.metric);
     r.disk = std::move(d.disk);
     r.disk_lengths = std::move(d.lengths);
     if (d.status != Status::Ok) return fail(d.status, d.stage, d.message);
-    stage_done("cut", r.cut.brief_report());
+    stage_done("cut", r.cut.brief_report() + (beside != nullptr ? " (beside the flow)" : ""));
+    if (beside != nullptr) {
+      run.known_central = run.cut_beside->central;
+      run.known_farthest = run.cut_beside->farthest;
+    }
     if (run.surface_frames != nullptr) run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
     r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
@@ -1732,14 +1825,14 @@ bool mesh_canonical_polygon(LayoutRun& run) {
 
 void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                    std::span<const double> metric_l, UniformizeResult& r, Clock::time_point start,
-                   const FaceFrames* frames) {
+                   const FaceFrames* frames, CutBeside* cut_beside) {
   StageClock stage_done{r, options};
   LayoutRun run{mesh, topology, options, metric_l, r, start, stage_done, false, false, {}};
   run.surface_frames = frames;
+  run.cut_beside = cut_beside;
   run.sphere = topology.is_closed() && topology.euler_characteristic() == 2;
   run.closed_h = topology.is_closed() && topology.genus() >= 2 && r.geometry == Geometry::Hyperbolic;
-  for (Index v = 0; v < std::min<Index>(topology.num_vertices, static_cast<Index>(r.target.K.size())); ++v)
-    if (!topology.is_boundary_vertex(v) && std::abs(r.target.K[v]) > 1e-12) run.cones.push_back(v);
+  run.cones = cone_vertices(topology, r.target.K);
   SeedCheck seed_check;  // on a second thread until finish_seed_check() (joined on every return)
   if (options.seed_checks > 0) run.seed_check = &seed_check;
   if (!cut_and_lay_out(run)) return;

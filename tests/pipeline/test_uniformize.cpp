@@ -587,6 +587,43 @@ TEST_CASE("uniformize: a circle domain solved through the split or the direct bo
   }
 }
 
+// With two threads the cut of a surface laid out through cut_surface() (genus 1; genus 0 with
+// several loops) is made beside the flow, on a thread of its own; with one it follows the flow.
+// The cut, the disk and the layout must be the same bit for bit either way.
+TEST_CASE("uniformize: a cut made beside the flow is the cut made after it") {
+  struct Case {
+    const char* name;
+    Mesh mesh;
+  };
+  const Case cases[] = {{"torus", ricci_shapes::torus(48, 24, 1.0, 0.4)},
+                        {"annulus", ricci_shapes::conformal_annulus(0.3, 0.9, 8, 64)}};
+  for (const Case& c : cases) {
+    CAPTURE(c.name);
+    const ValidateResult v = validate_mesh(c.mesh);
+    REQUIRE(v.status == Status::Ok);
+    UniformizeResult r[2];
+    std::string cut_line[2];
+    for (int threads = 1; threads <= 2; ++threads) {
+      UniformizeOptions o;
+      o.flow.threads = threads;
+      o.on_stage = [&cut_line, threads](const StageRecord& s) {
+        if (s.stage == "cut") cut_line[threads - 1] = s.summary;
+      };
+      r[threads - 1] = uniformize(v.mesh, v.topology, o);
+      REQUIRE_MESSAGE(r[threads - 1].status == Status::Ok, r[threads - 1].message);
+    }
+    CHECK(cut_line[0].find("beside the flow") == std::string::npos);
+    CHECK(cut_line[1].find("beside the flow") != std::string::npos);
+    CHECK(r[0].cut.cut_faces == r[1].cut.cut_faces);
+    CHECK(r[0].cut.cut_to_surface == r[1].cut.cut_to_surface);
+    CHECK(r[0].cut.side_vertices == r[1].cut.side_vertices);
+    CHECK(r[0].cut.word == r[1].cut.word);
+    CHECK(r[0].disk.corner_edge == r[1].disk.corner_edge);
+    CHECK(r[0].disk_lengths == r[1].disk_lengths);
+    CHECK(r[0].layout.positions == r[1].layout.positions);
+  }
+}
+
 // The compact domain's side pairings are fitted in parallel (one Ceres problem each): the pairings,
 // the canonical generators and the polygon must be the same bit for bit on 1 and 2 threads.
 TEST_CASE("uniformize: a closed genus-3 surface's pairings and polygon are the same on 1 and 2 threads") {
