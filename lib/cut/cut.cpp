@@ -44,6 +44,8 @@ bool CutOptions::is_valid(std::string* why) const {
   };
   if (base_vertex < -1) return fail("base_vertex must be -1 (automatic) or a vertex index");
   if (max_moves < 0) return fail("max_moves must be >= 0");
+  if (!(max_refined_per_face >= 0) || !std::isfinite(max_refined_per_face))
+    return fail("max_refined_per_face must be finite and >= 0");
   for (double w : edge_weights)
     if (!std::isfinite(w) || w < 0) return fail("edge_weights must be finite and >= 0");
   return true;
@@ -80,6 +82,7 @@ struct Surface {
   std::vector<double> rec_bary;
   std::vector<Index> vertex_loop;  ///< input boundary loop of a vertex, -1 if interior
   Topology topo;
+  double max_refined_per_face = 64;  ///< CutOptions::max_refined_per_face
 
   Index nv() const { return topo.num_vertices; }
   double length(Index u, Index v) const {
@@ -372,8 +375,6 @@ void cleanup_nodes(const Surface& S, State& st, Index keep) {
 
 // ---- paths inside the disk, and refinement ------------------------------------------------------
 
-/// The most vertices a cut's refinement adds per input face (refine()).
-constexpr std::size_t kMaxRefinedPerFace = 64;
 /// How refine() says so (CutResult::refinement_bound is read from the reason).
 constexpr std::string_view kRefinementBound = "refinement: the paths would add more than ";
 
@@ -397,12 +398,15 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
   centroid.clear();
   mid.clear();
   // Each path refines the faces it crosses; paths that keep crossing refined faces (many moves at a
-  // high genus) would grow the surface without bound. Past kMaxRefinedPerFace added vertices per
-  // input face the cut stops with a message instead.
+  // high genus) would grow the surface without bound. Past S.max_refined_per_face added vertices
+  // per input face (and 65536) the cut stops with a message instead.
   const std::size_t input_faces = S.input != nullptr ? static_cast<std::size_t>(S.input->num_faces()) : S.faces.size() / 3;
-  if (S.rec_face.size() + fan_faces.size() + split_corners.size() > kMaxRefinedPerFace * input_faces + 65536) {
-    *why = std::string(kRefinementBound) + std::to_string(kMaxRefinedPerFace) +
-           " vertices per input face (" + std::to_string(S.rec_face.size()) + " added so far)";
+  const double bound = S.max_refined_per_face * static_cast<double>(input_faces) + 65536;
+  if (static_cast<double>(S.rec_face.size() + fan_faces.size() + split_corners.size()) > bound) {
+    char per[32];
+    std::snprintf(per, sizeof per, "%g", S.max_refined_per_face);
+    *why = std::string(kRefinementBound) + per + " vertices per input face (and 65536; " +
+           std::to_string(S.rec_face.size()) + " added so far)";
     return false;
   }
   std::unordered_map<Index, Index> mid_of_edge;  // surface edge -> midpoint vertex
@@ -1746,6 +1750,7 @@ CutResult cut_surface(const Mesh& mesh, const Topology& topo, const CutOptions& 
   };
   Cutter C;
   start_cutter(C, mesh, topo);
+  C.S.max_refined_per_face = options.max_refined_per_face;
   CutNames names;
   const bool cut = g == 0 && b == 0 ? slit_sphere(C, options, x, names)
                    : g == 0         ? base_on_boundary(C, options, x, names)

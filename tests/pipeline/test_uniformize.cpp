@@ -587,6 +587,25 @@ TEST_CASE("uniformize: a circle domain solved through the split or the direct bo
   }
 }
 
+// A genus-12 grid: the geodesic polygon's generators grow past double range, and the mesh path's
+// canonical cut would add hundreds of thousands of vertices. The cut stops at its bound for the
+// polygon (1 added vertex per face, and 65536), after one base, and the run ends with the compact
+// domain's side pairings as the deck group, saying why.
+TEST_CASE("uniformize: where no canonical polygon fits, the mesh path stops after one bounded cut") {
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel_grid(4, 3, 4));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  CHECK(!r.has_polygon);
+  CHECK(!r.has_geodesic_polygon);
+  REQUIRE(r.candidates.size() == 1);
+  CHECK(r.candidates[0].note.find("more than 1 vertices per input face") != std::string::npos);
+  CHECK(r.polygon_note.find("side pairings") != std::string::npos);
+  CHECK(r.domain_maps.size() == static_cast<std::size_t>(r.cut.num_generators()));
+}
+
 // With two threads the cut of a surface laid out through cut_surface() (genus 1; genus 0 with
 // several loops) is made beside the flow, on a thread of its own; with one it follows the flow.
 // The cut, the disk and the layout must be the same bit for bit either way.

@@ -82,10 +82,16 @@ struct CutOptions {
   bool canonicalize = true;
   /// Upper bound on cut-and-paste moves (0: 64 + 40·g).
   Index max_moves = 0;
+  /// Upper bound on the vertices the cut's local refinements add: this many per face of the input,
+  /// plus 65536. Past it the cut ends uncanonical (CutResult::refinement_bound): loops that keep
+  /// crossing refined faces (many moves at a high genus) would grow the surface without bound.
+  double max_refined_per_face = 64;
 
-  /// True when base_vertex ≥ -1, max_moves ≥ 0 and edge_weights are finite and ≥ 0; otherwise
-  /// false, with the reason in *why (when why is not null). Sizes are checked by cut_surface().
+  /// True when base_vertex ≥ -1, max_moves ≥ 0, max_refined_per_face ≥ 0 and edge_weights are
+  /// finite and ≥ 0; otherwise false, with the reason in *why (when why is not null). Sizes are
+  /// checked by cut_surface().
   bool is_valid(std::string* why) const;
+
 };
 
 /// What a side of the disk boundary or a generator is.
@@ -117,8 +123,9 @@ struct CutResult {
   bool compact = false;
   /// Why canonical is false (empty when true).
   std::string reason;
-  /// canonical is false because the loops' refinement would pass its bound (more than 64 added
-  /// vertices per input face): loops that long cross the surface many times from any base vertex.
+  /// canonical is false because the loops' refinement would pass its bound (more than
+  /// CutOptions::max_refined_per_face added vertices per input face): loops that long cross the
+  /// surface many times from any base vertex.
   bool refinement_bound = false;
   /// The side labels in disk-boundary order, space-separated (format in the header comment).
   std::string word;
