@@ -129,6 +129,7 @@ struct UniformizeCommandOptions {
   int threads = 0;                        ///< OpenMP threads; 0: the OpenMP default
   bool mesh_polygon = false;              ///< H: the mesh-path canonical polygon (polygon.obj)
   bool no_atlas = false;                  ///< E, H: one chart only (a layout it cannot hold fails)
+  bool cut_after_flow = false;            ///< not beside the flow (UniformizeOptions::cut_beside_flow)
   int base_candidates = 8;                ///< H: base vertices tried for the mesh-path canonical polygon
   int seed_checks = 1;                    ///< extra seed faces for seed_independence_error
   int cover_depth = 0;                    ///< cover word length; 0: 3 (torus) or 2

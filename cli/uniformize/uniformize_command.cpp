@@ -823,6 +823,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   uo.base_candidates = o.base_candidates;
   uo.mesh_polygon = o.mesh_polygon;
   uo.use_atlas = !o.no_atlas;
+  uo.cut_beside_flow = !o.cut_after_flow;
   uo.seed_checks = o.seed_checks;
   uo.layout.unit_box = o.unit_box;
   uo.layout.patches = o.patches;
@@ -1481,6 +1482,10 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                 "E and H: lay the surface out in one chart only; where its coordinates cannot resolve every face "
                 "(a conformal factor spanning many orders of magnitude, e.g. a long finger) the run fails at the "
                 "layout stage instead of writing an atlas of charts (groups chart_K in mesh.obj). Default: off.");
+  cmd->add_flag("--cut-after-flow", o.cut_after_flow,
+                "Make the cut after the flow instead of on a second thread beside it (genus 1 in E, genus 0 with "
+                "several boundary loops): the run takes the cut's time longer and its peak memory is lower by what "
+                "the cut holds during the flow (about 70 bytes per face). Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates,
                   "Closed genus >= 2 with --mesh-polygon: base vertices tried for the canonical polygon; the one whose "
                   "generators and positions double precision resolves best is kept. Default: 8.")

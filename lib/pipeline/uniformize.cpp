@@ -740,17 +740,23 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
 
 namespace {
 
+// Inputs this large are cut after the flow (UniformizeOptions::cut_beside_flow): the memory the
+// cut's result holds during the flow would raise the run's peak.
+constexpr Index kCutBesideMaxFaces = 500000;
+
 // Starts cut_surface() of (mesh, topology) beside the flow (CutBeside) when the layout will take
-// exactly that cut: two threads available, valid options, a connected surface that is not a sphere
-// and not one of those the compact domain takes (hyperbolic and not a disk; a target with cones).
-// Run on the input's own faces only (the layout stages take it when the straight input triangles
-// tile the surface, or with no flips); a common subdivision is cut after the flow. The worker
-// runs its OpenMP loops on one thread: the flow's own loops keep both.
+// exactly that cut: the option on, fewer than kCutBesideMaxFaces faces, two threads available,
+// valid options, a connected surface that is not a sphere and not one of those the compact domain
+// takes (hyperbolic and not a disk; a target with cones). Run on the input's own faces only (the
+// layout stages take it when the straight input triangles tile the surface, or with no flips); a
+// common subdivision is cut after the flow. The worker runs its OpenMP loops on one thread: the
+// flow's own loops keep both.
 void cut_beside_flow(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                      const Target* target, CutBeside& out) {
   const FlowOptions& f = options.flow;
   const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
-  if (threads < 2 || !options.is_valid(nullptr) || topology.num_components != 1 ||
+  if (!options.cut_beside_flow || topology.num_faces >= kCutBesideMaxFaces || threads < 2 ||
+      !options.is_valid(nullptr) || topology.num_components != 1 ||
       mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
       mesh.num_vertices() != topology.num_vertices)
     return;
@@ -779,6 +785,11 @@ void cut_beside_flow(const Mesh& mesh, const Topology& topology, const Uniformiz
         if (out.central != kInvalid) out.farthest = farthest_face(c.disk_topology, out.central);
       }
       c.disk_topology = Topology{};
+      for (std::vector<Index>* v : {&c.surface_faces, &c.surface_face_to_input, &c.refined_vertex_face,
+                                    &c.refined_vertex_corners, &c.cut_faces, &c.cut_to_surface})
+        v->shrink_to_fit();
+      c.surface_positions.shrink_to_fit();
+      c.refined_vertex_bary.shrink_to_fit();
     } catch (const std::bad_alloc&) {
       out.cut.reset();  // cut again after the flow, where its memory is back
     }

@@ -215,6 +215,19 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(t.out.rfind("ok hyperbolic", 0) == 0);
 }
 
+TEST_CASE("cli uniformize: --cut-after-flow gives the same mesh.obj as the cut beside the flow") {
+  TempDir tmp;
+  const std::string torus = (ricci_test::fixtures_dir() / "torus.obj").string();
+  const auto beside = run_cli({"uniformize", torus, "-o", (tmp / "a").string(), "--no-pictures", "--threads", "2"});
+  const auto after =
+      run_cli({"uniformize", torus, "-o", (tmp / "b").string(), "--no-pictures", "--threads", "2", "--cut-after-flow"});
+  REQUIRE(beside.exit_code == 0);
+  REQUIRE(after.exit_code == 0);
+  CHECK(beside.err.find("(beside the flow)") != std::string::npos);
+  CHECK(after.err.find("(beside the flow)") == std::string::npos);
+  CHECK(ricci_test::read_bytes(tmp / "a" / "mesh.obj") == ricci_test::read_bytes(tmp / "b" / "mesh.obj"));
+}
+
 TEST_CASE("cli uniformize: --mesh-polygon lays a canonical cut of the mesh out as the polygon (polygon.obj)") {
   TempDir tmp;
   const fs::path out = tmp / "out";

@@ -607,8 +607,9 @@ TEST_CASE("uniformize: where no canonical polygon fits, the mesh path stops afte
 }
 
 // With two threads the cut of a surface laid out through cut_surface() (genus 1; genus 0 with
-// several loops) is made beside the flow, on a thread of its own; with one it follows the flow.
-// The cut, the disk and the layout must be the same bit for bit either way.
+// several loops) is made beside the flow, on a thread of its own; with one, or with
+// cut_beside_flow off, it follows the flow. The cut, the disk and the layout must be the same bit
+// for bit either way.
 TEST_CASE("uniformize: a cut made beside the flow is the cut made after it") {
   struct Case {
     const char* name;
@@ -620,26 +621,31 @@ TEST_CASE("uniformize: a cut made beside the flow is the cut made after it") {
     CAPTURE(c.name);
     const ValidateResult v = validate_mesh(c.mesh);
     REQUIRE(v.status == Status::Ok);
-    UniformizeResult r[2];
-    std::string cut_line[2];
-    for (int threads = 1; threads <= 2; ++threads) {
+    // 1 thread; 2 threads; 2 threads with the option off.
+    UniformizeResult r[3];
+    std::string cut_line[3];
+    for (int run = 0; run < 3; ++run) {
       UniformizeOptions o;
-      o.flow.threads = threads;
-      o.on_stage = [&cut_line, threads](const StageRecord& s) {
-        if (s.stage == "cut") cut_line[threads - 1] = s.summary;
+      o.flow.threads = run == 0 ? 1 : 2;
+      o.cut_beside_flow = run != 2;
+      o.on_stage = [&cut_line, run](const StageRecord& s) {
+        if (s.stage == "cut") cut_line[run] = s.summary;
       };
-      r[threads - 1] = uniformize(v.mesh, v.topology, o);
-      REQUIRE_MESSAGE(r[threads - 1].status == Status::Ok, r[threads - 1].message);
+      r[run] = uniformize(v.mesh, v.topology, o);
+      REQUIRE_MESSAGE(r[run].status == Status::Ok, r[run].message);
     }
     CHECK(cut_line[0].find("beside the flow") == std::string::npos);
     CHECK(cut_line[1].find("beside the flow") != std::string::npos);
-    CHECK(r[0].cut.cut_faces == r[1].cut.cut_faces);
-    CHECK(r[0].cut.cut_to_surface == r[1].cut.cut_to_surface);
-    CHECK(r[0].cut.side_vertices == r[1].cut.side_vertices);
-    CHECK(r[0].cut.word == r[1].cut.word);
-    CHECK(r[0].disk.corner_edge == r[1].disk.corner_edge);
-    CHECK(r[0].disk_lengths == r[1].disk_lengths);
-    CHECK(r[0].layout.positions == r[1].layout.positions);
+    CHECK(cut_line[2].find("beside the flow") == std::string::npos);
+    for (int run = 1; run < 3; ++run) {
+      CHECK(r[0].cut.cut_faces == r[run].cut.cut_faces);
+      CHECK(r[0].cut.cut_to_surface == r[run].cut.cut_to_surface);
+      CHECK(r[0].cut.side_vertices == r[run].cut.side_vertices);
+      CHECK(r[0].cut.word == r[run].cut.word);
+      CHECK(r[0].disk.corner_edge == r[run].disk.corner_edge);
+      CHECK(r[0].disk_lengths == r[run].disk_lengths);
+      CHECK(r[0].layout.positions == r[run].layout.positions);
+    }
   }
 }
 

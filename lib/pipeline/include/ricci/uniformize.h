@@ -195,6 +195,13 @@ struct UniformizeOptions {
   /// evenly). They are laid out on a second thread, beside the layout and the stages after it,
   /// when two threads are available (FlowOptions::threads 0 or ≥ 2).
   int seed_checks = 1;
+  /// Cut beside the flow: where the layout takes cut_surface()'s disk of the input's own faces
+  /// (genus 1 in E, genus 0 with several loops), that cut, which reads no metric, is made on a
+  /// second thread while the flow runs, when two threads are available and the input has fewer
+  /// than 500000 faces: the cut's time comes off the job; what its result holds during the flow
+  /// (about 70 bytes per face) would raise the peak memory of larger inputs, which are cut after
+  /// the flow. false: always after the flow.
+  bool cut_beside_flow = true;
   /// The layout must reproduce the metric to this relative edge-length error, else the run fails
   /// at the layout stage (NumericalFailure, naming the worst edge and the rounding floor) instead
   /// of returning positions that are not the metric's (e.g. a long strip with a free boundary in E,
