@@ -6,7 +6,7 @@
 #include "huge_pages.h"
 
 int main(int argc, char** argv) {
-  ricci_cli::prefer_huge_pages(argv);
+  ricci_cli::prepare_malloc(argv);
   try {
     return ricci_cli::run(argc, argv);
   } catch (const std::exception& e) {

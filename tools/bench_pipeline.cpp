@@ -700,7 +700,7 @@ int usage(const char* argv0) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  ricci_cli::prefer_huge_pages(argv);
+  ricci_cli::prepare_malloc(argv);
   Settings s;
   s.meshes = fs::path(RICCI_SOURCE_DIR).parent_path() / "shared" / "meshes";
   for (int i = 1; i < argc; ++i) {
