@@ -1484,7 +1484,7 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                 "layout stage instead of writing an atlas of charts (groups chart_K in mesh.obj). Default: off.");
   cmd->add_flag("--cut-after-flow", o.cut_after_flow,
                 "Make the cut after the flow instead of on a second thread beside it (genus 1 in E, genus 0 with "
-                "several boundary loops): the run takes the cut's time longer and its peak memory is lower by what "
+                "several boundary loops, below 500k faces): the run takes the cut's time longer and its peak memory is lower by what "
                 "the cut holds during the flow (about 70 bytes per face). Default: off.");
   cmd->add_option("--base-candidates", o.base_candidates,
                   "Closed genus >= 2 with --mesh-polygon: base vertices tried for the canonical polygon; the one whose "

@@ -790,8 +790,8 @@ void cut_beside_flow(const Mesh& mesh, const Topology& topology, const Uniformiz
         v->shrink_to_fit();
       c.surface_positions.shrink_to_fit();
       c.refined_vertex_bary.shrink_to_fit();
-    } catch (const std::bad_alloc&) {
-      out.cut.reset();  // cut again after the flow, where its memory is back
+    } catch (...) {
+      out.cut.reset();  // cut again after the flow (out of memory here: it is back by then)
     }
 #if defined(__GLIBC__)
     malloc_trim(0);  // the cut's working memory back to the system before the flow's peak

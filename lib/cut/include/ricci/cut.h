@@ -91,7 +91,6 @@ struct CutOptions {
   /// finite and ≥ 0; otherwise false, with the reason in *why (when why is not null). Sizes are
   /// checked by cut_surface().
   bool is_valid(std::string* why) const;
-
 };
 
 /// What a side of the disk boundary or a generator is.
