@@ -44,7 +44,7 @@ bool CutOptions::is_valid(std::string* why) const {
   };
   if (base_vertex < -1) return fail("base_vertex must be -1 (automatic) or a vertex index");
   if (max_moves < 0) return fail("max_moves must be >= 0");
-  if (!(max_refined_per_face >= 0) || !std::isfinite(max_refined_per_face))
+  if (!std::isfinite(max_refined_per_face) || max_refined_per_face < 0)
     return fail("max_refined_per_face must be finite and >= 0");
   for (double w : edge_weights)
     if (!std::isfinite(w) || w < 0) return fail("edge_weights must be finite and >= 0");
