@@ -130,6 +130,13 @@ struct DiskBuild {
   std::string stage;
 };
 
+// True when the run has a second thread for work beside its own (FlowOptions::threads 0 or ≥ 2,
+// at most available_threads()): the cut beside the flow, the seed check beside the layout.
+bool second_thread(const UniformizeOptions& options) {
+  const int t = options.flow.threads;
+  return (t > 0 ? std::min(t, available_threads()) : available_threads()) >= 2;
+}
+
 // The cones of a target K̄: interior vertices (among the first min(#V, K.size())) with K̄ ≠ 0.
 std::vector<Index> cone_vertices(const Topology& topology, std::span<const double> K) {
   std::vector<Index> cones;
@@ -753,9 +760,7 @@ constexpr Index kCutBesideMaxFaces = 500000;
 // flow's own loops keep both.
 void cut_beside_flow(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                      const Target* target, CutBeside& out) {
-  const FlowOptions& f = options.flow;
-  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
-  if (!options.cut_beside_flow || topology.num_faces >= kCutBesideMaxFaces || threads < 2 ||
+  if (!options.cut_beside_flow || topology.num_faces >= kCutBesideMaxFaces || !second_thread(options) ||
       !options.is_valid(nullptr) || topology.num_components != 1 ||
       mesh.faces.size() != static_cast<std::size_t>(3 * topology.num_faces) ||
       mesh.num_vertices() != topology.num_vertices)
@@ -1326,9 +1331,7 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
     }
     sc.seconds = since(t0);
   };
-  const FlowOptions& f = run.options.flow;
-  const int threads = f.threads > 0 ? std::min(f.threads, available_threads()) : available_threads();
-  sc.beside = threads >= 2;
+  sc.beside = second_thread(run.options);
   if (sc.beside) sc.worker = std::jthread(work);
   else work();
 }
