@@ -95,6 +95,31 @@ struct Surface {
   Index cls(Index v) const { return vertex_loop[v] >= 0 ? nv() + vertex_loop[v] : v; }
 };
 
+/// What a refinement of S changes, to undo it: it only appends vertices and faces, rewrites the
+/// faces it splits and replaces the connectivity (the old one moved here, not copied).
+struct SurfaceUndo {
+  std::size_t pos = 0, faces = 0, face_origin = 0, rec_face = 0, rec_bary = 0, vertex_loop = 0;
+  std::vector<std::pair<Index, std::array<Index, 3>>> split;  ///< faces rewritten, as they were
+  Topology topo;
+  bool took_topo = false;
+
+  explicit SurfaceUndo(const Surface& S)
+      : pos(S.pos.size()), faces(S.faces.size()), face_origin(S.face_origin.size()), rec_face(S.rec_face.size()),
+        rec_bary(S.rec_bary.size()), vertex_loop(S.vertex_loop.size()) {}
+  void restore(Surface& S) {
+    S.pos.resize(pos);
+    S.faces.resize(faces);
+    S.face_origin.resize(face_origin);
+    S.rec_face.resize(rec_face);
+    S.rec_bary.resize(rec_bary);
+    S.vertex_loop.resize(vertex_loop);
+    for (const auto& [f, tri] : split)
+      for (int k = 0; k < 3; ++k) S.faces[3 * f + k] = tri[k];
+    if (took_topo) S.topo = std::move(topo);
+    took_topo = false;
+  }
+};
+
 
 /// Input-vertex weights of surface vertex v (up to three (vertex, weight) pairs).
 void vertex_weights(const Surface& S, Index v, std::array<Index, 3>& ov, std::array<double, 3>& w) {
@@ -394,7 +419,7 @@ struct PathSearch {
 /// from it), every edge in `split_corners` (given by a corner opposite it; both its faces must be
 /// in fan_faces) gets a vertex at its midpoint. Returns the new vertex of each face / edge.
 bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<Index>& split_corners,
-            std::vector<Index>& centroid, std::vector<Index>& mid, std::string* why) {
+            std::vector<Index>& centroid, std::vector<Index>& mid, SurfaceUndo& undo, std::string* why) {
   centroid.clear();
   mid.clear();
   // Each path refines the faces it crosses; paths that keep crossing refined faces (many moves at a
@@ -430,6 +455,7 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
     }
     centroid.push_back(add_vertex(S, S.face_origin[f], bary));
   }
+  for (Index f : fan_faces) undo.split.push_back({f, {S.faces[3 * f], S.faces[3 * f + 1], S.faces[3 * f + 2]}});
   for (std::size_t i = 0; i < fan_faces.size(); ++i) {
     const Index f = fan_faces[i];
     std::vector<Index> poly;
@@ -455,6 +481,8 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
     *why = "refinement produced an invalid surface: " + tr.message;
     return false;
   }
+  undo.topo = std::move(S.topo);
+  undo.took_topo = true;
   S.topo = std::move(tr.topology);
   return true;
 }
@@ -753,9 +781,9 @@ PathSearch search_path(const Surface& S, const Disk& R, const std::vector<Search
 }
 
 /// The surface vertices of a found path (ps.path). A path through face centroids or edge
-/// midpoints refines S exactly there first (which invalidates R); `snapshot` then receives S as
-/// it was, so that a caller can undo the refinement.
-bool realize_path(Surface& S, const Disk& R, PathSearch& ps, std::optional<Surface>& snapshot) {
+/// midpoints refines S exactly there first (which invalidates R); `undo` then receives what a caller
+/// needs to undo the refinement (SurfaceUndo::restore()).
+bool realize_path(Surface& S, const Disk& R, PathSearch& ps, std::optional<SurfaceUndo>& undo) {
   const Index n = R.topo.num_vertices, nf = R.topo.num_faces;
   ps.path.clear();
   if (ps.virtual_points == 0) {
@@ -767,9 +795,9 @@ bool realize_path(Surface& S, const Disk& R, PathSearch& ps, std::optional<Surfa
     if (v >= n && v < n + nf) fan_faces.push_back(v - n);
     if (v >= n + nf) split_corners.push_back(R.topo.edge_corners[2 * (v - n - nf)]);
   }
-  snapshot = S;
+  undo.emplace(S);
   std::vector<Index> centroid, mid;
-  if (!refine(S, fan_faces, split_corners, centroid, mid, &ps.why)) return false;
+  if (!refine(S, fan_faces, split_corners, centroid, mid, *undo, &ps.why)) return false;
   std::size_t fi = 0, ei = 0;
   for (Index v : ps.nodes) {
     if (v < n)
@@ -845,9 +873,9 @@ struct Cutter {
                  const std::vector<Pair>& glue, std::vector<Index>* path_out, std::string* why,
                  PathSearch* found = nullptr) {
     const State st_saved = st;
-    std::optional<Surface> S_saved;  // S before a refinement
+    std::optional<SurfaceUndo> S_saved;  // how to undo a refinement of S
     auto restore = [&](const std::string& m) {
-      if (S_saved) S = std::move(*S_saved);
+      if (S_saved) S_saved->restore(S);
       st = st_saved;
       *why = m;
       rebuild();
