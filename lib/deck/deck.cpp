@@ -540,13 +540,15 @@ void cycle_residual(const std::vector<MoebiusQ>& P, const Cycle& c, double* out)
 /// disk map taking pairing k's side centre to the origin: ξ_k moves the side's points by about
 /// |ξ_k| whatever their distance from the origin (E(ξ) alone moves a point at distance r by about
 /// |ξ|·cosh r, so a minimum-norm ξ would let the sides far out in the disk move the most).
+MoebiusQ perturbed_pairing(const MoebiusQ& X, const quad* xi, const MoebiusQ& C) {
+  const MoebiusQ E = MoebiusQ(CQ{1, xi[0]}, CQ{xi[1], xi[2]}).normalized();
+  return (X * (C.inverse() * E * C)).normalized();
+}
+
 std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vector<quad>& xi,
                                 const std::vector<MoebiusQ>& C) {
   std::vector<MoebiusQ> Y(X.size());
-  for (std::size_t k = 0; k < X.size(); ++k) {
-    const MoebiusQ E = MoebiusQ(CQ{1, xi[3 * k]}, CQ{xi[3 * k + 1], xi[3 * k + 2]}).normalized();
-    Y[k] = (X[k] * (C[k].inverse() * E * C[k])).normalized();
-  }
+  for (std::size_t k = 0; k < X.size(); ++k) Y[k] = perturbed_pairing(X[k], &xi[3 * k], C[k]);
   return Y;
 }
 
@@ -564,16 +566,31 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
     for (std::size_t c = 0; c < cycles.size(); ++c) cycle_residual(Y, cycles[c], r.data() + 3 * c);
   };
   std::vector<quad> xi(static_cast<std::size_t>(3 * m), 0);
-  Eigen::MatrixXd J(nr, 3 * m);
-  Eigen::VectorXd rp, rm, r;
+  // ξ_k moves only the cycles through pairing k: each column perturbs that one pairing and
+  // evaluates those cycles (the other rows of the column are 0).
+  std::vector<std::vector<std::size_t>> through(static_cast<std::size_t>(m));
+  for (std::size_t c = 0; c < cycles.size(); ++c)
+    for (const Letter& l : cycles[c].word)
+      if (l.k >= 0 && (through[l.k].empty() || through[l.k].back() != c)) through[l.k].push_back(c);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(nr, 3 * m);
+  Eigen::VectorXd r;
   const double h = 1e-9;
+  std::vector<MoebiusQ> Y = perturbed(X, xi, C);
   for (Eigen::Index j = 0; j < 3 * m; ++j) {
-    xi[static_cast<std::size_t>(j)] = h;
-    residual(perturbed(X, xi, C), rp);
-    xi[static_cast<std::size_t>(j)] = -h;
-    residual(perturbed(X, xi, C), rm);
+    const std::size_t k = static_cast<std::size_t>(j / 3);
+    const MoebiusQ at_zero = Y[k];
+    for (const std::size_t c : through[k]) {
+      double rp[3], rm[3];
+      xi[static_cast<std::size_t>(j)] = h;
+      Y[k] = perturbed_pairing(X[k], &xi[3 * k], C[k]);
+      cycle_residual(Y, cycles[c], rp);
+      xi[static_cast<std::size_t>(j)] = -h;
+      Y[k] = perturbed_pairing(X[k], &xi[3 * k], C[k]);
+      cycle_residual(Y, cycles[c], rm);
+      for (int i = 0; i < 3; ++i) J(static_cast<Eigen::Index>(3 * c) + i, j) = (rp[i] - rm[i]) / (2 * h);
+    }
     xi[static_cast<std::size_t>(j)] = 0;
-    J.col(j) = (rp - rm) / (2 * h);
+    Y[k] = at_zero;
   }
   const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(J);
   std::vector<quad> best = xi;
