@@ -66,9 +66,31 @@ struct Schema {
   std::vector<Word> element;
   std::vector<MoebiusQ> map;  ///< element[L] evaluated, updated by the same products move by move
   int moves = 0;
+  bool words = true;  ///< false: a trial copy (light()) that keeps no words, only letters and maps
+
+  /// A copy for trying moves: the letters, signs and maps, not the words (the move chosen is then
+  /// made again on the schema itself).
+  Schema light() const {
+    Schema t;
+    t.letter = letter;
+    t.sign = sign;
+    t.map = map;
+    t.moves = moves;
+    t.words = false;
+    return t;
+  }
 
   int size() const { return static_cast<int>(letter.size()); }
   int at(int j) const { return ((j % size()) + size()) % size(); }
+  /// Each letter's +1 and −1 side (−1: none).
+  struct Sides {
+    std::vector<int> plus, minus;
+  };
+  Sides sides() const {
+    Sides out{std::vector<int>(map.size(), -1), std::vector<int>(map.size(), -1)};
+    for (int j = 0; j < size(); ++j) (sign[j] == 1 ? out.plus : out.minus)[letter[j]] = j;
+    return out;
+  }
   /// Position of letter L's side with sign s.
   int find(int L, int s) const {
     for (int j = 0; j < size(); ++j)
@@ -79,7 +101,7 @@ struct Schema {
   void flip(int L) {
     for (int j = 0; j < size(); ++j)
       if (letter[j] == L) sign[j] = -sign[j];
-    element[L] = inverse(element[L]);
+    if (words) element[L] = inverse(element[L]);
     map[L] = map[L].inverse();
   }
 
@@ -141,30 +163,36 @@ struct Schema {
     for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
     const bool move_p2 = p2_sides <= n - p2_sides;
     auto moved = [&](int k) { return in_p2[k] == (move_p2 ? 1 : 0); };
-    const int xp = find(x, 1), xm = find(x, -1);
+    const Sides at_side = sides();
+    const int xp = at_side.plus[x], xm = at_side.minus[x];
     const bool plus_stays = !moved(xp);
-    const Word g = plus_stays ? inverse(element[x]) : element[x];
-    const Word g_inv = inverse(g);
+    Word g, g_inv;
+    if (words) {
+      g = plus_stays ? inverse(element[x]) : element[x];
+      g_inv = inverse(g);
+    }
     const MoebiusQ G = plus_stays ? map[x].inverse() : map[x], G_inv = G.inverse();
-    for (int L = 0; L < static_cast<int>(element.size()); ++L) {
+    for (int L = 0; L < static_cast<int>(map.size()); ++L) {
       if (L == x) continue;
-      const int p = find(L, 1), m = find(L, -1);
+      const int p = at_side.plus[L], m = at_side.minus[L];
       if (p < 0 || m < 0) continue;  // cancelled or never used
       if (moved(p) && moved(m)) {
-        element[L] = concat({&g, &element[L], &g_inv});
+        if (words) element[L] = concat({&g, &element[L], &g_inv});
         map[L] = (G * map[L] * G_inv).normalized();
       } else if (!moved(p) && moved(m)) {
-        element[L] = concat({&g, &element[L]});
+        if (words) element[L] = concat({&g, &element[L]});
         map[L] = (G * map[L]).normalized();
       } else if (moved(p) && !moved(m)) {
-        element[L] = concat({&element[L], &g_inv});
+        if (words) element[L] = concat({&element[L], &g_inv});
         map[L] = (map[L] * G_inv).normalized();
       }
     }
-    const int y = static_cast<int>(element.size());
-    element.push_back(move_p2 ? g : g_inv);
+    const int y = static_cast<int>(map.size());
+    if (words) {
+      element.push_back(move_p2 ? g : g_inv);
+      element[x].clear();
+    }
     map.push_back(move_p2 ? G : G_inv);
-    element[x].clear();
     map[x] = MoebiusQ();
     // The pieces as cyclic side lists (y: +1 in P1, −1 in P2), then the staying piece with x's
     // side replaced by the moved piece's sides after x's other side.
@@ -194,6 +222,35 @@ struct Schema {
     sign = std::move(ns);
     ++moves;
     return y;
+  }
+
+  /// The size (Sizer) the schema would have after cut_paste(i, j, x), without the move: each
+  /// letter's pairing as cut_paste() would make it, but only its b entry (the size reads |b|) and
+  /// not normalised (the determinant stays 1 to quad's rounding).
+  double size_after_cut_paste(int i, int j, int x) const {
+    const int n = size();
+    std::vector<char> in_p2(static_cast<std::size_t>(n), 0);
+    int p2_sides = 0;
+    for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
+    const bool move_p2 = p2_sides <= n - p2_sides;
+    auto moved = [&](int k) { return in_p2[k] == (move_p2 ? 1 : 0); };
+    const Sides at_side = sides();
+    const bool plus_stays = !moved(at_side.plus[x]);
+    const MoebiusQ G = plus_stays ? map[x].inverse() : map[x];
+    // b of M N = a_M b_N + b_M conj(a_N); of N G^-1 (G^-1 = (conj a_G, −b_G)) = b_N a_G − a_N b_G.
+    auto b_times_inverse = [&](const MoebiusQ& N) { return N.b * G.a - N.a * G.b; };
+    auto size_of_b = [](const detail::CQ& b) { return 2 * std::asinh(std::sqrt(static_cast<double>(b.norm()))); };
+    double sum = size_of_b(G.b);  // the new letter y: G or its inverse, of the same |b|
+    for (int q = 0; q < n; ++q) {
+      if (sign[q] != 1 || letter[q] == x) continue;
+      const int L = letter[q], m = at_side.minus[L];
+      const MoebiusQ& M = map[L];
+      if (moved(q) && moved(m)) sum += size_of_b(b_times_inverse(G * M));
+      else if (!moved(q) && moved(m)) sum += size_of_b(G.a * M.b + G.b * M.a.conj());
+      else if (moved(q) && !moved(m)) sum += size_of_b(b_times_inverse(M));
+      else sum += size_of_b(M.b);
+    }
+    return sum;
   }
 
   /// Letters of the blocks u v u^-1 v^-1 found by a greedy scan from every rotation (the largest
@@ -236,18 +293,19 @@ struct Sizer {
 /// Relative difference below which two move sizes count as equal (BestSchema).
 constexpr double kSizeTie = 1e-9;
 
-/// The smallest of the schemas offered; sizes within kSizeTie of the best count as equal and the
+/// The smallest of the moves offered; sizes within kSizeTie of the best count as equal and the
 /// first offered of them is kept. A symmetric surface offers many moves of one size, whose
 /// computed sizes differ only by the rounding of the fitted pairings: without the tie the greedy
 /// choice, and with it the words and the polygon's reach, would turn on those last bits
 /// (fertility.off: perimeter 109.4 or 134.0 depending on the flow's factorization).
-struct BestSchema {
-  Schema schema;
+struct BestMove {
+  int first = -1, second = -1;  ///< the move, as its caller names it
   double size = 0;
   bool found = false;
-  void offer(Schema&& t, double t_size) {
+  void offer(int a, int b, double t_size) {
     if (found && !(t_size < size - kSizeTie * std::abs(size))) return;
-    schema = std::move(t);
+    first = a;
+    second = b;
     size = t_size;
     found = true;
   }
@@ -256,8 +314,9 @@ struct BestSchema {
 /// One vertex class: a corner of the smallest other class is removed by cutting off the triangle
 /// of its two sides b (ending there) and a (leaving it towards another class) and regluing it
 /// along b's partner; that merges it with the corner at b's partner. Among the candidate corners
-/// the move leaving the shortest words is taken. False when no move applies.
-bool reduce_classes(Schema& s, const Sizer& size_of) {
+/// the move leaving the shortest words is taken (its size by Schema::size_after_cut_paste(), without
+/// making the move). False when no move applies.
+bool reduce_classes(Schema& s) {
   int count = 0;
   std::vector<int> cls = s.corner_classes(&count);
   if (count <= 1) return true;
@@ -265,16 +324,14 @@ bool reduce_classes(Schema& s, const Sizer& size_of) {
   for (int c : cls) ++size[c];
   const int Q = static_cast<int>(std::min_element(size.begin(), size.end()) - size.begin());
   const int n = s.size();
-  BestSchema best;
+  BestMove best;
   for (int k = 0; k < n; ++k) {
     if (cls[k] != Q || cls[s.at(k + 1)] == Q) continue;
-    Schema trial = s;
-    trial.cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]);
-    const double trial_size = size_of(trial);
-    best.offer(std::move(trial), trial_size);
+    best.offer(k, -1, s.size_after_cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]));
   }
   if (!best.found) return false;
-  s = std::move(best.schema);
+  const int k = best.first;
+  s.cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]);
   return true;
 }
 
@@ -282,13 +339,29 @@ bool reduce_classes(Schema& s, const Sizer& size_of) {
 /// blocks (signs made so by flipping letters), cut from the corner before a to the corner after
 /// a^-1 and reglue along b, giving a X U c^-1 Z Y a^-1 c; then cut from the corner after a^-1 to
 /// the corner after c^-1 and reglue along a, giving the block c^-1 e c e^-1. Among linked pairs
-/// the one leaving the shortest words is taken. False when none makes progress.
+/// the one leaving the shortest words is taken (tried on light() copies, then made on s). False when
+/// none makes progress.
 bool add_commutator(Schema& s, const Sizer& size_of) {
   std::vector<char> in_block;
   int start = 0;
   const int blocks = s.commutator_blocks(&in_block, &start);
   const int n = s.size();
-  BestSchema best;
+  BestMove best;
+  // The move for the pair (ta, tb) on a schema t (a light() trial, or s itself once chosen); false
+  // when it does not apply.
+  auto make = [&](Schema& t, int ta, int tb) {
+    const int La = t.letter[ta], Lb = t.letter[tb];
+    int ta2 = -1;
+    for (int k = 1; k < n; ++k)
+      if (t.letter[t.at(ta + k)] == La) ta2 = t.at(ta + k);
+    if (t.sign[ta] != 1) t.flip(La);
+    if (t.sign[tb] != 1) t.flip(Lb);
+    const int c = t.cut_paste(ta, t.at(ta2 + 1), Lb);
+    const int qa = t.find(La, -1), qc = t.find(c, -1);
+    if (qa < 0 || qc < 0) return false;
+    t.cut_paste(t.at(qa + 1), t.at(qc + 1), La);
+    return true;
+  };
   for (int ta = 0; ta < n; ++ta) {
     if (in_block[ta]) continue;
     const int La = s.letter[ta];
@@ -304,22 +377,16 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
       for (int m = 1; m < n; ++m)
         if (s.letter[s.at(ta + m)] == Lb && s.at(ta + m) != tb) tb2 = s.at(ta + m);
       if ((tb2 - ta + n) % n <= span) continue;  // not linked
-      Schema t = s;
-      if (t.sign[ta] != 1) t.flip(La);
-      if (t.sign[tb] != 1) t.flip(Lb);
-      const int c = t.cut_paste(ta, t.at(ta2 + 1), Lb);
-      const int qa = t.find(La, -1), qc = t.find(c, -1);
-      if (qa < 0 || qc < 0) continue;
-      t.cut_paste(t.at(qa + 1), t.at(qc + 1), La);
+      Schema t = s.light();
+      if (!make(t, ta, tb)) continue;
       std::vector<char> mark;
       int rot = 0;
       if (t.commutator_blocks(&mark, &rot) <= blocks) continue;
-      const double trial_size = size_of(t);
-      best.offer(std::move(t), trial_size);
+      best.offer(ta, tb, size_of(t));
     }
   }
   if (!best.found) return false;
-  s = std::move(best.schema);
+  make(s, best.first, best.second);
   return true;
 }
 
@@ -389,12 +456,17 @@ NormalForm normal_form(Schema s, Index genus, bool recentre_moves) {
   MoebiusQ C;  // pairings' frame → working frame
   auto recentre = [&] {
     if (!recentre_moves) return true;
+    // The letters in the word (their maps are the only ones read again), conjugated once.
+    std::vector<int> letters;
     std::vector<MoebiusQ> alive;
     for (int j = 0; j < s.size(); ++j)
-      if (s.sign[j] == 1) alive.push_back(s.map[s.letter[j]]);
+      if (s.sign[j] == 1) {
+        letters.push_back(s.letter[j]);
+        alive.push_back(s.map[s.letter[j]]);
+      }
     MoebiusQ T;
     if (minimise_displacement(alive, T, 8) < 0) return false;
-    for (MoebiusQ& M : s.map) M = (T * M * T.inverse()).normalized();
+    for (std::size_t k = 0; k < letters.size(); ++k) s.map[letters[k]] = alive[k];
     C = (T * C).normalized();
     return true;
   };
@@ -407,7 +479,7 @@ NormalForm normal_form(Schema s, Index genus, bool recentre_moves) {
     int count = 0;
     s.corner_classes(&count);
     if (count > 1) {
-      if (!reduce_classes(s, sizer)) return bad(Status::NumericalFailure, "no move joins the polygon's corners.");
+      if (!reduce_classes(s)) return bad(Status::NumericalFailure, "no move joins the polygon's corners.");
       continue;
     }
     std::vector<char> mark;
@@ -561,11 +633,19 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
 
 namespace {
 
-/// Perimeter of the polygon with corner 0 at the frame's origin, for the side elements Y_k
-/// (side k runs from W_k p to W_k Y_k p, so its length is the displacement of Y_k at p).
-double perimeter_at(const std::vector<MoebiusQ>& Y, CQ z) {
+/// Perimeter of the polygon with corner 0 at p (|p| < 1), for the side elements Y_k (side k runs
+/// from W_k p to W_k Y_k p, so its length is the displacement of Y_k at p): d(p, Y p) = 2 asinh|β|
+/// with β = (b + (a − ā) p − b̄ p²)/(1 − |p|²), the b entry of Y in the frame moved to p
+/// (displacement_derivatives()); in quad (β cancels when Y nearly fixes p), ∞ outside the disk.
+double perimeter_at(const std::vector<MoebiusQ>& Y, CQ p) {
+  const quad inside = 1 - p.norm();
+  if (!(inside > 0)) return INFINITY;
+  const CQ p2 = p * p;
   double sum = 0;
-  for (const MoebiusQ& M : Y) sum += detail::hyperbolic_distance_q(z, M.apply(z));
+  for (const MoebiusQ& M : Y) {
+    const CQ beta = M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
+    sum += 2 * std::asinh(std::sqrt(static_cast<double>(beta.norm() / (inside * inside))));
+  }
   return sum;
 }
 
@@ -626,9 +706,11 @@ int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) 
     ++steps;
     const MoebiusQ T = MoebiusQ::to_origin(CQ(step));
     F = (T * F).normalized();
-    for (MoebiusQ& M : Y) M = (T * M * T.inverse()).normalized();
+    for (MoebiusQ& M : Y) M = T * M * T.inverse();  // normalised once, after the steps
     if (std::abs(step) < 1e-9) break;
   }
+  if (steps > 0)
+    for (MoebiusQ& M : Y) M = M.normalized();
   return steps;
 }
 
