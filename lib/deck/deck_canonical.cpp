@@ -14,6 +14,7 @@
 #include <complex>
 #include <cstdio>
 #include <limits>
+#include <new>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -258,8 +259,9 @@ struct Schema {
   int commutator_blocks(std::vector<char>* in_block, int* start) const {
     const int n = size();
     int best = -1;
+    std::vector<char> mark(static_cast<std::size_t>(n));
     for (int r = 0; r < n; ++r) {
-      std::vector<char> mark(static_cast<std::size_t>(n), 0);
+      std::fill(mark.begin(), mark.end(), 0);
       int count = 0;
       for (int k = 0; k + 4 <= n;) {
         const int a = at(r + k), b = at(r + k + 1), c = at(r + k + 2), d = at(r + k + 3);
@@ -564,23 +566,39 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   std::optional<NormalForm> best;
   double best_score = 0, best_relation = 0;
   std::string last_error;
-  for (const bool recentre : {false, true}) {
-    NormalForm nf = normal_form(s, g, recentre);
-    if (nf.status != Status::Ok) {
-      last_error = nf.message;
-      continue;
-    }
+  // The two runs are independent: in parallel (each with its polygon), then compared in order.
+  struct Run {
+    NormalForm nf;
+    double relation = 0, score = 0;
+  };
+  Run runs[2];
+  int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
+#pragma omp parallel for schedule(static, 1) reduction(max : out_of_memory)
+  for (int k = 0; k < 2; ++k) try {
+    Run& run = runs[k];
+    run.nf = normal_form(s, g, k == 1);
+    if (run.nf.status != Status::Ok) continue;
     DeckResult trial;
     trial.geometry = Geometry::Hyperbolic;
     trial.genus = g;
-    for (std::size_t k = 0; k < nf.gens.size(); ++k)
-      trial.generators.push_back(generator_from(nf.gens[k], std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1)));
+    for (std::size_t j = 0; j < run.nf.gens.size(); ++j)
+      trial.generators.push_back(generator_from(run.nf.gens[j], std::string(j % 2 == 0 ? "a" : "b") + std::to_string(j / 2 + 1)));
     const GeodesicPolygon gp = geodesic_polygon(trial);
-    const double relation = gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(nf.gens).distance_to_identity();
-    const bool fundamental = gp.status == Status::Ok && gp.fundamental && relation <= 1e-12;
-    const double score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+    run.relation = gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.gens).distance_to_identity();
+    const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
+    run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+  } catch (const std::bad_alloc&) {
+    out_of_memory = 1;
+  }
+  if (out_of_memory) throw std::bad_alloc();
+  for (Run& run : runs) {
+    if (run.nf.status != Status::Ok) {
+      last_error = run.nf.message;
+      continue;
+    }
+    const double score = run.score, relation = run.relation;
     if (!best || score < best_score || (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
-      best = std::move(nf);
+      best = std::move(run.nf);
       best_score = score;
       best_relation = relation;
     }
@@ -684,8 +702,8 @@ bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double
 /// Moves the frame to the point p minimising D(p) = Σ_k d(p, Y_k p) (a convex function: each term
 /// is an isometry's displacement): Newton at the frame's origin with D's derivatives in closed form
 /// (displacement_derivatives()), each step at most hyperbolic distance 2 and backtracked so D (in
-/// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F). Returns the
-/// steps taken, −1 when D is not finite.
+/// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F), until a step
+/// would be below 1e-9. Returns the steps taken, −1 when D is not finite.
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) {
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
@@ -699,6 +717,9 @@ int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) 
     if (hxx > 0 && det > 0) step = cplx(-(hyy * gx - hxy * gy) / det, -(hxx * gy - hxy * gx) / det);
     else step = cplx(-gx, -gy) * 0.1 / std::max(1.0, std::hypot(gx, gy));
     if (std::abs(step) > kMaxStep) step *= kMaxStep / std::abs(step);
+    // At the minimum to ~1e-9 (D then moves only at second order): a backtracking search there
+    // would halve a step that rounding in D decides.
+    if (std::abs(step) < 1e-9) break;
     double t = 1;
     while (t > 1e-6 && !(f(t * step.real(), t * step.imag()) <= f0)) t *= 0.5;
     if (t <= 1e-6) break;
