@@ -258,16 +258,18 @@ struct Schema {
   /// count), with the rotation that starts at one.
   int commutator_blocks(std::vector<char>* in_block, int* start) const {
     const int n = size();
+    // Where a block u v u^-1 v^-1 starts (cyclically), found once; each rotation's scan reads it.
+    std::vector<char> block_at(static_cast<std::size_t>(n), 0);
+    for (int q = 0; q < n && n >= 4; ++q) {
+      const int a = q, b = at(q + 1), c = at(q + 2), d = at(q + 3);
+      block_at[q] = letter[a] == letter[c] && letter[b] == letter[d] && letter[a] != letter[b] &&
+                    sign[a] == -sign[c] && sign[b] == -sign[d];
+    }
     int best = -1;
-    std::vector<char> mark(static_cast<std::size_t>(n));
     for (int r = 0; r < n; ++r) {
-      std::fill(mark.begin(), mark.end(), 0);
       int count = 0;
       for (int k = 0; k + 4 <= n;) {
-        const int a = at(r + k), b = at(r + k + 1), c = at(r + k + 2), d = at(r + k + 3);
-        if (letter[a] == letter[c] && letter[b] == letter[d] && letter[a] != letter[b] &&
-            sign[a] == -sign[c] && sign[b] == -sign[d]) {
-          mark[a] = mark[b] = mark[c] = mark[d] = 1;
+        if (block_at[at(r + k)]) {
           ++count;
           k += 4;
         } else {
@@ -276,8 +278,18 @@ struct Schema {
       }
       if (count > best) {
         best = count;
-        *in_block = mark;
         *start = r;
+      }
+    }
+    // The marks of the best rotation's scan.
+    in_block->assign(static_cast<std::size_t>(n), 0);
+    for (int k = 0; k + 4 <= n && best > 0;) {
+      const int q = at(*start + k);
+      if (block_at[q]) {
+        for (int i = 0; i < 4; ++i) (*in_block)[at(q + i)] = 1;
+        k += 4;
+      } else {
+        ++k;
       }
     }
     return best;
@@ -707,11 +719,12 @@ bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) {
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
+  auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
+  double f0 = f(0, 0);  // D at the frame's origin; after a step, the value the search accepted there
+  if (!std::isfinite(f0)) return -1;
   for (int it = 0; it < max_steps; ++it) {
-    auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
-    const double f0 = f(0, 0);
     double gx, gy, hxx, hyy, hxy;
-    if (!std::isfinite(f0) || !displacement_derivatives(Y, gx, gy, hxx, hyy, hxy)) return -1;
+    if (!displacement_derivatives(Y, gx, gy, hxx, hyy, hxy)) return -1;
     const double det = hxx * hyy - hxy * hxy;
     cplx step;
     if (hxx > 0 && det > 0) step = cplx(-(hyy * gx - hxy * gy) / det, -(hxx * gy - hxy * gx) / det);
@@ -720,14 +733,28 @@ int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) 
     // At the minimum to ~1e-9 (D then moves only at second order): a backtracking search there
     // would halve a step that rounding in D decides.
     if (std::abs(step) < 1e-9) break;
-    double t = 1;
-    while (t > 1e-6 && !(f(t * step.real(), t * step.imag()) <= f0)) t *= 0.5;
+    double t = 1, ft = f(step.real(), step.imag());
+    while (t > 1e-6 && !(ft <= f0)) {
+      t *= 0.5;
+      ft = f(t * step.real(), t * step.imag());
+    }
     if (t <= 1e-6) break;
+    f0 = ft;
     step *= t;
     ++steps;
-    const MoebiusQ T = MoebiusQ::to_origin(CQ(step));
-    F = (T * F).normalized();
-    for (MoebiusQ& M : Y) M = T * M * T.inverse();  // normalised once, after the steps
+    const CQ p(step);
+    F = (MoebiusQ::to_origin(p) * F).normalized();
+    // Y conjugated by T = to_origin(p) in closed form (T's diagonal is real): with r = 1 − |p|²,
+    // a' = (a + b p̄ − b̄ p − ā |p|²)/r and b' = (b + (a − ā) p − b̄ p²)/r; normalised once, after
+    // the steps.
+    const quad pp = p.norm(), inv = 1 / (1 - pp);
+    const CQ p2 = p * p;
+    for (MoebiusQ& M : Y) {
+      const CQ bc = M.b.conj();
+      const CQ a = M.a + M.b * p.conj() - bc * p - pp * M.a.conj();
+      const CQ b = M.b + (M.a - M.a.conj()) * p - bc * p2;
+      M = MoebiusQ(inv * a, inv * b);
+    }
     if (std::abs(step) < 1e-9) break;
   }
   if (steps > 0)
