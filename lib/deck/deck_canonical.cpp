@@ -246,7 +246,8 @@ struct Schema {
       if (sign[q] != 1 || letter[q] == x) continue;
       const int L = letter[q], m = at_side.minus[L];
       const MoebiusQ& M = map[L];
-      if (moved(q) && moved(m)) sum += size_of_b(b_times_inverse(G * M));
+      if (m < 0) sum += size_of_b(M.b);  // no −1 side: cut_paste() leaves its pairing
+      else if (moved(q) && moved(m)) sum += size_of_b(b_times_inverse(G * M));
       else if (!moved(q) && moved(m)) sum += size_of_b(G.a * M.b + G.b * M.a.conj());
       else if (moved(q) && !moved(m)) sum += size_of_b(b_times_inverse(M));
       else sum += size_of_b(M.b);
@@ -304,7 +305,7 @@ struct Sizer {
   double operator()(const Schema& s) const;
 };
 
-/// Relative difference below which two move sizes count as equal (BestSchema).
+/// Relative difference below which two move sizes count as equal (BestMove).
 constexpr double kSizeTie = 1e-9;
 
 /// The smallest of the moves offered; sizes within kSizeTie of the best count as equal and the
