@@ -11,11 +11,12 @@ printed to stdout and, with --out, also written to a file (atomically).
 
     python3 tools/bench_peers.py [--ricci build/ricci] [--peer build/tools/peer_cgal]
         [--mesh ../shared/meshes/boundary/face.obj ...] [--subdivide 0,1,2] [--rounds 3]
-        [--peer-max-k N] [--out REPORT.md]
+        [--peer-max-k N] [--pictures] [--out REPORT.md]
 
 Needs numpy (Debian's python3-numpy), a Release build of ricci, and for the peer columns peer_cgal:
     cmake -S . -B build -DRICCI_PEERS=ON && cmake --build build --target peer_cgal
-(without it those columns say "not run"; --peer-max-k N runs the peers only up to K = N). The subdivided meshes ricci reads are written by this
+(without it those columns say "not run"; --peer-max-k N runs the peers only up to K = N). With --pictures, each
+round also runs ricci with its pictures, and a last table gives their time and the process's with and without. The subdivided meshes ricci reads are written by this
 script into a temporary directory; peer_cgal reads the original file with its own --subdivide K (the
 same midpoint rule), and the face and vertex counts of both must agree or the script stops.
 
@@ -53,6 +54,8 @@ def parse_args(argv):
     p.add_argument("--rounds", default=3, type=int, help="alternated rounds; the best is kept (default 3)")
     p.add_argument("--peer-max-k", type=int, default=None,
                    help="run the peers only up to this level K (larger K: ricci alone; default: every K)")
+    p.add_argument("--pictures", action="store_true",
+                   help="also run ricci with its pictures (without --no-pictures) in each round and report their time")
     p.add_argument("--out", help="also write the report to this Markdown file")
     args = p.parse_args(argv)
     args.mesh = args.mesh or [DEFAULT_MESH]
@@ -214,13 +217,13 @@ def parse_json(text):
         return None
 
 
-def ricci_cmd(ricci, mesh, outdir):
-    return [ricci, "uniformize", mesh, "-o", outdir, "--no-pictures", "--json", "-q"]
+def ricci_cmd(ricci, mesh, outdir, pictures=False):
+    return [ricci, "uniformize", mesh, "-o", outdir] + ([] if pictures else ["--no-pictures"]) + ["--json", "-q"]
 
 
-def ricci_round(ricci, mesh, scratch):
+def ricci_round(ricci, mesh, scratch, pictures=False):
     outdir = tempfile.mkdtemp(prefix="ricci-out-", dir=scratch)
-    run = run_process(ricci_cmd(ricci, mesh, outdir))
+    run = run_process(ricci_cmd(ricci, mesh, outdir, pictures))
     shutil.rmtree(outdir, ignore_errors=True)
     j = parse_json(run["out"])
     r = {"wall": run["wall"], "rss_kb": run["rss_kb"], "ok": run["rc"] == 0 and bool(j) and j.get("status") == "ok"}
@@ -295,21 +298,27 @@ def mesh_for_ricci(path, k, points, triangles, scratch):
 
 
 def bench_case(args, path, k, mesh, peer_built, scratch):
-    case = {"mesh": os.path.basename(path), "k": k, "faces": None, "ricci": None, "lscm": None, "dcm": None}
+    case = {"mesh": os.path.basename(path), "k": k, "faces": None, "ricci": None, "lscm": None, "dcm": None,
+            "pictures": None}
     if isinstance(mesh, str):
         case["error"] = "cannot read the mesh: " + mesh
         return case
     ricci_mesh, counts = mesh_for_ricci(path, k, mesh[0], mesh[1], scratch)
     case["faces"] = counts[0]
-    runs = {"ricci": [], "lscm": [], "dcm": []}
+    runs = {"ricci": [], "lscm": [], "dcm": [], "pictures": []}
     for i in range(args.rounds):
         runs["ricci"].append(ricci_round(args.ricci, ricci_mesh, scratch))
+        if args.pictures:
+            runs["pictures"].append(ricci_round(args.ricci, ricci_mesh, scratch, pictures=True))
         peers_now = peer_built and (args.peer_max_k is None or k <= args.peer_max_k)
         for name in PEERS if peers_now else ():
             runs[name].append(peer_round(args.peer, name, path, k, counts))
         progress(case, i, args.rounds, runs)
     for name, rounds in runs.items():
         case[name] = best(rounds) if rounds else None
+    ok = [r for r in runs["pictures"] if r["ok"] and "pictures" in r["timings"]]
+    if ok:
+        case["pictures"]["least_pictures"] = min(r["timings"]["pictures"] for r in ok)
     if ricci_mesh != path:
         os.remove(ricci_mesh)
     return case
@@ -471,6 +480,27 @@ def header(args, cases, peer_built):
     ])
 
 
+def pictures_row(case):
+    r, p = case["ricci"], case["pictures"]
+    with_pictures = p["wall"] if p and p["ok"] else None
+    without = r["wall"] if r and r["ok"] else None
+    return [case["mesh"], str(case["k"]), num(case["faces"], "%d"), num(p.get("least_pictures") if p else None, "%.3f"),
+            cell(p, num(with_pictures, "%.3f")), cell(r, num(without, "%.3f")),
+            num(with_pictures - without if with_pictures and without else None, "%.3f")]
+
+
+def pictures_section(args, cases):
+    if not args.pictures:
+        return []
+    return ["## ricci with its pictures", "",
+            "`%s`, one more process per round after the one without pictures." % shlex.join(
+                ricci_cmd(shown(args.ricci), "MESH", "OUTDIR", pictures=True)), "",
+            table(["mesh", "K", "faces", "pictures s", "process s with pictures", "process s without",
+                   "difference s"], [pictures_row(c) for c in cases]), "",
+            "pictures s: ricci's own `pictures` timing (drawing and encoding them, before the files are written; the least over the rounds); "
+            "process s: the best round's wall time of each process; difference: with − without.", ""]
+
+
 def report(args, cases, peer_built):
     names = stage_names(cases)
     stage_header = ["mesh", "K"] + names + ["total_seconds", "process s", "iterations", "max edge length error"]
@@ -481,7 +511,7 @@ def report(args, cases, peer_built):
         table(stage_header, [stage_row(c, names) for c in cases]), "",
         "Each stage column is ricci's own `timings` entry; total_seconds: ricci's own total; process s: the "
         "process wall time; iterations: flow iterations; max edge length error: the layout's "
-        "`max_edge_length_error`.", ""])
+        "`max_edge_length_error`.", ""] + pictures_section(args, cases))
 
 
 def write_atomically(path, text):
