@@ -150,6 +150,19 @@ struct Schema {
     return false;
   }
 
+  /// Per side, whether the cut from corner i to corner j moves it (cut_paste()): the piece with fewer
+  /// sides moves, P2 (sides j … i−1) when it has at most half of them (*move_p2), else P1.
+  std::vector<char> moved_sides(int i, int j, bool* move_p2) const {
+    const int n = size();
+    std::vector<char> in_p2(static_cast<std::size_t>(n), 0);
+    int p2_sides = 0;
+    for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
+    *move_p2 = p2_sides <= n - p2_sides;
+    if (!*move_p2)
+      for (char& c : in_p2) c = c ? 0 : 1;
+    return in_p2;
+  }
+
   /// Cuts along the diagonal from corner i to corner j (P1: sides i … j−1 and the diagonal y,
   /// P2: sides j … i−1 and y^-1) and glues the two pieces back along letter x, whose sides lie in
   /// different pieces; returns the new letter y. The piece with fewer sides moves (so fewer
@@ -158,12 +171,9 @@ struct Schema {
   /// −1 side moved g L, only its +1 side moved L g^-1; y's pairing (its +1 side lies in P1) is g
   /// when P2 moves and g^-1 when P1 does.
   int cut_paste(int i, int j, int x) {
-    const int n = size();
-    std::vector<char> in_p2(static_cast<std::size_t>(n), 0);
-    int p2_sides = 0;
-    for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
-    const bool move_p2 = p2_sides <= n - p2_sides;
-    auto moved = [&](int k) { return in_p2[k] == (move_p2 ? 1 : 0); };
+    bool move_p2 = false;
+    const std::vector<char> moving = moved_sides(i, j, &move_p2);
+    auto moved = [&](int k) { return moving[k] != 0; };
     const Sides at_side = sides();
     const int xp = at_side.plus[x], xm = at_side.minus[x];
     const bool plus_stays = !moved(xp);
@@ -230,11 +240,9 @@ struct Schema {
   /// not normalised (the determinant stays 1 to quad's rounding).
   double size_after_cut_paste(int i, int j, int x) const {
     const int n = size();
-    std::vector<char> in_p2(static_cast<std::size_t>(n), 0);
-    int p2_sides = 0;
-    for (int k = j; k != i; k = at(k + 1)) in_p2[k] = 1, ++p2_sides;
-    const bool move_p2 = p2_sides <= n - p2_sides;
-    auto moved = [&](int k) { return in_p2[k] == (move_p2 ? 1 : 0); };
+    bool move_p2 = false;
+    const std::vector<char> moving = moved_sides(i, j, &move_p2);
+    auto moved = [&](int k) { return moving[k] != 0; };
     const Sides at_side = sides();
     const bool plus_stays = !moved(at_side.plus[x]);
     const MoebiusQ G = plus_stays ? map[x].inverse() : map[x];
