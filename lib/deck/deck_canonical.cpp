@@ -59,6 +59,14 @@ Word concat(std::initializer_list<const Word*> parts) {
 
 // ---- the polygon's word and cut-and-paste ----------------------------------------------------------
 
+/// 2 asinh |b| from |b|² in quad, without leaving double's range: pairings beyond |b| = 1e150 (a
+/// displacement above 690, far beyond what a layout resolves) all count as that large.
+double size_of_b(quad b_norm) {
+  constexpr double kMaxNorm = 1e300;
+  if (__builtin_isnan(b_norm) || !(b_norm < quad(kMaxNorm))) return 2 * std::asinh(std::sqrt(kMaxNorm));
+  return 2 * std::asinh(std::sqrt(static_cast<double>(b_norm)));
+}
+
 /// A polygon with side pairings, read counter-clockwise: side j carries letter[j] with sign[j]
 /// (+1: the side labelled x, −1: x^-1). Corner j is where side j starts. element[L] is letter L's
 /// pairing (it maps the +1 side onto the −1 side, reversed) as a word in the original pairings.
@@ -248,17 +256,17 @@ struct Schema {
     const MoebiusQ G = plus_stays ? map[x].inverse() : map[x];
     // b of M N = a_M b_N + b_M conj(a_N); of N G^-1 (G^-1 = (conj a_G, −b_G)) = b_N a_G − a_N b_G.
     auto b_times_inverse = [&](const MoebiusQ& N) { return N.b * G.a - N.a * G.b; };
-    auto size_of_b = [](const detail::CQ& b) { return 2 * std::asinh(std::sqrt(static_cast<double>(b.norm()))); };
-    double sum = size_of_b(G.b);  // the new letter y: G or its inverse, of the same |b|
+    auto size_of = [](const detail::CQ& b) { return size_of_b(b.norm()); };
+    double sum = size_of(G.b);  // the new letter y: G or its inverse, of the same |b|
     for (int q = 0; q < n; ++q) {
       if (sign[q] != 1 || letter[q] == x) continue;
       const int L = letter[q], m = at_side.minus[L];
       const MoebiusQ& M = map[L];
-      if (m < 0) sum += size_of_b(M.b);  // no −1 side: cut_paste() leaves its pairing
-      else if (moved(q) && moved(m)) sum += size_of_b(b_times_inverse(G * M));
-      else if (!moved(q) && moved(m)) sum += size_of_b(G.a * M.b + G.b * M.a.conj());
-      else if (moved(q) && !moved(m)) sum += size_of_b(b_times_inverse(M));
-      else sum += size_of_b(M.b);
+      if (m < 0) sum += size_of(M.b);  // no −1 side: cut_paste() leaves its pairing
+      else if (moved(q) && moved(m)) sum += size_of(b_times_inverse(G * M));
+      else if (!moved(q) && moved(m)) sum += size_of(G.a * M.b + G.b * M.a.conj());
+      else if (moved(q) && !moved(m)) sum += size_of(b_times_inverse(M));
+      else sum += size_of(M.b);
     }
     return sum;
   }
@@ -425,7 +433,7 @@ MoebiusQ quad_map(const DeckGenerator& g) {
 double Sizer::operator()(const Schema& s) const {
   double sum = 0;
   for (int j = 0; j < s.size(); ++j)
-    if (s.sign[j] == 1) sum += 2 * std::asinh(std::sqrt(static_cast<double>(s.map[s.letter[j]].b.norm())));
+    if (s.sign[j] == 1) sum += size_of_b(s.map[s.letter[j]].b.norm());
   return sum;
 }
 
@@ -683,7 +691,9 @@ double perimeter_at(const std::vector<MoebiusQ>& Y, CQ p) {
   double sum = 0;
   for (const MoebiusQ& M : Y) {
     const CQ beta = M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
-    sum += 2 * std::asinh(std::sqrt(static_cast<double>(beta.norm() / (inside * inside))));
+    const quad u = beta.norm() / (inside * inside);
+    if (__builtin_isnan(u) || !(u < quad(1e300))) return INFINITY;  // beyond double's range
+    sum += 2 * std::asinh(std::sqrt(static_cast<double>(u)));
   }
   return sum;
 }
@@ -699,9 +709,12 @@ bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double
                               double& hxy) {
   gx = gy = hxx = hyy = hxy = 0;
   for (const MoebiusQ& M : Y) {
+    // Entries up to 1e150, so that no product below leaves double's range.
+    const quad aa = M.a.norm(), bb = M.b.norm();
+    if (__builtin_isnan(aa) || __builtin_isnan(bb) || !(aa < quad(1e300)) || !(bb < quad(1e300))) return false;
     const cplx a = M.a.to_double(), b = M.b.to_double();
     const double u = std::norm(b);
-    if (!(u > 1e-24) || !std::isfinite(u)) return false;
+    if (!(u > 1e-24)) return false;
     const cplx c(0, 2 * a.imag());
     const cplx w = std::conj(b) * c;
     const cplx v = std::conj(b) * std::conj(b);
@@ -710,7 +723,7 @@ bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double
     const double uxx = diag - 4 * v.real(), uyy = diag + 4 * v.real(), uxy = 4 * v.imag();
     const double r = std::sqrt(u), q = std::sqrt(1 + u);
     const double g1 = 1 / (r * q);                                    // g'(u)
-    const double g2 = -0.5 / (u * r * q) - 0.5 / (r * q * (1 + u));   // g''(u)
+    const double g2 = -0.5 / u / r / q - 0.5 / r / q / (1 + u);       // g''(u)
     gx += g1 * ux;
     gy += g1 * uy;
     hxx += g2 * ux * ux + g1 * uxx;
@@ -895,6 +908,15 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
   std::vector<CQ> corners;
   for (std::size_t k = 0; k < n; ++k) corners.push_back((F * W[k] * F.inverse()).apply(CQ{0, 0}));
   const CQ end = (F * W[n] * F.inverse()).apply(CQ{0, 0});
+  // A corner (or, below, the centre) on the unit circle in quad: the polygon reaches beyond what
+  // 113 bits resolve in the disk.
+  auto in_disk = [](const CQ& q) { return !__builtin_isnan(q.norm()) && q.norm() < 1; };
+  auto beyond = [&](const std::string& what) {
+    return bad(Status::NumericalFailure, "the geodesic polygon's " + what + " lies beyond what 113 bits resolve in the disk.");
+  };
+  for (std::size_t k = 0; k < n; ++k)
+    if (!in_disk(corners[k])) return beyond("corner " + std::to_string(k));
+  if (!in_disk(end)) return beyond("closing corner");
   out.closure_error = detail::hyperbolic_distance_q(end, CQ{0, 0});
   // The centre: the corners' centre of mass on the hyperboloid (symmetric polygons keep their
   // centre exactly).
@@ -902,11 +924,14 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
   for (const CQ& q : corners) mass.add(q, 1);
   CQ c;
   if (!mass.point(c)) return bad(Status::NumericalFailure, "the geodesic polygon's corners have no centre.");
+  if (!in_disk(c)) return beyond("centre");
   const MoebiusQ C = MoebiusQ::to_origin(c);
   const MoebiusQ frame = (C * F).normalized();
   out.frame = frame.to_double();
   std::vector<CQ> v;
   for (const CQ& q : corners) v.push_back(C.apply(q));
+  for (std::size_t k = 0; k < n; ++k)
+    if (!in_disk(v[k])) return beyond("corner " + std::to_string(k));
   for (const CQ& q : v) out.vertices.push_back(q.to_double());
 
   // Generators in the polygon's frame; the relation at corner 0.
