@@ -684,14 +684,17 @@ namespace {
 /// from W_k p to W_k Y_k p, so its length is the displacement of Y_k at p): d(p, Y p) = 2 asinh|β|
 /// with β = (b + (a − ā) p − b̄ p²)/(1 − |p|²), the b entry of Y in the frame moved to p
 /// (displacement_derivatives()); in quad (β cancels when Y nearly fixes p), ∞ outside the disk.
+/// (1 − |p|²) times the b entry of M in the frame moved to p (z ↦ (z − p)/(1 − p̄ z)):
+/// b + (a − ā) p − b̄ p², with p2 = p².
+CQ moved_b_scaled(const MoebiusQ& M, CQ p, CQ p2) { return M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2; }
+
 double perimeter_at(const std::vector<MoebiusQ>& Y, CQ p) {
   const quad inside = 1 - p.norm();
   if (!(inside > 0)) return INFINITY;
   const CQ p2 = p * p;
   double sum = 0;
   for (const MoebiusQ& M : Y) {
-    const CQ beta = M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
-    const quad u = beta.norm() / (inside * inside);
+    const quad u = moved_b_scaled(M, p, p2).norm() / (inside * inside);
     if (__builtin_isnan(u) || !(u < quad(1e300))) return INFINITY;  // beyond double's range
     sum += 2 * std::asinh(std::sqrt(static_cast<double>(u)));
   }
@@ -772,10 +775,8 @@ int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) 
     const quad pp = p.norm(), inv = 1 / (1 - pp);
     const CQ p2 = p * p;
     for (MoebiusQ& M : Y) {
-      const CQ bc = M.b.conj();
-      const CQ a = M.a + M.b * p.conj() - bc * p - pp * M.a.conj();
-      const CQ b = M.b + (M.a - M.a.conj()) * p - bc * p2;
-      M = MoebiusQ(inv * a, inv * b);
+      const CQ a = M.a + M.b * p.conj() - M.b.conj() * p - pp * M.a.conj();
+      M = MoebiusQ(inv * a, inv * moved_b_scaled(M, p, p2));
     }
     if (std::abs(step) < 1e-9) break;
   }
