@@ -1329,7 +1329,7 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     }
   }
   const bool steps = options.polish_steps > 0;
-  if (g == Geometry::Euclidean && steps && now.max_error_above_rounding > kShapeLayoutAbove) {
+  if (g == Geometry::Euclidean && steps && coarse() && now.max_error_above_rounding > kShapeLayoutAbove) {
     std::vector<double> trial = x;
     if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
       Layout shaped;

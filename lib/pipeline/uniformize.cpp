@@ -1298,6 +1298,8 @@ std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count, In
 // faces spread over the surface. With two threads available the checks run on a second thread,
 // started just before the layout itself (start_layout()) and joined after the angles
 // (finish_seed_check()), so they overlap the layout and every stage after it.
+// The check's layouts are refined only above kCheckRefineAbove (UniformizeOptions::seed_checks).
+constexpr double kCheckRefineAbove = 1e-8;
 struct SeedCheck {
   std::vector<Index> seeds;
   std::vector<Layout> layouts;
@@ -1321,6 +1323,7 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
         LayoutOptions o = run.options.layout;
         o.seed_face = sc.seeds[k];
         o.unit_box = false;
+        o.refine_above = std::max(o.refine_above, kCheckRefineAbove);
         o.keep_unresolved = run.options.use_atlas && !sphere;
         o.frames = run.layout_frames;
         sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)

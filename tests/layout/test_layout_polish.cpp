@@ -287,6 +287,14 @@ TEST_CASE("layout from shapes: a long annulus of needles lays out where the prop
   CHECK(r.layout.max_edge_length_error < 1e-11);
   CHECK(r.layout.flipped_faces == 0);
   CHECK(r.seed_independence_error < 1e-9);
+  // The shape solve is refinement like the rest: a threshold above the propagation's error
+  // leaves the propagation as it is.
+  LayoutOptions lenient;
+  lenient.refine_above = 1e3;
+  const Layout as_propagated = layout_disk(r.disk, r.geometry, r.disk_lengths, lenient);
+  CHECK(as_propagated.max_edge_length_error > 1e-8);
+  CHECK_FALSE(as_propagated.shape_solve);
+  CHECK(as_propagated.patches + as_propagated.polish_sweeps + as_propagated.polish_steps == 0);
   // Without the polishing steps (and so without the shape solve) the same metric does not lay out
   // in one chart.
   UniformizeOptions raw = o;

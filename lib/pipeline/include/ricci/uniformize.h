@@ -188,12 +188,16 @@ struct UniformizeOptions {
   /// error, edge error, rounding floor) is below this, or once two bases in a row match the best
   /// score to 1 % (0: try them all).
   double polygon_tolerance = 1e-9;
-  /// Options of every layout; the seed check runs them with its own seed faces (and no unit box).
+  /// Options of every layout; the seed check runs them with its own seed faces, no unit box and
+  /// refine_above at least 1e-8 (see seed_checks).
   LayoutOptions layout;
   /// Extra seed faces whose layouts are compared with the layout itself: the face farthest from
   /// its seed (in steps across edges), then faces spread over the surface (F/2; or 0 … F−1
   /// evenly). They are laid out on a second thread, beside the layout and the stages after it,
-  /// when two threads are available (FlowOptions::threads 0 or ≥ 2).
+  /// when two threads are available (FlowOptions::threads 0 or ≥ 2). A check compares positions,
+  /// not the edge lengths at the seam where a propagation's front closes (what the refinement
+  /// after it mends), so its layouts are refined only above 1e-8: one propagation within 1e-8 of
+  /// its metric places every vertex within about 1e-10 of a refined layout (tools/BENCHMARK-perf-notes.md).
   int seed_checks = 1;
   /// Cut beside the flow: where the layout takes cut_surface()'s disk of the input's own faces
   /// (genus 1 in E, genus 0 with several loops), that cut, which reads no metric, is made on a
