@@ -74,6 +74,14 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
     return r;
   }
 
+  if (paths.crossed_edge.empty() && is_input_triangulation(tri, input)) {
+    // The input's own triangles at u: its straight edges are the current ones, its angles the
+    // metric's (the general path below computes the same numbers: angle sums equal bit for bit).
+    r.l = std::move(l);
+    r.status = Status::Ok;
+    r.message = "ok";
+    return r;
+  }
   r.l.assign(static_cast<std::size_t>(nin), 0.0);
   r.crossings.assign(paths.crossed_edge.size(), NAN);
   std::vector<std::uint8_t> broken(static_cast<std::size_t>(nin), 0);

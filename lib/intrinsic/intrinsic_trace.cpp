@@ -40,6 +40,14 @@ CornerArcs corner_arcs(const IntrinsicTriangulation& tri, Index c) {
   return {ec, (nn + np - nc + ec - en - ep) / 2};
 }
 
+bool is_input_triangulation(const IntrinsicTriangulation& tri, const Topology& input) {
+  const Topology& t = tri.topology;
+  return t.num_vertices == input.num_vertices && t.num_edges == input.num_edges &&
+         tri.normal.size() == static_cast<std::size_t>(t.num_edges) && t.corner_vertex == input.corner_vertex &&
+         t.corner_edge == input.corner_edge &&
+         std::all_of(tri.normal.begin(), tri.normal.end(), [](std::int64_t n) { return n == -1; });
+}
+
 InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topology& input) {
   InputEdgePaths r;
   const Topology& t = tri.topology;
@@ -50,6 +58,25 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
                     ? "the intrinsic triangulation keeps no normal coordinates"
                     : "the intrinsic triangulation has " + std::to_string(t.num_vertices) +
                           " vertices, the input " + std::to_string(input.num_vertices);
+    return r;
+  }
+  if (is_input_triangulation(tri, input)) {
+    // Unflipped: every input edge is the current edge of its own index (the walks below would
+    // find exactly this, edge by edge).
+    r.offsets.assign(static_cast<std::size_t>(nin) + 1, 0);
+    r.along.resize(static_cast<std::size_t>(nin));
+    r.first_corner.resize(static_cast<std::size_t>(nin));
+    r.last_corner.resize(static_cast<std::size_t>(nin));
+#pragma omp parallel for schedule(static) if (nin >= 8192)
+    for (Index a = 0; a < nin; ++a) {
+      const Index c = t.edge_corners[2 * a];
+      const bool same = input.edge_vertices[2 * a] == t.corner_vertex[next_corner(c)];
+      r.along[a] = a;
+      r.first_corner[a] = same ? next_corner(c) : prev_corner(c);
+      r.last_corner[a] = same ? prev_corner(c) : next_corner(c);
+    }
+    r.status = Status::Ok;
+    r.message = "ok";
     return r;
   }
   // Crossing slots of every current edge, to mark the ones walked.

@@ -127,6 +127,7 @@ bool InitialMetricOptions::is_valid(std::string* why) const {
 
 std::vector<double> mesh_edge_lengths(const Mesh& mesh, const Topology& topology) {
   std::vector<double> l(static_cast<std::size_t>(topology.num_edges));
+#pragma omp parallel for schedule(static) if (topology.num_edges >= 65536)
   for (Index e = 0; e < topology.num_edges; ++e) {
     const double* a = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e])];
     const double* b = &mesh.positions[3 * static_cast<std::size_t>(topology.edge_vertices[2 * e + 1])];

@@ -184,6 +184,44 @@ TEST_CASE("intrinsic trace: random Ptolemy flips keep the normal coordinates con
   // Each flip undone by flipping the same edge again, last first.
   for (auto it = done.rbegin(); it != done.rend(); ++it) flip_edge(tri, *it);
   for (Index e = 0; e < tri.topology.num_edges; ++e) REQUIRE(tri.normal[e] == -1);
+  refresh_vertex_corners(tri.topology);
+  // Every input edge is a current edge again; the unflipped triangulation says so without walking
+  // (is_input_triangulation()), with the same answer's form: the edge of its own index, its ends at
+  // the first and last corner of one of its faces.
+  CHECK_FALSE(is_input_triangulation(IntrinsicTriangulation{}, v.topology));
+  REQUIRE(is_input_triangulation(r.triangulation, v.topology));
+  IntrinsicTriangulation once = r.triangulation;
+  Index flipped = kInvalid;
+  for (Index e = 0; e < once.topology.num_edges && flipped == kInvalid; ++e)
+    if (can_flip(once, e) == FlipCheck::Ok) flipped = e;
+  REQUIRE(flipped != kInvalid);
+  flip_edge(once, flipped);
+  CHECK_FALSE(is_input_triangulation(once, v.topology));
+  for (const IntrinsicTriangulation* t : {&tri, &r.triangulation}) {
+    const InputEdgePaths back = trace_input_edges(*t, v.topology);
+    REQUIRE_MESSAGE(back.status == Status::Ok, back.message);
+    CHECK(back.crossed_edge.empty());
+    CHECK(back.offsets == std::vector<Index>(static_cast<std::size_t>(v.topology.num_edges) + 1, 0));
+    for (Index a = 0; a < v.topology.num_edges; ++a) {
+      const Index e = back.along[a];
+      REQUIRE(e != kInvalid);
+      CHECK(t->topology.corner_vertex[back.first_corner[a]] == v.topology.edge_vertices[2 * a]);
+      CHECK(t->topology.corner_vertex[back.last_corner[a]] == v.topology.edge_vertices[2 * a + 1]);
+      CHECK(back.first_corner[a] / 3 == back.last_corner[a] / 3);
+      const Index f = back.first_corner[a] / 3, apex = 3 - back.first_corner[a] % 3 - back.last_corner[a] % 3;
+      CHECK(t->topology.corner_edge[3 * f + apex] == e);
+    }
+    // Its straight metric is the metric itself: the same lengths, angle sums equal.
+    const std::vector<double> u(static_cast<std::size_t>(v.topology.num_vertices), 0.1);
+    const StraightInputMetric m = straight_input_metric(*t, u, v.topology, back);
+    REQUIRE_MESSAGE(m.status == Status::Ok, m.message);
+    CHECK(m.max_angle_sum_error < 1e-12);
+    CHECK(m.inconsistent_vertices == 0);
+    CHECK(m.degenerate_faces == 0);
+    const std::vector<double> l0 = mesh_edge_lengths(v.mesh, v.topology);
+    for (Index a = 0; a < v.topology.num_edges; ++a)
+      CHECK(m.l[a] == doctest::Approx(std::exp(0.1) * l0[a]).epsilon(1e-12));
+  }
 }
 
 TEST_CASE("intrinsic trace: after the flow's flips in E, H and S every input edge is traced") {

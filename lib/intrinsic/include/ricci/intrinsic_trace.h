@@ -61,6 +61,12 @@ struct InputEdgePaths {
   std::vector<Index> first_corner, last_corner;
 };
 
+/// True when the triangulation is still the input's own (no flip changed it, or flips undid each
+/// other into the same indices): the same corner_vertex and corner_edge arrays, and every edge an
+/// input edge (normal −1). trace_input_edges() and straight_input_metric() then take every input
+/// edge as the current edge of its own index without walking or developing anything.
+bool is_input_triangulation(const IntrinsicTriangulation& triangulation, const Topology& input);
+
 /// Traces every input edge over the current triangulation from its normal coordinates. O(#E +
 /// total crossings).
 InputEdgePaths trace_input_edges(const IntrinsicTriangulation& triangulation, const Topology& input);
