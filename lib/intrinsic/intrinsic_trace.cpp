@@ -29,6 +29,29 @@ Index to_edge_slot(const Topology& t, Index c, Index p, Index count) {
   return t.edge_corners[2 * t.corner_edge[c]] == c ? p : count - 1 - p;
 }
 
+// The paths of an unflipped triangulation's input edges (is_input_triangulation()): every input
+// edge is the current edge of its own index (the walks of trace_input_edges() would find exactly
+// this, edge by edge).
+InputEdgePaths paths_as_themselves(const IntrinsicTriangulation& tri, const Topology& input) {
+  InputEdgePaths r;
+  const Topology& t = tri.topology;
+  const Index nin = input.num_edges;
+  r.offsets.assign(static_cast<std::size_t>(nin) + 1, 0);
+  r.along.resize(static_cast<std::size_t>(nin));
+  r.first_corner.resize(static_cast<std::size_t>(nin));
+  r.last_corner.resize(static_cast<std::size_t>(nin));
+#pragma omp parallel for schedule(static) if (nin >= 8192)
+  for (Index a = 0; a < nin; ++a) {
+    const Index c = t.edge_corners[2 * a];
+    const bool same = input.edge_vertices[2 * a] == t.corner_vertex[next_corner(c)];
+    r.along[a] = a;
+    r.first_corner[a] = same ? next_corner(c) : prev_corner(c);
+    r.last_corner[a] = same ? prev_corner(c) : next_corner(c);
+  }
+  r.status = Status::Ok;
+  r.message = "ok";
+  return r;
+}
 
 }  // namespace
 
@@ -60,25 +83,7 @@ InputEdgePaths trace_input_edges(const IntrinsicTriangulation& tri, const Topolo
                           " vertices, the input " + std::to_string(input.num_vertices);
     return r;
   }
-  if (is_input_triangulation(tri, input)) {
-    // Unflipped: every input edge is the current edge of its own index (the walks below would
-    // find exactly this, edge by edge).
-    r.offsets.assign(static_cast<std::size_t>(nin) + 1, 0);
-    r.along.resize(static_cast<std::size_t>(nin));
-    r.first_corner.resize(static_cast<std::size_t>(nin));
-    r.last_corner.resize(static_cast<std::size_t>(nin));
-#pragma omp parallel for schedule(static) if (nin >= 8192)
-    for (Index a = 0; a < nin; ++a) {
-      const Index c = t.edge_corners[2 * a];
-      const bool same = input.edge_vertices[2 * a] == t.corner_vertex[next_corner(c)];
-      r.along[a] = a;
-      r.first_corner[a] = same ? next_corner(c) : prev_corner(c);
-      r.last_corner[a] = same ? prev_corner(c) : next_corner(c);
-    }
-    r.status = Status::Ok;
-    r.message = "ok";
-    return r;
-  }
+  if (is_input_triangulation(tri, input)) return paths_as_themselves(tri, input);
   // Crossing slots of every current edge, to mark the ones walked.
   std::vector<std::int64_t> slot_offset(static_cast<std::size_t>(ne) + 1, 0);
   for (Index e = 0; e < ne; ++e) slot_offset[e + 1] = slot_offset[e] + std::max<std::int64_t>(0, tri.normal[e]);
