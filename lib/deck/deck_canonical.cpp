@@ -366,6 +366,127 @@ bool reduce_classes(Schema& s) {
   return true;
 }
 
+/// The same surface's polygon with one vertex class, its sides the dual loops of the domain's
+/// shorter pairings, so that no cut-and-paste move is needed to join the corners (each such move
+/// multiplies pairings, and a domain with dozens of classes needs ~100 of them: at genus 12 the
+/// generators they leave move the domain's centre by up to 70, beyond what 113 bits resolve).
+/// Letter L (pairing M_L: its +1 side P onto its −1 side Q) has a dual loop at an interior point
+/// p: out through Q into M_L(D), back in through P — the element M_L. The loops meet only at p,
+/// in the order of their sides around D. All of them cut the surface into one disk per vertex
+/// class, and L separates the classes at the ends of P; so dropping the loops of a spanning tree
+/// of that class graph leaves 2g loops whose complement is one disk P', the one-vertex polygon.
+/// Its perimeter is twice the kept loops' displacements at p: the tree dropped is the one of the
+/// longest pairings (Kruskal, longest first, ties by letter). P' is read by tracing its one face
+/// (arrive at p along one end of a loop, leave along the end before it counter-clockwise); its
+/// corners are lifts γ_k p with γ_{k+1} = γ_k M_L^±1, and letter L's pairing maps the side
+/// crossed forwards (+1, from corner f) onto the one crossed backwards (−1, from corner b):
+/// γ_b M_L^-1 γ_f^-1. False, with s unchanged, when s has one class already, or when the trace
+/// is not one face of 2·(kept letters) sides or does not close (γ_n the relation: the identity to
+/// the rounding of the products, far below kClosure; a wrong reading would miss by O(1)).
+bool one_vertex_schema(Schema& s) {
+  constexpr double kClosure = 1e-9;
+  const int n = s.size();
+  int classes = 0;
+  const std::vector<int> cls = s.corner_classes(&classes);
+  if (classes <= 1) return false;
+  const Schema::Sides sd = s.sides();
+  const int letters = static_cast<int>(s.map.size());
+  std::vector<int> order;
+  for (int L = 0; L < letters; ++L)
+    if (sd.plus[L] >= 0 && sd.minus[L] >= 0) order.push_back(L);
+  std::vector<double> length(static_cast<std::size_t>(letters), 0);
+  for (int L : order) length[L] = size_of_b(s.map[L].b.norm());
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return length[x] > length[y]; });
+  std::vector<int> parent(static_cast<std::size_t>(classes));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  std::vector<char> kept(static_cast<std::size_t>(letters), 0);
+  for (int L : order) {
+    const int P = sd.plus[L], u = root(cls[P]), v = root(cls[s.at(P + 1)]);
+    if (u != v) parent[u] = v;  // a tree letter: its loop is dropped
+    else kept[L] = 1;
+  }
+  // The kept loops' ends around p, in the order of their sides; before[j]: the kept end before j.
+  std::vector<int> ends;
+  for (int j = 0; j < n; ++j)
+    if (kept[s.letter[j]]) ends.push_back(j);
+  const int m = static_cast<int>(ends.size());
+  if (m < 4) return false;
+  std::vector<int> before(static_cast<std::size_t>(n), -1);
+  for (int k = 0; k < m; ++k) before[ends[(k + 1) % m]] = ends[k];
+  // The face: leave along the end at side j, forwards when j is the −1 side (back in through the
+  // +1 side), and leave again along the end before the one arrived at.
+  std::vector<int> side_letter;
+  std::vector<char> forward;
+  for (int j = ends[0];;) {
+    if (static_cast<int>(side_letter.size()) == m) return false;  // a face longer than all ends
+    const int L = s.letter[j];
+    side_letter.push_back(L);
+    forward.push_back(s.sign[j] == -1);
+    j = before[forward.back() ? sd.plus[L] : sd.minus[L]];
+    if (j == ends[0]) break;
+  }
+  if (static_cast<int>(side_letter.size()) != m) return false;  // more than one face: not a disk
+  // Corner 0 moved to the corner nearest all others (the least largest distance), so that the
+  // products below stay as short as P' allows: a product of maps moving points by d1 and d2
+  // keeps about e^-(d1 + d2)/2 of quad's digits.
+  {
+    std::vector<MoebiusQ> corner(1);
+    for (int k = 0; k + 1 < m; ++k)
+      corner.push_back((corner.back() * (forward[k] ? s.map[side_letter[k]] : s.map[side_letter[k]].inverse())).normalized());
+    int centre = 0;
+    double least = INFINITY;
+    for (int c = 0; c < m; ++c) {
+      const MoebiusQ back = corner[c].inverse();
+      double reach = 0;
+      for (int k = 0; k < m && reach < least; ++k) reach = std::max(reach, size_of_b((back * corner[k]).b.norm()));
+      if (reach < least) least = reach, centre = c;
+    }
+    std::rotate(side_letter.begin(), side_letter.begin() + centre, side_letter.end());
+    std::rotate(forward.begin(), forward.begin() + centre, forward.end());
+  }
+  std::vector<MoebiusQ> gamma(1);
+  std::vector<Word> gamma_word(1);
+  std::vector<int> at_forward(static_cast<std::size_t>(letters), -1), at_backward(static_cast<std::size_t>(letters), -1);
+  for (int k = 0; k < m; ++k) {
+    const int L = side_letter[k];
+    (forward[k] ? at_forward : at_backward)[L] = k;
+    gamma.push_back((gamma.back() * (forward[k] ? s.map[L] : s.map[L].inverse())).normalized());
+    if (s.words) {
+      const Word step = forward[k] ? s.element[L] : inverse(s.element[L]);
+      gamma_word.push_back(concat({&gamma_word.back(), &step}));
+    }
+  }
+  if (!(gamma.back().distance_to_identity() < kClosure)) return false;
+  Schema t;
+  t.words = s.words;
+  t.moves = s.moves;
+  std::vector<int> renamed(static_cast<std::size_t>(letters), -1);
+  for (int k = 0; k < m; ++k) {
+    const int L = side_letter[k];
+    if (renamed[L] < 0) {
+      const int f = at_forward[L], b = at_backward[L];
+      if (f < 0 || b < 0) return false;  // a loop crossed twice the same way: not orientable
+      renamed[L] = static_cast<int>(t.map.size());
+      t.map.push_back((gamma[b] * s.map[L].inverse() * gamma[f].inverse()).normalized());
+      if (s.words) {
+        const Word inv_l = inverse(s.element[L]), inv_f = inverse(gamma_word[f]);
+        t.element.push_back(concat({&gamma_word[b], &inv_l, &inv_f}));
+      }
+    }
+    t.letter.push_back(renamed[L]);
+    t.sign.push_back(forward[k] ? 1 : -1);
+  }
+  int one = 0;
+  t.corner_classes(&one);
+  if (one != 1) return false;
+  s = std::move(t);
+  return true;
+}
+
 /// One more commutator block: for a linked pair a … b … a^-1 … b^-1 of letters outside the
 /// blocks (signs made so by flipping letters), cut from the corner before a to the corner after
 /// a^-1 and reglue along b, giving a X U c^-1 Z Y a^-1 c; then cut from the corner after a^-1 to
@@ -471,13 +592,18 @@ namespace {
 struct NormalForm {
   Status status = Status::NotRun;
   std::string message;
-  std::vector<MoebiusQ> gens;
+  std::vector<MoebiusQ> gens;  ///< in the pairings' frame
+  std::vector<MoebiusQ> work;  ///< the same in the working frame: C gens C^-1
+  MoebiusQ frame;              ///< C: the pairings' frame → the working frame
   std::vector<Word> words;
   int moves = 0, handle_moves = 0;
 };
 
-NormalForm normal_form(Schema s, Index genus, bool recentre_moves) {
+/// `one_vertex`: start from one_vertex_schema() (NotRun when it does not apply) rather than
+/// joining the domain's corner classes by moves.
+NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vertex) {
   NormalForm nf;
+  if (one_vertex && !one_vertex_schema(s)) return nf;
   auto bad = [&](Status st, const std::string& m) {
     nf.status = st;
     nf.message = "canonical generators: " + m;
@@ -539,10 +665,28 @@ NormalForm normal_form(Schema s, Index genus, bool recentre_moves) {
   }
   nf.handle_moves = reduce_handles(work, nf.words);
   for (const MoebiusQ& M : work) nf.gens.push_back((C.inverse() * M * C).normalized());
+  nf.work = std::move(work);
+  nf.frame = C;
   nf.moves = s.moves;
   nf.status = Status::Ok;
   return nf;
 }
+
+}  // namespace
+
+namespace {
+
+/// Generators a1 b1 … of genus g as a DeckResult (names, maps; nothing else set).
+DeckResult trial_deck(Index g, const std::vector<MoebiusQ>& gens) {
+  DeckResult d;
+  d.geometry = Geometry::Hyperbolic;
+  d.genus = g;
+  for (std::size_t j = 0; j < gens.size(); ++j)
+    d.generators.push_back(generator_from(gens[j], std::string(j % 2 == 0 ? "a" : "b") + std::to_string(j / 2 + 1)));
+  return d;
+}
+
+GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, const DeckResult& canonical);
 
 }  // namespace
 
@@ -588,32 +732,29 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
       return bad(Status::InvalidArgument, "canonical generators: letter " + std::to_string(L) +
                                               " does not label exactly one side and its inverse.");
 
-  // Two runs (sizes at the domain's centre; sizes where the pairings move least). The moves are
-  // greedy, so either can end with longer generators; the run whose geodesic polygon is a
-  // fundamental domain with the smaller perimeter is kept (else the smaller relation error).
+  // Four runs: the corners joined by moves or the one-vertex polygon of the short pairings'
+  // loops (one_vertex_schema(); not run when the domain has one corner class), each with sizes
+  // at the domain's centre or where the pairings move least. The moves are greedy, so any can end
+  // with longer generators; the run whose geodesic polygon is a fundamental domain with the
+  // smallest perimeter is kept (else the smallest relation error; ties: the earlier run).
   const Index g = domain.genus;
   std::optional<NormalForm> best;
   double best_score = 0, best_relation = 0;
   std::string last_error;
-  // The two runs are independent: in parallel (each with its polygon), then compared in order.
+  // The runs are independent: in parallel (each with its polygon), then compared in order.
   struct Run {
     NormalForm nf;
     double relation = 0, score = 0;
   };
-  Run runs[2];
+  Run runs[4];
   int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
-#pragma omp parallel for schedule(static, 1) reduction(max : out_of_memory)
-  for (int k = 0; k < 2; ++k) try {
+#pragma omp parallel for schedule(dynamic, 1) reduction(max : out_of_memory)
+  for (int k = 0; k < 4; ++k) try {
     Run& run = runs[k];
-    run.nf = normal_form(s, g, k == 1);
+    run.nf = normal_form(s, g, k % 2 == 1, k >= 2);
     if (run.nf.status != Status::Ok) continue;
-    DeckResult trial;
-    trial.geometry = Geometry::Hyperbolic;
-    trial.genus = g;
-    for (std::size_t j = 0; j < run.nf.gens.size(); ++j)
-      trial.generators.push_back(generator_from(run.nf.gens[j], std::string(j % 2 == 0 ? "a" : "b") + std::to_string(j / 2 + 1)));
-    const GeodesicPolygon gp = geodesic_polygon(trial);
-    run.relation = gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.gens).distance_to_identity();
+    const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
+    run.relation = gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
     const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
     run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
   } catch (const std::bad_alloc&) {
@@ -621,6 +762,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   }
   if (out_of_memory) throw std::bad_alloc();
   for (Run& run : runs) {
+    if (run.nf.status == Status::NotRun) continue;
     if (run.nf.status != Status::Ok) {
       last_error = run.nf.message;
       continue;
@@ -646,10 +788,11 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
     out.word_lengths.push_back(static_cast<Index>(best->words[k].size()));
   }
   r.residual_max = pairing_residual;
-  const MoebiusQ R = detail::canonical_relator(best->gens);
-  r.relator = R.to_double();
-  // At the origin of the pairings' frame (geodesic_polygon() measures it again at its corner 0).
-  r.relation_error = R.distance_to_identity();
+  r.relator = detail::canonical_relator(best->gens).to_double();
+  // At the working frame's origin, where the generators move points least (geodesic_polygon()
+  // measures it again at its corner 0); the fitted pairings' words conjugated there too.
+  const MoebiusQ& C = best->frame;
+  r.relation_error = detail::canonical_relator(best->work).distance_to_identity();
   out.fitted_relation_error = r.relation_error;
   if (!fitted_maps.empty()) {
     std::vector<MoebiusQ> F, fg;
@@ -657,10 +800,15 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
     for (const Word& w : best->words) {
       MoebiusQ M;
       for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
-      fg.push_back(M);
+      fg.push_back((C * M * C.inverse()).normalized());
     }
     out.fitted_relation_error = detail::canonical_relator(fg).distance_to_identity();
   }
+  out.working = trial_deck(g, best->work);
+  for (DeckGenerator& G : out.working.generators) G.residual_max = pairing_residual;
+  out.working.residual_max = pairing_residual;
+  out.working.relation_error = r.relation_error;
+  out.working_frame = generator_from(C, "frame");
   if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
     return bad(Status::NumericalFailure, "canonical generators: the relation is not finite.");
   out.moves = best->moves;
@@ -879,6 +1027,25 @@ bool segments_meet(cplx p, cplx q, cplx r, cplx s) {
 }  // namespace
 
 GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
+  std::vector<MoebiusQ> gens;
+  for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
+  return polygon_from(std::move(gens), MoebiusQ(), canonical);
+}
+
+GeodesicPolygon geodesic_polygon(const CanonicalGenerators& cg) {
+  if (cg.status != Status::Ok || cg.working.generators.size() != cg.deck.generators.size()) return geodesic_polygon(cg.deck);
+  std::vector<MoebiusQ> gens;
+  for (const DeckGenerator& G : cg.working.generators) gens.push_back(quad_map(G).normalized());
+  return polygon_from(std::move(gens), quad_map(cg.working_frame).normalized(), cg.deck);
+}
+
+namespace {
+
+/// geodesic_polygon() of `gens`, given in the frame `prior` moves the generators' frame to
+/// (gens = prior G prior^-1 for canonical's G): the polygon's frame is reported from the
+/// generators' frame, its generators are conjugated from `gens` (a short move), and canonical
+/// gives their names and residuals.
+GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, const DeckResult& canonical) {
   const auto t_start = std::chrono::steady_clock::now();
   GeodesicPolygon out;
   auto bad = [&](Status st, const std::string& m) {
@@ -888,11 +1055,9 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
     return out;
   };
   const std::size_t n2 = canonical.generators.size();
-  if (canonical.geometry != Geometry::Hyperbolic || n2 < 4 || n2 % 2 != 0)
+  if (canonical.geometry != Geometry::Hyperbolic || n2 < 4 || n2 % 2 != 0 || gens.size() != n2)
     return bad(Status::InvalidArgument, "the geodesic polygon needs 2g >= 4 hyperbolic generators a1 b1 ...");
   const std::size_t g = n2 / 2;
-  std::vector<MoebiusQ> gens;
-  for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
   const std::vector<MoebiusQ> W = corner_maps(gens);
   const std::size_t n = 4 * g;
   std::vector<MoebiusQ> Y;  // side k: W_k^-1 W_{k+1}
@@ -928,7 +1093,7 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
   if (!in_disk(c)) return beyond("centre");
   const MoebiusQ C = MoebiusQ::to_origin(c);
   const MoebiusQ frame = (C * F).normalized();
-  out.frame = frame.to_double();
+  out.frame = (frame * prior).normalized().to_double();
   std::vector<CQ> v;
   for (const CQ& q : corners) v.push_back(C.apply(q));
   for (std::size_t k = 0; k < n; ++k)
@@ -1001,5 +1166,7 @@ GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return out;
 }
+
+}  // namespace
 
 }  // namespace ricci

@@ -1628,7 +1628,7 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
     r.polygon_note = "no geodesic polygon (" + cg.message + ")";
     return GeodesicOutcome::Fallback;
   }
-  GeodesicPolygon gp = geodesic_polygon(cg.deck);
+  GeodesicPolygon gp = geodesic_polygon(cg);
   const bool fundamental = gp.status == Status::Ok && gp.fundamental;
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
     r.polygon_note = "no geodesic polygon: " + gp.message;

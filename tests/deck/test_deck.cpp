@@ -478,6 +478,20 @@ TEST_CASE("deck: canonical generators from a polygon with opposite sides paired"
     }
     const GeodesicPolygon gp = geodesic_polygon(cg.deck);
     REQUIRE_MESSAGE(gp.status == Status::Ok, gp.message);
+    // The working copy is the same generators conjugated by working_frame, and the polygon from it
+    // is the same polygon with its frame reported from the pairings' frame.
+    REQUIRE(cg.working.generators.size() == cg.deck.generators.size());
+    const Moebius C = cg.working_frame.map;
+    for (std::size_t k = 0; k < cg.deck.generators.size(); ++k)
+      CHECK(moebius_difference(cg.working.generators[k].map, C * cg.deck.generators[k].map * C.inverse()) <
+            1e-9 * std::abs(cg.working.generators[k].map.a));
+    const GeodesicPolygon gw = geodesic_polygon(cg);
+    REQUIRE_MESSAGE(gw.status == Status::Ok, gw.message);
+    CHECK(gw.perimeter == doctest::Approx(gp.perimeter).epsilon(1e-9));
+    CHECK(gw.vertices.size() == gp.vertices.size());
+    for (std::size_t k = 0; k < gw.deck.generators.size(); ++k)
+      CHECK(moebius_difference(gw.deck.generators[k].map, gw.frame * cg.deck.generators[k].map * gw.frame.inverse()) < 1e-7);
+    CHECK(gw.deck.relation_error <= 10 * gp.deck.relation_error + 1e-20);
     CHECK(gp.simple);
     CHECK(gp.angle_sum == doctest::Approx(2 * M_PI).epsilon(1e-12));
     CHECK(gp.area == doctest::Approx(4 * M_PI * (g - 1)).epsilon(1e-12));

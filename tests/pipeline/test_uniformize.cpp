@@ -462,10 +462,13 @@ TEST_CASE("uniformize: the geodesic canonical polygon at genus 2 to 12, from the
   // The default for closed surfaces of genus >= 2: canonical generators as words in the compact
   // domain's side pairings, their geodesic 4g-gon a fundamental domain (simple, angle sum 2π, area
   // 4π(g − 1)), the relation to 1e-12, with no cut of the mesh beyond the compact domain.
-  // Holes in a row (pretzel) and, for genus 8, in a 4 × 2 grid.
-  for (int g : {2, 3, 4, 5, 8, 12, -8}) {
+  // Holes in a row (pretzel) and, for genus 8 and 12, in 4 × 2 and 4 × 3 grids (the compact
+  // domain of the 4 × 3 grid has 130 sides in 42 corner classes: joining them by moves leaves
+  // generators beyond 113 bits, the one-vertex polygon of its shorter pairings does not).
+  for (int g : {2, 3, 4, 5, 8, 12, -8, -12}) {
     CAPTURE(g);
-    const ValidateResult v = validate_mesh(g > 0 ? ricci_shapes::pretzel(g, 4) : ricci_shapes::pretzel_grid(4, 2, 4));
+    const ValidateResult v =
+        validate_mesh(g > 0 ? ricci_shapes::pretzel(g, 4) : ricci_shapes::pretzel_grid(4, g == -8 ? 2 : 3, 4));
     g = std::abs(g);
     REQUIRE(v.status == Status::Ok);
     const UniformizeResult r = uniformize(v.mesh, v.topology);
@@ -504,6 +507,30 @@ TEST_CASE("uniformize: the geodesic canonical polygon at genus 2 to 12, from the
       CHECK(hyperbolic_distance(A.apply(corner(4 * i + 1)), corner(4 * i + 2)) < tol);
       CHECK(hyperbolic_distance(B.apply(corner(4 * i + 1)), corner(4 * i + 4)) < tol);
       CHECK(hyperbolic_distance(B.apply(corner(4 * i + 2)), corner(4 * i + 3)) < tol);
+    }
+    // Each generator is its word in the domain's pairings, moved into the polygon's frame
+    // (evaluated in double: checked where the words' products stay within its digits).
+    if (g <= 3) {
+      for (std::size_t k = 0; k < r.canonical_words.size(); ++k) {
+        CAPTURE(r.canonical_words[k]);
+        Moebius M;
+        std::size_t at = 0;
+        const std::string& w = r.canonical_words[k];
+        while (at < w.size()) {
+          std::size_t end = w.find(' ', at);
+          if (end == std::string::npos) end = w.size();
+          std::string token = w.substr(at, end - at);
+          const bool inv = token.size() > 3 && token.compare(token.size() - 3, 3, "^-1") == 0;
+          if (inv) token.resize(token.size() - 3);
+          const DeckGenerator* x = nullptr;
+          for (const DeckGenerator& d : r.domain_maps)
+            if (d.name == token) x = &d;
+          REQUIRE_MESSAGE(x != nullptr, token);
+          M = M * (inv ? x->map.inverse() : x->map);
+          at = end + 1;
+        }
+        CHECK(moebius_difference(gp.frame * M * gp.frame.inverse(), r.deck.generators[k].map) < 1e-7);
+      }
     }
     double seconds = 0;
     for (const auto& [stage, s] : r.timings)
@@ -591,11 +618,15 @@ TEST_CASE("uniformize: a circle domain solved through the split or the direct bo
 // canonical cut would add hundreds of thousands of vertices. The cut stops at its bound for the
 // polygon (1 added vertex per face, and 65536), after one base, and the run ends with the compact
 // domain's side pairings as the deck group, saying why.
-TEST_CASE("uniformize: where no canonical polygon fits, the mesh path stops after one bounded cut") {
+TEST_CASE("uniformize: where the canonical cut outgrows its bound, the mesh path stops after one cut") {
+  // The 4 × 3 grid of holes (genus 12): its canonical cut of the mesh would add more vertices than
+  // the bound allows (its geodesic polygon exists: the polygon test above), so with mesh_polygon
+  // the first base's cut stops, no other base is tried, and the domain's pairings stand.
   const ValidateResult v = validate_mesh(ricci_shapes::pretzel_grid(4, 3, 4));
   REQUIRE(v.status == Status::Ok);
   UniformizeOptions o;
   o.seed_checks = 0;
+  o.mesh_polygon = true;
   const UniformizeResult r = uniformize(v.mesh, v.topology, o);
   REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
   CHECK(!r.has_polygon);

@@ -342,15 +342,22 @@ struct CanonicalGenerators {
   std::string message = "not run";
   /// The generators a1 b1 … ag bg in the side pairings' frame; side/partner −1 (no sides of a
   /// cut), residual_max the largest residual of the pairings they are products of, relation
-  /// error at the frame's origin.
+  /// error at the working frame's origin (below).
   DeckResult deck;
   std::vector<std::string> words;   ///< per generator, its word in the pairings ("x3 x1^-1 x7")
   std::vector<Index> word_lengths;  ///< per generator, the length of that word
   Index moves = 0;                  ///< cut-and-paste moves on the word
   Index handle_moves = 0;           ///< per-handle substitutions (A, B A^±1), (B^±1 A, B) made
-  /// The relation of the same words in `fitted_maps` (at the frame's origin, quad); equal to
-  /// deck.relation_error when none are given.
+  /// The relation of the same words in `fitted_maps` (at the working frame's origin, below,
+  /// quad); equal to deck.relation_error when none are given.
   double fitted_relation_error = 0;
+  /// The same generators in the frame where the moves left them (`working_frame`: the pairings'
+  /// frame → that frame, map + map_low), where they move points least. deck.relation_error is
+  /// measured at its origin. Conjugating by a map that moves points a distance d costs about e^d
+  /// of the digits (a genus-12 grid of holes: d = 13.2, and the relation at the pairings' origin
+  /// 4e-4 against 1e-14 here), so geodesic_polygon(CanonicalGenerators) starts from these.
+  DeckResult working;
+  DeckGenerator working_frame;
 };
 
 /// See the block comment above. `domain` is a closed cut of genus ≥ 2 whose sides are all
@@ -403,6 +410,10 @@ struct GeodesicPolygon {
 /// See the block comment above. `canonical`: generators a1 b1 … ag bg (g ≥ 2) in deck.h's
 /// convention, with map_low when they come from quad products.
 GeodesicPolygon geodesic_polygon(const DeckResult& canonical);
+/// The same for canonical_generators()'s result, from its working frame (its polygon's frame
+/// and generators then keep the digits a conjugation into the pairings' frame would lose); the
+/// polygon's frame is still reported from the pairings' frame.
+GeodesicPolygon geodesic_polygon(const CanonicalGenerators& canonical);
 
 // ---- Universal cover ----------------------------------------------------------------------
 
