@@ -195,15 +195,18 @@ struct Schema {
       if (L == x) continue;
       const int p = at_side.plus[L], m = at_side.minus[L];
       if (p < 0 || m < 0) continue;  // cancelled or never used
+      // A trial copy (light(): only sizes are read) keeps the products unnormalised: their
+      // determinants stay 1 to quad's rounding, far below the sizes' tie (kSizeTie).
+      auto set = [&](const MoebiusQ& M) { map[L] = words ? M.normalized() : M; };
       if (moved(p) && moved(m)) {
         if (words) element[L] = concat({&g, &element[L], &g_inv});
-        map[L] = (G * map[L] * G_inv).normalized();
+        set(G * map[L] * G_inv);
       } else if (!moved(p) && moved(m)) {
         if (words) element[L] = concat({&g, &element[L]});
-        map[L] = (G * map[L]).normalized();
+        set(G * map[L]);
       } else if (moved(p) && !moved(m)) {
         if (words) element[L] = concat({&element[L], &g_inv});
-        map[L] = (map[L] * G_inv).normalized();
+        set(map[L] * G_inv);
       }
     }
     const int y = static_cast<int>(map.size());
@@ -272,9 +275,12 @@ struct Schema {
   }
 
   /// Letters of the blocks u v u^-1 v^-1 found by a greedy scan from every rotation (the largest
-  /// count), with the rotation that starts at one.
+  /// count), with the rotation that starts at one. Without in_block and start, only the count:
+  /// then only the scans from a block's start are made (a scan from elsewhere first skips to the
+  /// next block start and then sees what the scan from there sees, or less).
   int commutator_blocks(std::vector<char>* in_block, int* start) const {
     const int n = size();
+    const bool count_only = in_block == nullptr;
     // Where a block u v u^-1 v^-1 starts (cyclically), found once; each rotation's scan reads it.
     std::vector<char> block_at(static_cast<std::size_t>(n), 0);
     for (int q = 0; q < n && n >= 4; ++q) {
@@ -284,6 +290,7 @@ struct Schema {
     }
     int best = -1;
     for (int r = 0; r < n; ++r) {
+      if (count_only && !block_at[r] && best >= 0) continue;
       int count = 0;
       for (int k = 0; k + 4 <= n;) {
         if (block_at[at(r + k)]) {
@@ -295,9 +302,10 @@ struct Schema {
       }
       if (count > best) {
         best = count;
-        *start = r;
+        if (start) *start = r;
       }
     }
+    if (count_only) return best;
     // The marks of the best rotation's scan.
     in_block->assign(static_cast<std::size_t>(n), 0);
     for (int k = 0; k + 4 <= n && best > 0;) {
@@ -531,9 +539,7 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
       if ((tb2 - ta + n) % n <= span) continue;  // not linked
       Schema t = s.light();
       if (!make(t, ta, tb)) continue;
-      std::vector<char> mark;
-      int rot = 0;
-      if (t.commutator_blocks(&mark, &rot) <= blocks) continue;
+      if (t.commutator_blocks(nullptr, nullptr) <= blocks) continue;
       best.offer(ta, tb, size_of(t));
     }
   }
@@ -543,7 +549,7 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
 }
 
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps);
-int reduce_handles(std::vector<MoebiusQ>& gens, std::vector<Word>& words);
+int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, MoebiusQ& C);
 
 MoebiusQ quad_map(const DeckGenerator& g) {
   return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
@@ -600,8 +606,8 @@ struct NormalForm {
 };
 
 /// `one_vertex`: start from one_vertex_schema() (NotRun when it does not apply) rather than
-/// joining the domain's corner classes by moves.
-NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vertex) {
+/// joining the domain's corner classes by moves; `reduce`: end with reduce_generators().
+NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vertex, bool reduce) {
   NormalForm nf;
   if (one_vertex && !one_vertex_schema(s)) return nf;
   auto bad = [&](Status st, const std::string& m) {
@@ -663,7 +669,7 @@ NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vert
       nf.words.push_back(s.element[static_cast<std::size_t>(L)]);
     }
   }
-  nf.handle_moves = reduce_handles(work, nf.words);
+  if (reduce) nf.handle_moves = reduce_generators(work, nf.words, C);
   for (const MoebiusQ& M : work) nf.gens.push_back((C.inverse() * M * C).normalized());
   nf.work = std::move(work);
   nf.frame = C;
@@ -754,13 +760,18 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
 #pragma omp parallel for schedule(static, 1) reduction(max : out_of_memory)
     for (int k = 0; k < 2; ++k) try {
       Run& run = runs[k];
-      run.nf = normal_form(s, g, k == 1, one_vertex);
-      if (run.nf.status != Status::Ok) continue;
-      const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
-      run.relation =
-          gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
-      const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
-      run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+      // The substitutions shorten the perimeter but do not keep the polygon simple: when the
+      // reduced polygon is not a fundamental domain, the same run without them.
+      for (const bool reduce : {true, false}) {
+        run.nf = normal_form(s, g, k == 1, one_vertex, reduce);
+        if (run.nf.status != Status::Ok) break;
+        const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
+        run.relation =
+            gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
+        const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
+        run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+        if (fundamental || run.nf.handle_moves == 0) break;
+      }
     } catch (const std::bad_alloc&) {
       out_of_memory = 1;
     }
@@ -772,7 +783,9 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
         continue;
       }
       const double score = run.score, relation = run.relation;
-      if (!best || score < best_score || (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
+      // A later run is kept only when shorter beyond the rounding of the lengths (kSizeTie).
+      if (!best || score < best_score * (1 - kSizeTie) ||
+          (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
         best = std::move(run.nf);
         best_score = score;
         best_relation = relation;
@@ -957,60 +970,160 @@ std::vector<MoebiusQ> corner_maps(const std::vector<MoebiusQ>& gens) {
   return W;
 }
 
-/// Per-handle reduction of canonical generators (working frame): (A, B) → (A, B A^±1) and
-/// (A, B) → (B^±1 A, B) keep [A^-1, B] exactly, hence the relation and every other block's
-/// corners; each is taken while it shortens the handle's four sides of the geodesic polygon at
-/// the perimeter-minimising p (which is then found again). Like Euclid's algorithm on the handle's
-/// basis; it stops when no substitution shortens any handle. Returns the substitutions made.
-int reduce_handles(std::vector<MoebiusQ>& gens, std::vector<Word>& words) {
+/// Substitutions of one pair of adjacent handles (a_i b_i a_{i+1} b_{i+1} = letters 1 2 3 4,
+/// negative for inverses: the images of the four, each a word in them) that keep h_{i+1} h_i,
+/// h = B A^-1 B^-1 A, letter for letter in the free group — hence the relation, and the corners
+/// of every other block: the two swaps (one handle carried across the other, conjugated by that
+/// one's commutator) and a twist mixing the handles, with its inverse (found by a search over
+/// short substitutions and checked by free reduction; a wrong one would break the relation
+/// that every polygon is checked against).
+using PairMove = std::array<std::vector<int>, 4>;
+const std::array<PairMove, 4> kPairMoves = {{
+    {{{3}, {4}, {4, -3, -4, 3, 1, -3, 4, 3, -4}, {4, -3, -4, 3, 2, -3, 4, 3, -4}}},
+    {{{-1, 2, 1, -2, 3, 2, -1, -2, 1}, {-1, 2, 1, -2, 4, 2, -1, -2, 1}, {1}, {2}}},
+    {{{1, -2, -3, 4, 1}, {1, -2, -3, 4, 2}, {3, -4, 3, 2, -1}, {3, 2, -1}}},
+    {{{-4, 3, 2}, {-4, 3, 2, -1, 2}, {3, 1, -2, -3, 4}, {4, 1, -2, -3, 4}}},
+}};
+/// Per handle (letters 1 2 = a_i b_i): (A, B A^±1) and (B^±1 A, B), which keep [A^-1, B].
+const std::array<std::array<std::vector<int>, 2>, 4> kHandleMoves = {{
+    {{{1}, {2, 1}}}, {{{1}, {2, -1}}}, {{{2, 1}, {2}}}, {{{-2, 1}, {2}}}}};
+
+/// Conjugates the generators into the frame centred on their geodesic polygon (the corners of
+/// the perimeter-minimising corner p, as geodesic_polygon() finds them) and accumulates that move
+/// into C; p returns corner 0's point there. There the generators move the polygon's corners by at
+/// most its diameter, so products of them keep the most digits. False (nothing changed) when the
+/// polygon cannot be found.
+bool centre_polygon(std::vector<MoebiusQ>& gens, MoebiusQ& C, CQ& p) {
+  const std::vector<MoebiusQ> W = corner_maps(gens);
+  std::vector<MoebiusQ> Y;
+  for (std::size_t k = 0; k + 1 < W.size(); ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
+  MoebiusQ F;
+  if (minimise_displacement(Y, F, 200) < 0) return false;
+  detail::HyperboloidSum mass;
+  for (std::size_t k = 0; k + 1 < W.size(); ++k) {
+    const CQ q = (F * W[k] * F.inverse()).apply(CQ{0, 0});
+    if (__builtin_isnan(q.norm()) || !(q.norm() < 1)) return false;
+    mass.add(q, 1);
+  }
+  CQ c;
+  if (!mass.point(c) || !(c.norm() < 1)) return false;
+  const MoebiusQ to_c = MoebiusQ::to_origin(c);
+  const MoebiusQ T = (to_c * F).normalized();
+  for (MoebiusQ& M : gens) M = (T * M * T.inverse()).normalized();
+  C = (T * C).normalized();
+  p = to_c.apply(CQ{0, 0});
+  return true;
+}
+
+/// Reduction of canonical generators by substitutions that keep the relation: per handle
+/// (kHandleMoves) and per pair of adjacent handles (kPairMoves). The polygon is centred
+/// (centre_polygon()), then sweeps over the blocks take, at each handle and each pair, the
+/// substitution that shortens the polygon's perimeter most with corner 0 held at p — one changes
+/// only the sides of the blocks it touches (the others' corners stay), so only those are
+/// measured — until a sweep takes none; then the polygon is centred again (p moves to the new
+/// minimiser), until a centring is followed by no substitution (at most 20 centrings, 40 g
+/// sweeps each). gens are left in the centred frame (C updated); returns the substitutions made.
+int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, MoebiusQ& C) {
   const std::size_t g = gens.size() / 2;
   int made = 0;
-  for (int round = 0; round < 64; ++round) {
-    // p: the perimeter's minimiser, at the origin of the frame F.
-    std::vector<MoebiusQ> W = corner_maps(gens);
-    std::vector<MoebiusQ> Y;
-    for (std::size_t k = 0; k < 4 * g; ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
-    MoebiusQ F;
-    if (minimise_displacement(Y, F, 40) < 0) return made;
-    const CQ p = F.inverse().apply(CQ{0, 0});
-    bool improved = false;
-    for (std::size_t i = 0; i < g; ++i) {
-      const CQ u = W[4 * i].apply(p);  // the block's first corner (earlier blocks unchanged)
-      auto block = [&](const MoebiusQ& A, const MoebiusQ& B) {
-        const CQ v1 = (A.inverse() * B.inverse() * A).apply(u), v2 = (B.inverse() * A).apply(u), v3 = A.apply(u);
-        const CQ v4 = (B * A.inverse() * B.inverse() * A).apply(u);
-        return detail::hyperbolic_distance_q(u, v1) + detail::hyperbolic_distance_q(v1, v2) +
-               detail::hyperbolic_distance_q(v2, v3) + detail::hyperbolic_distance_q(v3, v4);
-      };
-      for (int guard = 0; guard < 64; ++guard) {
-        MoebiusQ& A = gens[2 * i];
-        MoebiusQ& B = gens[2 * i + 1];
-        const double now = block(A, B);
-        const std::array<std::pair<MoebiusQ, MoebiusQ>, 4> options = {
-            std::pair{A, (B * A).normalized()}, std::pair{A, (B * A.inverse()).normalized()},
-            std::pair{(B * A).normalized(), B}, std::pair{(B.inverse() * A).normalized(), B}};
-        int best = -1;
-        double best_len = now;
-        for (int o = 0; o < 4; ++o) {
-          const double len = block(options[o].first, options[o].second);
-          if (std::isfinite(len) && len < best_len * (1 - 1e-12)) best_len = len, best = o;
-        }
-        if (best < 0) break;
-        Word& wa = words[2 * i];
-        Word& wb = words[2 * i + 1];
-        const Word ia = inverse(wa), ib = inverse(wb);
-        if (best == 0) wb = concat({&wb, &wa});
-        else if (best == 1) wb = concat({&wb, &ia});
-        else if (best == 2) wa = concat({&wb, &wa});
-        else wa = concat({&ib, &wa});
-        A = options[best].first;
-        B = options[best].second;
-        ++made;
-        improved = true;
-      }
+  // A block's four sides from its start u; ∞ when a corner lies beyond `reach` from the centre.
+  double reach = INFINITY;
+  auto block = [&reach](const MoebiusQ& A, const MoebiusQ& B, const CQ& u, CQ* next) {
+    const CQ v1 = (A.inverse() * B.inverse() * A).apply(u), v2 = (B.inverse() * A).apply(u), v3 = A.apply(u);
+    const CQ v4 = (B * A.inverse() * B.inverse() * A).apply(u);
+    if (next) *next = v4;
+    for (const CQ& v : {v1, v2, v3})
+      if (!(detail::hyperbolic_distance_q(v, CQ{0, 0}) <= reach)) return static_cast<double>(INFINITY);
+    return detail::hyperbolic_distance_q(u, v1) + detail::hyperbolic_distance_q(v1, v2) +
+           detail::hyperbolic_distance_q(v2, v3) + detail::hyperbolic_distance_q(v3, v4);
+  };
+  auto image = [&](const std::vector<int>& w, std::size_t first) {
+    MoebiusQ M;
+    for (int x : w) {
+      const MoebiusQ& G = gens[first + static_cast<std::size_t>(std::abs(x) - 1)];
+      M = M * (x > 0 ? G : G.inverse());
     }
-    if (!improved) break;
+    return M.normalized();
+  };
+  auto substitute = [&](const std::vector<const std::vector<int>*>& move, std::size_t first, std::vector<MoebiusQ>& maps) {
+    std::vector<Word> new_words;
+    for (const std::vector<int>* w : move) {
+      Word out;
+      for (int x : *w) {
+        const Word& G = words[first + static_cast<std::size_t>(std::abs(x) - 1)];
+        const Word step = x > 0 ? G : inverse(G);
+        out = concat({&out, &step});
+      }
+      new_words.push_back(std::move(out));
+    }
+    for (std::size_t k = 0; k < maps.size(); ++k) {
+      gens[first + k] = maps[k];
+      words[first + k] = std::move(new_words[k]);
+    }
+    ++made;
+  };
+  CQ p;
+  for (int centring = 0; centring < 20; ++centring) {
+    if (!centre_polygon(gens, C, p)) return made;
+    const int before = made;
+    const std::vector<MoebiusQ> W = corner_maps(gens);
+    std::vector<CQ> u;  // block starts: fixed by every substitution
+    for (std::size_t i = 0; i <= g; ++i) u.push_back(W[4 * i].apply(p));
+    // Substitutions may not move a corner beyond the polygon's reach at this centring: the
+    // lengths are measured in quad from the centre, and far corners would both lose their digits
+    // (a gain computed there can be rounding) and spread the polygon.
+    // (The same corners computed through other products differ by rounding: 1e-6 of slack.)
+    reach = 0;
+    for (std::size_t k = 0; k + 1 < W.size(); ++k)
+      reach = std::max(reach, detail::hyperbolic_distance_q(W[k].apply(p), CQ{0, 0}));
+    reach += 1e-6;
+    double perimeter = 0;
+    std::vector<double> len(g);
+    for (std::size_t i = 0; i < g; ++i) perimeter += len[i] = block(gens[2 * i], gens[2 * i + 1], u[i], nullptr);
+    if (!std::isfinite(perimeter)) break;
+    // Gains below 1e-6 of the perimeter are left, and among gains within that of each other the
+    // first substitution offered is taken: the polygon's lengths carry the rounding of the flow's
+    // solution amplified by e^reach (3e-9 relative at reach 18 between two factorizations of the
+    // same system), and a symmetric surface offers substitutions of equal gain; smaller
+    // differences would turn on the metric's last bits.
+    const double least_gain = 1e-6 * perimeter;
+    for (std::size_t sweep = 0; sweep < 40 * g; ++sweep) {
+      const int at_sweep = made;
+      for (std::size_t i = 0; i < g; ++i) {
+        double best_gain = least_gain;
+        std::vector<MoebiusQ> best;
+        const std::array<std::vector<int>, 2>* chosen = nullptr;
+        for (const auto& m : kHandleMoves) {
+          std::vector<MoebiusQ> maps = {image(m[0], 2 * i), image(m[1], 2 * i)};
+          const double gain = len[i] - block(maps[0], maps[1], u[i], nullptr);
+          if (gain > best_gain + (chosen ? least_gain : 0)) best_gain = gain, best = std::move(maps), chosen = &m;
+        }
+        if (chosen) {
+          len[i] -= best_gain;
+          substitute({&(*chosen)[0], &(*chosen)[1]}, 2 * i, best);
+        }
+        if (i + 1 == g) continue;
+        best_gain = least_gain;
+        const PairMove* pair = nullptr;
+        double len0 = 0, len1 = 0;
+        for (const PairMove& m : kPairMoves) {
+          std::vector<MoebiusQ> maps = {image(m[0], 2 * i), image(m[1], 2 * i), image(m[2], 2 * i), image(m[3], 2 * i)};
+          CQ mid;
+          const double l0 = block(maps[0], maps[1], u[i], &mid), l1 = block(maps[2], maps[3], mid, nullptr);
+          const double gain = len[i] + len[i + 1] - l0 - l1;
+          if (gain > best_gain + (pair ? least_gain : 0)) best_gain = gain, best = std::move(maps), pair = &m, len0 = l0, len1 = l1;
+        }
+        if (pair) {
+          len[i] = len0;
+          len[i + 1] = len1;
+          substitute({&(*pair)[0], &(*pair)[1], &(*pair)[2], &(*pair)[3]}, 2 * i, best);
+        }
+      }
+      if (made == at_sweep) break;
+    }
+    if (made == before) break;
   }
+  centre_polygon(gens, C, p);
   return made;
 }
 

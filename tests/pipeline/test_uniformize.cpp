@@ -458,17 +458,19 @@ TEST_CASE("uniformize: generators without a polygon view are kept only within th
                                         << " with generators dropped; " << r.polygon_note);
 }
 
-TEST_CASE("uniformize: the geodesic canonical polygon at genus 2 to 12, from the domain's pairings alone") {
+TEST_CASE("uniformize: the geodesic canonical polygon at genus 2 to 20, from the domain's pairings alone") {
   // The default for closed surfaces of genus >= 2: canonical generators as words in the compact
   // domain's side pairings, their geodesic 4g-gon a fundamental domain (simple, angle sum 2π, area
   // 4π(g − 1)), the relation to 1e-12, with no cut of the mesh beyond the compact domain.
-  // Holes in a row (pretzel) and, for genus 8 and 12, in 4 × 2 and 4 × 3 grids (the compact
-  // domain of the 4 × 3 grid has 130 sides in 42 corner classes: joining them by moves leaves
-  // generators beyond 113 bits, the one-vertex polygon of its shorter pairings does not).
-  for (int g : {2, 3, 4, 5, 8, 12, -8, -12}) {
+  // Holes in a row (pretzel) and, for genus 8, 12 and 20, in 4 × 2, 4 × 3 and 5 × 4 grids (the
+  // compact domain of the 4 × 3 grid has 130 sides in 42 corner classes: joining them by moves
+  // leaves generators beyond 113 bits, the one-vertex polygon of its shorter pairings does not;
+  // the 5 × 4 grid's polygon meets the relation only after the substitutions across handles).
+  for (int g : {2, 3, 4, 5, 8, 12, -8, -12, -20}) {
     CAPTURE(g);
-    const ValidateResult v =
-        validate_mesh(g > 0 ? ricci_shapes::pretzel(g, 4) : ricci_shapes::pretzel_grid(4, g == -8 ? 2 : 3, 4));
+    const ValidateResult v = validate_mesh(g > 0    ? ricci_shapes::pretzel(g, 4)
+                                           : g == -20 ? ricci_shapes::pretzel_grid(5, 4, 4)
+                                                      : ricci_shapes::pretzel_grid(4, g == -8 ? 2 : 3, 4));
     g = std::abs(g);
     REQUIRE(v.status == Status::Ok);
     const UniformizeResult r = uniformize(v.mesh, v.topology);
