@@ -694,6 +694,64 @@ DeckResult trial_deck(Index g, const std::vector<MoebiusQ>& gens) {
 
 GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, const DeckResult& canonical);
 
+/// The normal form of the schema's word with the shortest geodesic polygon, or none (last_error
+/// then says why the last run failed). Runs in two rounds, each two runs in parallel with sizes at the domain's centre or where the
+/// pairings move least (the moves are greedy, so either can end with longer generators). First
+/// from the one-vertex polygon of the short pairings' loops (one_vertex_schema()); only when
+/// neither gives a fundamental polygon (or the domain has one corner class already), then with
+/// the corners joined by moves, whose products grow with the domain's corner classes (a genus-12
+/// grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex runs 0.02 s).
+/// The run whose geodesic polygon is a fundamental domain with the smallest perimeter is kept
+/// (else the smallest relation error; ties: the earlier run).
+std::optional<NormalForm> best_normal_form(const Schema& s, Index g, std::string& last_error) {
+  std::optional<NormalForm> best;
+  double best_score = 0, best_relation = 0;
+  struct Run {
+    NormalForm nf;
+    double relation = 0, score = 0;
+  };
+  for (const bool one_vertex : {true, false}) {
+    Run runs[2];
+    int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
+#pragma omp parallel for schedule(static, 1) reduction(max : out_of_memory)
+    for (int k = 0; k < 2; ++k) try {
+      Run& run = runs[k];
+      // The substitutions shorten the perimeter but do not keep the polygon simple: when the
+      // reduced polygon is not a fundamental domain, the same run without them.
+      for (const bool reduce : {true, false}) {
+        run.nf = normal_form(s, g, k == 1, one_vertex, reduce);
+        if (run.nf.status != Status::Ok) break;
+        const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
+        run.relation =
+            gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
+        const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
+        run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+        if (fundamental || run.nf.handle_moves == 0) break;
+      }
+    } catch (const std::bad_alloc&) {
+      out_of_memory = 1;
+    }
+    if (out_of_memory) throw std::bad_alloc();
+    for (Run& run : runs) {
+      if (run.nf.status == Status::NotRun) continue;
+      if (run.nf.status != Status::Ok) {
+        last_error = run.nf.message;
+        continue;
+      }
+      const double score = run.score, relation = run.relation;
+      // A later run is kept only when shorter beyond the rounding of the lengths (kSizeTie).
+      if (!best || score < best_score * (1 - kSizeTie) ||
+          (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
+        best = std::move(run.nf);
+        best_score = score;
+        best_relation = relation;
+      }
+    }
+    if (best && std::isfinite(best_score)) break;
+  }
+  return best;
+}
+
 }  // namespace
 
 CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
@@ -738,61 +796,9 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
       return bad(Status::InvalidArgument, "canonical generators: letter " + std::to_string(L) +
                                               " does not label exactly one side and its inverse.");
 
-  // Runs in two rounds, each two runs in parallel with sizes at the domain's centre or where the
-  // pairings move least (the moves are greedy, so either can end with longer generators). First
-  // from the one-vertex polygon of the short pairings' loops (one_vertex_schema()); only when
-  // neither gives a fundamental polygon (or the domain has one corner class already), then with
-  // the corners joined by moves, whose products grow with the domain's corner classes (a genus-12
-  // grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex runs 0.02 s).
-  // The run whose geodesic polygon is a fundamental domain with the smallest perimeter is kept
-  // (else the smallest relation error; ties: the earlier run).
   const Index g = domain.genus;
-  std::optional<NormalForm> best;
-  double best_score = 0, best_relation = 0;
   std::string last_error;
-  struct Run {
-    NormalForm nf;
-    double relation = 0, score = 0;
-  };
-  for (const bool one_vertex : {true, false}) {
-    Run runs[2];
-    int out_of_memory = 0;  // nothing may leave the parallel region: rethrown after it
-#pragma omp parallel for schedule(static, 1) reduction(max : out_of_memory)
-    for (int k = 0; k < 2; ++k) try {
-      Run& run = runs[k];
-      // The substitutions shorten the perimeter but do not keep the polygon simple: when the
-      // reduced polygon is not a fundamental domain, the same run without them.
-      for (const bool reduce : {true, false}) {
-        run.nf = normal_form(s, g, k == 1, one_vertex, reduce);
-        if (run.nf.status != Status::Ok) break;
-        const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
-        run.relation =
-            gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
-        const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
-        run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
-        if (fundamental || run.nf.handle_moves == 0) break;
-      }
-    } catch (const std::bad_alloc&) {
-      out_of_memory = 1;
-    }
-    if (out_of_memory) throw std::bad_alloc();
-    for (Run& run : runs) {
-      if (run.nf.status == Status::NotRun) continue;
-      if (run.nf.status != Status::Ok) {
-        last_error = run.nf.message;
-        continue;
-      }
-      const double score = run.score, relation = run.relation;
-      // A later run is kept only when shorter beyond the rounding of the lengths (kSizeTie).
-      if (!best || score < best_score * (1 - kSizeTie) ||
-          (!std::isfinite(score) && !std::isfinite(best_score) && relation < best_relation)) {
-        best = std::move(run.nf);
-        best_score = score;
-        best_relation = relation;
-      }
-    }
-    if (best && std::isfinite(best_score)) break;
-  }
+  std::optional<NormalForm> best = best_normal_form(s, g, last_error);
   if (!best) return bad(Status::NumericalFailure, last_error);
 
   DeckResult& r = out.deck;
