@@ -313,17 +313,24 @@ DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> 
 
 // ---- Canonical generators and the geodesic canonical polygon (H, closed, genus ≥ 2) ----------
 //
-// canonical_generators() needs no canonical cut of the mesh. The compact domain's boundary word
-// (x1 x2 x1^-1 …, one letter per side pairing) is brought to the normal form a1 b1 a1^-1 b1^-1 …
-// by the classification proof's moves on the word alone: cancel x x^-1; join the corners into
-// one vertex class (cut off the triangle of the two sides at a corner of the smallest class and
-// reglue it along one of them); then, for a linked pair a … b … a^-1 … b^-1, two cuts and
-// pastes make the block c^-1 e c e^-1. A cut along a diagonal into P1 and P2, reglued along x,
-// moves P2 by g = X^-1 (x's side in P1) or X; the new letter's pairing is g, and the pairings of
-// the sides moved with P2 are conjugated or multiplied by g. So every canonical generator is a
-// word in the side pairings, evaluated in quad (map + map_low) once at the end. Among the moves
-// available at each step the one leaving the shortest words is taken. The cost depends on the
-// word's length (the domain's side count), not on the mesh.
+// canonical_generators() needs no canonical cut of the mesh. The compact domain's pairings are
+// first read as a polygon with one vertex class: each pairing's dual loop at an interior point
+// crosses its side once; dropping the loops of a spanning tree of the domain's corner classes
+// (the longest pairings) leaves 2g loops that cut the surface into one disk, whose sides are
+// paired by the kept pairings conjugated by the walk around it. Its word (x1 x2 x1^-1 …) is
+// brought to the normal form a1 b1 a1^-1 b1^-1 … by the classification proof's moves on the word
+// alone: cancel x x^-1; then, for a linked pair a … b … a^-1 … b^-1, two cuts and pastes make
+// the block c^-1 e c e^-1 (only when that gives no fundamental polygon are the domain's corners
+// joined into one class by such moves instead: cut off the triangle of the two sides at a corner
+// of the smallest class and reglue it along one of them). A cut along a diagonal into P1 and P2,
+// reglued along x, moves P2 by g = X^-1 (x's side in P1) or X; the new letter's pairing is g, and
+// the pairings of the sides moved with P2 are conjugated or multiplied by g. So every canonical
+// generator is a word in the side pairings, evaluated in quad (map + map_low). Among the moves
+// available at each step the one leaving the shortest words is taken; the generators are then
+// reduced by substitutions that keep the relation letter for letter (per handle, and per pair
+// of adjacent handles: two swaps and a twist), each taken where it shortens the geodesic polygon,
+// measured in the polygon's centred frame. The cost depends on the word's length (the domain's
+// side count), not on the mesh.
 //
 // geodesic_polygon() lays out the canonical polygon with deck.h's side convention (A_i maps side
 // a_i onto side a_i^-1, reversed): from a vertex p, block i's corners are u, A^-1 B^-1 A u,
@@ -347,7 +354,7 @@ struct CanonicalGenerators {
   std::vector<std::string> words;   ///< per generator, its word in the pairings ("x3 x1^-1 x7")
   std::vector<Index> word_lengths;  ///< per generator, the length of that word
   Index moves = 0;                  ///< cut-and-paste moves on the word
-  Index handle_moves = 0;           ///< per-handle substitutions (A, B A^±1), (B^±1 A, B) made
+  Index handle_moves = 0;           ///< substitutions made (per handle, and per pair of adjacent handles)
   /// The relation of the same words in `fitted_maps` (at the working frame's origin, below,
   /// quad); equal to deck.relation_error when none are given.
   double fitted_relation_error = 0;
