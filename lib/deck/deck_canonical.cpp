@@ -1073,7 +1073,7 @@ int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, Moe
     if (!centre_polygon(gens, C, p)) return made;
     const int before = made;
     const std::vector<MoebiusQ> W = corner_maps(gens);
-    std::vector<CQ> u;  // block starts: fixed by every substitution
+    std::vector<CQ> u;  // block starts: a substitution moves only the start between the blocks it touches
     for (std::size_t i = 0; i <= g; ++i) u.push_back(W[4 * i].apply(p));
     // Substitutions may not move a corner beyond the polygon's reach at this centring: the
     // lengths are measured in quad from the centre, and far corners would both lose their digits
@@ -1112,16 +1112,19 @@ int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, Moe
         best_gain = least_gain;
         const PairMove* pair = nullptr;
         double len0 = 0, len1 = 0;
+        CQ start1;  // the second block's start after the chosen substitution (the first's stays)
         for (const PairMove& m : kPairMoves) {
           std::vector<MoebiusQ> maps = {image(m[0], 2 * i), image(m[1], 2 * i), image(m[2], 2 * i), image(m[3], 2 * i)};
           CQ mid;
           const double l0 = block(maps[0], maps[1], u[i], &mid), l1 = block(maps[2], maps[3], mid, nullptr);
           const double gain = len[i] + len[i + 1] - l0 - l1;
-          if (gain > best_gain + (pair ? least_gain : 0)) best_gain = gain, best = std::move(maps), pair = &m, len0 = l0, len1 = l1;
+          if (gain > best_gain + (pair ? least_gain : 0))
+            best_gain = gain, best = std::move(maps), pair = &m, len0 = l0, len1 = l1, start1 = mid;
         }
         if (pair) {
           len[i] = len0;
           len[i + 1] = len1;
+          u[i + 1] = start1;
           substitute({&(*pair)[0], &(*pair)[1], &(*pair)[2], &(*pair)[3]}, 2 * i, best);
         }
       }
