@@ -176,7 +176,8 @@ void VertexClasses::remove_gauge_mean(const Topology& t, std::span<double> step,
 // formula of metric.h: F(l) = Q/D with F = l², sinh²(l/2) or sin²(l/2)).
 void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, std::span<const double> u,
                               std::span<const double> lengths) {
-  radius_.assign(static_cast<std::size_t>(t.num_boundary_loops()), std::numeric_limits<double>::quiet_NaN());
+  circle_.assign(static_cast<std::size_t>(t.num_boundary_loops()),
+                 InscribedCircle{std::numeric_limits<double>::quiet_NaN(), -1});
   radius_lengths_ = lengths.data();
   const double sigma =
       s.geometry == Geometry::Euclidean ? 0.0 : (s.geometry == Geometry::Hyperbolic ? 1.0 : -1.0);
@@ -201,20 +202,14 @@ void LoopTargetDerivative::at(const Topology& t, const ConformalStructure& s, st
   }
 }
 
-// cos(α/2) of a chord of length l in a circle of radius R (α = 2·arcsin(l/2R)), kept above 0.
-double half_chord_cosine(double l, double R) {
-  const double half_chord = std::min(l / (2 * R), 1.0);
-  return std::max(std::sqrt((1 - half_chord) * (1 + half_chord)), 1e-300);
-}
-
-// The loop's inscribed circle's radius (0 when its target is not the inscribed polygon), once per
+// The loop's inscribed circle (radius 0 when its target is not the inscribed polygon), once per
 // lengths at() was given.
-double LoopTargetDerivative::loop_radius(const Topology& t, const Target& target, Geometry g,
-                                         std::span<const double> lengths, Index loop) {
-  if (!inscribed_circle_loop(target, g, loop)) return 0;
-  const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < radius_.size();
-  if (cached && std::isnan(radius_[loop])) radius_[loop] = inscribed_radius(t, loop, lengths);
-  return cached ? radius_[loop] : inscribed_radius(t, loop, lengths);
+InscribedCircle LoopTargetDerivative::loop_circle(const Topology& t, const Target& target, Geometry g,
+                                                  std::span<const double> lengths, Index loop) {
+  if (!inscribed_circle_loop(target, g, loop)) return {};
+  const bool cached = lengths.data() == radius_lengths_ && static_cast<std::size_t>(loop) < circle_.size();
+  if (cached && std::isnan(circle_[loop].radius)) circle_[loop] = inscribed_circle(t, loop, lengths);
+  return cached ? circle_[loop] : inscribed_circle(t, loop, lengths);
 }
 
 // dK[p] = (∂K̄/∂u · x) at the vertex of boundary position p, for x given per vertex (#V).
@@ -232,19 +227,20 @@ void LoopTargetDerivative::apply(const Topology& t, const Target& target, Geomet
       dL += dl;
     }
     const double T = target.loop_total[loop];
-    const double R = loop_radius(t, target, g, lengths, loop);
+    const InscribedCircle circle = loop_circle(t, target, g, lengths, loop);
+    const double R = circle.radius;
     if (R > 0) {
-      // The inscribed polygon: α_j = 2·arcsin(l_j/2R), dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
-      // c_j = cos(α_j/2), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
+      // The inscribed polygon: sin(α_j/2) = l_j/2R, so dα_j = (dl_j − l_j·dR/R)/(R·c_j) with
+      // c_j = cos(α_j/2) (negative on a major arc), and Σ dα_j = 0 gives dR/R = Σ(dl_j/c_j) / Σ(l_j/c_j).
       double num = 0, den = 0;
       for (Index p = begin; p < end; ++p) {
         const double l = lengths[t.corner_edge[t.boundary_corners[p]]];
-        const double c = half_chord_cosine(l, R);
+        const double c = circle.half_arc_cosine(p - begin, l);
         arc_[p] = c;
         num += dl_[p] / c;
         den += l / c;
       }
-      const double dR_over_R = den > 0 ? num / den : 0.0;
+      const double dR_over_R = den != 0 && std::isfinite(den) ? num / den : 0.0;
       for (Index p = begin; p < end; ++p) {
         const double l = lengths[t.corner_edge[t.boundary_corners[p]]];
         arc_[p] = (dl_[p] - l * dR_over_R) / (R * arc_[p]);  // dα_p
@@ -287,11 +283,12 @@ bool LoopTargetDerivative::split(const Topology& t, const Target& target, Geomet
     const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
     if (end - begin < 3) return false;
     const double T = target.loop_total[loop];
-    const double R = loop_radius(t, target, g, lengths, loop);
+    const InscribedCircle circle = loop_circle(t, target, g, lengths, loop);
+    const double R = circle.radius;
     if (R > 0) {
       double D = 0;
       for (Index p = begin; p < end; ++p) {
-        arc_[p] = half_chord_cosine(edge_length(p), R);  // c_p
+        arc_[p] = circle.half_arc_cosine(p - begin, edge_length(p));  // c_p
         D += edge_length(p) / arc_[p];
       }
       const double sign = T > 0 ? 1.0 : -1.0;

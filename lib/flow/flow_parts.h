@@ -133,13 +133,14 @@ class LoopTargetDerivative {
              std::vector<double>& w, std::vector<double>& a, std::vector<double>& b);
 
  private:
-  double loop_radius(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths, Index loop);
+  InscribedCircle loop_circle(const Topology& t, const Target& target, Geometry g, std::span<const double> lengths,
+                              Index loop);
   std::vector<double> dl_du_, dl_;
   std::vector<double> arc_;  // per position: scratch of apply()
-  // Per loop, the inscribed circle's radius at the lengths at() was given (NaN until apply() first
+  // Per loop, the inscribed circle at the lengths at() was given (radius NaN until apply() first
   // needs it): it depends on the lengths alone, and the boundary system applies this derivative
   // once per boundary position in a step.
-  std::vector<double> radius_;
+  std::vector<InscribedCircle> circle_;
   const double* radius_lengths_ = nullptr;
 };
 

@@ -386,21 +386,12 @@ std::pair<double, double> arc_excess(Index count, Side side, double R) {
   return {f, df};
 }
 
+/// The centre inside: the root of Σ 2·arcsin(l_j/2R) = 2π. f decreases in R; f(L/2π) ≥ 0
+/// (arcsin x ≥ x) and f(L/4) ≤ 0 (arcsin x ≤ πx/2), so the root lies in [lo, L/4] when f(lo) ≥ 0
+/// at lo = max(L/2π, longest/2). Newton (f is convex, so its steps from the left stay left of
+/// the root), bisection when a step would leave the bracket.
 template <class Side>
-double inscribed_radius_of(Index count, Side side) {
-  if (count < 3) return 0;
-  double L = 0, longest = 0;
-  for (Index j = 0; j < count; ++j) {
-    const double x = side(j);
-    if (!(is_finite_bits(x) && x > 0)) return 0;
-    L += x;
-    longest = std::max(longest, x);
-  }
-  // f decreases in R; f(L/2π) ≥ 0 (arcsin x ≥ x) and f(L/4) ≤ 0 (arcsin x ≤ πx/2), so the root
-  // lies in [max(L/2π, longest/2), L/4] when f(longest/2) ≥ 0 at all. Newton (f is convex, so
-  // its steps from the left stay left of the root), bisection when a step would leave the bracket.
-  double lo = std::max(L / (2 * kPi), 0.5 * longest), hi = std::max(L / 4, lo);
-  if (arc_excess(count, side, lo).first < 0) return 0;
+double minor_radius(Index count, Side side, double lo, double hi) {
   double R = lo;
   for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
     const auto [f, df] = arc_excess(count, side, R);
@@ -417,16 +408,90 @@ double inscribed_radius_of(Index count, Side side) {
   return R;
 }
 
-}  // namespace
-
-double inscribed_radius(std::span<const double> sides) {
-  return inscribed_radius_of(static_cast<Index>(sides.size()), [&](Index j) { return sides[static_cast<std::size_t>(j)]; });
+/// The centre outside, beyond side m: with φ = arcsin(l_m/2R) ∈ (0, π/2] and r_j = l_j/l_m ≤ 1,
+/// F(φ) = Σ_{j≠m} 2·arcsin(r_j sin φ) − 2φ = 0. F(0) = 0 with F'(0) = 2(Σ r_j − 1) > 0 (the
+/// polygon inequality), F(π/2) < 0 (the centre is not inside), and F is concave (each
+/// arcsin(r sin φ) is, for r ≤ 1), so the positive root is unique and Newton from π/2 approaches
+/// it monotonically from the right; bisection guards against rounding.
+template <class Side>
+double major_radius(Index count, Side side, Index m) {
+  const double lm = side(m);
+  auto F = [&](double phi) {
+    const double s = std::sin(phi), c = std::cos(phi);
+    double f = -2 * phi, df = -2;
+    for (Index j = 0; j < count; ++j) {
+      if (j == m) continue;
+      const double r = side(j) / lm, x = std::min(r * s, 1.0);
+      f += 2 * std::asin(x);
+      df += 2 * r * c / std::max(std::sqrt((1 - x) * (1 + x)), 1e-300);
+    }
+    return std::pair<double, double>{f, df};
+  };
+  double lo = 0, hi = kPi / 2, phi = hi;
+  for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
+    const auto [f, df] = F(phi);
+    if (f == 0) break;
+    if (f < 0)
+      hi = phi;
+    else
+      lo = phi;
+    double next = std::isfinite(df) && df < 0 ? phi - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == phi) break;
+    phi = next;
+  }
+  const double s = std::sin(phi);
+  return s > 0 && std::isfinite(lm / (2 * s)) ? lm / (2 * s) : 0.0;
 }
 
-double inscribed_radius(const Topology& t, Index loop, std::span<const double> l) {
-  if (loop < 0 || loop >= t.num_boundary_loops() || l.size() < static_cast<std::size_t>(t.num_edges)) return 0;
+template <class Side>
+InscribedCircle inscribed_circle_of(Index count, Side side) {
+  if (count < 3) return {};
+  double L = 0, longest = 0;
+  Index m = 0;
+  for (Index j = 0; j < count; ++j) {
+    const double x = side(j);
+    if (!(is_finite_bits(x) && x > 0)) return {};
+    L += x;
+    if (x > longest) {
+      longest = x;
+      m = j;
+    }
+  }
+  if (!(longest < L - longest) || !std::isfinite(L)) return {};  // no polygon: one side too long
+  const double lo = std::max(L / (2 * kPi), 0.5 * longest), hi = std::max(L / 4, lo);
+  if (arc_excess(count, side, lo).first >= 0) return {minor_radius(count, side, lo, hi), -1};
+  const double R = major_radius(count, side, m);
+  return R > 0 ? InscribedCircle{R, m} : InscribedCircle{};
+}
+
+}  // namespace
+
+double InscribedCircle::arc(Index j, double l) const {
+  const double a = 2 * std::asin(std::min(l / (2 * radius), 1.0));
+  return j == major ? 2 * kPi - a : a;
+}
+
+double InscribedCircle::half_arc_cosine(Index j, double l) const {
+  const double x = std::min(l / (2 * radius), 1.0);
+  const double c = std::max(std::sqrt((1 - x) * (1 + x)), 1e-300);
+  return j == major ? -c : c;
+}
+
+InscribedCircle inscribed_circle(std::span<const double> sides) {
+  return inscribed_circle_of(static_cast<Index>(sides.size()), [&](Index j) { return sides[static_cast<std::size_t>(j)]; });
+}
+
+InscribedCircle inscribed_circle(const Topology& t, Index loop, std::span<const double> l) {
+  if (loop < 0 || loop >= t.num_boundary_loops() || l.size() < static_cast<std::size_t>(t.num_edges)) return {};
   const Index begin = t.boundary_offsets[loop], end = t.boundary_offsets[loop + 1];
-  return inscribed_radius_of(end - begin, [&](Index j) { return l[t.corner_edge[t.boundary_corners[begin + j]]]; });
+  return inscribed_circle_of(end - begin, [&](Index j) { return l[t.corner_edge[t.boundary_corners[begin + j]]]; });
+}
+
+double inscribed_radius(std::span<const double> sides) { return inscribed_circle(sides).radius; }
+
+double inscribed_radius(const Topology& t, Index loop, std::span<const double> l) {
+  return inscribed_circle(t, loop, l).radius;
 }
 
 void effective_target(const Topology& t, const Target& target, std::span<const double> l,
@@ -453,15 +518,15 @@ void effective_target(const Topology& t, const Target& target, std::span<const d
       continue;
     }
     double before = l[t.corner_edge[t.boundary_corners[end - 1]]];  // the edge arriving at `begin`
-    const double R = inscribed_circle_loop(target, geometry, i) ? inscribed_radius(t, i, l) : 0.0;
-    if (R > 0) {
-      // The inscribed polygon: turning ±(α_in + α_out)/2, α = 2·arcsin(l/2R).
+    const InscribedCircle circle = inscribed_circle_loop(target, geometry, i) ? inscribed_circle(t, i, l) : InscribedCircle{};
+    if (circle.radius > 0) {
+      // The inscribed polygon: turning ±(α_in + α_out)/2, α the sides' central angles.
       const double sign = total > 0 ? 1.0 : -1.0;
-      auto arc = [R](double side) { return 2 * std::asin(std::min(side / (2 * R), 1.0)); };
+      double arc_before = circle.arc(end - 1 - begin, before);
       for (Index j = begin; j < end; ++j) {
-        const double after = l[t.corner_edge[t.boundary_corners[j]]];
-        K_target[t.boundary_vertices[j]] = sign * 0.5 * (arc(before) + arc(after));
-        before = after;
+        const double arc_after = circle.arc(j - begin, l[t.corner_edge[t.boundary_corners[j]]]);
+        K_target[t.boundary_vertices[j]] = sign * 0.5 * (arc_before + arc_after);
+        arc_before = arc_after;
       }
       continue;
     }

@@ -764,15 +764,16 @@ Mesh bent_disk() {
 
 /// Largest relative deviation of a loop's K̄ from the inscribed polygon's ±(α_in + α_out)/2.
 double inscribed_deviation(const Topology& t, const FlowResult& r, Index loop, double total) {
-  const double R = inscribed_radius(t, loop, r.l);
-  REQUIRE(R > 0);
+  const InscribedCircle circle = inscribed_circle(t, loop, r.l);
+  REQUIRE(circle.radius > 0);
   const double sign = total > 0 ? 1.0 : -1.0;
   const Index b = t.boundary_offsets[loop], e = t.boundary_offsets[loop + 1];
   double worst = 0;
   for (Index j = b; j < e; ++j) {
-    const double in = r.l[t.corner_edge[t.boundary_corners[j > b ? j - 1 : e - 1]]];
-    const double out = r.l[t.corner_edge[t.boundary_corners[j]]];
-    const double inscribed = sign * (std::asin(in / (2 * R)) + std::asin(out / (2 * R)));
+    const Index before = j > b ? j - 1 : e - 1;
+    const double in = circle.arc(before - b, r.l[t.corner_edge[t.boundary_corners[before]]]);
+    const double out = circle.arc(j - b, r.l[t.corner_edge[t.boundary_corners[j]]]);
+    const double inscribed = sign * 0.5 * (in + out);
     worst = std::max(worst, std::abs(r.K_target[t.boundary_vertices[j]] - inscribed) / std::abs(inscribed));
   }
   return worst;

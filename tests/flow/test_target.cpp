@@ -346,14 +346,17 @@ TEST_CASE("target: in E a Circle loop is an inscribed polygon whose layout close
       effective_target(t, target, l, K, Geometry::Euclidean);
       for (Index i = 0; i < t.num_boundary_loops(); ++i) {
         const Index b = t.boundary_offsets[i], e = t.boundary_offsets[i + 1];
-        const double R = inscribed_radius(t, i, l);
-        if (!(R > 0)) continue;  // no circle with its centre inside: the proportional rule
+        const InscribedCircle circle = inscribed_circle(t, i, l);
+        // Sides in [0.5, 1.5) on loops of at least 3 sides: the polygon inequality holds, so
+        // there is a circle (its centre inside or, past the longest side, outside).
+        REQUIRE(circle.radius > 0);
+        CHECK(circle.radius == inscribed_radius(t, i, l));
         REQUIRE(inscribed_circle_loop(target, Geometry::Euclidean, i));
         CHECK_FALSE(inscribed_circle_loop(target, Geometry::Hyperbolic, i));
         double sum = 0, arcs = 0;
         for (Index j = b; j < e; ++j) {
           sum += K[t.boundary_vertices[j]];
-          arcs += 2 * std::asin(l[t.corner_edge[t.boundary_corners[j]]] / (2 * R));
+          arcs += circle.arc(j - b, l[t.corner_edge[t.boundary_corners[j]]]);
         }
         CHECK(std::abs(sum - target.loop_total[i]) <= 1e-12);
         CHECK(std::abs(arcs - 2 * kPi) <= 1e-12);
@@ -374,8 +377,67 @@ TEST_CASE("target: in E a Circle loop is an inscribed polygon whose layout close
     CHECK(inscribed_radius(sides) == doctest::Approx(0.3 / (2 * std::sin(kPi / n))).epsilon(1e-14));
   }
   CHECK(inscribed_radius(std::vector<double>{1.0, 1.0, 5.0}) == 0);
+  CHECK(inscribed_radius(std::vector<double>{1.0, 1.0, 2.0}) == 0);  // degenerate: no polygon
   CHECK(inscribed_radius(std::vector<double>{1.0, 0.0, 1.0}) == 0);
   CHECK(inscribed_radius(std::vector<double>{1.0, 1.0}) == 0);
+}
+
+TEST_CASE("target: a polygon whose circle's centre lies outside it — the longest side's major arc") {
+  // Triangles: the circumradius abc/(4·area) whatever the angles; obtuse ones have the centre
+  // outside, beyond the longest side, which then subtends 2π − 2·arcsin(l/2R).
+  std::mt19937_64 rng(17);
+  for (int trial = 0; trial < 200; ++trial) {
+    CAPTURE(trial);
+    std::vector<double> sides(3);
+    for (double& x : sides) x = 0.05 + ricci_shapes::unit_double(rng);
+    const double a = sides[0], b = sides[1], c = sides[2], s = 0.5 * (a + b + c);
+    const double area2 = s * (s - a) * (s - b) * (s - c);
+    if (!(area2 > 1e-6)) continue;
+    const InscribedCircle circle = inscribed_circle(sides);
+    CHECK(circle.radius == doctest::Approx(a * b * c / (4 * std::sqrt(area2))).epsilon(1e-12));
+    const Index longest = static_cast<Index>(std::max_element(sides.begin(), sides.end()) - sides.begin());
+    const double m = sides[static_cast<std::size_t>(longest)];
+    const bool obtuse = m * m > a * a + b * b + c * c - m * m;
+    CHECK(circle.major == (obtuse ? longest : -1));
+  }
+  // Polygons with one long side: the arcs sum to 2π, the vertices lie on the circle, the turning
+  // (α_in + α_out)/2 closes the polygon, and the solution is continuous through the semicircle.
+  for (const int n : {3, 4, 6, 12, 50}) {
+    for (const double stretch : {0.9, 0.99, 0.999999}) {
+      CAPTURE(n);
+      CAPTURE(stretch);
+      std::vector<double> sides(static_cast<std::size_t>(n));
+      for (int j = 0; j < n; ++j) sides[static_cast<std::size_t>(j)] = 0.5 + 0.4 * std::sin(1.7 * j);
+      double others = 0;
+      for (int j = 1; j < n; ++j) others += sides[static_cast<std::size_t>(j)];
+      sides[0] = stretch * others;
+      const InscribedCircle circle = inscribed_circle(sides);
+      REQUIRE(circle.radius > 0);
+      CHECK(circle.major == 0);
+      double arcs = 0;
+      for (int j = 0; j < n; ++j) arcs += circle.arc(j, sides[static_cast<std::size_t>(j)]);
+      CHECK(std::abs(arcs - 2 * kPi) <= 1e-11);
+      std::complex<double> z = 0, dir = 1;
+      double before = circle.arc(n - 1, sides.back());
+      for (int j = 0; j < n; ++j) {
+        const double turn = 0.5 * (before + circle.arc(j, sides[static_cast<std::size_t>(j)]));
+        if (j > 0) dir *= std::polar(1.0, turn);
+        z += sides[static_cast<std::size_t>(j)] * dir;
+        before = circle.arc(j, sides[static_cast<std::size_t>(j)]);
+      }
+      CHECK(std::abs(z) <= 1e-9 * others);
+    }
+  }
+  // Through the semicircle: the radius is continuous as the longest side grows past 2R.
+  std::vector<double> sides{1.0, 1.0, 1.0, 1.0};
+  double last = 0;
+  for (double top = 2.0; top < 2.5; top += 0.01) {
+    sides[0] = top;
+    const double R = inscribed_radius(sides);
+    REQUIRE(R > 0);
+    if (last > 0) CHECK(std::abs(R - last) < 0.05);
+    last = R;
+  }
 }
 
 TEST_CASE("target: effective_target keeps the outer loop whatever the lengths do") {

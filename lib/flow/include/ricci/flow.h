@@ -32,9 +32,10 @@ enum class BoundaryMode : int {
   Circle,        ///< each loop becomes a circle, K̄ recomputed as lengths change; loop totals +2π
                  ///< for the longest loop and −2π for the others unless given. E (totals ±2π):
                  ///< the loop's polygon inscribed in a circle, K̄ = ±(α_in + α_out)/2 with
-                 ///< α = 2·arcsin(l/2R), R from Σα = 2π (inscribed_radius()); H, S, or when no
-                 ///< such circle exists: K̄ ∝ the length at each vertex (half the two incident
-                 ///< boundary edges)
+                 ///< α the sides' central angles in the circle through the polygon
+                 ///< (inscribed_circle()); H, S, or when no such circle exists (one side at least
+                 ///< as long as the others together): K̄ ∝ the length at each vertex (half the two
+                 ///< incident boundary edges)
   Geodesic,      ///< K̄ = 0 on the boundary (hyperbolic background): geodesic boundary loops
   LoopTotals,    ///< a given total curvature per loop, spread by length as for Circle
 };
@@ -87,20 +88,35 @@ TargetFileResult parse_target_text(std::string_view text, const Topology& topolo
 /// The effective K̄ for the current edge lengths l (#E) in `geometry`: target.K, except that
 /// boundary vertices of Circle / LoopTotals targets get loop_total[loop] · (½ of their two
 /// boundary edge lengths) / (loop length) — or, for Circle loops in E with total ±2π, the
-/// inscribed polygon's turning ±(α_in + α_out)/2, α = 2·arcsin(l/2R) (the polygon's vertices lie
-/// exactly on one circle, so a layout closes around every hole and the circles do not depend on
-/// the cut). Writes #V values; allocates nothing.
+/// inscribed polygon's turning ±(α_in + α_out)/2, α the sides' central angles in the circle
+/// through the polygon (inscribed_circle(); its vertices lie exactly on one circle, so a layout
+/// closes around every hole and the circles do not depend on the cut). Writes #V values; allocates nothing.
 void effective_target(const Topology& topology, const Target& target, std::span<const double> l,
                       std::span<double> K_target, Geometry geometry);
 
 /// Whether effective_target() makes boundary loop `loop` an inscribed polygon (Circle, E, total ±2π).
 bool inscribed_circle_loop(const Target& target, Geometry geometry, Index loop);
 
-/// The radius R of the circle through a closed polygon with sides l (in order; E) with its centre
-/// inside: Σ 2·arcsin(l_j/2R) = 2π. 0 when there is none (one side too long for the others) or
-/// the sides are not positive finite numbers. Monotone Newton from the lower bound, to rounding.
-double inscribed_radius(std::span<const double> sides);
+/// The circle through the vertices of a closed polygon with sides l (in order; E), the cyclic
+/// polygon with those sides: it exists, and is unique, exactly when every side is shorter than the
+/// sum of the others. Its centre lies inside (every side subtends a minor arc, Σ 2·arcsin(l_j/2R)
+/// = 2π) or, when the longest side is too long for that, outside beyond the longest side, which
+/// then subtends the major arc 2π − 2·arcsin(l_m/2R) (Σ_{j≠m} 2·arcsin(l_j/2R) = 2·arcsin(l_m/2R)).
+struct InscribedCircle {
+  double radius = 0;  ///< R; 0 when there is none (the polygon inequality fails) or a side is not positive finite
+  Index major = -1;   ///< the position of the side with the major arc; −1 when the centre is inside
+  /// The central angle of side j of length l: 2·arcsin(l/2R), or 2π minus that for `major`.
+  double arc(Index j, double l) const;
+  /// cos(arc/2): negative for `major`, its magnitude kept above 0.
+  double half_arc_cosine(Index j, double l) const;
+};
+/// Solved to rounding: monotone Newton from a bound (both branches' equations are convex or
+/// concave in the variable used), bisection where a step would leave the bracket.
+InscribedCircle inscribed_circle(std::span<const double> sides);
 /// The same for the sides of boundary loop `loop` (its edges in loop order, lengths l #E).
+InscribedCircle inscribed_circle(const Topology& topology, Index loop, std::span<const double> l);
+/// inscribed_circle(…).radius.
+double inscribed_radius(std::span<const double> sides);
 double inscribed_radius(const Topology& topology, Index loop, std::span<const double> l);
 
 struct TargetCheck {
