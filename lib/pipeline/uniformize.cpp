@@ -311,11 +311,24 @@ struct DoubledSurface {
   std::vector<Index> mirror;  // #V: each vertex's mirror copy (itself on the boundary)
 };
 
-bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& target, DoubledSurface& d) {
+// An interior edge joining two boundary vertices (a chord), or kInvalid: in the double it and its
+// mirror copy join the same two vertices, so the glued double is not a surface there.
+Index boundary_chord(const Topology& topology) {
+  for (Index e = 0; e < topology.num_edges; ++e)
+    if (topology.edge_corners[2 * e + 1] != kInvalid && topology.is_boundary_vertex(topology.edge_vertices[2 * e]) &&
+        topology.is_boundary_vertex(topology.edge_vertices[2 * e + 1]))
+      return e;
+  return kInvalid;
+}
+
+bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& target, DoubledSurface& d,
+                     std::string& why) {
   if (topology.is_closed() || !target.loop_total.empty() ||
       (target.boundary != BoundaryMode::Geodesic && target.boundary != BoundaryMode::FixedLengths &&
-       target.boundary != BoundaryMode::Free))
+       target.boundary != BoundaryMode::Free)) {
+    why = "its boundary condition is not local";
     return false;
+  }
   const Index nv = topology.num_vertices;
   d.mesh = mesh;
   d.mesh.texcoords.clear();
@@ -333,7 +346,15 @@ bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& t
     d.mesh.faces.insert(d.mesh.faces.end(), {d.mirror[mesh.faces[3 * f]], d.mirror[mesh.faces[3 * f + 2]],
                                              d.mirror[mesh.faces[3 * f + 1]]});
   TopologyResult tr = build_topology(d.mesh.faces, d.mesh.num_vertices());
-  if (tr.status != Status::Ok || !tr.topology.is_closed()) return false;
+  if (tr.status != Status::Ok || !tr.topology.is_closed()) {
+    const Index chord = boundary_chord(topology);
+    why = chord != kInvalid ? "the double is not a surface: the interior edge from vertex " +
+                                  std::to_string(topology.edge_vertices[2 * chord]) + " to vertex " +
+                                  std::to_string(topology.edge_vertices[2 * chord + 1]) +
+                                  " joins two boundary vertices, and so would its mirror copy"
+                            : "the double is not a closed surface (" + tr.message + ")";
+    return false;
+  }
   d.topology = std::move(tr.topology);
   const Index nd = d.topology.num_vertices;
   d.target.boundary = BoundaryMode::Free;
@@ -419,38 +440,60 @@ constexpr std::int64_t kMaxDoubleCrossings = 16;
 // solution restricted to the surface — u at its vertices, its boundary curvatures halved — and
 // the lengths of its edges made straight in that metric; where the straight input triangles of
 // the double do not tile it, `refinement` is the surface's part of the double's common
-// subdivision. False when any step fails (the caller falls back as before). r.flow, r.intrinsic
-// and the notes are filled in on success.
+// subdivision. False when any step fails (the caller falls back as before; `why` says which).
+// r.flow, r.intrinsic and the notes are filled in on success.
 bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
-                    UniformizeResult& r, CommonSubdivision& refinement) {
+                    UniformizeResult& r, CommonSubdivision& refinement, std::string& why) {
   DoubledSurface d;
-  if (!doubled_surface(mesh, topology, r.target, d)) return false;
+  if (!doubled_surface(mesh, topology, r.target, d, why)) return false;
   IntrinsicResult ir = mesh_intrinsic_triangulation(d.mesh, d.topology, r.geometry, mollify_margin);
-  if (ir.status != Status::Ok) return false;
+  if (ir.status != Status::Ok) {
+    why = "its intrinsic triangulation failed (" + ir.message + ")";
+    return false;
+  }
   IntrinsicTriangulation tri = std::move(ir.triangulation);
   FlowOptions capped = fo;
   capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
   const std::vector<double> u0(static_cast<std::size_t>(d.topology.num_vertices), 0.0);
   FlowResult f = solve_flow_with_flips(tri, u0, d.target, capped);
-  if (f.status != Status::Ok) return false;
+  if (f.status != Status::Ok) {
+    why = "the flow stopped there (" + std::string(status_name(f.status)) + ": " + f.message + ")";
+    return false;
+  }
   // The input's edges cross the final triangulation this many times (their normal coordinates):
   // tracing and subdividing cost that much. Past kMaxDoubleCrossings per face of the double the
   // caller's fallback is the better deal (a 7.4k-face surface stretched 54:1, tools/
   // random_surface_sweep's seed 27, grew past 24 GB in the trace and subdivision without it).
   std::int64_t crossings = 0;
   for (const std::int64_t n : tri.normal) crossings += std::max<std::int64_t>(n, 0);
-  if (crossings > kMaxDoubleCrossings * static_cast<std::int64_t>(d.topology.num_faces)) return false;
+  if (crossings > kMaxDoubleCrossings * static_cast<std::int64_t>(d.topology.num_faces)) {
+    why = "its input edges cross the flipped triangulation " + std::to_string(crossings) +
+          " times, past the limit of " + std::to_string(kMaxDoubleCrossings) + " per face";
+    return false;
+  }
   const InputEdgePaths paths = trace_input_edges(tri, d.topology);
-  if (paths.status != Status::Ok) return false;
+  if (paths.status != Status::Ok) {
+    why = "tracing its input edges failed (" + paths.message + ")";
+    return false;
+  }
   const StraightInputMetric straight = straight_input_metric(tri, f.u, d.topology, paths);
-  if (straight.status != Status::Ok) return false;
+  if (straight.status != Status::Ok) {
+    why = "straightening its input edges failed (" + straight.message + ")";
+    return false;
+  }
   if (!straight.tiles()) {
     const std::vector<double> t =
         straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, f.u, paths));
     const CommonSubdivision cs = common_subdivision(tri, f.u, d.mesh, d.topology, paths, t);
-    if (cs.status != Status::Ok) return false;
+    if (cs.status != Status::Ok) {
+      why = "its common subdivision failed (" + cs.message + ")";
+      return false;
+    }
     refinement = restrict_to_surface(cs, topology, d);
-    if (refinement.status != Status::Ok) return false;
+    if (refinement.status != Status::Ok) {
+      why = "restricting its common subdivision to the surface failed (" + refinement.message + ")";
+      return false;
+    }
   }
   // Back to the surface: its vertices keep their indices in the double, its faces come first.
   const Index nv = topology.num_vertices;
@@ -676,7 +719,8 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
       std::vector<std::string> notes = r.flow.notes;
       const std::string fallback = r.intrinsic.fallback;
       r.intrinsic.fallback.clear();
-      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement)) {
+      std::string why;
+      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement, why)) {
         notes.pop_back();  // "… circle packing was solved instead"
         notes.push_back(fallback);
         r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
@@ -691,8 +735,9 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
         return m;
       }
       r.intrinsic.used = false;
-      r.intrinsic.fallback = fallback;
+      r.intrinsic.fallback = fallback + "; on the surface's double, where boundary edges flip, " + why;
       r.flow.notes = notes;
+      if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
     }
     if (solved) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
@@ -744,14 +789,27 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
                         "; long thin parts crowd exponentially (a 100 × 1 strip: e^(−π·50)); --boundary fixed "
                         "needs no circle (the flow stopped: " + r.flow.message + ")");
       // Otherwise say what the circles ask, and what else is solved with guarantees.
-      if (!r.intrinsic.fallback.empty())
+      if (!r.intrinsic.fallback.empty()) {
+        const Index chord = boundary_chord(topology);
+        const std::string alternatives =
+            chord == kInvalid
+                ? "--boundary fixed (boundary lengths held) and --boundary free (a given K̄ per boundary vertex) "
+                  "are fixed targets, solved with flips, on the surface's double where the surface's own solve stops"
+                : "--boundary fixed and --boundary free are fixed targets solved with flips on the surface's double, "
+                  "but this surface has none: the interior edge from vertex " +
+                      std::to_string(topology.edge_vertices[2 * chord]) + " to vertex " +
+                      std::to_string(topology.edge_vertices[2 * chord + 1]) +
+                      " joins two boundary vertices (split such edges, e.g. at their midpoints, first)";
         return fail(r.flow.status, "flow",
                     r.flow.message + "; circle boundaries make each loop's target follow its lengths (the "
                     "polygon inscribed in a circle), a problem without the convexity of a fixed target, and neither "
-                    "vertex scaling with flips (" + r.intrinsic.fallback + ") nor circle packing solved it here; "
-                    "--boundary fixed (boundary lengths held) and --boundary free (a given K̄ per boundary vertex) "
-                    "are fixed targets, solved with flips, on the surface's double where the surface's own solve stops");
+                    "vertex scaling with flips (" + r.intrinsic.fallback + ") nor circle packing solved it here; " +
+                        alternatives);
+      }
     }
+    if (!r.intrinsic.fallback.empty())
+      return fail(r.flow.status, "flow",
+                  r.flow.message + "; circle packing was the fallback after " + r.intrinsic.fallback);
     return fail(r.flow.status, "flow", r.flow.message);
   }
   stage_done("flow", r.flow.brief_report());

@@ -257,6 +257,46 @@ TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is 
   CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
 }
 
+TEST_CASE("uniformize: a surface whose double is no surface (an interior edge joins two boundary vertices) says so") {
+  // The sweep's draw 2 (genus 0, 3 loops, 7447 faces, stretched 21:1) as the CLI loads it with the
+  // boundary held (ears are split only where the target makes them infeasible, and a held
+  // boundary makes none so): the edge opposite each of its four ears has both ends on the
+  // boundary, and glued to its mirror image each such edge and its copy join the same two
+  // vertices. The solve with flips on the surface stops; the failure (or, were circle packing to
+  // solve it, the notes) names such an edge instead of offering the double silently.
+  ricci_shapes::RandomSurface surface;
+  (void)sweep_draw(2, &surface);
+  const ValidateResult v = validate_mesh(surface.mesh);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  const Topology& t = v.topology;
+  UniformizeOptions o;
+  o.boundary = BoundaryMode::FixedLengths;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, t, o);
+  MESSAGE(r.brief_report() << " — " << r.message);
+  CHECK_FALSE(r.intrinsic.doubled);
+  std::string text = r.message;
+  for (const std::string& n : r.flow.notes) text += "\n" + n;
+
+  const std::string key = "the interior edge from vertex ";
+  const std::size_t at = text.find(key);
+  REQUIRE(at != std::string::npos);
+  CHECK(text.find("joins two boundary vertices") != std::string::npos);
+  // The edge it names is interior and joins two boundary vertices.
+  const Index a = std::stoi(text.substr(at + key.size()));
+  const std::size_t to = text.find(" to vertex ", at);
+  REQUIRE(to != std::string::npos);
+  const Index b = std::stoi(text.substr(to + 11));
+  CHECK(t.is_boundary_vertex(a));
+  CHECK(t.is_boundary_vertex(b));
+  bool interior_edge = false;
+  for (Index e = 0; e < t.num_edges; ++e)
+    interior_edge = interior_edge || (t.edge_corners[2 * e + 1] != kInvalid &&
+                                      std::min(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) == std::min(a, b) &&
+                                      std::max(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) == std::max(a, b));
+  CHECK(interior_edge);
+}
+
 TEST_CASE("uniformize: a circle domain whose triangles lean over its boundary maps with flips once those edges are split") {
   // The sweep's seed 44 (an annulus stretched 11:1, its circle domain's inner circle e^-13 of the
   // outer): with circle boundaries vertex scaling with flips stalls with a triangle's angle
