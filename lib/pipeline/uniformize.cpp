@@ -719,8 +719,8 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
       std::vector<std::string> notes = r.flow.notes;
       const std::string fallback = r.intrinsic.fallback;
       r.intrinsic.fallback.clear();
-      std::string why;
-      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement, why)) {
+      std::string double_failure;
+      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement, double_failure)) {
         notes.pop_back();  // "… circle packing was solved instead"
         notes.push_back(fallback);
         r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
@@ -735,7 +735,7 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
         return m;
       }
       r.intrinsic.used = false;
-      r.intrinsic.fallback = fallback + "; on the surface's double, where boundary edges flip, " + why;
+      r.intrinsic.fallback = fallback + "; on the surface's double, where boundary edges flip, " + double_failure;
       r.flow.notes = notes;
       if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
     }
