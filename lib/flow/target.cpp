@@ -386,33 +386,40 @@ std::pair<double, double> arc_excess(Index count, Side side, double R) {
   return {f, df};
 }
 
+/// The root of a function f that is positive at lo and negative at hi, from x: Newton while its
+/// steps stay inside the bracket (monotone where f is convex or concave on the side x starts
+/// from), bisection otherwise, to rounding. fdf(x) gives f and its derivative.
+template <class Fdf>
+double bracketed_newton(Fdf fdf, double x, double lo, double hi) {
+  for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
+    const auto [f, df] = fdf(x);
+    if (f == 0) return x;
+    if (f > 0)
+      lo = x;
+    else
+      hi = x;
+    double next = std::isfinite(df) && df < 0 ? x - f / df : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (next == x) break;
+    x = next;
+  }
+  return x;
+}
+
 /// The centre inside: the root of Σ 2·arcsin(l_j/2R) = 2π. f decreases in R; f(L/2π) ≥ 0
 /// (arcsin x ≥ x) and f(L/4) ≤ 0 (arcsin x ≤ πx/2), so the root lies in [lo, L/4] when f(lo) ≥ 0
-/// at lo = max(L/2π, longest/2). Newton (f is convex, so its steps from the left stay left of
-/// the root), bisection when a step would leave the bracket.
+/// at lo = max(L/2π, longest/2). Newton from lo (f is convex, so its steps from the left stay
+/// left of the root).
 template <class Side>
 double minor_radius(Index count, Side side, double lo, double hi) {
-  double R = lo;
-  for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
-    const auto [f, df] = arc_excess(count, side, R);
-    if (f == 0) return R;
-    if (f > 0)
-      lo = R;
-    else
-      hi = R;
-    double next = std::isfinite(df) && df < 0 ? R - f / df : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (next == R) break;
-    R = next;
-  }
-  return R;
+  return bracketed_newton([&](double R) { return arc_excess(count, side, R); }, lo, lo, hi);
 }
 
 /// The centre outside, beyond side m: with φ = arcsin(l_m/2R) ∈ (0, π/2] and r_j = l_j/l_m ≤ 1,
 /// F(φ) = Σ_{j≠m} 2·arcsin(r_j sin φ) − 2φ = 0. F(0) = 0 with F'(0) = 2(Σ r_j − 1) > 0 (the
 /// polygon inequality), F(π/2) < 0 (the centre is not inside), and F is concave (each
 /// arcsin(r sin φ) is, for r ≤ 1), so the positive root is unique and Newton from π/2 approaches
-/// it monotonically from the right; bisection guards against rounding.
+/// it monotonically from the right (bracketed_newton()).
 template <class Side>
 double major_radius(Index count, Side side, Index m) {
   const double lm = side(m);
@@ -427,19 +434,7 @@ double major_radius(Index count, Side side, Index m) {
     }
     return std::pair<double, double>{f, df};
   };
-  double lo = 0, hi = kPi / 2, phi = hi;
-  for (int it = 0; it < 200 && hi - lo > 1e-16 * hi; ++it) {
-    const auto [f, df] = F(phi);
-    if (f == 0) break;
-    if (f < 0)
-      hi = phi;
-    else
-      lo = phi;
-    double next = std::isfinite(df) && df < 0 ? phi - f / df : 0.5 * (lo + hi);
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (next == phi) break;
-    phi = next;
-  }
+  const double phi = bracketed_newton(F, kPi / 2, 0.0, kPi / 2);
   const double s = std::sin(phi);
   return s > 0 && std::isfinite(lm / (2 * s)) ? lm / (2 * s) : 0.0;
 }

@@ -325,10 +325,8 @@ bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& t
                      std::string& why) {
   if (topology.is_closed() || !target.loop_total.empty() ||
       (target.boundary != BoundaryMode::Geodesic && target.boundary != BoundaryMode::FixedLengths &&
-       target.boundary != BoundaryMode::Free)) {
-    why = "its boundary condition is not local";
-    return false;
-  }
+       target.boundary != BoundaryMode::Free))
+    return false;  // no double for this condition (`why` stays empty)
   const Index nv = topology.num_vertices;
   d.mesh = mesh;
   d.mesh.texcoords.clear();
@@ -440,7 +438,8 @@ constexpr std::int64_t kMaxDoubleCrossings = 16;
 // solution restricted to the surface — u at its vertices, its boundary curvatures halved — and
 // the lengths of its edges made straight in that metric; where the straight input triangles of
 // the double do not tile it, `refinement` is the surface's part of the double's common
-// subdivision. False when any step fails (the caller falls back as before; `why` says which).
+// subdivision. False when any step fails (the caller falls back as before; `why` says which, and
+// stays empty when the boundary condition has no double).
 // r.flow, r.intrinsic and the notes are filled in on success.
 bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
                     UniformizeResult& r, CommonSubdivision& refinement, std::string& why) {
@@ -735,9 +734,12 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
         return m;
       }
       r.intrinsic.used = false;
-      r.intrinsic.fallback = fallback + "; on the surface's double, where boundary edges flip, " + double_failure;
+      r.intrinsic.fallback = fallback;
       r.flow.notes = notes;
-      if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
+      if (!double_failure.empty()) {
+        r.intrinsic.fallback += "; on the surface's double, where boundary edges flip, " + double_failure;
+        if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
+      }
     }
     if (solved) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
