@@ -3,6 +3,7 @@
 #include "ricci/layout.h"
 
 #include "ceres_quiet.h"
+#include "double_double.h"
 #include "layout_internal.h"
 #include "layout_polish.h"
 #include "model_geometry.h"
@@ -156,15 +157,41 @@ struct Positions {
   Geometry g = Geometry::Euclidean;
   int dims = 2;
   std::vector<double>& x;
+  /// The low parts of the coordinates while a propagation keeps them in double-double (x the
+  /// high parts, x = fl(x + lo)); null: plain doubles.
+  double* lo = nullptr;
 
   Cx z(Index v) const { return {x[2 * v], x[2 * v + 1]}; }
   void set(Index v, Cx w) {
     x[2 * v] = w.real();
     x[2 * v + 1] = w.imag();
+    if (lo != nullptr) lo[2 * v] = lo[2 * v + 1] = 0;
   }
   V3 p(Index v) const { return {x[3 * v], x[3 * v + 1], x[3 * v + 2]}; }
   void set(Index v, const V3& w) {
     for (int d = 0; d < 3; ++d) x[3 * v + d] = w[d];
+    if (lo != nullptr) lo[3 * v] = lo[3 * v + 1] = lo[3 * v + 2] = 0;
+  }
+  /// Coordinate k of v minus that of u: from both parts when they are kept, so exact to the
+  /// rounding of the difference itself however far from the origin the two lie.
+  double diff(Index v, Index u, int k) const {
+    const auto i = static_cast<std::size_t>(dims * v + k), j = static_cast<std::size_t>(dims * u + k);
+    return lo != nullptr ? detail::dd::difference(x[i], lo[i], x[j], lo[j]) : x[i] - x[j];
+  }
+  /// Puts v at u + offset (dims coordinates), keeping u's low parts when they are kept.
+  void set_offset(Index v, Index u, const double* offset) {
+    for (int k = 0; k < dims; ++k) {
+      const auto i = static_cast<std::size_t>(dims * v + k), j = static_cast<std::size_t>(dims * u + k);
+      if (lo != nullptr) detail::dd::add(x[j], lo[j], offset[k], x[i], lo[i]);
+      else x[i] = x[j] + offset[k];
+    }
+  }
+  /// v where u is (both parts).
+  void copy(Index v, Index u) {
+    for (int k = 0; k < dims; ++k) {
+      x[static_cast<std::size_t>(dims * v + k)] = x[static_cast<std::size_t>(dims * u + k)];
+      if (lo != nullptr) lo[dims * v + k] = lo[dims * u + k];
+    }
   }
   bool finite(Index v) const {
     for (int d = 0; d < dims; ++d)
@@ -199,14 +226,17 @@ struct Positions {
           l[t.corner_edge[next_corner(o)]]);
     return v;
   }
-  /// Places x so that d(p, x) = rp, d(q, x) = rq, x on the left of p → q.
+  /// Places x so that d(p, x) = rp, d(q, x) = rq, x on the left of p → q. Each geometry forms the
+  /// new vertex as p plus an offset computed from q − p (diff()), never from the two positions
+  /// themselves: with double-double positions the offset's rounding is the only error a
+  /// placement adds, relative to the triangle's own size.
   void place(Index v, Index pv, Index qv, double rp, double rq) {
     switch (g) {
       case Geometry::Euclidean: {
         // In the frame of the placed edge (P at 0, Q on +x at distance s, measured): x = along +
         // i·across, along from the cosine law (absolute error about ε·max length), across = 2·area/s
         // with the area by Kahan's stable Heron formula (relative error about ε), no trigonometry.
-        const Cx P = z(pv), d = z(qv) - P;
+        const Cx d(diff(qv, pv, 0), diff(qv, pv, 1));
         const double s = euclidean_norm(d);
         if (!(s > 0) || !std::isfinite(s)) {  // the edge's ends coincide in double: no frame
           set(v, Cx(kNaN, kNaN));
@@ -214,7 +244,9 @@ struct Positions {
         }
         const double along = ((rp - rq) * (rp + rq) + s * s) / (2 * s);
         const double across = 2 * heron_area(s, rp, rq) / s;
-        set(v, P + (d / s) * Cx(along, across));
+        const Cx offset = (d / s) * Cx(along, across);
+        const double o[2] = {offset.real(), offset.imag()};
+        set_offset(v, pv, o);
         break;
       }
       case Geometry::Hyperbolic: {
@@ -223,33 +255,49 @@ struct Positions {
         // triangle's angle at P. cos θ and sin θ come from the half-angle formula's two products
         // (sin²(θ/2) ∝ sinh(σ−s)·sinh(σ−rp), cos²(θ/2) ∝ sinh σ·sinh(σ−rq), σ the half perimeter)
         // without forming θ: no arctangent, sine or cosine, and θ as exact as the formula's.
-        const Cx P = z(pv);
-        const Cx w = to_origin(P, z(qv));
+        // With d = Q − P: w = d / ((1 − |P|²) − P̄d), and the vertex z = from_origin(P, local) is
+        // P + local·(1 − |P|²)/(1 + P̄·local); 1 − |P|² from both parts of P.
+        const Cx P = z(pv), d(diff(qv, pv, 0), diff(qv, pv, 1));
+        const std::size_t i = 2 * static_cast<std::size_t>(pv);
+        const double room = lo != nullptr ? detail::dd::one_minus_norm(x[i], lo[i], x[i + 1], lo[i + 1])
+                                          : detail::dd::one_minus_norm(x[i], 0, x[i + 1], 0);
+        const Cx w = disk_quotient(d, room - std::conj(P) * d);
         const double T = std::sqrt(std::norm(w));
-        Cx local;
-        if (T > 0 && T < 1 && rp < 300 && rq < 300) {
-          local = (std::tanh(rp / 2) / T) * w * turn_at_first(g, rq, 2 * std::atanh(T), rp);
+        if (T > 0 && T < 1 && rp < 300 && rq < 300 && room > 0) {
+          const Cx local = (std::tanh(rp / 2) / T) * w * turn_at_first(g, rq, 2 * std::atanh(T), rp);
+          const Cx offset = disk_quotient(local * room, 1.0 + std::conj(P) * local);
+          const double o[2] = {offset.real(), offset.imag()};
+          set_offset(v, pv, o);
         } else {
           // Ends that coincide or lie a disk apart in double, or lengths beyond the disk's
           // resolution (tanh(rp/2) rounds to 1 from rp ≈ 38): by the angle itself, which stays
           // finite there; the measured layout shows what rounding did.
           const double s = T < 1 ? 2 * std::atanh(T) : kInf;
-          local = std::polar(std::tanh(rp / 2), std::arg(w) + angle_from_lengths(g, rq, std::min(s, 1e300), rp));
+          const Cx local = std::polar(std::tanh(rp / 2), std::arg(w) + angle_from_lengths(g, rq, std::min(s, 1e300), rp));
+          set(v, from_origin(P, local));
         }
-        set(v, from_origin(P, local));
         break;
       }
       default: {
-        const V3 P = p(pv), Q = p(qv);
-        const V3 n = cross(P, Q);
-        const double s = std::atan2(norm(n), dot(P, Q));
+        // P, its tangent U towards Q and W = P × U; the vertex is cos rp·P + sin rp·(cos θ U +
+        // sin θ W), formed as P + offset and brought back onto the sphere by a factor 1 + k
+        // (|P + offset|² = 1 + δ; k = 1/√(1 + δ) − 1 without cancellation).
+        const V3 P = p(pv), d{diff(qv, pv, 0), diff(qv, pv, 1), diff(qv, pv, 2)};
+        const V3 n = cross(P, d);  // P × Q
+        const double s = std::atan2(norm(n), 1 + dot(P, d));
         const V3 U = normalized(cross(n, P));  // tangent at P towards Q
         const V3 W = cross(P, U);
         const Cx turn = turn_at_first(g, rq, s, rp);
-        const double c = turn.real(), sn = turn.imag(), cr = std::cos(rp), sr = std::sin(rp);
-        V3 X;
-        for (int d = 0; d < 3; ++d) X[d] = cr * P[d] + sr * (c * U[d] + sn * W[d]);
-        set(v, normalized(X));
+        const double c = turn.real(), sn = turn.imag(), h = std::sin(rp / 2), sr = std::sin(rp);
+        const double cr1 = -2 * h * h;  // cos rp − 1
+        double o[3];
+        for (int k = 0; k < 3; ++k) o[k] = cr1 * P[k] + sr * (c * U[k] + sn * W[k]);
+        // |P|² − 1 is below 2⁻¹⁰⁰ with both parts kept; with doubles only, P's own rounding.
+        const double gap = lo != nullptr ? 0.0 : dot(P, P) - 1;
+        const double delta = gap + 2 * (P[0] * o[0] + P[1] * o[1] + P[2] * o[2]) + (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+        const double root = std::sqrt(1 + delta), k1 = -delta / (root * (1 + root));
+        for (int k = 0; k < 3; ++k) o[k] = o[k] * (1 + k1) + P[k] * k1;
+        set_offset(v, pv, o);
         break;
       }
     }
@@ -1186,17 +1234,30 @@ struct PropagationCosts {
 /// exactly Dijkstra's; within a bucket faces come out first in first out. With all costs 1 (H)
 /// the buckets are the breadth-first levels. The buckets form a ring longer than the largest
 /// entering cost, so the work is linear in the faces.
+///
+/// E carries each face's orientation along the tree of faces taken: the direction of its side
+/// from corner 0 to corner 1, a unit complex number, is its parent's turned by the two faces'
+/// angles alone (across the shared edge: side directions e^{i(π − θ₁)}, e^{i(π + θ₀)} within a
+/// face, reversed across), and the new vertex is its edge's first end plus length × direction.
+/// Positions never feed back into directions: placing a vertex from the measured direction of
+/// its two placed neighbours (trilateration, H and S here) turns every later face by their
+/// accumulated misplacement over one edge length, an error that grows geometrically with the
+/// depth (×10 per ~55 faces on a 425k-face disk: 1.5e-8 at depth 260), where this one grows
+/// only as the rounding of the turns adds up (4e-11 there). The positions are double-double
+/// (Positions::lo) while the faces are developed, so differences of far-out neighbours keep
+/// their digits in H and S too.
 class Propagation {
  public:
   Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed,
               bool keep_going)
-      : t_(t), g_(g), l_(l), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
+      : t_(t), g_(g), l_(l), theta_(theta), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
     const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
     placed_.resize(nv);
     taken_.resize(nf);
     depth_.resize(nf);
     reached_.resize(nf);
     via_.resize(nf);
+    if (g == Geometry::Euclidean) side_.resize(nf);
     buckets_.resize(static_cast<std::size_t>(costs_.most) + 2);
   }
 
@@ -1209,6 +1270,18 @@ class Propagation {
     std::fill(reached_.begin(), reached_.end(), kInf);
     out.unresolved_vertices = 0;
     for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
+    // Double-double positions while the faces are developed (the seed's as placed, low parts 0);
+    // P keeps the rounded ones.
+    low_.assign(P.x.size(), 0.0);
+    P.lo = low_.data();
+    struct Plain {
+      Positions& P;
+      ~Plain() { P.lo = nullptr; }
+    } plain{P};
+    if (g_ == Geometry::Euclidean) {
+      const Cx d = P.z(t.corner_vertex[3 * seed_ + 1]) - P.z(t.corner_vertex[3 * seed_]);
+      side_[seed_] = std::abs(d) > 0 ? d / std::abs(d) : Cx(1, 0);
+    }
     depth_[seed_] = 0;
     reached_[seed_] = 0;
     via_[seed_] = kInvalid;
@@ -1224,6 +1297,7 @@ class Propagation {
         if (taken_[f] || cost > reached_[f]) continue;
         taken_[f] = 1;
         out.depth = std::max(out.depth, depth_[f]);
+        if (via_[f] != kInvalid && g_ == Geometry::Euclidean) orient(f);
         if (via_[f] != kInvalid && !placed_[t.corner_vertex[via_[f]]] && !place(P, via_[f], out)) return false;
         for (int k = 0; k < 3; ++k) {
           const Index o = t.opposite[3 * f + k];
@@ -1250,14 +1324,39 @@ class Propagation {
   }
 
  private:
+  /// e^{iθ} of corner c.
+  Cx turn(Index c) const { return std::polar(1.0, theta_[c]); }
+  /// The direction of face f's side from corner k to corner k + 1, relative to its side 0 → 1.
+  Cx side(Index f, int k) const {
+    if (k == 0) return {1, 0};
+    return k == 1 ? -std::conj(turn(3 * f + 1)) : -turn(3 * f);
+  }
+  /// side_[f] from the face it was reached from (taken before it): the shared edge runs from
+  /// corner k + 1 to k + 2 there and from j + 1 to j + 2, reversed, in f.
+  void orient(Index f) {
+    const Index o = via_[f], po = t_.opposite[o];
+    const Index pf = corner_face(po);
+    const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3);
+    const Cx d = -side_[pf] * side((pf), (k + 1) % 3) * std::conj(side(f, (j + 1) % 3));
+    side_[f] = d / std::abs(d);
+  }
   bool place(Positions& P, Index o, Layout& out) {
-    const Index v = P.place_corner(t_, l_, o);
+    Index v;
+    if (g_ == Geometry::Euclidean) {
+      // From the end a at corner j + 1: along its side to corner j + 2 turned by its angle.
+      const Index f = corner_face(o), a = next_corner(o);
+      const Cx step = side_[f] * side(f, static_cast<int>(a % 3)) * turn(a) * l_[t_.corner_edge[prev_corner(o)]];
+      const double offset[2] = {step.real(), step.imag()};
+      v = t_.corner_vertex[o];
+      P.set_offset(v, t_.corner_vertex[a], offset);
+    } else {
+      v = P.place_corner(t_, l_, o);
+    }
     placed_[v] = 1;
     if (P.finite(v)) return true;
     if (keep_going_) {
       // At the first end of the edge it was placed from: finite, and its faces measure as missed.
-      const Index from = t_.corner_vertex[next_corner(o)];
-      for (int d = 0; d < P.dims; ++d) P.x[static_cast<std::size_t>(P.dims * v + d)] = P.x[static_cast<std::size_t>(P.dims * from + d)];
+      P.copy(v, t_.corner_vertex[next_corner(o)]);
       ++out.unresolved_vertices;
       return true;
     }
@@ -1272,13 +1371,15 @@ class Propagation {
 
   const Topology& t_;
   Geometry g_;
-  std::span<const double> l_;
+  std::span<const double> l_, theta_;
   Index seed_;
   bool keep_going_;
   PropagationCosts costs_;
+  std::vector<Cx> side_;  // E: each taken face's direction of its side from corner 0 to corner 1
   std::vector<std::uint8_t> placed_, taken_;
   std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
   std::vector<double> reached_;
+  std::vector<double> low_;  // the low parts of the positions during run()
   std::vector<std::vector<std::pair<double, Index>>> buckets_;
 };
 

@@ -19,19 +19,25 @@
 // dual graph (Dijkstra's costs in linear time by Dial's buckets; each face costs 1 − log sin of
 // its smallest angle in E and S, so slivers
 // are entered last, and 1 in H, which makes it breadth-first): every face reached across an edge
-// of a face already taken gets its third vertex placed, when that vertex has no position yet, as an intersection of the two
-// geodesic circles about the edge's placed ends (radii: the face's two other edge lengths; on the
-// left of the edge, since faces are counter-clockwise). The intersection is solved in closed form:
-//   E  in the frame of the placed edge (its length measured from the positions): the step along
-//      it from the cosine law and the step across it as twice the area (Kahan's stable Heron
-//      formula) over its length — no trigonometry;
-//   H  a Möbius map z ↦ (z − p)/(1 − p̄ z) moves the first end p to 0, a rotation puts the second
-//      end on the positive real axis; there the circle about 0 of radius r is the euclidean circle
-//      |z| = tanh(r/2) and the point on it at the hyperbolic angle found as in E (hyperbolic
-//      half-angle formula; Möbius maps are conformal) is the intersection; the inverse maps take
+// of a face already taken gets its third vertex placed, when that vertex has no position yet:
+//   E  by the face's orientation, carried along the faces taken: the direction of each face's
+//      side 0 → 1 (a unit complex number) is its parent's turned by the two faces' angles alone,
+//      and the vertex is its edge's first end plus the edge length times that direction turned by
+//      the corner's angle. Positions never feed back into directions, so the error grows only as
+//      the turns' rounding adds up (placing from the measured directions of placed neighbours
+//      instead turns every later face by their misplacement: geometric growth with the depth);
+//   H  as an intersection of the two geodesic circles about the edge's placed ends (radii: the
+//      face's two other edge lengths; on the left of the edge, since faces are counter-clockwise),
+//      in closed form: a Möbius map z ↦ (z − p)/(1 − p̄ z) moves the first end p to 0, a rotation
+//      puts the second end on the positive real axis; there the circle about 0 of radius r is the
+//      euclidean circle |z| = tanh(r/2) and the point on it at the angle of the hyperbolic
+//      half-angle formula (Möbius maps are conformal) is the intersection; the inverse maps take
 //      it back;
 //   S  directly on the unit sphere: the point at great-circle distance r from P in the tangent
 //      direction turned by the spherical angle from the direction towards Q.
+// Positions are double-double (about 106 bits) while the faces are developed: each vertex is its
+// edge's first end plus an offset, and differences of placed neighbours keep the digits that
+// double coordinates far from the origin would round away; the layout returns them rounded.
 // The default seed is a central face: the face minimising max(d(f, a), d(f, b)) for the two ends
 // a, b of a double-sweep breadth-first diameter of the dual graph (a cheap approximation of the
 // face of least eccentricity), so the propagation depth — along which rounding and the metric's
@@ -154,10 +160,12 @@ struct LayoutOptions {
   bool sphere_mobius = true;
   /// The refinement after the propagation (patches, shape solve, sweeps, global steps below) runs
   /// only while the layout's relative edge-length error exceeds the edges' rounding floor
-  /// (Layout::max_error_above_rounding) by more than this. The propagation leaves the residual
-  /// curvature of the metric's double-precision lengths where its front closes on itself (one seam
-  /// of edges): about 1e-11 on 50k faces, 1e-8 on 400k; below this threshold one pass over the
-  /// faces is the layout. 0: refine every layout down to its rounding floor.
+  /// (Layout::max_error_above_rounding) by more than this. One E propagation reproduces a
+  /// converged metric to about 1e-11 on 50k–425k faces (tools/BENCHMARK-pipeline.md); H and S
+  /// propagations leave the residual curvature of the metric's double-precision lengths where
+  /// their front closes on itself (one seam of edges), 1e-10–1e-9 on 100k–330k faces; below this
+  /// threshold one pass over the faces is the layout. 0: refine every layout down to its rounding
+  /// floor.
   double refine_above = 1e-10;
   /// E, H and S: sweeps of nonlinear Gauss–Seidel — each vertex in turn takes a Gauss–Newton step
   /// on Σ ((d(x, x_j) − l_j)/l_j)² over its edges (H: in the Poincaré disk; S: in its tangent
@@ -190,8 +198,8 @@ struct LayoutOptions {
   /// 4000) patches (none below 8000 faces) and one per 10k faces above 320k faces (at most 256),
   /// and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
   int patches = -1;
-  /// A vertex whose position leaves the range of double precision (E: placed from an edge whose
-  /// ends rounded onto one point; H: at or beyond the unit circle) fails the layout
+  /// A vertex whose position leaves the range of double precision (E: not finite; H: at or
+  /// beyond the unit circle) fails the layout
   /// (NumericalFailure) by default. true: it is put on the first end of the edge it was placed
   /// from and counted (Layout::unresolved_vertices), so the layout completes with those faces
   /// missed, for layout_atlas() to lay them out in charts of their own. Such a layout is not
