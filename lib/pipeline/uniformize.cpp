@@ -1543,17 +1543,23 @@ bool cut_and_lay_out(LayoutRun& run) {
     }
   }
   // Faces the root chart's coordinates cannot resolve get charts of their own: where the layout
-  // misses the limit, and where it passes but flips a face. The metric is converged, so each
-  // triangle has positive area and a flipped face is one the coordinates cannot resolve (a sliver
-  // far out in the disk); the atlas is kept then only when it flips none.
+  // misses the limit; where it passes but flips a face (the metric is converged, so each triangle
+  // has positive area and a flipped face is one the coordinates cannot resolve: a sliver far out
+  // in the disk); and where it passes but some face misses the charts' own limit
+  // (AtlasOptions::limit, 1e-9: a chart's coordinates should resolve every face it holds). In the
+  // last two cases the atlas is kept only when it flips no more faces and, for the last, is more
+  // accurate than the one chart.
   const bool flips_only = !misses(r.layout) && r.layout.flipped_faces > 0;
-  if (!excused && options.use_atlas && !sphere && (misses(r.layout) || flips_only)) {
+  const bool coarse = !misses(r.layout) && !(r.layout.max_edge_length_error <= options.atlas.limit);
+  if (!excused && options.use_atlas && !sphere && (misses(r.layout) || flips_only || coarse)) {
     AtlasOptions ao = options.atlas;
     if (r.layout.by_frames) ao.frames = run.layout_frames;
     r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, ao);
-    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error &&
-                  (!flips_only || r.atlas.flipped_faces == 0);
-    stage_done("atlas", r.atlas.message + (flips_only && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
+    const bool better = misses(r.layout) || (r.atlas.flipped_faces <= r.layout.flipped_faces &&
+                                             (flips_only ? r.atlas.flipped_faces == 0
+                                                         : r.atlas.max_edge_length_error < r.layout.max_edge_length_error));
+    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error && better;
+    stage_done("atlas", r.atlas.message + (!misses(r.layout) && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
   }
   if (!excused && !r.has_atlas && misses(r.layout)) {
     r.layout.status = Status::NumericalFailure;

@@ -177,24 +177,29 @@ TEST_CASE("uniformize: bordered surfaces whose triangles lean on the boundary ar
   }
 }
 
-TEST_CASE("uniformize: a layout that passes the edge limit but flips a face far out in the disk gets an atlas, and its seed check compares where both layouts resolve") {
+TEST_CASE("uniformize: a layout that passes the edge limit but not the charts' own limit far out in the disk gets an atlas, and its seed check compares where both layouts resolve") {
   // tools/random_surface_sweep's seed 51 (genus 8, 4 loops, 4029 faces, stretched 4.8:1), solved
   // on the double: one chart reaches hyperbolic distance 15 and there resolves a sliver of the
-  // common subdivision only to 3e-7 of its edges, under the 1e-6 gate but flipped. The layout
-  // from the farthest seed reaches twice as far, where its coordinates resolve next to nothing.
+  // common subdivision only to about 3e-7 of its edges — under the 1e-6 gate, above the 1e-9 that
+  // a chart should resolve each of its faces to. The layout from the farthest seed reaches twice
+  // as far, where its coordinates resolve next to nothing.
   const DrawRun d = default_job(51);
   const ValidateResult& v = d.v;
   const UniformizeResult& r = d.r;
   const UniformizeOptions o;
   REQUIRE(v.topology.genus() == 8);
   CHECK(r.intrinsic.doubled);
-  // The one chart passes the gate with a flipped face: the atlas is made all the same.
+  // The one chart passes the gate but not the charts' limit: the atlas is made, and kept as the
+  // more accurate.
+  MESSAGE(r.brief_report() << "; one chart " << r.layout.max_edge_length_error << " with " << r.layout.flipped_faces
+                           << " flipped; " << r.atlas.message);
   CHECK(r.layout.max_edge_length_error <= o.max_layout_error);
-  CHECK(r.layout.flipped_faces > 0);
+  CHECK(r.layout.max_edge_length_error > o.atlas.limit);
   REQUIRE(r.has_atlas);
   CHECK(r.atlas.num_charts() > 1);
   CHECK(r.atlas.flipped_faces == 0);
   CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
+  CHECK(r.atlas.max_edge_length_error < r.layout.max_edge_length_error);
   // Without atlases, one chart (refined, since no vertex is kept aside for another chart).
   UniformizeOptions one = o;
   one.use_atlas = false;
@@ -333,7 +338,13 @@ TEST_CASE("uniformize: a circle domain whose triangles lean over its boundary ma
   CHECK(r.intrinsic.refined);
   for (const Index f : r.refinement.face_input) CHECK((f >= 0 && f < v.topology.num_faces));
   if (r.has_atlas) {
-    CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
+    // Every face within the charts' limit but the few slivers of the common subdivision the atlas
+    // reports as unresolvable (their lengths close to about 1e-9 only, even in their own chart).
+    MESSAGE(r.atlas.message);
+    CHECK(r.atlas.unresolvable_faces * 100 < r.disk.num_faces);
+    if (r.atlas.unresolvable_faces == 0) CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
+    else CHECK(r.atlas.unresolvable_error <= 1e-8);
+    CHECK(r.atlas.max_edge_length_error <= std::max(o.atlas.limit, r.atlas.unresolvable_error));
     CHECK(r.atlas.flipped_faces == 0);
   } else {
     CHECK((r.layout.max_edge_length_error <= o.max_layout_error || r.layout_excused.edges > 0));
