@@ -186,6 +186,12 @@ struct Positions {
       else x[i] = x[j] + offset[k];
     }
   }
+  /// H: 1 − |z|² of v, from both parts when they are kept.
+  double room(Index v) const {
+    const std::size_t i = 2 * static_cast<std::size_t>(v);
+    return lo != nullptr ? detail::dd::one_minus_norm(x[i], lo[i], x[i + 1], lo[i + 1])
+                         : detail::dd::one_minus_norm(x[i], 0, x[i + 1], 0);
+  }
   /// v where u is (both parts).
   void copy(Index v, Index u) {
     for (int k = 0; k < dims; ++k) {
@@ -258,14 +264,12 @@ struct Positions {
         // With d = Q − P: w = d / ((1 − |P|²) − P̄d), and the vertex z = from_origin(P, local) is
         // P + local·(1 − |P|²)/(1 + P̄·local); 1 − |P|² from both parts of P.
         const Cx P = z(pv), d(diff(qv, pv, 0), diff(qv, pv, 1));
-        const std::size_t i = 2 * static_cast<std::size_t>(pv);
-        const double room = lo != nullptr ? detail::dd::one_minus_norm(x[i], lo[i], x[i + 1], lo[i + 1])
-                                          : detail::dd::one_minus_norm(x[i], 0, x[i + 1], 0);
-        const Cx w = disk_quotient(d, room - std::conj(P) * d);
+        const double gap = room(pv);
+        const Cx w = disk_quotient(d, gap - std::conj(P) * d);
         const double T = std::sqrt(std::norm(w));
-        if (T > 0 && T < 1 && rp < 300 && rq < 300 && room > 0) {
+        if (T > 0 && T < 1 && rp < 300 && rq < 300 && gap > 0) {
           const Cx local = (std::tanh(rp / 2) / T) * w * turn_at_first(g, rq, 2 * std::atanh(T), rp);
-          const Cx offset = disk_quotient(local * room, 1.0 + std::conj(P) * local);
+          const Cx offset = disk_quotient(local * gap, 1.0 + std::conj(P) * local);
           const double o[2] = {offset.real(), offset.imag()};
           set_offset(v, pv, o);
         } else {
@@ -1235,17 +1239,19 @@ struct PropagationCosts {
 /// the buckets are the breadth-first levels. The buckets form a ring longer than the largest
 /// entering cost, so the work is linear in the faces.
 ///
-/// E carries each face's orientation along the tree of faces taken: the direction of its side
-/// from corner 0 to corner 1, a unit complex number, is its parent's turned by the two faces'
-/// angles alone (across the shared edge: side directions e^{i(π − θ₁)}, e^{i(π + θ₀)} within a
-/// face, reversed across), and the new vertex is its edge's first end plus length × direction.
-/// Positions never feed back into directions: placing a vertex from the measured direction of
-/// its two placed neighbours (trilateration, H and S here) turns every later face by their
-/// accumulated misplacement over one edge length, an error that grows geometrically with the
-/// depth (×10 per ~55 faces on a 425k-face disk: 1.5e-8 at depth 260), where this one grows
-/// only as the rounding of the turns adds up (4e-11 there). The positions are double-double
-/// (Positions::lo) while the faces are developed, so differences of far-out neighbours keep
-/// their digits in H and S too.
+/// E and H carry each face's orientation along the tree of faces taken: the direction of its
+/// side from corner 0 to corner 1 at corner 0's vertex, a unit complex number, is its parent's
+/// turned by the two faces' angles (side directions e^{i(π − θ₁)}, e^{i(π + θ₀)} within a face,
+/// reversed across the shared edge) and, in H, by the rotation between the disk isometries that
+/// move the two vertices to the origin (transport(): a smooth function of the points); the new
+/// vertex is its edge's first end plus the edge's length (H: tanh of half of it, moved there by
+/// the isometry) in that direction. Differences of positions never set a direction: placing a
+/// vertex from the measured direction of its two placed neighbours (trilateration, S here) turns
+/// every later face by their accumulated misplacement over one edge length, an error that grows
+/// geometrically with the depth (×10 per ~55 faces on a 425k-face E disk: 1.5e-8 at depth 260),
+/// where this one grows only as the rounding of the turns adds up (4e-11 there). The positions
+/// are double-double (Positions::lo) while the faces are developed, so far-out neighbours keep
+/// their digits.
 class Propagation {
  public:
   Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed,
@@ -1257,7 +1263,7 @@ class Propagation {
     depth_.resize(nf);
     reached_.resize(nf);
     via_.resize(nf);
-    if (g == Geometry::Euclidean) side_.resize(nf);
+    if (g != Geometry::Spherical) side_.resize(nf);
     buckets_.resize(static_cast<std::size_t>(costs_.most) + 2);
   }
 
@@ -1278,8 +1284,11 @@ class Propagation {
       Positions& P;
       ~Plain() { P.lo = nullptr; }
     } plain{P};
-    if (g_ == Geometry::Euclidean) {
-      const Cx d = P.z(t.corner_vertex[3 * seed_ + 1]) - P.z(t.corner_vertex[3 * seed_]);
+    if (g_ != Geometry::Spherical) {
+      // The seed's side 0 → 1 at its corner 0 (H: z1 moved by the isometry taking z0 to 0).
+      const Index a = t.corner_vertex[3 * seed_], b = t.corner_vertex[3 * seed_ + 1];
+      Cx d = P.z(b) - P.z(a);
+      if (g_ == Geometry::Hyperbolic) d = disk_quotient(d, P.room(a) - std::conj(P.z(a)) * d);
       side_[seed_] = std::abs(d) > 0 ? d / std::abs(d) : Cx(1, 0);
     }
     depth_[seed_] = 0;
@@ -1297,8 +1306,7 @@ class Propagation {
         if (taken_[f] || cost > reached_[f]) continue;
         taken_[f] = 1;
         out.depth = std::max(out.depth, depth_[f]);
-        if (via_[f] != kInvalid && g_ == Geometry::Euclidean) orient(f);
-        if (via_[f] != kInvalid && !placed_[t.corner_vertex[via_[f]]] && !place(P, via_[f], out)) return false;
+        if (via_[f] != kInvalid && !develop(P, f, out)) return false;
         for (int k = 0; k < 3; ++k) {
           const Index o = t.opposite[3 * f + k];
           if (o == kInvalid) continue;
@@ -1326,32 +1334,61 @@ class Propagation {
  private:
   /// e^{iθ} of corner c.
   Cx turn(Index c) const { return std::polar(1.0, theta_[c]); }
-  /// The direction of face f's side from corner k to corner k + 1, relative to its side 0 → 1.
-  Cx side(Index f, int k) const {
-    if (k == 0) return {1, 0};
-    return k == 1 ? -std::conj(turn(3 * f + 1)) : -turn(3 * f);
+  /// H: the rotation R(a, b) = u/ū, u = 1 − āb, by which the disk isometry moving b to the
+  /// origin turns directions against the one moving a there: at b, the direction of b → a is
+  /// −R(a, b) times that of a → b at a. A smooth function of the two points (no difference of
+  /// them divided by their distance). E: 1.
+  Cx transport(const Positions& P, Index a, Index b) const {
+    if (g_ != Geometry::Hyperbolic) return {1, 0};
+    const Cx d(P.diff(b, a, 0), P.diff(b, a, 1));
+    const Cx u = P.room(a) - std::conj(P.z(a)) * d;
+    const double n = std::norm(u);
+    return n > 0 ? u * u / n : Cx(1, 0);
   }
-  /// side_[f] from the face it was reached from (taken before it): the shared edge runs from
-  /// corner k + 1 to k + 2 there and from j + 1 to j + 2, reversed, in f.
-  void orient(Index f) {
-    const Index o = via_[f], po = t_.opposite[o];
-    const Index pf = corner_face(po);
-    const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3);
-    const Cx d = -side_[pf] * side((pf), (k + 1) % 3) * std::conj(side(f, (j + 1) % 3));
-    side_[f] = d / std::abs(d);
+  /// The direction of taken face f's side from corner c to corner c + 1, at corner c's vertex:
+  /// side_[f] turned by f's angles (E; H also carried to that vertex).
+  Cx side_at(const Positions& P, Index f, int c) const {
+    const Cx w = side_[f];
+    if (c == 0) return w;
+    const Index v0 = t_.corner_vertex[3 * f], vc = t_.corner_vertex[3 * f + c];
+    return c == 1 ? -transport(P, v0, vc) * w * std::conj(turn(3 * f + 1)) : -transport(P, v0, vc) * w * turn(3 * f);
   }
-  bool place(Positions& P, Index o, Layout& out) {
-    Index v;
-    if (g_ == Geometry::Euclidean) {
-      // From the end a at corner j + 1: along its side to corner j + 2 turned by its angle.
-      const Index f = corner_face(o), a = next_corner(o);
-      const Cx step = side_[f] * side(f, static_cast<int>(a % 3)) * turn(a) * l_[t_.corner_edge[prev_corner(o)]];
+  /// Face f, reached across the edge opposite its corner o = via_[f] from face pf (taken before
+  /// it, where that edge runs from corner k + 1 at vertex a to k + 2 at b): places the vertex of o
+  /// from b (E, H: along b → a turned by the angle at b; S: from both ends' positions) and sets
+  /// side_[f] from the direction of b → a at b, f's side j + 1 → j + 2.
+  bool develop(Positions& P, Index f, Layout& out) {
+    const Index o = via_[f];
+    if (g_ == Geometry::Spherical) return placed_[t_.corner_vertex[o]] || place(P, o, P.place_corner(t_, l_, o), out);
+    const Index po = t_.opposite[o], pf = corner_face(po);
+    const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
+    const Index a = t_.corner_vertex[next_corner(po)], b = t_.corner_vertex[prev_corner(po)];
+    const Cx at_b = -transport(P, a, b) * side_at(P, pf, (k + 1) % 3);
+    if (!placed_[t_.corner_vertex[o]]) {
+      const Cx dir = at_b * turn(next_corner(o));
+      const double len = l_[t_.corner_edge[prev_corner(o)]];
+      Cx step = dir * len;
+      if (g_ == Geometry::Hyperbolic) {
+        const Cx local = dir * std::tanh(len / 2);
+        step = disk_quotient(local * P.room(b), 1.0 + std::conj(P.z(b)) * local);
+      }
       const double offset[2] = {step.real(), step.imag()};
-      v = t_.corner_vertex[o];
-      P.set_offset(v, t_.corner_vertex[a], offset);
-    } else {
-      v = P.place_corner(t_, l_, o);
+      P.set_offset(t_.corner_vertex[o], b, offset);
+      if (!place(P, o, t_.corner_vertex[o], out)) return false;
     }
+    // side_at(f, c) = at_b: undo its turns (H: carried back to corner 0's vertex).
+    Cx w = at_b;
+    if (c != 0) {
+      const Index v0 = t_.corner_vertex[3 * f], vc = t_.corner_vertex[3 * f + c];
+      w = c == 1 ? -at_b * turn(3 * f + 1) * transport(P, vc, v0) : -at_b * std::conj(turn(3 * f)) * transport(P, vc, v0);
+    }
+    const double n = std::abs(w);
+    side_[f] = n > 0 && std::isfinite(n) ? w / n : Cx(1, 0);
+    return true;
+  }
+  /// Marks vertex v of corner o placed and checks it: a position outside double range fails the
+  /// propagation, or (keep_going) is put on the end of the edge it was placed from and counted.
+  bool place(Positions& P, Index o, Index v, Layout& out) {
     placed_[v] = 1;
     if (P.finite(v)) return true;
     if (keep_going_) {
@@ -1375,7 +1412,7 @@ class Propagation {
   Index seed_;
   bool keep_going_;
   PropagationCosts costs_;
-  std::vector<Cx> side_;  // E: each taken face's direction of its side from corner 0 to corner 1
+  std::vector<Cx> side_;  // E, H: each taken face's direction of its side 0 → 1 at corner 0's vertex
   std::vector<std::uint8_t> placed_, taken_;
   std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
   std::vector<double> reached_;
