@@ -4,7 +4,7 @@
 // A driver, not a test: it never fails on a slow or non-converging input, it reports it.
 //
 // How to run (Release build; the one command the README documents):
-//   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release && cmake --build build -j --target bench_pipeline
+//   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DRICCI_PEERS=ON && cmake --build build -j --target bench_pipeline
 //   OMP_WAIT_POLICY=active build/tools/bench_pipeline --sphere --out tools/BENCHMARK-pipeline.md
 // Options:
 //   MESHES_DIR         the shared meshes (default ../shared/meshes beside the repository)
@@ -21,6 +21,11 @@
 //   --cli PATH         the ricci CLI whose whole `uniformize --no-pictures` process is timed per input
 //                      (default: the one built beside this benchmark; none when it is not built)
 //   --cli-max-faces N  time the CLI only on inputs up to N faces (default 500000; 0: never)
+//   --peer PATH        tools/peer_cgal (CGAL's LSCM and discrete conformal map), timed on every disk
+//                      input in the same run: face.obj, its midpoint subdivisions and a generated
+//                      2M-face disk (default: the one built beside this benchmark with
+//                      -DRICCI_PEERS=ON; none otherwise, and the peer table is left out)
+//   --peer-max-faces N run the peer only on disks up to N faces (default 2100000; 0: never)
 //
 // Every input runs in a child process (fork), so that its peak resident memory is its own: the
 // peak of each stage is read from /proc/self/status (VmHWM), reset between stages by writing 5 to
@@ -31,6 +36,10 @@
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#ifndef RICCI_PEER_PATH
+#define RICCI_PEER_PATH ""
+#endif
 
 #include <algorithm>
 #include <chrono>
@@ -85,6 +94,8 @@ struct Settings {
   bool all_shared = false;
   std::string cli = RICCI_CLI_PATH;
   std::int64_t cli_max_faces = 500000;
+  std::string peer = RICCI_PEER_PATH;
+  std::int64_t peer_max_faces = 2100000;
 };
 
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -115,6 +126,10 @@ struct Input {
   std::int64_t approx_faces = 0;  ///< generated only (for --max-faces)
   std::function<ricci::Mesh()> generate;  ///< generated inputs
   std::string path;                       ///< file inputs
+  /// A file the peer reads for this input (OBJ or OFF) and how often it subdivides it; empty:
+  /// the generated mesh written to an OFF file.
+  std::string peer_path;
+  int peer_subdivide = 0;
 };
 
 std::vector<Input> inputs(const Settings& s) {
@@ -135,7 +150,20 @@ std::vector<Input> inputs(const Settings& s) {
     std::sort(files.begin(), files.end());
   }
   for (const std::string& f : files)
-    if (fs::exists(m / f)) in.push_back({f, 0, {}, (m / f).string()});
+    if (fs::exists(m / f)) in.push_back({f, 0, {}, (m / f).string(), (m / f).string(), 0});
+  // The shared disk subdivided (the peers' sizes between 50k and 2M faces), unless --all-shared.
+  if (!s.all_shared && fs::exists(m / "boundary/face.obj"))
+    for (const int k : {1, 2}) {
+      const std::string path = (m / "boundary/face.obj").string();
+      in.push_back({"boundary/face.obj, " + std::to_string(k) + " midpoint subdivision" + (k > 1 ? "s" : ""),
+                    51712 * (k == 1 ? 4 : 16),
+                    [path, k] {
+                      ricci::Mesh mesh = ricci::read_mesh(path).mesh;
+                      for (int i = 0; i < k; ++i) mesh = subdivide_midpoint(mesh);
+                      return mesh;
+                    },
+                    {}, path, k});
+    }
   // Torus: 2·(2m)·m faces. Genus 2: pretzel(2, c) has 100·c² faces, ×4 per midpoint subdivision.
   struct Size {
     const char* label;
@@ -148,20 +176,21 @@ std::vector<Input> inputs(const Settings& s) {
                         {"2M", 707, 18, 3, 2000000}};
   for (const Size& z : sizes) {
     const int tm = z.torus_m, c = z.cells, k = z.subdiv;
-    in.push_back({std::string("generated/torus-") + z.label, z.faces, [tm] { return torus(2 * tm, tm, 1.0, 0.5); }, {}});
+    in.push_back({std::string("generated/torus-") + z.label, z.faces, [tm] { return torus(2 * tm, tm, 1.0, 0.5); }, {}, {}, 0});
     in.push_back({std::string("generated/genus2-") + z.label, z.faces, [c, k] {
                     ricci::Mesh mesh = pretzel(2, c);
                     for (int i = 0; i < k; ++i) mesh = subdivide_midpoint(mesh);
                     return mesh;
                   },
-                  {}});
+                  {}, {}, 0});
   }
+  in.push_back({"generated/disk-2M", 1997574, [] { return disk(577); }, {}, {}, 0});
   if (s.sphere)
     for (const auto& [label, sub, faces] : {std::tuple{"20k", 5, 20480}, std::tuple{"328k", 7, 327680},
                                            std::tuple{"1.3M", 8, 1310720}}) {
       const int subdivisions = sub;
       in.push_back({std::string("generated/icosphere-") + label, faces,
-                    [subdivisions] { return icosphere(subdivisions); }, {}});
+                    [subdivisions] { return icosphere(subdivisions); }, {}, {}, 0});
     }
   std::vector<Input> kept;
   for (Input& i : in) {
@@ -367,6 +396,8 @@ Row run_input(const Input& input, const Settings& s) {
   }
   row["geometry"] = std::string(ricci::geometry_name(u.geometry));
   row["status"] = std::string(ricci::status_name(u.status));
+  if (u.status == ricci::Status::Ok && std::isfinite(u.angles.mean_abs_log))
+    row["angle_distortion"] = fmt("%.3g", u.angles.mean_abs_log);
   if (u.status != ricci::Status::Ok) row["message"] = u.message;
   for (const auto& [name, sec] : stage_seconds) row["stage_" + name] = fmt("%.3f", sec);
   for (const auto& [name, peak] : stage_peak) row["peak_" + name] = fmt("%.0f", peak);
@@ -690,10 +721,86 @@ std::string mb(const Row& r, const std::string& k) {
   return std::isnan(x) ? "—" : fmt("%.0f", x / 1048576.0);
 }
 
+/// The peers on a disk input (genus 0, one boundary loop): `peer_cgal --peers NAME --json` in a
+/// child process per peer, on the input's file (subdivided by the peer as the input is) or on the
+/// generated mesh written to an OFF file: its parameterize() seconds, the process's wall time and
+/// the angle distortion it reports. Skipped above s.peer_max_faces faces.
+void run_peer(const Input& input, const Settings& s, Row& r) {
+  if (s.peer.empty() || s.peer_max_faces <= 0 || get(r, "genus") != "0" || get(r, "loops") != "1" ||
+      std::atoll(get(r, "faces", "0").c_str()) > s.peer_max_faces)
+    return;
+  std::error_code ec;
+  const fs::path scratch = fs::temp_directory_path() / ("bench_pipeline_peer_" + std::to_string(getpid()));
+  fs::remove_all(scratch, ec);
+  fs::create_directories(scratch, ec);
+  std::string mesh = input.peer_path;
+  int subdivide = input.peer_subdivide;
+  if (mesh.empty()) {
+    mesh = (scratch / "input.off").string();
+    subdivide = 0;
+    if (ricci::write_mesh(mesh, input.generate()).status != ricci::Status::Ok) {
+      r["lscm_status"] = r["dcm_status"] = "could not write the generated mesh";
+      return;
+    }
+  }
+  for (const std::string name : {"lscm", "dcm"}) {
+    std::vector<std::string> args = {s.peer, "--peers", name, "--subdivide", std::to_string(subdivide), "--json", mesh};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    int fd[2];
+    if (pipe(fd) != 0) return;
+    std::cout << std::flush;
+    std::cerr << std::flush;
+    const Clock::time_point t0 = Clock::now();
+    const pid_t pid = fork();
+    if (pid == 0) {
+      close(fd[0]);
+      dup2(fd[1], 1);
+      const int null = open("/dev/null", O_WRONLY);
+      if (null >= 0) dup2(null, 2);
+      execv(argv[0], argv.data());
+      _exit(127);
+    }
+    close(fd[1]);
+    const std::string text = read_all(fd[0]);
+    int status = 0;
+    struct rusage use {};
+    wait4(pid, &status, 0, &use);
+    const double wall = since(t0);
+    const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || j.is_discarded() || !j.contains("peers") || j["peers"].empty()) {
+      r[name + "_status"] = "exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
+      continue;
+    }
+    const nlohmann::json& p = j["peers"][0];
+    r[name + "_status"] = p.value("status", std::string("?"));
+    r[name + "_wall"] = fmt("%.3f", wall);
+    r[name + "_peak"] = fmt("%.0f", 1024.0 * static_cast<double>(use.ru_maxrss));
+    if (p["seconds"].is_number()) r[name + "_seconds"] = fmt("%.3f", p["seconds"].get<double>());
+    if (p["angle_distortion"].is_object() && p["angle_distortion"]["mean"].is_number())
+      r[name + "_distortion"] = fmt("%.3g", p["angle_distortion"]["mean"].get<double>());
+  }
+  fs::remove_all(scratch, ec);
+}
+
+/// The library's whole job on a row: every stage uniformize() reported (whether or not it has a
+/// column) and writing, with loading and validation, but not the topology column
+/// (validate_mesh() builds the topology; that column times it again).
+double job_seconds(const Row& r) {
+  double job = 0;
+  for (const char* k : {"load", "validate"})
+    if (!std::isnan(num(r, k))) job += num(r, k);
+  for (const auto& [key, value] : r)
+    if (key.rfind("stage_", 0) == 0 && !std::isnan(num(r, key))) job += num(r, key);
+  return job;
+}
+
 int usage(const char* argv0) {
   std::cerr << "usage: " << argv0
             << " [MESHES_DIR] [--out FILE.md] [--only TEXT]… [--max-faces N] [--sphere] [--threads N] "
-               "[--gd-seconds S] [--flow-only] [--all-shared] [--cli PATH] [--cli-max-faces N]\n";
+               "[--gd-seconds S] [--flow-only] [--all-shared] [--cli PATH] [--cli-max-faces N] [--peer PATH] "
+               "[--peer-max-faces N]\n";
   return 2;
 }
 
@@ -712,13 +819,15 @@ int main(int argc, char** argv) {
       s.all_shared = true;
     } else if (a == "--flow-only") {
       s.flow_only = true;
-    } else if (a == "--out" || a == "--only" || a == "--cli") {
+    } else if (a == "--out" || a == "--only" || a == "--cli" || a == "--peer") {
       const char* v = value();
       if (!v) return usage(argv[0]);
       if (a == "--out") s.out = v;
       else if (a == "--cli") s.cli = v;
+      else if (a == "--peer") s.peer = v;
       else s.only.emplace_back(v);
-    } else if (a == "--threads" || a == "--gd-seconds" || a == "--max-faces" || a == "--cli-max-faces") {
+    } else if (a == "--threads" || a == "--gd-seconds" || a == "--max-faces" || a == "--cli-max-faces" ||
+               a == "--peer-max-faces") {
       const char* v = value();
       if (!v) return usage(argv[0]);
       char* end = nullptr;
@@ -728,6 +837,7 @@ int main(int argc, char** argv) {
       if (a == "--gd-seconds") s.gd_seconds = x;
       if (a == "--max-faces") s.max_faces = static_cast<std::int64_t>(x);
       if (a == "--cli-max-faces") s.cli_max_faces = static_cast<std::int64_t>(x);
+      if (a == "--peer-max-faces") s.peer_max_faces = static_cast<std::int64_t>(x);
     } else if (a == "-h" || a == "--help") {
       usage(argv[0]);
       return 0;
@@ -744,6 +854,7 @@ int main(int argc, char** argv) {
     const Clock::time_point t0 = Clock::now();
     rows.emplace_back(in.name, run_isolated(in, s));
     if (!s.flow_only) run_cli(in, s, rows.back().second);
+    if (!s.flow_only) run_peer(in, s, rows.back().second);
     std::cerr << "bench_pipeline: " << in.name << " done in " << fmt("%.1f", since(t0)) << " s: flow "
               << get(rows.back().second, "flow") << " s, ref " << get(rows.back().second, "ref") << " s, "
               << get(rows.back().second, "iterations") << " it, ratio " << get(rows.back().second, "ratio_flow")
@@ -824,13 +935,8 @@ int main(int argc, char** argv) {
     std::string status = get(r, "status");
     if (r.count("message")) status += ": " + get(r, "message");
     if (r.count("error") && !r.count("faces")) status = get(r, "error");
-    // The job: every stage uniformize() reported (whether or not it has a column) and writing, but
-    // not the topology column (validate_mesh() builds the topology; that column times it again).
-    double job = 0;
-    for (const char* k : {"load", "validate"})
-      if (!std::isnan(num(r, k))) job += num(r, k);
-    for (const auto& [key, value] : r)
-      if (key.rfind("stage_", 0) == 0 && !std::isnan(num(r, key))) job += num(r, key);
+    // The job: job_seconds().
+    const double job = job_seconds(r);
     const double flow = num(r, "stage_flow"), ref = num(r, "ref");
     auto ratio = [](double a, double b) { return std::isnan(a) || !(b > 0) ? std::string("—") : fmt("%.2f", a / b); };
     doc += " " + get(r, "stage_write") + " | " + fmt("%.3f", job) + " | " + ratio(job, flow) + " | " +
@@ -852,6 +958,35 @@ int main(int argc, char** argv) {
              get(r, "cli_ratio") + " | " + mb(r, "cli_peak") + " | " +
              (r.count("cli_peak") ? fmt("%.0f", num(r, "cli_peak") / F) : std::string("—")) + " | " +
              mb(r, "cli_bytes") + " | " + get(r, "cli_status") + " |\n";
+    }
+  }
+  bool any_peer = false;
+  for (const auto& [name, r] : rows) any_peer = any_peer || r.count("lscm_status") || r.count("dcm_status");
+  if (any_peer) {
+    doc += "\n## Against the peers: CGAL's LSCM and discrete conformal map on the disks\n\n";
+    doc += "tools/peer_cgal (CGAL " + std::string("from Debian's libcgal-dev") +
+           ", benchmark only) in its own process per peer, in this run, right after the input's rows above, on the "
+           "same mesh (the shared file, subdivided by the peer as here, or the generated disk written to OFF): "
+           "*LSCM s*, *DCM s* its parameterize() call alone (the mesh read and built before it), *process s* the "
+           "whole peer process. *job s* is ricci's library job of the stage table (from the mesh in memory to "
+           "the meshes written), *CLI s* the whole `ricci uniformize --no-pictures` process where it ran; the "
+           "ratios are ricci over the peer (above 1: ricci slower). Distortion: mean |log θ_map/θ_3D| over the "
+           "input's corners, as each reports it. LSCM fixes two boundary vertices (free boundary), DCM maps the "
+           "boundary onto a circle by arc length, ricci onto a circle by its conformal flow (the default).\n\n";
+    doc += "| input | #F | job s | flow s | job/flow | LSCM s | DCM s | job/LSCM | job/DCM | CLI s | LSCM process s | "
+           "DCM process s | CLI/LSCM process | distortion | LSCM distortion | DCM distortion | LSCM, DCM status |\n";
+    doc += "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    for (const auto& [name, r] : rows) {
+      if (!r.count("lscm_status") && !r.count("dcm_status")) continue;
+      const double job = job_seconds(r);
+      auto ratio = [](double a, double b) { return std::isnan(a) || !(b > 0) ? std::string("—") : fmt("%.2f", a / b); };
+      doc += "| " + name + " | " + get(r, "faces") + " | " + fmt("%.3f", job) + " | " + get(r, "stage_flow") + " | " +
+             ratio(job, num(r, "stage_flow")) + " | " + get(r, "lscm_seconds") + " | " + get(r, "dcm_seconds") + " | " +
+             ratio(job, num(r, "lscm_seconds")) + " | " + ratio(job, num(r, "dcm_seconds")) + " | " +
+             get(r, "cli_seconds") + " | " + get(r, "lscm_wall") + " | " + get(r, "dcm_wall") + " | " +
+             ratio(num(r, "cli_seconds"), num(r, "lscm_wall")) + " | " + get(r, "angle_distortion") + " | " +
+             get(r, "lscm_distortion") + " | " + get(r, "dcm_distortion") + " | " + get(r, "lscm_status") + ", " +
+             get(r, "dcm_status") + " |\n";
     }
   }
   doc += "\n## The default (vertex scaling with intrinsic flips) against the paper's circle packing\n\n";
