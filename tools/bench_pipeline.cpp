@@ -642,6 +642,42 @@ Row run_isolated(const Input& input, const Settings& s) {
   return r;
 }
 
+/// A program run in a child process: its standard output, exit status, resources (wait4) and wall
+/// time; its standard error goes to /dev/null. started is false when no pipe could be made.
+struct ChildRun {
+  bool started = false;
+  std::string text;
+  int status = 0;
+  struct rusage use {};
+  double wall = 0;
+};
+ChildRun run_child(std::vector<std::string> args) {
+  ChildRun r;
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  int fd[2];
+  if (pipe(fd) != 0) return r;
+  std::cout << std::flush;
+  std::cerr << std::flush;
+  const Clock::time_point t0 = Clock::now();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    dup2(fd[1], 1);
+    const int null = open("/dev/null", O_WRONLY);
+    if (null >= 0) dup2(null, 2);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  close(fd[1]);
+  r.started = true;
+  r.text = read_all(fd[0]);
+  wait4(pid, &r.status, 0, &r.use);
+  r.wall = since(t0);
+  return r;
+}
+
 /// The CLI's whole job on the input: `ricci uniformize --no-pictures --json` in a child process
 /// (generated inputs written to a PLY file first), its wall time, peak RSS (wait4), the flow stage
 /// it reports and the bytes it wrote. Skipped above s.cli_max_faces faces or when the file inputs'
@@ -665,29 +701,12 @@ void run_cli(const Input& input, const Settings& s, Row& r) {
   const std::string out = (scratch / "out").string();
   std::vector<std::string> args = {s.cli, "uniformize", mesh, "-o", out, "--no-pictures", "--json", "-q"};
   if (s.threads > 0) args.insert(args.end(), {"--threads", std::to_string(s.threads)});
-  std::vector<char*> argv;
-  for (std::string& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  int fd[2];
-  if (pipe(fd) != 0) return;
-  std::cout << std::flush;
-  std::cerr << std::flush;
-  const Clock::time_point t0 = Clock::now();
-  const pid_t pid = fork();
-  if (pid == 0) {
-    close(fd[0]);
-    dup2(fd[1], 1);
-    const int null = open("/dev/null", O_WRONLY);
-    if (null >= 0) dup2(null, 2);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  close(fd[1]);
-  const std::string text = read_all(fd[0]);
-  int status = 0;
-  struct rusage use {};
-  wait4(pid, &status, 0, &use);
-  const double wall = since(t0);
+  const ChildRun run = run_child(args);
+  if (!run.started) return;
+  const std::string& text = run.text;
+  const int status = run.status;
+  const struct rusage& use = run.use;
+  const double wall = run.wall;
   std::uintmax_t bytes = 0;
   for (const auto& e : fs::directory_iterator(out, ec))
     if (e.is_regular_file(ec)) bytes += e.file_size(ec);
@@ -745,30 +764,12 @@ void run_peer(const Input& input, const Settings& s, Row& r) {
   }
   for (const std::string name : {"lscm", "dcm"}) {
     std::vector<std::string> args = {s.peer, "--peers", name, "--subdivide", std::to_string(subdivide), "--json", mesh};
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    int fd[2];
-    if (pipe(fd) != 0) return;
-    std::cout << std::flush;
-    std::cerr << std::flush;
-    const Clock::time_point t0 = Clock::now();
-    const pid_t pid = fork();
-    if (pid == 0) {
-      close(fd[0]);
-      dup2(fd[1], 1);
-      const int null = open("/dev/null", O_WRONLY);
-      if (null >= 0) dup2(null, 2);
-      execv(argv[0], argv.data());
-      _exit(127);
-    }
-    close(fd[1]);
-    const std::string text = read_all(fd[0]);
-    int status = 0;
-    struct rusage use {};
-    wait4(pid, &status, 0, &use);
-    const double wall = since(t0);
-    const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    const ChildRun run = run_child(args);
+    if (!run.started) return;
+    const int status = run.status;
+    const struct rusage& use = run.use;
+    const double wall = run.wall;
+    const nlohmann::json j = nlohmann::json::parse(run.text, nullptr, false);
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || j.is_discarded() || !j.contains("peers") || j["peers"].empty()) {
       r[name + "_status"] = "exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1);
       continue;
