@@ -192,6 +192,12 @@ struct Positions {
     return lo != nullptr ? detail::dd::one_minus_norm(x[i], lo[i], x[i + 1], lo[i + 1])
                          : detail::dd::one_minus_norm(x[i], 0, x[i + 1], 0);
   }
+  /// H: 1 − āb for a = v and b = v + d (d = b − a from diff()), as (1 − |a|²) − ā·d: the
+  /// denominator of the isometry moving a to the origin, at b; b's image there is d over it.
+  Cx disk_gap(Index v, Cx d) const { return room(v) - std::conj(z(v)) * d; }
+  /// H: the offset from v of the point the isometry moving v to the origin takes to `local`:
+  /// from_origin(v, local) − v = local·(1 − |v|²)/(1 + v̄·local).
+  Cx disk_offset(Index v, Cx local) const { return disk_quotient(local * room(v), 1.0 + std::conj(z(v)) * local); }
   /// v where u is (both parts).
   void copy(Index v, Index u) {
     for (int k = 0; k < dims; ++k) {
@@ -264,12 +270,11 @@ struct Positions {
         // With d = Q − P: w = d / ((1 − |P|²) − P̄d), and the vertex z = from_origin(P, local) is
         // P + local·(1 − |P|²)/(1 + P̄·local); 1 − |P|² from both parts of P.
         const Cx P = z(pv), d(diff(qv, pv, 0), diff(qv, pv, 1));
-        const double gap = room(pv);
-        const Cx w = disk_quotient(d, gap - std::conj(P) * d);
+        const Cx w = disk_quotient(d, disk_gap(pv, d));
         const double T = std::sqrt(std::norm(w));
-        if (T > 0 && T < 1 && rp < 300 && rq < 300 && gap > 0) {
+        if (T > 0 && T < 1 && rp < 300 && rq < 300 && room(pv) > 0) {
           const Cx local = (std::tanh(rp / 2) / T) * w * turn_at_first(g, rq, 2 * std::atanh(T), rp);
-          const Cx offset = disk_quotient(local * gap, 1.0 + std::conj(P) * local);
+          const Cx offset = disk_offset(pv, local);
           const double o[2] = {offset.real(), offset.imag()};
           set_offset(v, pv, o);
         } else {
@@ -1288,7 +1293,7 @@ class Propagation {
       // The seed's side 0 → 1 at its corner 0 (H: z1 moved by the isometry taking z0 to 0).
       const Index a = t.corner_vertex[3 * seed_], b = t.corner_vertex[3 * seed_ + 1];
       Cx d = P.z(b) - P.z(a);
-      if (g_ == Geometry::Hyperbolic) d = disk_quotient(d, P.room(a) - std::conj(P.z(a)) * d);
+      if (g_ == Geometry::Hyperbolic) d = disk_quotient(d, P.disk_gap(a, d));
       side_[seed_] = std::abs(d) > 0 ? d / std::abs(d) : Cx(1, 0);
     }
     depth_[seed_] = 0;
@@ -1340,8 +1345,7 @@ class Propagation {
   /// them divided by their distance). E: 1.
   Cx transport(const Positions& P, Index a, Index b) const {
     if (g_ != Geometry::Hyperbolic) return {1, 0};
-    const Cx d(P.diff(b, a, 0), P.diff(b, a, 1));
-    const Cx u = P.room(a) - std::conj(P.z(a)) * d;
+    const Cx u = P.disk_gap(a, Cx(P.diff(b, a, 0), P.diff(b, a, 1)));
     const double n = std::norm(u);
     return n > 0 ? u * u / n : Cx(1, 0);
   }
@@ -1359,7 +1363,7 @@ class Propagation {
   /// side_[f] from the direction of b → a at b, f's side j + 1 → j + 2.
   bool develop(Positions& P, Index f, Layout& out) {
     const Index o = via_[f];
-    if (g_ == Geometry::Spherical) return placed_[t_.corner_vertex[o]] || place(P, o, P.place_corner(t_, l_, o), out);
+    if (g_ == Geometry::Spherical) return placed_[t_.corner_vertex[o]] || accept(P, o, P.place_corner(t_, l_, o), out);
     const Index po = t_.opposite[o], pf = corner_face(po);
     const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
     const Index a = t_.corner_vertex[next_corner(po)], b = t_.corner_vertex[prev_corner(po)];
@@ -1367,14 +1371,10 @@ class Propagation {
     if (!placed_[t_.corner_vertex[o]]) {
       const Cx dir = at_b * turn(next_corner(o));
       const double len = l_[t_.corner_edge[prev_corner(o)]];
-      Cx step = dir * len;
-      if (g_ == Geometry::Hyperbolic) {
-        const Cx local = dir * std::tanh(len / 2);
-        step = disk_quotient(local * P.room(b), 1.0 + std::conj(P.z(b)) * local);
-      }
+      const Cx step = g_ == Geometry::Hyperbolic ? P.disk_offset(b, dir * std::tanh(len / 2)) : dir * len;
       const double offset[2] = {step.real(), step.imag()};
       P.set_offset(t_.corner_vertex[o], b, offset);
-      if (!place(P, o, t_.corner_vertex[o], out)) return false;
+      if (!accept(P, o, t_.corner_vertex[o], out)) return false;
     }
     // side_at(f, c) = at_b: undo its turns (H: carried back to corner 0's vertex).
     Cx w = at_b;
@@ -1388,7 +1388,7 @@ class Propagation {
   }
   /// Marks vertex v of corner o placed and checks it: a position outside double range fails the
   /// propagation, or (keep_going) is put on the end of the edge it was placed from and counted.
-  bool place(Positions& P, Index o, Index v, Layout& out) {
+  bool accept(Positions& P, Index o, Index v, Layout& out) {
     placed_[v] = 1;
     if (P.finite(v)) return true;
     if (keep_going_) {
