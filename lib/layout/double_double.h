@@ -5,7 +5,7 @@
 // neighbouring positions — the directions every later placement turns from — stay exact to the
 // rounding of the offsets themselves however far from the origin the faces lie.
 //
-// Takes and gives plain doubles; needs round-to-nearest and no reassociation (-ffast-math breaks
+// Takes and gives plain doubles (and `Real`, such a sum as a value); needs round-to-nearest and no reassociation (-ffast-math breaks
 // these identities).
 #pragma once
 
@@ -63,6 +63,36 @@ inline double one_minus_norm(double xh, double xl, double yh, double yl) {
   sl += x2l + y2l;
   two_sum(1.0, -s, r, rl);
   return r + (rl - sl);
+}
+
+/// An unevaluated sum h + l with |l| ≤ ulp(h)/2, and the few operations the disk maps need, each
+/// to about 2⁻¹⁰⁴ relative to its result (Dekker; the quotient by one correction step).
+struct Real {
+  double h = 0, l = 0;
+};
+
+inline Real operator+(Real a, Real b) {
+  double s, e;
+  two_sum(a.h, b.h, s, e);
+  Real r;
+  fast_two_sum(s, e + (a.l + b.l), r.h, r.l);
+  return r;
+}
+inline Real operator-(Real a) { return {-a.h, -a.l}; }
+inline Real operator-(Real a, Real b) { return a + -b; }
+inline Real operator*(Real a, Real b) {
+  double p, e;
+  two_prod(a.h, b.h, p, e);
+  Real r;
+  fast_two_sum(p, e + (a.h * b.l + a.l * b.h), r.h, r.l);
+  return r;
+}
+inline Real operator/(Real a, Real b) {
+  const double q = a.h / b.h;
+  const Real rest = a - Real{q, 0} * b;
+  Real r;
+  fast_two_sum(q, rest.h / b.h, r.h, r.l);
+  return r;
 }
 
 }  // namespace ricci::detail::dd

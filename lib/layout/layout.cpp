@@ -577,24 +577,41 @@ Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w)
   return poincare(V3{C[0], C[1], C[2]});
 }
 
-/// Returns the hyperbolic distance the centre of mass was moved by; *map (when not null) is the
-/// Lorentz matrix of the disk map applied (z ↦ rot·(z − c)/(1 − c̄ z)).
+/// The disk map z ↦ rot·(z − c)/(1 − c̄ z) that normalises a hyperbolic layout: c the weighted
+/// centre of mass (so it goes to the origin), rot the rotation that then puts the seed face's
+/// corner 0 (its corner 1 where corner 0 is at the origin) on the positive real axis.
+struct DiskMap {
+  Cx c{0, 0}, rot{1, 0};
+  /// The hyperbolic distance the map moves the centre of mass by.
+  double moved() const { return 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16)); }
+  /// True when the map moves no point by more than the rounding of its coordinates.
+  bool identity() const { return std::abs(c) <= 0x1p-53 && std::abs(rot.imag()) <= 0x1p-53 && rot.real() > 0; }
+};
+
+DiskMap normalizing_map(const Topology& t, const Positions& P, const std::vector<double>& w, Index seed) {
+  DiskMap m;
+  m.c = hyperbolic_centre(P, t.num_vertices, &w);
+  Cx ref = to_origin(m.c, P.z(t.corner_vertex[3 * seed]));
+  if (std::abs(ref) < 1e-12) ref = to_origin(m.c, P.z(t.corner_vertex[3 * seed + 1]));
+  if (std::abs(ref) > 0) m.rot = std::conj(ref) / std::abs(ref);
+  return m;
+}
+
+/// Moves P by the normalising map in double (nothing when that map is the identity to rounding)
+/// and returns the distance the centre of mass moved (0 then); out.centre_of_mass is |z| of the
+/// centre of mass afterwards; *map (when not null) is the Lorentz matrix of the map.
 double normalize_hyperbolic(const Topology& t, Positions& P, const std::vector<double>& w, Index seed, Layout& out,
                             detail::M3* map = nullptr) {
   const Index nv = t.num_vertices;
-  const Cx c = hyperbolic_centre(P, nv, &w);
-  const double moved = 2 * std::atanh(std::min(std::abs(c), 1 - 1e-16));
+  DiskMap m = normalizing_map(t, P, w, seed);
+  if (m.identity()) m = DiskMap{};
+  double moved = 0;
+  if (m.c != Cx(0, 0) || m.rot != Cx(1, 0)) {
+    moved = std::max(m.moved(), 0x1p-60);
 #pragma omp parallel for schedule(static)
-  for (Index v = 0; v < nv; ++v) P.set(v, to_origin(c, P.z(v)));
-  Cx ref = P.z(t.corner_vertex[3 * seed]);
-  if (std::abs(ref) < 1e-12) ref = P.z(t.corner_vertex[3 * seed + 1]);
-  Cx rot(1, 0);
-  if (std::abs(ref) > 0) {
-    rot = std::conj(ref) / std::abs(ref);
-#pragma omp parallel for schedule(static)
-    for (Index v = 0; v < nv; ++v) P.set(v, rot * P.z(v));
+    for (Index v = 0; v < nv; ++v) P.set(v, m.rot * to_origin(m.c, P.z(v)));
   }
-  if (map != nullptr) *map = detail::disk_map_matrix(c, rot);
+  if (map != nullptr) *map = detail::disk_map_matrix(m.c, m.rot);
   out.centre_of_mass = std::abs(hyperbolic_centre(P, nv, &w));
   return moved;
 }
@@ -1213,19 +1230,29 @@ bool lay_out_sphere_patches(const Topology& t, std::span<const double> l, Index 
 // sine is above kIllPlaced adds nothing, so well-shaped meshes keep their order.
 struct PropagationCosts {
   std::vector<double> entering;  // #F×3: the cost of entering corner_face(o) so that it places the vertex of o
+  std::vector<Cx> turns;         // E, H: #F×3, e^{iθ} of each corner
   double most = 1;               // the largest of them
 
   PropagationCosts(Geometry g, std::span<const double> theta) {
     const Index nf = static_cast<Index>(theta.size() / 3);
     entering.resize(theta.size());
+    if (g != Geometry::Spherical) turns.resize(theta.size());
     double top = 1;
 #pragma omp parallel for schedule(static) reduction(max : top)
     for (Index f = 0; f < nf; ++f) {
+      double sn[3];
+      for (int k = 0; k < 3; ++k) {
+        if (g == Geometry::Spherical) {
+          sn[k] = std::sin(theta[3 * f + k]);
+        } else {
+          turns[3 * f + k] = std::polar(1.0, theta[3 * f + k]);
+          sn[k] = turns[3 * f + k].imag();
+        }
+      }
       const double smallest = std::min({theta[3 * f], theta[3 * f + 1], theta[3 * f + 2]});
       const double face = g == Geometry::Hyperbolic ? 1.0 : 1 - std::log(std::max(std::sin(smallest), 1e-300));
       for (int k = 0; k < 3; ++k) {
-        const double sn = std::sin(theta[3 * f + k]);
-        const double c = face + (sn < kIllPlaced ? -std::log(std::max(sn, 1e-300)) : 0.0);
+        const double c = face + (sn[k] < kIllPlaced ? -std::log(std::max(sn[k], 1e-300)) : 0.0);
         entering[3 * f + k] = c;
         top = std::max(top, c);
       }
@@ -1261,7 +1288,7 @@ class Propagation {
  public:
   Propagation(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta, Index seed,
               bool keep_going)
-      : t_(t), g_(g), l_(l), theta_(theta), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
+      : t_(t), g_(g), l_(l), seed_(seed), keep_going_(keep_going), costs_(g, theta) {
     const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
     placed_.resize(nv);
     taken_.resize(nf);
@@ -1269,6 +1296,12 @@ class Propagation {
     reached_.resize(nf);
     via_.resize(nf);
     if (g != Geometry::Spherical) side_.resize(nf);
+    if (g == Geometry::Hyperbolic) {
+      origin_.resize(nf);
+      half_tanh_.resize(l.size());
+#pragma omp parallel for schedule(static)
+      for (std::size_t e = 0; e < l.size(); ++e) half_tanh_[e] = std::tanh(l[e] / 2);
+    }
     buckets_.resize(static_cast<std::size_t>(costs_.most) + 2);
   }
 
@@ -1295,6 +1328,7 @@ class Propagation {
       Cx d = P.z(b) - P.z(a);
       if (g_ == Geometry::Hyperbolic) d = disk_quotient(d, P.disk_gap(a, d));
       side_[seed_] = std::abs(d) > 0 ? d / std::abs(d) : Cx(1, 0);
+      if (g_ == Geometry::Hyperbolic) origin_[seed_] = Point::at(P, a);
     }
     depth_[seed_] = 0;
     reached_[seed_] = 0;
@@ -1307,6 +1341,8 @@ class Propagation {
     for (std::uint64_t current = 0; pending > 0; ++current) {
       std::vector<std::pair<double, Index>>& bucket = buckets_[current % ring];
       for (std::size_t i = 0; i < bucket.size(); ++i) {
+        if (i + 2 * kAhead < bucket.size()) prefetch_face(bucket[i + 2 * kAhead].second);
+        if (i + kAhead < bucket.size()) prefetch_around(P, bucket[i + kAhead].second);
         const auto [cost, f] = bucket[i];
         if (taken_[f] || cost > reached_[f]) continue;
         taken_[f] = 1;
@@ -1331,6 +1367,57 @@ class Propagation {
     return true;
   }
 
+  // The development is bound by the latency of its scattered reads (a face's neighbours, their
+  // vertices and lengths lie anywhere in the arrays): the faces kAhead and 2·kAhead places ahead
+  // in the bucket are fetched in two steps, first their own corners, then what those index.
+  static constexpr std::size_t kAhead = 8;
+  void prefetch_face(Index f) const {
+    __builtin_prefetch(&t_.opposite[3 * f]);
+    __builtin_prefetch(&t_.corner_vertex[3 * f]);
+    __builtin_prefetch(&t_.corner_edge[3 * f]);
+    __builtin_prefetch(&via_[f]);
+    if (g_ != Geometry::Spherical) __builtin_prefetch(&costs_.turns[3 * f]);
+  }
+  void prefetch_around(const Positions& P, Index f) const {
+    for (int k = 0; k < 3; ++k) {
+      const Index o = t_.opposite[3 * f + k];
+      if (o != kInvalid) {
+        __builtin_prefetch(&costs_.entering[o]);
+        __builtin_prefetch(&taken_[corner_face(o)]);
+        __builtin_prefetch(&reached_[corner_face(o)]);
+      }
+      const Index v = t_.corner_vertex[3 * f + k];
+      __builtin_prefetch(&placed_[v]);
+      __builtin_prefetch(&P.x[static_cast<std::size_t>(P.dims) * v]);
+      __builtin_prefetch(&low_[static_cast<std::size_t>(P.dims) * v]);
+      __builtin_prefetch(&l_[t_.corner_edge[3 * f + k]]);
+    }
+    const Index o = via_[f];
+    if (o != kInvalid && g_ != Geometry::Spherical) __builtin_prefetch(&side_[corner_face(t_.opposite[o])]);
+  }
+
+  /// H, after run(): moves the positions by the disk map m, in double-double (P keeps the rounded
+  /// ones; the low parts stay here).
+  void move(Positions& P, const DiskMap& m) {
+    using detail::dd::Real;
+    const Real cr{m.c.real()}, ci{m.c.imag()}, rr{m.rot.real()}, ri{m.rot.imag()}, one{1};
+    std::vector<double>& x = P.x;
+#pragma omp parallel for schedule(static)
+    for (Index v = 0; v < t_.num_vertices; ++v) {
+      const std::size_t i = 2 * static_cast<std::size_t>(v);
+      const Real zr{x[i], low_[i]}, zi{x[i + 1], low_[i + 1]};
+      const Real nr = zr - cr, ni = zi - ci;                      // z − c
+      const Real dr = one - (cr * zr + ci * zi), di = ci * zr - cr * zi;  // 1 − c̄z
+      const Real n2 = dr * dr + di * di;
+      const Real qr = (nr * dr + ni * di) / n2, qi = (ni * dr - nr * di) / n2;
+      const Real wr = rr * qr - ri * qi, wi = rr * qi + ri * qr;
+      x[i] = wr.h;
+      low_[i] = wr.l;
+      x[i + 1] = wi.h;
+      low_[i + 1] = wi.l;
+    }
+  }
+
   /// Vertices that no face placed (none on a connected mesh).
   Index unplaced() const {
     return static_cast<Index>(std::count(placed_.begin(), placed_.end(), std::uint8_t{0}));
@@ -1338,52 +1425,132 @@ class Propagation {
 
  private:
   /// e^{iθ} of corner c.
-  Cx turn(Index c) const { return std::polar(1.0, theta_[c]); }
-  /// H: the rotation R(a, b) = u/ū, u = 1 − āb, by which the disk isometry moving b to the
-  /// origin turns directions against the one moving a there: at b, the direction of b → a is
-  /// −R(a, b) times that of a → b at a. A smooth function of the two points (no difference of
-  /// them divided by their distance). E: 1.
-  Cx transport(const Positions& P, Index a, Index b) const {
-    if (g_ != Geometry::Hyperbolic) return {1, 0};
-    const Cx u = P.disk_gap(a, Cx(P.diff(b, a, 0), P.diff(b, a, 1)));
-    const double n = std::norm(u);
-    return n > 0 ? u * u / n : Cx(1, 0);
-  }
-  /// The direction of taken face f's side from corner c to corner c + 1, at corner c's vertex:
-  /// side_[f] turned by f's angles (E; H also carried to that vertex).
-  Cx side_at(const Positions& P, Index f, int c) const {
+  Cx turn(Index c) const { return costs_.turns[c]; }
+  /// E: the direction of taken face f's side from corner c to corner c + 1 at corner c's
+  /// vertex: side_[f] turned by f's angles.
+  Cx side_at(Index f, int c) const {
     const Cx w = side_[f];
     if (c == 0) return w;
-    const Index v0 = t_.corner_vertex[3 * f], vc = t_.corner_vertex[3 * f + c];
-    return c == 1 ? -transport(P, v0, vc) * w * std::conj(turn(3 * f + 1)) : -transport(P, v0, vc) * w * turn(3 * f);
+    return c == 1 ? -w * std::conj(turn(3 * f + 1)) : -w * turn(3 * f);
   }
   /// Face f, reached across the edge opposite its corner o = via_[f] from face pf (taken before
   /// it, where that edge runs from corner k + 1 at vertex a to k + 2 at b): places the vertex of o
-  /// from b (E, H: along b → a turned by the angle at b; S: from both ends' positions) and sets
-  /// side_[f] from the direction of b → a at b, f's side j + 1 → j + 2.
+  /// (E: from b along b → a turned by the angle at b; H: develop_frame(); S: from both ends'
+  /// positions) and sets side_[f] from the direction of b → a at b, f's side j + 1 → j + 2.
   bool develop(Positions& P, Index f, Layout& out) {
     const Index o = via_[f];
     if (g_ == Geometry::Spherical) return placed_[t_.corner_vertex[o]] || accept(P, o, P.place_corner(t_, l_, o), out);
+    if (g_ == Geometry::Hyperbolic) return develop_frame(P, f, out);
     const Index po = t_.opposite[o], pf = corner_face(po);
     const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
-    const Index a = t_.corner_vertex[next_corner(po)], b = t_.corner_vertex[prev_corner(po)];
-    const Cx at_b = -transport(P, a, b) * side_at(P, pf, (k + 1) % 3);
+    const Index b = t_.corner_vertex[prev_corner(po)];
+    const Cx at_b = -side_at(pf, (k + 1) % 3);
     if (!placed_[t_.corner_vertex[o]]) {
-      const Cx dir = at_b * turn(next_corner(o));
-      const double len = l_[t_.corner_edge[prev_corner(o)]];
-      const Cx step = g_ == Geometry::Hyperbolic ? P.disk_offset(b, dir * std::tanh(len / 2)) : dir * len;
+      const Cx step = at_b * turn(next_corner(o)) * l_[t_.corner_edge[prev_corner(o)]];
       const double offset[2] = {step.real(), step.imag()};
       P.set_offset(t_.corner_vertex[o], b, offset);
       if (!accept(P, o, t_.corner_vertex[o], out)) return false;
     }
-    // side_at(f, c) = at_b: undo its turns (H: carried back to corner 0's vertex).
+    // side_at(f, c) = at_b: undo its turns.
     Cx w = at_b;
-    if (c != 0) {
-      const Index v0 = t_.corner_vertex[3 * f], vc = t_.corner_vertex[3 * f + c];
-      w = c == 1 ? -at_b * turn(3 * f + 1) * transport(P, vc, v0) : -at_b * std::conj(turn(3 * f)) * transport(P, vc, v0);
-    }
+    if (c != 0) w = c == 1 ? -at_b * turn(3 * f + 1) : -at_b * std::conj(turn(3 * f));
     const double n = std::abs(w);
     side_[f] = n > 0 && std::isfinite(n) ? w / n : Cx(1, 0);
+    return true;
+  }
+  /// H: a point of the disk in double-double (x = xh + xl, y = yh + yl).
+  struct Point {
+    double xh = 0, xl = 0, yh = 0, yl = 0;
+    static Point at(const Positions& P, Index v) {
+      const std::size_t i = 2 * static_cast<std::size_t>(v);
+      return {P.x[i], P.lo[i], P.x[i + 1], P.lo[i + 1]};
+    }
+    Cx z() const { return {xh, yh}; }
+    bool inside() const {
+      return std::isfinite(xh) && std::isfinite(yh) && detail::dd::one_minus_norm(xh, xl, yh, yl) > 0;
+    }
+  };
+  /// H: the point the disk isometry moving p to the origin takes to `local` (p's offset
+  /// local·(1 − |p|²)/(1 + p̄·local), added in double-double), and in *turn the rotation
+  /// R = conj(1 + p̄·local)/(1 + p̄·local) by which that isometry's frame at the new point turns
+  /// against p's: at the new point, the direction back to p is −R·local/|local|. Both depend on
+  /// p and the step alone, not on where the new point was stored.
+  static Point step(const Point& p, Cx local, Cx* turn) {
+    const double room = detail::dd::one_minus_norm(p.xh, p.xl, p.yh, p.yl);
+    const Cx q = 1.0 + std::conj(p.z()) * local;
+    const Cx offset = disk_quotient(local * room, q);
+    Point r;
+    detail::dd::add(p.xh, p.xl, offset.real(), r.xh, r.xl);
+    detail::dd::add(p.yh, p.yl, offset.imag(), r.yh, r.yl);
+    const double n = std::norm(q);
+    *turn = n > 0 ? std::conj(q) * std::conj(q) / n : Cx(1, 0);
+    return r;
+  }
+  /// H: face f's corner c (position, and direction of its side c → c + 1 there) from f's frame
+  /// (corner 0's position origin_[f] and side_[f]), one step from corner 0 at most.
+  std::pair<Point, Cx> corner_frame(Index f, int c) const {
+    const Point& p = origin_[f];
+    const Cx w = side_[f];
+    if (c == 0) return {p, w};
+    Cx r;
+    if (c == 1) {  // v1 = v0 + along side 0 → 1; at v1, v1 → v2 is v1 → v0 turned by −θ1
+      const Point q = step(p, w * half_tanh_[t_.corner_edge[3 * f + 2]], &r);
+      return {q, -r * w * std::conj(turn(3 * f + 1))};
+    }
+    const Cx d = w * turn(3 * f);  // v0 → v2; at v2 the side 2 → 0 points back to v0
+    const Point q = step(p, d * half_tanh_[t_.corner_edge[3 * f + 1]], &r);
+    return {q, -r * d};
+  }
+  /// H: face f reached from pf across the edge opposite corner o = via_[f] (in pf from corner
+  /// k + 1 at vertex a to k + 2 at b). pf's frame gives b and the direction of b → a there
+  /// (b → the third vertex turned by the angle at b); the vertex of o is one step from b, and f's
+  /// frame (corner 0) at most one step from b. Frames come from frames alone: a vertex stored by
+  /// another branch of the development never turns this one (positions measured from the
+  /// stored ends would feed their errors back, growing by about sinh of the edge length per face
+  /// along a chain).
+  bool develop_frame(Positions& P, Index f, Layout& out) {
+    const Index o = via_[f];
+    const Index po = t_.opposite[o], pf = corner_face(po);
+    const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
+    const auto [b, from_b] = corner_frame(pf, (k + 2) % 3);
+    const Cx at_b = from_b * turn(3 * pf + (k + 2) % 3);  // b → a
+    const Index v = t_.corner_vertex[o];
+    Cx r;
+    if (!placed_[v]) {
+      const Point q = step(b, at_b * turn(next_corner(o)) * half_tanh_[t_.corner_edge[prev_corner(o)]], &r);
+      if (q.inside()) {
+        const std::size_t i = 2 * static_cast<std::size_t>(v);
+        P.x[i] = q.xh;
+        P.lo[i] = q.xl;
+        P.x[i + 1] = q.yh;
+        P.lo[i + 1] = q.yl;
+      } else {
+        P.x[2 * v] = kNaN;
+      }
+      if (!accept(P, o, v, out)) return false;
+    }
+    // f's frame from b, its corner c with side c → c + 1 = b → a.
+    Point p0 = b;
+    Cx w = at_b;
+    if (c == 1) {  // v0 is one step from v1 along v1 → v0 = (v1 → v2) turned by θ1
+      const Cx d = at_b * turn(3 * f + 1);
+      p0 = step(b, d * half_tanh_[t_.corner_edge[3 * f + 2]], &r);
+      w = -r * d;
+    } else if (c == 2) {  // v0 is one step from v2 along side 2 → 0; v0 → v1 is v0 → v2 turned by −θ0
+      p0 = step(b, at_b * half_tanh_[t_.corner_edge[3 * f + 1]], &r);
+      w = -r * at_b * std::conj(turn(3 * f));
+    }
+    const double n = std::abs(w);
+    if (!p0.inside() || !(n > 0) || !std::isfinite(n)) {
+      // Beyond the disk's resolution (only with keep_going, the vertices there put aside): the
+      // frame restarts at corner 0's stored position, so nothing non-finite spreads.
+      p0 = Point::at(P, t_.corner_vertex[3 * f]);
+      w = Cx(1, 0);
+    } else {
+      w /= n;
+    }
+    origin_[f] = p0;
+    side_[f] = w;
     return true;
   }
   /// Marks vertex v of corner o placed and checks it: a position outside double range fails the
@@ -1408,11 +1575,13 @@ class Propagation {
 
   const Topology& t_;
   Geometry g_;
-  std::span<const double> l_, theta_;
+  std::span<const double> l_;
   Index seed_;
   bool keep_going_;
   PropagationCosts costs_;
   std::vector<Cx> side_;  // E, H: each taken face's direction of its side 0 → 1 at corner 0's vertex
+  std::vector<Point> origin_;      // H: each taken face's corner 0, as its frame places it
+  std::vector<double> half_tanh_;  // H: tanh(l/2) per edge
   std::vector<std::uint8_t> placed_, taken_;
   std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
   std::vector<double> reached_;
@@ -1548,8 +1717,8 @@ void finish_layout(const Topology& t, Geometry g, std::span<const double> l, con
   if (options.normalize && g != Geometry::Euclidean) {
     const std::vector<double> w = vertex_weights(t, area);
     if (g == Geometry::Hyperbolic) {
-      normalize_hyperbolic(t, P, w, seed, out);
-      measure_edges(t, g, l, P, out);  // an isometry: the error is re-measured on the final positions
+      // An isometry: the error is re-measured on the final positions when they moved.
+      if (normalize_hyperbolic(t, P, w, seed, out) > 0) measure_edges(t, g, l, P, out);
     } else {
       normalize_spherical(t, P, w, seed, options.sphere_mobius, out);
       if (!options.sphere_mobius) measure_edges(t, g, l, P, out);
@@ -1579,8 +1748,8 @@ void finish_layout(const Topology& t, Geometry g, std::span<const double> l, con
   if (flipped > 0) out.first_flipped_face = first;
 }
 
-/// The seed and one propagation over the faces (H: repeated in the final frame); false with `out`
-/// naming the vertex that left double range.
+/// The seed and one propagation over the faces (H: its double-double positions moved into the
+/// normalised frame); false with `out` naming the vertex that left double range.
 bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
                const std::vector<double>& area, Index seed, const LayoutOptions& options, Positions& P, Layout& out) {
   Propagation propagation(t, g, l, theta, seed, options.keep_unresolved);
@@ -1588,16 +1757,17 @@ bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::sp
   P.place_seed(s0, s1, s2, l[t.corner_edge[3 * seed]], l[t.corner_edge[3 * seed + 1]], l[t.corner_edge[3 * seed + 2]]);
   if (!propagation.run(P, out)) return false;
   if (g == Geometry::Hyperbolic && options.normalize) {
-    // Second pass in the final frame: the seed face keeps its normalised position and the
-    // propagation runs again there, so no vertex is ever computed farther from the origin than
-    // it ends up (Poincaré coordinates lose precision as 1/(1 − |z|²)).
-    // Repeated while the frame still moves noticeably (a seed far from the centre).
+    // The normalising disk map applied to the positions as developed, in double-double: every
+    // vertex then keeps, in the final frame, the digits its placement gave it (Poincaré
+    // coordinates lose precision as 1/(1 − |z|²), so a map applied to rounded positions would
+    // cost the far ones digits). Once more when the centre of mass moved noticeably.
     const std::vector<double> w = vertex_weights(t, area);
     for (int pass = 0; pass < 4; ++pass) {
-      const double moved = normalize_hyperbolic(t, P, w, seed, out);
-      if (!propagation.run(P, out)) return false;
+      const DiskMap m = normalizing_map(t, P, w, seed);
+      if (m.identity()) break;
+      propagation.move(P, m);
       ++out.propagation_passes;
-      if (moved < 1e-6) break;
+      if (m.moved() < 1e-6) break;
     }
   }
   out.unplaced_vertices = propagation.unplaced();

@@ -1411,8 +1411,15 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
     sc.seconds = since(t0);
   };
   sc.beside = second_thread(run.options);
-  if (sc.beside) sc.worker = std::jthread(work);
-  else work();
+  if (sc.beside) {
+    // One thread of its own: the layout's parallel loops keep both cores' teams to themselves.
+    sc.worker = std::jthread([work] {
+      omp_set_num_threads(1);
+      work();
+    });
+  } else {
+    work();
+  }
 }
 
 // The options of the layout itself: its seed made explicit (the default central face), so that

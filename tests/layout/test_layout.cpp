@@ -368,6 +368,49 @@ TEST_CASE("layout: normalisations") {
                                         << mob.mobius_length_change);
 }
 
+TEST_CASE("layout: H develops long edges far out from a seed on the rim to its rounding floor") {
+  // A disk realized in the Poincaré disk out to |z| = 0.995 (a flat disk's vertices scaled), its
+  // lengths the exact hyperbolic distances of those points, the rim's edges 1.5–2.6 long. Laid
+  // out from a face on the rim, the far side lies ~12 units out (1 − |z|² ≈ 2e-5). Faces whose
+  // directions were measured from their stored neighbours grew each error by about sinh of the
+  // edge length along the rim (0.026 there; from the central face 6e-14); frames carried from
+  // the parent faces alone, and the map into the normalised frame in double-double, stay within
+  // a few times the rounding floor.
+  const Mesh m = ricci_shapes::disk(60);
+  const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  std::vector<std::complex<long double>> z(static_cast<std::size_t>(t.num_vertices));
+  for (Index v = 0; v < t.num_vertices; ++v) z[v] = {0.995L * m.positions[3 * v], 0.995L * m.positions[3 * v + 1]};
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const auto a = z[t.edge_vertices[2 * e]], b = z[t.edge_vertices[2 * e + 1]];
+    const long double ra = 1 - std::norm(a), rb = 1 - std::norm(b);
+    l[e] = static_cast<double>(2 * std::asinh(std::abs(a - b) / std::sqrt(ra * rb)));
+  }
+  CHECK(*std::max_element(l.begin(), l.end()) > 2.5);
+  LayoutOptions o;
+  o.patches = 0;
+  o.polish_sweeps = 0;
+  o.polish_steps = 0;
+  const Layout central = layout_disk(t, Geometry::Hyperbolic, l, o);
+  o.seed_face = t.num_faces - 1;  // on the outer ring
+  const Layout rim = layout_disk(t, Geometry::Hyperbolic, l, o);
+  o.normalize = false;  // the development in the rim seed's own frame
+  const Layout raw = layout_disk(t, Geometry::Hyperbolic, l, o);
+  REQUIRE(central.status == Status::Ok);
+  REQUIRE(rim.status == Status::Ok);
+  REQUIRE(raw.status == Status::Ok);
+  MESSAGE("central seed " << central.max_edge_length_error << " (floor " << central.rounding_floor << "), rim seed "
+                          << rim.max_edge_length_error << " (floor " << rim.rounding_floor << "), in its own frame "
+                          << raw.max_edge_length_error << " (floor " << raw.rounding_floor << ")");
+  CHECK(rim.propagation_passes >= 1);
+  CHECK(rim.centre_of_mass < 1e-12);
+  CHECK(central.max_edge_length_error < 1e-12);
+  CHECK(rim.max_edge_length_error < 1e-11);
+  CHECK(raw.max_edge_length_error < 4 * raw.rounding_floor);
+}
+
 TEST_CASE("layout: resolved_vertices marks the vertices of edges that miss their length, in E and H") {
   for (const char* name : {"torus.obj", "genus2.obj"}) {
     CAPTURE(name);
