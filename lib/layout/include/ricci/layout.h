@@ -262,7 +262,8 @@ struct Layout {
   double mobius_length_change = 0;   ///< S with Möbius centring: max relative change of an edge
   double centre_of_mass = 0;         ///< S: |μ| after normalising; H: |z| of the centre of mass
   int normalization_iterations = 0;  ///< S: Möbius centring steps
-  /// H with normalize: propagations run again in the normalised frame (until it moves < 1e-6).
+  /// H with normalize: normalising disk maps applied (until the frame moves < 1e-6): to the
+  /// propagation's double-double positions, or by frames the development run again in the map.
   int propagation_passes = 0;
   /// Gauss–Seidel sweeps kept (LayoutOptions::polish_sweeps; a round that raises the max error is undone).
   int polish_sweeps = 0;
