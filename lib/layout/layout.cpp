@@ -1465,6 +1465,14 @@ class Propagation {
       const std::size_t i = 2 * static_cast<std::size_t>(v);
       return {P.x[i], P.lo[i], P.x[i + 1], P.lo[i + 1]};
     }
+    /// Stores the point as vertex v's position (both parts).
+    void store(Positions& P, Index v) const {
+      const std::size_t i = 2 * static_cast<std::size_t>(v);
+      P.x[i] = xh;
+      P.lo[i] = xl;
+      P.x[i + 1] = yh;
+      P.lo[i + 1] = yl;
+    }
     Cx z() const { return {xh, yh}; }
     bool inside() const {
       return std::isfinite(xh) && std::isfinite(yh) && detail::dd::one_minus_norm(xh, xl, yh, yl) > 0;
@@ -1518,15 +1526,8 @@ class Propagation {
     Cx r;
     if (!placed_[v]) {
       const Point q = step(b, at_b * turn(next_corner(o)) * half_tanh_[t_.corner_edge[prev_corner(o)]], &r);
-      if (q.inside()) {
-        const std::size_t i = 2 * static_cast<std::size_t>(v);
-        P.x[i] = q.xh;
-        P.lo[i] = q.xl;
-        P.x[i + 1] = q.yh;
-        P.lo[i + 1] = q.yl;
-      } else {
-        P.x[2 * v] = kNaN;
-      }
+      if (q.inside()) q.store(P, v);
+      else P.x[2 * v] = kNaN;
       if (!accept(P, o, v, out)) return false;
     }
     // f's frame from b, its corner c with side c → c + 1 = b → a.
