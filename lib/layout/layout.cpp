@@ -56,6 +56,9 @@ constexpr int kSweepRings = 2;
 // of it, or raises the largest error, is followed by rounds over every vertex: the error is not
 // only where the largest errors are.
 constexpr double kLocalGain = 0.75;
+// With the automatic patch count, at most this many local sweeps (rounds of 1, 2, 4) run before
+// the patches are tried (refine_layout()).
+constexpr int kSweepsBeforePatches = 7;
 
 std::string num(double x) {
   char buf[64];
@@ -1592,78 +1595,25 @@ class Propagation {
 
 // ---- refining the propagation's layout -------------------------------------------------------
 
-/// After the propagation, only while the layout misses its metric by more than
-/// options.refine_above above the edges' rounding floors (`now` and each edge's figures
-/// `edge_errors`, kept up to date until the sweeps end): the divide and conquer (E, H, S;
-/// automatic patch count, or always with an explicit count ≥ 2; kept when not less accurate); in
-/// E, the layout from the triangles' shapes where the error is above kShapeLayoutAbove (needle
-/// triangles placed from short bases can grow an error geometrically along a chain), kept when
-/// closer; the Gauss–Seidel sweeps (E, H, S; in rounds of 1, 2, 4, … sweeps over the vertices
-/// near the largest errors while that pays, then over all, each round only while still above the
-/// threshold); global
-/// Gauss–Newton steps (E, H, S; layout_polish.h).
-/// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
-/// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
-/// anything moved it. `now` describes the positions on return.
-void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
-                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, EdgeErrors& edge_errors,
-                   Layout& out) {
+/// Gauss–Seidel sweeps (detail::polish_by_sweeps) in rounds of 1, 2, 4, … (at most `budget` in
+/// all), measured after each round, while the layout is above `refine_above` over its floors;
+/// once started, they go on below it while a round still halves the error above the floor
+/// (cheap, and a layout nearer its floor gives the deck group more digits). A round that raises
+/// the max error is undone and ends the sweeps. Each round sweeps only the vertices near its
+/// large errors (kSweepShare, kSweepRings) until one of them lowers the largest error above the
+/// floor by less than a quarter or raises the largest error (undone) (kLocalGain); the rounds
+/// after it sweep every vertex, unless `local_only` (then the sweeps end there). `now` and
+/// `edge_errors` describe the positions on return. Returns the sweeps kept.
+int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, double refine_above, int budget,
+                    bool local_only, Positions& P, Layout& now, EdgeErrors& edge_errors) {
   std::vector<double>& x = P.x;
-  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
-  auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
-  bool moved = false;
-  // Automatic: min(32, #F/4000) patches, and one per 10k faces above 320k faces, so that the
-  // propagation inside a patch stays about as deep as on a mesh of 10k faces (at most 256).
-  const Index by_size = std::max<Index>(std::min<Index>(32, t.num_faces / 4000), t.num_faces / 10000);
-  const int automatic = coarse() ? static_cast<int>(std::min<Index>(256, by_size)) : 0;
-  const int patches = options.patches >= 0 ? options.patches : automatic;
-  if (patches > 1) {
-    std::vector<double> kept = x;
-    Layout trial, after;
-    EdgeErrors after_edges;
-    const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, patches, x, trial)
-                                               : lay_out_patches(t, g, l, seed, patches, x, trial);
-    if (laid) measure_edges(t, g, l, P, after, &after_edges);
-    if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
-        after.max_edge_length_error <= now.max_edge_length_error) {
-      out.patches = trial.patches;
-      out.patch_fit_iterations = trial.patch_fit_iterations;
-      out.patch_seam_error = trial.patch_seam_error;
-      now = after;
-      std::swap(edge_errors, after_edges);
-      moved = true;
-    } else {
-      x.swap(kept);
-    }
-  }
-  const bool steps = options.polish_steps > 0;
-  if (g == Geometry::Euclidean && steps && coarse() && now.max_error_above_rounding > kShapeLayoutAbove) {
-    std::vector<double> trial = x;
-    if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
-      Layout shaped;
-      EdgeErrors shaped_edges;
-      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
-      if (shaped.max_edge_length_error < now.max_edge_length_error) {
-        x.swap(trial);
-        out.shape_solve = true;
-        now = shaped;
-        std::swap(edge_errors, shaped_edges);
-        moved = true;
-      }
-    }
-  }
-  // Sweeps in rounds of 1, 2, 4, … (at most polish_sweeps in all), measured after each round;
-  // once started, they go on below the threshold while a round still halves the error above
-  // the floor (cheap, and a layout nearer its floor gives the deck group more digits). A round
-  // that raises the max error is undone and ends the sweeps. Each round sweeps only the vertices
-  // near its large errors (kSweepShare, kSweepRings) until one of them lowers the largest error
-  // above the floor by less than a quarter or raises the largest error (undone) (kLocalGain); the
-  // rounds after it sweep every vertex.
   bool halving = false, local = true;
+  int done = 0;
   std::vector<double> kept;
   std::vector<Index> all;
-  for (int round = 1; out.polish_sweeps < options.polish_sweeps && (coarse() || halving); round *= 2) {
-    const int n = std::min(round, options.polish_sweeps - out.polish_sweeps);
+  auto coarse = [&] { return !(now.max_error_above_rounding <= refine_above); };
+  for (int round = 1; done < budget && (coarse() || halving) && (local || !local_only); round *= 2) {
+    const int n = std::min(round, budget - done);
     const Layout before = now;
     kept = x;
     if (!local && all.empty()) {
@@ -1685,12 +1635,92 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
       local = false;  // undone; every vertex from now on (their edges measured again with it)
       continue;
     }
-    out.polish_sweeps += n;
-    moved = true;
+    done += n;
     halving = now.max_error_above_rounding > 0 &&
               now.max_error_above_rounding <= 0.5 * before.max_error_above_rounding;
     if (local && !(now.max_error_above_rounding <= kLocalGain * before.max_error_above_rounding)) local = false;
   }
+  return done;
+}
+
+/// Divide and conquer (lay_out_patches(), lay_out_sphere_patches()) from the positions of P with
+/// `count` patches, kept when not less accurate than `now` (then `now`, `edge_errors` and the
+/// patch figures of `out` describe it). True when kept.
+bool refine_by_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count, Positions& P,
+                       Layout& now, EdgeErrors& edge_errors, Layout& out) {
+  std::vector<double>& x = P.x;
+  std::vector<double> kept = x;
+  Layout trial, after;
+  EdgeErrors after_edges;
+  const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, count, x, trial)
+                                             : lay_out_patches(t, g, l, seed, count, x, trial);
+  if (laid) measure_edges(t, g, l, P, after, &after_edges);
+  if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
+      after.max_edge_length_error <= now.max_edge_length_error) {
+    out.patches = trial.patches;
+    out.patch_fit_iterations = trial.patch_fit_iterations;
+    out.patch_seam_error = trial.patch_seam_error;
+    now = after;
+    std::swap(edge_errors, after_edges);
+    return true;
+  }
+  x.swap(kept);
+  return false;
+}
+
+/// After the propagation, only while the layout misses its metric by more than
+/// options.refine_above above the edges' rounding floors (`now` and each edge's figures
+/// `edge_errors`, kept up to date until the sweeps end): with the automatic patch count, first
+/// the sweeps near the largest errors (at most kSweepsBeforePatches; sweep_in_rounds()); then,
+/// still above it, the divide and conquer (E, H, S; automatic patch count, or always with an
+/// explicit count ≥ 2; kept when not less accurate; refine_by_patches()); in E, the layout from
+/// the triangles' shapes where the error is above kShapeLayoutAbove (needle triangles placed from
+/// short bases can grow an error geometrically along a chain), kept when closer; the Gauss–Seidel
+/// sweeps (E, H, S; sweep_in_rounds()); global Gauss–Newton steps (E, H, S; layout_polish.h).
+/// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
+/// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
+/// anything moved it. `now` describes the positions on return.
+void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std::span<const double> theta,
+                   Index seed, const LayoutOptions& options, Positions& P, Layout& now, EdgeErrors& edge_errors,
+                   Layout& out) {
+  std::vector<double>& x = P.x;
+  const Index s0 = t.corner_vertex[3 * seed], s1 = t.corner_vertex[3 * seed + 1];
+  auto coarse = [&] { return !(now.max_error_above_rounding <= options.refine_above); };
+  bool moved = false;
+  // Automatic: min(32, #F/4000) patches, and one per 10k faces above 320k faces, so that the
+  // propagation inside a patch stays about as deep as on a mesh of 10k faces (at most 256).
+  const Index by_size = std::max<Index>(std::min<Index>(32, t.num_faces / 4000), t.num_faces / 10000);
+  const int automatic = coarse() ? static_cast<int>(std::min<Index>(256, by_size)) : 0;
+  if (options.patches < 0 && automatic > 1) {
+    // Where the propagation misses only near a few seams, the local sweeps bring it under
+    // refine_above for a fraction of the patches' cost; the patches run where they do not.
+    const int n = sweep_in_rounds(t, g, l, options.refine_above, std::min(kSweepsBeforePatches, options.polish_sweeps),
+                                  true, P, now, edge_errors);
+    out.polish_sweeps += n;
+    moved = moved || n > 0;
+  }
+  const int patches = options.patches >= 0 ? options.patches : (coarse() ? automatic : 0);
+  if (patches > 1 && refine_by_patches(t, g, l, seed, patches, P, now, edge_errors, out)) moved = true;
+  const bool steps = options.polish_steps > 0;
+  if (g == Geometry::Euclidean && steps && coarse() && now.max_error_above_rounding > kShapeLayoutAbove) {
+    std::vector<double> trial = x;
+    if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
+      Layout shaped;
+      EdgeErrors shaped_edges;
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
+      if (shaped.max_edge_length_error < now.max_edge_length_error) {
+        x.swap(trial);
+        out.shape_solve = true;
+        now = shaped;
+        std::swap(edge_errors, shaped_edges);
+        moved = true;
+      }
+    }
+  }
+  const int n = sweep_in_rounds(t, g, l, options.refine_above, options.polish_sweeps - out.polish_sweeps, false, P,
+                                now, edge_errors);
+  out.polish_sweeps += n;
+  moved = moved || n > 0;
   if (steps && coarse()) {
     out.polish_steps = detail::polish_globally(t, g, l, x, options.polish_steps).steps;
     measure_edges(t, g, l, P, now);
