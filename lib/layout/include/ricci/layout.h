@@ -192,11 +192,14 @@ struct LayoutOptions {
   /// disk. k ≥ 2: the faces are split into k patches grown breadth-first from farthest-point seeds
   /// over the dual graph, each patch is laid out by its own propagation (in parallel), and the
   /// patches' isometries into one frame are fitted jointly with Ceres over every vertex two patches
-  /// share (each vertex then sits at the mean of its copies). The result is kept only when its max
-  /// edge-length error is not above the single propagation's (Layout::patches says whether it
-  /// was). S likewise, with rotations as the isometries. -1 (default): automatic — min(32, #F /
+  /// share (each vertex then sits at the mean of its copies) (Layout::patches says whether the
+  /// result was kept). S likewise, with rotations as the isometries. -1 (default): automatic — min(32, #F /
   /// 4000) patches (none below 8000 faces) and one per 10k faces above 320k faces (at most 256),
-  /// and only when the propagation is above refine_above. k ≥ 2 always tries them. At most 256.
+  /// and only when the layout is still above refine_above after up to 7 sweeps near its largest
+  /// errors (the first rounds of polish_sweeps, counted there; where the propagation misses only
+  /// along a few seams they reach it for a fraction of the patches' cost). The result is kept only
+  /// when not less accurate than the positions it starts from. k ≥ 2 always tries them, on the
+  /// propagation itself. At most 256.
   int patches = -1;
   /// A vertex whose position leaves the range of double precision (E: not finite; H: at or
   /// beyond the unit circle) fails the layout
