@@ -122,6 +122,7 @@ struct UniformizeCommandOptions {
   bool no_flips = false;                  ///< yamabe without intrinsic Delaunay flips
   int steiner_levels = 3;                 ///< at most this many Steiner subdivisions (0: none)
   int boundary_split_rounds = 4;          ///< at most this many rounds of boundary splits (0: none)
+  bool no_split_chords = false;           ///< no chord splits for the double (UniformizeOptions::split_chords)
   std::string target = "auto";            ///< auto, uniform, cones=FILE, single-vertex=I
   std::string boundary = "auto";          ///< auto, free, fixed, circle, geodesic, loop-totals=…
   double tolerance = 1e-12;               ///< flow: max |K̄ − K| at convergence

@@ -653,6 +653,7 @@ Json report_json(const Run& run) {
                         {"vertices_added", st.vertices_added},
                         {"boundary_splits", st.boundary_splits},
                         {"boundary_split_rounds", st.boundary_split_rounds},
+                        {"chord_splits", st.chord_splits},
                         {"faces", st.used ? Json(r.steiner_mesh.topology.num_faces) : Json(nullptr)},
                         {"note", st.note.empty() ? Json(nullptr) : Json(st.note)}};
   } else {
@@ -803,6 +804,7 @@ std::optional<int> read_settings(const UniformizeCommandOptions& o, Run& run, Cl
   uo.intrinsic_flips = !o.no_flips;
   uo.steiner_max_levels = o.steiner_levels;
   uo.boundary_split_rounds = o.boundary_split_rounds;
+  uo.split_chords = !o.no_split_chords;
   const std::optional<TargetSpec> target_spec = parse_target(o.target, &why);
   if (!target_spec) return usage(why);
   const std::optional<BoundarySpec> boundary_spec = parse_boundary(o.boundary, &why);
@@ -1460,6 +1462,11 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
                   "rounds; mesh.obj keeps the input's faces, refinement.obj and metric.csv hold the split vertices "
                   "after the input's. 0: never. Default: 4.")
       ->check(CLI::Range(0, 16));
+  cmd->add_flag("--no-split-chords", o.no_split_chords,
+                "Geodesic, fixed and free boundaries with vertex scaling and flips: where the solve on the surface "
+                "stops and its double (where boundary edges flip) is no surface because interior edges join two "
+                "boundary vertices, do not split those chords at their midpoints (a flat interior vertex each) to "
+                "solve on the split surface's double; mesh.obj keeps the input's faces either way.");
   cmd->add_option("--target", o.target,
                   "Target curvature: auto (= uniform), uniform, cones=FILE or single-vertex=I (as for `ricci flow`). "
                   "Default: auto.")

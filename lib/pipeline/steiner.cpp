@@ -158,6 +158,77 @@ SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> ed
   return out;
 }
 
+namespace {
+
+// One round of split_chords(): the chords of `s` whose two faces no earlier chord of the round
+// touched, split into `out`; `n` counts them.
+bool split_chords_once(const SteinerMesh& s, SteinerMesh& out, Index& n) {
+  const Topology& t = s.topology;
+  const Index nv = t.num_vertices, nf = t.num_faces;
+  out.mesh.positions = s.mesh.positions;
+  out.mesh.faces = s.mesh.faces;
+  out.place = s.place;
+  out.face_input = s.face_input;
+  std::vector<Index> opposite_input(3 * static_cast<std::size_t>(nf));
+  for (Index c = 0; c < 3 * nf; ++c) opposite_input[c] = s.edge_input[t.corner_edge[c]];
+  std::vector<std::uint8_t> touched(static_cast<std::size_t>(nf), 0);
+  n = 0;
+  // Splits face corner_face(c) at the new vertex m on the edge opposite c: the face keeps its
+  // slots with the edge's second end replaced by m, a copy with its first end replaced follows.
+  auto split_face = [&](Index c, Index m, Index on_e) {
+    const Index f = corner_face(c), cn = next_corner(c), cp = prev_corner(c);
+    const std::size_t f2 = out.mesh.faces.size() / 3;
+    for (int k = 0; k < 3; ++k) {
+      out.mesh.faces.push_back(out.mesh.faces[3 * static_cast<std::size_t>(f) + k]);
+      opposite_input.push_back(opposite_input[3 * static_cast<std::size_t>(f) + k]);
+    }
+    out.face_input.push_back(out.face_input[f]);
+    out.mesh.faces[cp] = m;  // (x, a, m): its edges (m, x) inside the old face, (x, a) as before
+    opposite_input[c] = on_e;
+    opposite_input[cn] = kInvalid;
+    out.mesh.faces[3 * f2 + corner_slot(cn)] = m;  // (x, m, b): (b, x) as before, (x, m) inside
+    opposite_input[3 * f2 + corner_slot(c)] = on_e;
+    opposite_input[3 * f2 + corner_slot(cp)] = kInvalid;
+  };
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index c = t.edge_corners[2 * e], o = t.edge_corners[2 * e + 1];
+    if (o == kInvalid || !t.is_boundary_vertex(t.edge_vertices[2 * e]) || !t.is_boundary_vertex(t.edge_vertices[2 * e + 1]))
+      continue;
+    if (touched[corner_face(c)] || touched[corner_face(o)]) continue;
+    touched[corner_face(c)] = touched[corner_face(o)] = 1;
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    const Index m = nv + n++;
+    for (int k = 0; k < 3; ++k)
+      out.mesh.positions.push_back(0.5 * (s.mesh.positions[3 * static_cast<std::size_t>(a) + k] +
+                                          s.mesh.positions[3 * static_cast<std::size_t>(b) + k]));
+    out.place.push_back(s.edge_input[e] != kInvalid ? SteinerPlace{SteinerPlace::Kind::Edge, s.edge_input[e]}
+                                                    : SteinerPlace{SteinerPlace::Kind::Face, s.face_input[corner_face(c)]});
+    split_face(c, m, s.edge_input[e]);
+    split_face(o, m, s.edge_input[e]);
+  }
+  if (!finish_subdivision(out, nv + n, opposite_input, "the surface with its chords split")) return false;
+  out.levels = s.levels;
+  return true;
+}
+
+}  // namespace
+
+SteinerMesh split_chords(const SteinerMesh& s, Index* split) {
+  if (split) *split = 0;
+  SteinerMesh cur = s;
+  Index total = 0;
+  for (;;) {
+    SteinerMesh next;
+    Index n = 0;
+    if (!split_chords_once(cur, next, n)) return next;
+    if (n == 0) break;
+    total += n;
+    cur = std::move(next);
+  }
+  if (split) *split = total;
+  return cur;
+}
+
 Target steiner_target(const SteinerMesh& s, const Topology& input, const Target& target) {
   const Index nv = input.num_vertices, nr = s.topology.num_vertices;
   Target out;

@@ -321,12 +321,16 @@ Index boundary_chord(const Topology& topology) {
   return kInvalid;
 }
 
+// Whether the boundary condition of `target` on a bordered surface has a double (above).
+bool has_double(const Topology& topology, const Target& target) {
+  return !topology.is_closed() && target.loop_total.empty() &&
+         (target.boundary == BoundaryMode::Geodesic || target.boundary == BoundaryMode::FixedLengths ||
+          target.boundary == BoundaryMode::Free);
+}
+
 bool doubled_surface(const Mesh& mesh, const Topology& topology, const Target& target, DoubledSurface& d,
                      std::string& why) {
-  if (topology.is_closed() || !target.loop_total.empty() ||
-      (target.boundary != BoundaryMode::Geodesic && target.boundary != BoundaryMode::FixedLengths &&
-       target.boundary != BoundaryMode::Free))
-    return false;  // no double for this condition (`why` stays empty)
+  if (!has_double(topology, target)) return false;  // no double for this condition (`why` stays empty)
   const Index nv = topology.num_vertices;
   d.mesh = mesh;
   d.mesh.texcoords.clear();
@@ -438,11 +442,11 @@ constexpr std::int64_t kMaxDoubleCrossings = 16;
 // solution restricted to the surface — u at its vertices, its boundary curvatures halved — and
 // the lengths of its edges made straight in that metric; where the straight input triangles of
 // the double do not tile it, `refinement` is the surface's part of the double's common
-// subdivision. False when any step fails (the caller falls back as before; `why` says which, and
-// stays empty when the boundary condition has no double).
+// subdivision (always, with `always_refine`). False when any step fails (the caller falls back as
+// before; `why` says which, and stays empty when the boundary condition has no double).
 // r.flow, r.intrinsic and the notes are filled in on success.
 bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
-                    UniformizeResult& r, CommonSubdivision& refinement, std::string& why) {
+                    bool always_refine, UniformizeResult& r, CommonSubdivision& refinement, std::string& why) {
   DoubledSurface d;
   if (!doubled_surface(mesh, topology, r.target, d, why)) return false;
   IntrinsicResult ir = mesh_intrinsic_triangulation(d.mesh, d.topology, r.geometry, mollify_margin);
@@ -480,7 +484,7 @@ bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOption
     why = "straightening its input edges failed (" + straight.message + ")";
     return false;
   }
-  if (!straight.tiles()) {
+  if (!straight.tiles() || always_refine) {
     const std::vector<double> t =
         straightest_crossings(tri, paths, straight.crossings, input_edge_crossings(tri, f.u, paths));
     const CommonSubdivision cs = common_subdivision(tri, f.u, d.mesh, d.topology, paths, t);
@@ -664,15 +668,51 @@ struct MetricStages {
   CommonSubdivision double_refinement;
 };
 
+// A bordered surface whose solve with flips stopped (r.intrinsic.fallback says why): its double,
+// where boundary edges can flip (flow_on_double()). True with m and r filled in on success; else
+// r's fallback and notes say what the double did, for the caller's circle packing.
+bool solve_on_double(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
+                     bool subdivided, UniformizeResult& r, MetricStages& m, StageClock& stage_done) {
+  std::vector<std::string> notes = r.flow.notes;
+  const std::string fallback = r.intrinsic.fallback;
+  r.intrinsic.fallback.clear();
+  std::string double_failure;
+  if (flow_on_double(mesh, topology, fo, mollify_margin, subdivided, r, m.double_refinement, double_failure)) {
+    notes.pop_back();  // "… circle packing was solved instead"
+    notes.push_back(fallback);
+    r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
+    stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips, on the double");
+    m.straight.status = Status::Ok;
+    m.straight.l = r.flow.l;
+    m.straight.max_angle_sum_error = r.intrinsic.max_angle_sum_error;
+    m.straight.inconsistent_vertices = r.intrinsic.straight_tiles ? 0 : std::max<Index>(1, r.intrinsic.inconsistent_vertices);
+    m.doubled = true;
+    m.flips = true;
+    m.ok = true;
+    return true;
+  }
+  r.intrinsic.used = false;
+  r.intrinsic.fallback = fallback;
+  r.flow.notes = notes;
+  if (!double_failure.empty()) {
+    r.intrinsic.fallback += "; on the surface's double, where boundary edges flip, " + double_failure;
+    if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
+  }
+  return false;
+}
+
 // The stages initial_metric, target, flow and (with flips) the input's edges traced and made
 // straight in the solution's metric, into r (r.flow.l: the input's edges' lengths). The
 // `straighten` stage is timed by the caller, which decides what it includes.
 // With `leaning`: where the solve with flips stops on triangles leaning over boundary edges
 // (leaning_boundary_edges()), those edges are put there and the stages fail at once, without the
-// fallbacks (the caller splits them and runs again).
+// fallbacks (the caller splits them and runs again). With `chords`: where it stops and the double
+// is refused by chords (boundary_chord()), *chords is set and the stages fail at once likewise.
+// With `subdivided` (the run is on a Steiner subdivision), a solve on the double always gives
+// its common subdivision.
 MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                            const Target* target, UniformizeResult& r, Clock::time_point start, StageClock& stage_done,
-                           std::vector<Index>* leaning = nullptr) {
+                           std::vector<Index>* leaning = nullptr, bool* chords = nullptr, bool subdivided = false) {
   MetricStages m;
   auto fail = [&](Status s, const std::string& stage, const std::string& message) {
     r.status = s;
@@ -713,34 +753,14 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
     if (!solved && leaning && !leaning->empty())
       return fail(r.flow.status, "flow", r.intrinsic.fallback + "; " + std::to_string(leaning->size()) +
                                              " boundary edges with triangles leaning over them");
-    if (!solved && !r.intrinsic.fallback.empty()) {
-      // A bordered surface whose solve stopped: its double, where boundary edges can flip.
-      std::vector<std::string> notes = r.flow.notes;
-      const std::string fallback = r.intrinsic.fallback;
-      r.intrinsic.fallback.clear();
-      std::string double_failure;
-      if (flow_on_double(mesh, topology, fo, mo.mollify_margin, r, m.double_refinement, double_failure)) {
-        notes.pop_back();  // "… circle packing was solved instead"
-        notes.push_back(fallback);
-        r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
-        stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips, on the double");
-        m.straight.status = Status::Ok;
-        m.straight.l = r.flow.l;
-        m.straight.max_angle_sum_error = r.intrinsic.max_angle_sum_error;
-        m.straight.inconsistent_vertices = r.intrinsic.straight_tiles ? 0 : std::max<Index>(1, r.intrinsic.inconsistent_vertices);
-        m.doubled = true;
-        m.flips = true;
-        m.ok = true;
-        return m;
-      }
-      r.intrinsic.used = false;
-      r.intrinsic.fallback = fallback;
-      r.flow.notes = notes;
-      if (!double_failure.empty()) {
-        r.intrinsic.fallback += "; on the surface's double, where boundary edges flip, " + double_failure;
-        if (!r.flow.notes.empty()) r.flow.notes.back() = r.intrinsic.fallback + "; the paper's circle packing was solved instead";
-      }
+    if (!solved && chords && !r.intrinsic.fallback.empty() && has_double(topology, r.target) &&
+        boundary_chord(topology) != kInvalid) {
+      *chords = true;
+      return fail(r.flow.status, "flow", r.intrinsic.fallback + "; the surface's double is refused by chords");
     }
+    if (!solved && !r.intrinsic.fallback.empty() &&
+        solve_on_double(mesh, topology, fo, mo.mollify_margin, subdivided, r, m, stage_done))
+      return m;
     if (solved) {
       stage_done("flow", r.flow.brief_report() + ", " + std::to_string(r.intrinsic.flow_flips) + " flips");
       m.paths = trace_input_edges(m.tri, topology);
@@ -888,6 +908,10 @@ struct SteinerPlan {
   // flips stopped on triangles leaning over them (metric_stages()), the run then failed.
   bool want_leaning = false;
   std::vector<Index> leaning;
+  // Chord splits: asked for with want_chords; set when the solve with flips stopped and chords
+  // refused its double (metric_stages()), the run then failed.
+  bool want_chords = false;
+  bool chords = false;
 };
 
 // The whole job on (mesh, topology). With `plan`: when Steiner points apply (the header comment;
@@ -903,7 +927,8 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   UniformizeResult r;
   StageClock stage_done{r, options};
   MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done,
-                                 plan && plan->want_leaning ? &plan->leaning : nullptr);
+                                 plan && plan->want_leaning ? &plan->leaning : nullptr,
+                                 plan && plan->want_chords ? &plan->chords : nullptr, steiner != nullptr);
   if (!m.ok) return r;
   if (plan && !steiner && m.flips && !m.doubled && !m.straight.tiles() &&
       (r.geometry != Geometry::Hyperbolic || !topology.is_closed()) && options.steiner_max_levels > 0) {
@@ -914,13 +939,6 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
       r.seconds = since(start);
       return r;
     }
-  }
-  if (steiner && m.doubled) {
-    r.status = Status::NumericalFailure;
-    r.failed_stage = "straighten";
-    r.message = "straighten: the subdivided surface was solved on its double";
-    r.seconds = since(start);
-    return r;
   }
   if (!m.flips || (m.straight.tiles() && !steiner)) {
     if (m.flips)
@@ -1096,10 +1114,12 @@ UniformizeResult uniformize_with_fallbacks(const Mesh& mesh, const Topology& top
 
 // A run r on the subdivision `s` of (mesh, topology) brought back to the user's faces: the
 // refinement's faces named by input face, angles on the input's corners, s kept in r. False (r not
-// Ok) when the run failed or was not solved with flips through the common subdivision.
-bool onto_input(const Mesh& mesh, const Topology& topology, SteinerMesh& s, UniformizeResult& r) {
+// Ok) when the run failed or was not solved with flips through the common subdivision (with
+// `any_scheme`: through a subdivision, by any scheme).
+bool onto_input(const Mesh& mesh, const Topology& topology, SteinerMesh& s, UniformizeResult& r,
+                bool any_scheme = false) {
   if (r.status != Status::Ok) return false;
-  if (!r.intrinsic.refined || !r.intrinsic.fallback.empty()) {
+  if (!r.intrinsic.refined || (!any_scheme && !r.intrinsic.fallback.empty())) {
     r.status = Status::NumericalFailure;
     r.failed_stage = "straighten";
     r.message = "straighten: the subdivided surface was not solved with flips";
@@ -1167,6 +1187,42 @@ UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& top
   return sub;
 }
 
+// Chord splits (the header comment): the chords of (mesh, topology) split and the job run on the
+// split surface; status not Ok when that failed (the caller runs the input's own job).
+UniformizeResult uniformize_chord_split(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                        const Target& target) {
+  Index n = 0;
+  SteinerMesh s = split_chords(subdivide_on_faces(mesh, topology, 0), &n);
+  UniformizeResult sub;
+  if (s.status != Status::Ok || n == 0) {
+    sub.status = s.status == Status::Ok ? Status::NumericalFailure : s.status;
+    sub.message = s.status == Status::Ok ? "no chord was split" : s.message;
+    return sub;
+  }
+  const Target st = steiner_target(s, topology, target);
+  sub = uniformize_unit(s.mesh, s.topology, options, &st, nullptr, &s);
+  if (sub.status == Status::Ok && !sub.intrinsic.refined) {
+    // Solved by a fallback (circle packing) on the split surface's own faces: the split surface
+    // is then the subdivision the later stages ran on.
+    CommonSubdivision& c = sub.refinement;
+    c.mesh = s.mesh;
+    c.topology = s.topology;
+    c.l = sub.flow.l;
+    c.face_input.resize(static_cast<std::size_t>(s.topology.num_faces));
+    for (Index f = 0; f < s.topology.num_faces; ++f) c.face_input[f] = f;
+    c.vertex_input_edge.assign(static_cast<std::size_t>(s.topology.num_vertices), kInvalid);
+    c.status = Status::Ok;
+    c.message = "ok";
+    sub.intrinsic.refined = true;
+  }
+  if (!onto_input(mesh, topology, s, sub, true)) return sub;
+  sub.steiner.chord_splits = n;
+  sub.flow.notes.push_back(std::to_string(n) + (n == 1 ? " chord" : " chords") +
+                           " (interior edges joining two boundary vertices) split at their midpoints, so that the "
+                           "surface's double is a surface");
+  return sub;
+}
+
 // The probe's stages first (probe_NAME), then the run's (whose names repeat); seconds from `start`.
 void after_probe(UniformizeResult& r, const std::vector<std::pair<std::string, double>>& probe,
                  Clock::time_point start) {
@@ -1185,8 +1241,23 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
   const UnitMesh u = unit_mesh(mesh);
   SteinerPlan plan;
   plan.want_leaning = options.boundary_split_rounds > 0;
+  plan.want_chords = options.split_chords;
   UniformizeResult r = uniformize_with_fallbacks(*u.mesh, topology, options, target, &plan);
-  if (!plan.leaning.empty()) {
+  if (plan.chords) {
+    const std::vector<std::pair<std::string, double>> probe = r.timings;
+    const std::string stopped = r.message;
+    const Target given = target ? *target : uniform_target(topology, r.boundary);
+    UniformizeResult sub = uniformize_chord_split(*u.mesh, topology, options, given);
+    if (sub.status == Status::Ok) {
+      r = std::move(sub);
+    } else {
+      r = uniformize_with_fallbacks(*u.mesh, topology, options, target, nullptr);
+      r.steiner.note = "vertex scaling with flips stopped and chords refused the surface's double (" + stopped +
+                       "), and splitting the chords did not solve it (" + sub.message + ")";
+      r.flow.notes.push_back(r.steiner.note);
+    }
+    after_probe(r, probe, start);
+  } else if (!plan.leaning.empty()) {
     const std::vector<std::pair<std::string, double>> probe = r.timings;
     const std::string stopped = r.message;
     const Target given = target ? *target : uniform_target(topology, r.boundary);

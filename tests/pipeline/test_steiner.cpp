@@ -205,6 +205,78 @@ TEST_CASE("steiner: boundary splits keep the input surface, one split per face a
   }
 }
 
+namespace {
+
+Index count_chords(const Topology& t) {
+  Index n = 0;
+  for (Index e = 0; e < t.num_edges; ++e)
+    n += t.edge_corners[2 * e + 1] != kInvalid && t.is_boundary_vertex(t.edge_vertices[2 * e]) &&
+         t.is_boundary_vertex(t.edge_vertices[2 * e + 1]);
+  return n;
+}
+
+// The surface glued to its mirror image along the boundary: a closed surface, or why not.
+TopologyResult glued_double(const Mesh& m, const Topology& t) {
+  std::vector<Index> mirror(static_cast<std::size_t>(t.num_vertices));
+  Index next = t.num_vertices;
+  for (Index v = 0; v < t.num_vertices; ++v) mirror[v] = t.is_boundary_vertex(v) ? v : next++;
+  std::vector<Index> faces = m.faces;
+  for (Index f = 0; f < t.num_faces; ++f)
+    faces.insert(faces.end(), {mirror[m.faces[3 * f]], mirror[m.faces[3 * f + 2]], mirror[m.faces[3 * f + 1]]});
+  return build_topology(faces, next);
+}
+
+}  // namespace
+
+TEST_CASE("steiner: chord splits keep the input surface, leave no chord, and make the double a closed surface") {
+  using namespace ricci_shapes;
+  // Every interior edge of a one-layer annulus and of a one-row strip is a chord, several to a
+  // face (so the splits take rounds); the random surface has a few among many interior edges.
+  ValidateOptions vo;
+  vo.split_ears = true;
+  const Mesh inputs[] = {annulus(1, 12), strip(6, 1, 6.0, 1.0), random_surface(1, 1500).mesh, pretzel(2, 2)};
+  for (const Mesh& in : inputs) {
+    const ValidateResult v = validate_mesh(in, vo);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const Topology& t = v.topology;
+    const Index chords = count_chords(t);
+    CAPTURE(chords);
+    const std::vector<double> sums = angle_sums(v.mesh, t);
+    const SteinerMesh s = subdivide_on_faces(v.mesh, t, 0);
+    REQUIRE(s.status == Status::Ok);
+    Index n = -1;
+    const SteinerMesh split = split_chords(s, &n);
+    REQUIRE_MESSAGE(split.status == Status::Ok, split.message);
+    CHECK(n == chords);  // a split makes no chord, so each chord of the input is split once
+    const Topology& st = split.topology;
+    CHECK(count_chords(st) == 0);
+    CHECK(st.num_vertices == t.num_vertices + n);
+    CHECK(st.num_faces == t.num_faces + 2 * n);
+    CHECK(st.num_boundary_edges() == t.num_boundary_edges());
+    for (Index w = t.num_vertices; w < st.num_vertices; ++w) {
+      CHECK_FALSE(st.is_boundary_vertex(w));
+      REQUIRE(split.place[w].kind == SteinerPlace::Kind::Edge);
+      const Index e = split.place[w].index;
+      CHECK(t.edge_corners[2 * e + 1] != kInvalid);  // on an interior input edge …
+      CHECK(t.is_boundary_vertex(t.edge_vertices[2 * e]));  // … that was a chord
+      CHECK(t.is_boundary_vertex(t.edge_vertices[2 * e + 1]));
+    }
+    check_on_input(v.mesh, t, sums, split);
+    if (!t.is_closed()) {
+      const TopologyResult d = glued_double(split.mesh, st);
+      REQUIRE_MESSAGE(d.status == Status::Ok, d.message);
+      CHECK(d.topology.is_closed());
+      CHECK(d.topology.euler_characteristic() == 2 * t.euler_characteristic());
+      if (chords > 0) {
+        const TopologyResult before = glued_double(v.mesh, t);
+        CHECK((before.status != Status::Ok || !before.topology.is_closed()));
+      }
+    } else {
+      CHECK(n == 0);
+    }
+  }
+}
+
 TEST_CASE("steiner: the target carries over: Gauss–Bonnet, loop totals by loop, held boundaries") {
   using namespace ricci_shapes;
   // Three holes of different sizes, so the loops' totals differ (circle: longest +2π, others −2π).

@@ -277,6 +277,7 @@ TEST_CASE("uniformize: a surface whose double is no surface (an interior edge jo
   UniformizeOptions o;
   o.boundary = BoundaryMode::FixedLengths;
   o.seed_checks = 0;
+  o.split_chords = false;  // (the default splits such edges first: the next test)
   const UniformizeResult r = uniformize(v.mesh, t, o);
   MESSAGE(r.brief_report() << " — " << r.message);
   CHECK_FALSE(r.intrinsic.doubled);
@@ -300,6 +301,66 @@ TEST_CASE("uniformize: a surface whose double is no surface (an interior edge jo
                                       std::min(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) == std::min(a, b) &&
                                       std::max(t.edge_vertices[2 * e], t.edge_vertices[2 * e + 1]) == std::max(a, b));
   CHECK(interior_edge);
+}
+
+TEST_CASE("uniformize: chords split at their midpoints open the double to bordered surfaces whose own solve stops") {
+  // random_surface(48, 1500) (genus 2 with 4 geodesic loops, 855 faces) and random_surface(42,
+  // 1500) (1451 faces): vertex scaling with flips stops on the surface, and interior edges join
+  // two boundary vertices, so their doubles are no surfaces. With those chords split (a flat
+  // interior vertex each) the split surface's double is solved with flips; the outputs are on the
+  // user's faces. Without the splits circle packing is the fallback: on draw 48 it maps, more than
+  // twice as distorted; on draw 42 its target is infeasible.
+  for (const std::uint64_t seed : {48u, 42u}) {
+    CAPTURE(seed);
+    ValidateOptions vo;
+    vo.split_ears = true;
+    const ValidateResult v = validate_mesh(ricci_shapes::random_surface(seed, 1500).mesh, vo);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const Topology& t = v.topology;
+    REQUIRE_FALSE(t.is_closed());
+    Index chords = 0;
+    for (Index e = 0; e < t.num_edges; ++e)
+      chords += t.edge_corners[2 * e + 1] != kInvalid && t.is_boundary_vertex(t.edge_vertices[2 * e]) &&
+                t.is_boundary_vertex(t.edge_vertices[2 * e + 1]);
+    REQUIRE(chords > 0);
+    UniformizeOptions o;
+    o.seed_checks = 0;
+    const UniformizeResult r = uniformize(v.mesh, t, o);
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    MESSAGE(r.brief_report() << "; angle distortion " << r.angles.mean_abs_log);
+    CHECK(r.steiner.used);
+    CHECK(r.steiner.chord_splits == chords);
+    CHECK(r.steiner.vertices_added == chords);
+    CHECK(r.intrinsic.doubled);
+    CHECK(r.intrinsic.fallback.empty());
+    CHECK(r.flow.max_curvature_error < 1e-12);
+    // Geodesic boundary on the input's boundary vertices (the split vertices are interior).
+    for (Index b : t.boundary_vertices) CHECK(std::abs(r.flow.K[b]) < 1e-12);
+    CHECK((r.has_atlas ? r.atlas.max_edge_length_error : r.layout.max_edge_length_error) < 1e-6);
+    const InputSurfaceLayout in = input_surface_layout(v.mesh, t, r);
+    REQUIRE_MESSAGE(in.status == Status::Ok, in.message);
+    // The user's faces, each corner at its vertex's point of the layout (drawn straight, the
+    // input's triangles may fold: the layout is the subdivision's, r.refinement).
+    CHECK(in.mesh.num_faces() == t.num_faces);
+    CHECK(in.mesh.num_vertices() == t.num_vertices);
+    CHECK(all_finite(in.mesh.texcoords));
+    CHECK((r.has_atlas ? r.atlas.flipped_faces : r.layout.flipped_faces) == 0);
+    CHECK(r.refinement.topology.num_faces >= t.num_faces + 2 * chords);
+
+    o.split_chords = false;
+    const UniformizeResult off = uniformize(v.mesh, t, o);
+    MESSAGE("without chord splits: " << off.brief_report() << " — " << off.message);
+    CHECK_FALSE(off.intrinsic.doubled);
+    CHECK(off.steiner.chord_splits == 0);
+    if (seed == 48) {
+      REQUIRE_MESSAGE(off.status == Status::Ok, off.message);
+      CHECK_FALSE(off.intrinsic.fallback.empty());  // circle packing
+      CHECK(off.intrinsic.fallback.find("joins two boundary vertices") != std::string::npos);
+      CHECK(r.angles.mean_abs_log < 0.6 * off.angles.mean_abs_log);
+    } else {
+      CHECK(off.status == Status::InfeasibleTarget);
+    }
+  }
 }
 
 TEST_CASE("uniformize: a circle domain whose triangles lean over its boundary maps with flips once those edges are split") {

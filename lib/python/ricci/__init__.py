@@ -169,7 +169,8 @@ def flow(V, F=None, *, name=None, progress=None, **options):
 def uniformize(V=None, F=None, *, name=None, progress=None, **options):
     """The whole job (`ricci uniformize`): geometry, scheme, target, boundary, tol, max_iterations,
     threads, mesh_polygon, atlas, base_candidates, seed_checks, cover_depth, cover_faces, patches, unit_box, flips,
-    angle_relax, circle_normalization, split_ears, largest_component. Returns a UniformizeResult; raises
+    angle_relax, circle_normalization, split_ears, steiner_levels, boundary_split_rounds, split_chords,
+    largest_component. Returns a UniformizeResult; raises
     RicciError naming the stage that failed. With an atlas of charts (``report["layout"]["charts"]``
     > 1), ``uv`` holds each face's corners in its own chart and ``face_chart`` names the chart."""
     V, F, path, name = _mesh_args(V, F, name, True)

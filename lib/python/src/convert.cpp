@@ -189,7 +189,8 @@ void apply_uniformize_options(const py::dict& options, ricci_cli::UniformizeComm
                   {"mesh_polygon", flag(&O::mesh_polygon, o, false)},
                   {"atlas", flag(&O::no_atlas, o, true)},
                   {"steiner_levels", integer(&O::steiner_levels, o)},
-                  {"boundary_split_rounds", integer(&O::boundary_split_rounds, o)}});
+                  {"boundary_split_rounds", integer(&O::boundary_split_rounds, o)},
+                  {"split_chords", flag(&O::no_split_chords, o, true)}});
   apply(options, setters, "uniformize");
 }
 

@@ -58,6 +58,15 @@ SteinerMesh subdivide_on_faces(const Mesh& mesh, const Topology& topology, int l
 /// InvalidArgument for an edge index out of range. O(#F).
 SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> edges, Index* split = nullptr);
 
+/// Splits every chord of `s` — an interior edge whose two ends are boundary vertices — at its
+/// midpoint, each of its two triangles into two (an interior vertex more, flat, on the same input
+/// edge; the surface and its metric unchanged), in rounds until none is left (a split makes no
+/// chord: the new vertex is interior). The vertices of `s` keep their indices, the new ones follow.
+/// Without chords the double of a bordered surface (its mirror image glued along the boundary) is
+/// a closed surface; with one, the chord and its mirror copy join the same two vertices. `split`
+/// counts the chords split. O(#F) per round.
+SteinerMesh split_chords(const SteinerMesh& s, Index* split = nullptr);
+
 /// The same target on the subdivided surface: the input's vertices keep theirs, a Steiner vertex
 /// gets K̄ = 0 (flat inside a face or on an interior edge; on a boundary edge the boundary does
 /// not turn there, and Circle / LoopTotals loops spread their totals by length anyway), held u on

@@ -83,6 +83,14 @@
 // steiner.boundary_split_rounds; the split vertices after the input's); up to
 // boundary_split_rounds rounds, each splitting the edges its own stalled solve names. Should every
 // round fail, the input's own run with its fallbacks is returned and steiner.note says why.
+// Chord splits (steiner.h: split_chords()). Where the solve with flips on a bordered surface stops
+// and its boundary condition has a double (geodesic, fixed lengths, free: doubled_surface() in
+// uniformize.cpp) but an interior edge joins two boundary vertices — the double then glues that
+// edge and its mirror copy between the same two vertices and is no surface — every such chord is
+// split at its midpoint (a flat interior vertex more, the surface unchanged) and the job runs
+// again on the split surface, solved on its double through the common subdivision as with
+// Steiner points (steiner.chord_splits; the split vertices after the input's). Should that run
+// fail, the input's own run with its fallbacks is returned and steiner.note says why.
 // Should the solve with flips fail, the paper's circle packing is solved instead and
 // `intrinsic.fallback` says why (a note in flow.notes too). Likewise, with uniformize(), when the
 // solve converged only to the curvature resolution of near-coincident vertices
@@ -164,6 +172,10 @@ struct UniformizeOptions {
   /// edge above 3π/4 at the last iterate), those boundary edges are split at their midpoints and
   /// the job runs again on the split surface, up to this many rounds. 0: off.
   int boundary_split_rounds = 4;
+  /// Chord splits (the header comment): where the solve with flips stops and the double that
+  /// would mend it is refused by chords (interior edges joining two boundary vertices), split them
+  /// and run again. False: off.
+  bool split_chords = true;
   /// Newton to max |K̄ − K| < 1e-12 by default.
   FlowOptions flow = [] {
     FlowOptions f;
@@ -285,6 +297,9 @@ struct SteinerSummary {
   /// edges split in all (each a Steiner vertex on a boundary edge); 0 when none was needed.
   int boundary_split_rounds = 0;
   Index boundary_splits = 0;
+  /// Chord splits (UniformizeOptions::split_chords): the chords split (each a Steiner vertex on
+  /// an interior edge); 0 when none was needed.
+  Index chord_splits = 0;
   /// Why a subdivision that was asked for is not used (its run failed; the input's run is
   /// returned instead); empty otherwise.
   std::string note;
