@@ -14,7 +14,8 @@
 // iterations and max |K̄ − K|; the layout's max relative edge error (over its charts, with their
 // number when there is an atlas) and flipped faces; closed genus ≥ 1: the relation error; the
 // seconds of uniformize(). "ok (on the double)": vertex scaling with flips solved on the surface's
-// double after the solve on the surface stopped; "ok (circle packing)": the fallback. Failures
+// double after the solve on the surface stopped ("N chords split": on the double of the surface
+// with its chords split, UniformizeOptions::split_chords); "ok (circle packing)": the fallback. Failures
 // are listed after the table with their messages.
 #include <chrono>
 #include <cmath>
@@ -114,6 +115,10 @@ int main(int argc, char** argv) {
       }
       if (r.status == ricci::Status::Ok) {
         result = !r.intrinsic.fallback.empty() ? "ok (circle packing)" : r.intrinsic.doubled ? "ok (on the double)" : "ok";
+        if (r.steiner.chord_splits > 0)
+          result.insert(result.size() - (result == "ok" ? 0 : 1),
+                        std::string(result == "ok" ? " (" : ", ") + std::to_string(r.steiner.chord_splits) + " chords split" +
+                            (result == "ok" ? ")" : ""));
         if (!r.intrinsic.fallback.empty()) fallbacks << "- seed " << seed << ": " << r.intrinsic.fallback << "\n";
         if (r.has_atlas) {
           lay = sci(r.atlas.max_edge_length_error) + " (" + std::to_string(r.atlas.num_charts()) + " charts)";

@@ -928,7 +928,8 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   StageClock stage_done{r, options};
   MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done,
                                  plan && plan->want_leaning ? &plan->leaning : nullptr,
-                                 plan && plan->want_chords ? &plan->chords : nullptr, steiner != nullptr);
+                                 plan && plan->want_chords ? &plan->chords : nullptr,
+                                 steiner != nullptr && steiner->levels == 0);
   if (!m.ok) return r;
   if (plan && !steiner && m.flips && !m.doubled && !m.straight.tiles() &&
       (r.geometry != Geometry::Hyperbolic || !topology.is_closed()) && options.steiner_max_levels > 0) {
@@ -939,6 +940,16 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
       r.seconds = since(start);
       return r;
     }
+  }
+  // On a Steiner subdivision the input's own solve converged (the probe): solving the
+  // subdivision's double costs more than the input's run it would replace (the job falls back to
+  // that run). Chord splits (levels 0) exist to solve the double.
+  if (steiner && m.doubled && steiner->levels > 0) {
+    r.status = Status::NumericalFailure;
+    r.failed_stage = "straighten";
+    r.message = "straighten: the subdivided surface was solved on its double";
+    r.seconds = since(start);
+    return r;
   }
   if (!m.flips || (m.straight.tiles() && !steiner)) {
     if (m.flips)
