@@ -701,6 +701,57 @@ bool solve_on_double(const Mesh& mesh, const Topology& topology, const FlowOptio
   return false;
 }
 
+// A failure named in terms a user can act on (status Ok: nothing more specific than the solver's
+// own message applies).
+struct NamedFailure {
+  Status status = Status::Ok;
+  std::string message;
+};
+
+// Why the circle-domain solve (E, circle boundaries) failed: a circle domain that crowds beyond
+// double precision is named as such, not as the solver's symptom (crowding.h: its boundary pieces
+// would be too short to lay out anyway), seen from the centre by harmonic measure; otherwise what
+// the circles ask, and what else is solved with guarantees.
+NamedFailure circle_domain_failure(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
+                                   const UniformizeResult& r) {
+  NamedFailure out;
+  const double resolvable = 0x1p-52 / options.max_layout_error;
+  const std::string limits = ", and coordinates near the circle resolve arcs of " + sci(resolvable) +
+                             " to the layout limit " + sci(options.max_layout_error) +
+                             "; long thin parts crowd exponentially (a 100 × 1 strip: e^(−π·50)); --boundary fixed "
+                             "needs no circle (the flow stopped: " + r.flow.message + ")";
+  const detail::Crowding c = detail::circle_domain_crowding(mesh, topology);
+  const double arc = 2 * std::numbers::pi * c.min_measure;  // of the unit circle
+  if (c.computed && !(arc > resolvable)) {
+    out.status = Status::NumericalFailure;
+    out.message = "the circle domain crowds beyond double precision: with vertex " + std::to_string(c.centre) +
+                  " (in the middle of the boundary's longest extent) at the centre, " +
+                  (c.vertex == c.other ? "the boundary at vertex " + std::to_string(c.vertex)
+                                       : "the boundary edge from vertex " + std::to_string(c.vertex) + " to vertex " +
+                                             std::to_string(c.other)) +
+                  " gets an arc of " + (arc > 0 ? sci(arc) : std::string("below 1e-16")) +
+                  " of the unit circle (harmonic measure)" + limits;
+    return out;
+  }
+  if (r.intrinsic.fallback.empty()) return out;
+  const Index chord = boundary_chord(topology);
+  const std::string alternatives =
+      chord == kInvalid || options.split_chords
+          ? "--boundary fixed (boundary lengths held) and --boundary free (a given K̄ per boundary vertex) "
+            "are fixed targets, solved with flips, on the surface's double where the surface's own solve stops" +
+                std::string(chord == kInvalid ? "" : " (its chords split first)")
+          : "--boundary fixed and --boundary free are fixed targets solved with flips on the surface's double, "
+            "but this surface has none: the interior edge from vertex " +
+                std::to_string(topology.edge_vertices[2 * chord]) + " to vertex " +
+                std::to_string(topology.edge_vertices[2 * chord + 1]) +
+                " joins two boundary vertices (split such edges first, as the default does)";
+  out.status = r.flow.status;
+  out.message = r.flow.message + "; circle boundaries make each loop's target follow its lengths (the polygon "
+                "inscribed in a circle), a problem without the convexity of a fixed target, and neither vertex "
+                "scaling with flips (" + r.intrinsic.fallback + ") nor circle packing solved it here; " + alternatives;
+  return out;
+}
+
 // The stages initial_metric, target, flow and (with flips) the input's edges traced and made
 // straight in the solution's metric, into r (r.flow.l: the input's edges' lengths). The
 // `straighten` stage is timed by the caller, which decides what it includes.
@@ -792,42 +843,9 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   r.flow = solve_flow(topology, r.metric.structure, r.metric.u, r.target, fo);
   r.flow.notes.insert(r.flow.notes.begin(), notes.begin(), notes.end());
   if (r.flow.status != Status::Ok) {
-    // A circle domain that crowds beyond double precision is named as such, not as the solver's
-    // symptom (crowding.h): its boundary pieces would be too short to lay out anyway.
     if (r.boundary == BoundaryMode::Circle && r.geometry == Geometry::Euclidean) {
-      const detail::Crowding c = detail::circle_domain_crowding(mesh, topology);
-      const double arc = 2 * std::numbers::pi * c.min_measure;  // of the unit circle
-      const double resolvable = 0x1p-52 / options.max_layout_error;
-      if (c.computed && !(arc > resolvable))
-        return fail(Status::NumericalFailure, "flow",
-                    "the circle domain crowds beyond double precision: with vertex " + std::to_string(c.centre) +
-                        " (in the middle of the boundary's longest extent) at the centre, " +
-                        (c.vertex == c.other ? "the boundary at vertex " + std::to_string(c.vertex)
-                                             : "the boundary edge from vertex " + std::to_string(c.vertex) +
-                                                   " to vertex " + std::to_string(c.other)) +
-                        " gets an arc of " + (arc > 0 ? sci(arc) : std::string("below 1e-16")) +
-                        " of the unit circle (harmonic measure), and coordinates near the circle resolve arcs "
-                        "of " + sci(resolvable) + " to the layout limit " + sci(options.max_layout_error) +
-                        "; long thin parts crowd exponentially (a 100 × 1 strip: e^(−π·50)); --boundary fixed "
-                        "needs no circle (the flow stopped: " + r.flow.message + ")");
-      // Otherwise say what the circles ask, and what else is solved with guarantees.
-      if (!r.intrinsic.fallback.empty()) {
-        const Index chord = boundary_chord(topology);
-        const std::string alternatives =
-            chord == kInvalid
-                ? "--boundary fixed (boundary lengths held) and --boundary free (a given K̄ per boundary vertex) "
-                  "are fixed targets, solved with flips, on the surface's double where the surface's own solve stops"
-                : "--boundary fixed and --boundary free are fixed targets solved with flips on the surface's double, "
-                  "but this surface has none: the interior edge from vertex " +
-                      std::to_string(topology.edge_vertices[2 * chord]) + " to vertex " +
-                      std::to_string(topology.edge_vertices[2 * chord + 1]) +
-                      " joins two boundary vertices (split such edges, e.g. at their midpoints, first)";
-        return fail(r.flow.status, "flow",
-                    r.flow.message + "; circle boundaries make each loop's target follow its lengths (the "
-                    "polygon inscribed in a circle), a problem without the convexity of a fixed target, and neither "
-                    "vertex scaling with flips (" + r.intrinsic.fallback + ") nor circle packing solved it here; " +
-                        alternatives);
-      }
+      const NamedFailure named = circle_domain_failure(mesh, topology, options, r);
+      if (named.status != Status::Ok) return fail(named.status, "flow", named.message);
     }
     if (!r.intrinsic.fallback.empty())
       return fail(r.flow.status, "flow",
