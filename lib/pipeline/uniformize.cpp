@@ -259,12 +259,15 @@ std::vector<Index> leaning_boundary_edges(const IntrinsicTriangulation& tri, std
 }
 
 // Vertex scaling with intrinsic flips: the mesh's intrinsic Delaunay triangulation, then the
-// solve with Ptolemy flips from u = 0 (r.target, options fo). True when it converged (r.flow, tri
-// and r.intrinsic filled in). False with r.status set when the triangulation could not be made;
+// solve with Ptolemy flips from u = 0 (r.target, options fo), or from `start` (#V) when given —
+// and from 0 after all should that start give no step. True when it converged (r.flow, tri and
+// r.intrinsic filled in). False with r.status set when the triangulation could not be made;
 // false with r.intrinsic.fallback (and a note in r.flow.notes) when the solve failed, and then in
-// `leaning` (loop targets) the boundary edges leaning_boundary_edges() finds.
+// `leaning` (loop targets) the boundary edges leaning_boundary_edges() finds and in `last_u` the
+// solve's last iterate.
 bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptions& fo, double mollify_margin,
-                     UniformizeResult& r, IntrinsicTriangulation& tri, std::vector<Index>* leaning = nullptr) {
+                     UniformizeResult& r, IntrinsicTriangulation& tri, std::vector<Index>* leaning = nullptr,
+                     std::span<const double> start = {}, std::vector<double>* last_u = nullptr) {
   r.intrinsic.used = true;
   IntrinsicResult ir = mesh_intrinsic_triangulation(mesh, topology, r.geometry, mollify_margin);
   if (ir.status != Status::Ok) {
@@ -273,14 +276,19 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
     r.message = "initial_metric: " + ir.message;
     return false;
   }
-  tri = std::move(ir.triangulation);
   r.intrinsic.delaunay_flips = ir.delaunay_flips;
   const std::vector<double> u0(static_cast<std::size_t>(topology.num_vertices), 0.0);
   // Newton with flips converges in a few steps where it converges at all (≤ 12 on every shared
   // mesh): past kMaxFlipIterations the fallback is cheaper than more steps.
   FlowOptions capped = fo;
   capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
-  FlowResult f = solve_flow_with_flips(tri, u0, r.target, capped);
+  const bool warm = start.size() == u0.size();
+  tri = ir.triangulation;
+  FlowResult f = solve_flow_with_flips(tri, warm ? start : std::span<const double>(u0), r.target, capped);
+  if (warm && f.status != Status::Ok && f.iterations == 0) {
+    tri = std::move(ir.triangulation);
+    f = solve_flow_with_flips(tri, u0, r.target, capped);
+  }
   r.intrinsic.flow_flips = f.flips;
   if (f.status == Status::Ok) {
     r.flow = std::move(f);
@@ -288,6 +296,7 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
   }
   r.intrinsic.used = false;
   if (leaning && !r.target.loop_total.empty()) *leaning = leaning_boundary_edges(tri, f.l);
+  if (last_u) *last_u = f.u;
   r.flow.status = f.status;
   r.flow.notes = f.notes;
   r.intrinsic.fallback = "vertex scaling with intrinsic flips stopped (" + std::string(status_name(f.status)) + ": " +
@@ -752,18 +761,39 @@ NamedFailure circle_domain_failure(const Mesh& mesh, const Topology& topology, c
   return out;
 }
 
+// Steiner levels asked for by a run of uniformize_unit() (it stops after the metric stages).
+struct SteinerPlan {
+  int levels = 0;
+  double median_jump = 0;
+  // Boundary splits: asked for with want_leaning; the boundary edges to split when the solve with
+  // flips stopped on triangles leaning over them (metric_stages()), the run then failed.
+  bool want_leaning = false;
+  std::vector<Index> leaning;
+  // Chord splits: asked for with want_chords; set when the solve with flips stopped and chords
+  // refused its double (metric_stages()), the run then failed.
+  bool want_chords = false;
+  bool chords = false;
+  // Boundary split rounds: the flips solve starts from start_u (#V, when not empty), and where it
+  // stopped on leaning triangles its last iterate is put in last_u.
+  std::vector<double> start_u;
+  std::vector<double> last_u;
+};
+
 // The stages initial_metric, target, flow and (with flips) the input's edges traced and made
 // straight in the solution's metric, into r (r.flow.l: the input's edges' lengths). The
 // `straighten` stage is timed by the caller, which decides what it includes.
-// With `leaning`: where the solve with flips stops on triangles leaning over boundary edges
-// (leaning_boundary_edges()), those edges are put there and the stages fail at once, without the
-// fallbacks (the caller splits them and runs again). With `chords`: where it stops and the double
-// is refused by chords (boundary_chord()), *chords is set and the stages fail at once likewise.
-// With `subdivided` (the run is on a Steiner subdivision), a solve on the double always gives
-// its common subdivision.
+// With `plan` and plan->want_leaning: where the solve with flips stops on triangles leaning over
+// boundary edges (leaning_boundary_edges()), those edges are put in plan->leaning (its last
+// iterate in plan->last_u) and the stages fail at once, without the fallbacks (the caller splits
+// them and runs again from there: plan->start_u). With plan->want_chords: where it stops and the
+// double is refused by chords (boundary_chord()), plan->chords is set and the stages fail at once
+// likewise. With `subdivided` (the run is on a Steiner subdivision), a solve on the double always
+// gives its common subdivision.
 MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
                            const Target* target, UniformizeResult& r, Clock::time_point start, StageClock& stage_done,
-                           std::vector<Index>* leaning = nullptr, bool* chords = nullptr, bool subdivided = false) {
+                           SteinerPlan* plan = nullptr, bool subdivided = false) {
+  std::vector<Index>* leaning = plan && plan->want_leaning ? &plan->leaning : nullptr;
+  bool* chords = plan && plan->want_chords ? &plan->chords : nullptr;
   MetricStages m;
   auto fail = [&](Status s, const std::string& stage, const std::string& message) {
     r.status = s;
@@ -800,7 +830,9 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
   FlowOptions fo = options.flow;
   if (options.polish && fo.method == Method::Newton) fo.polish_steps = std::max(fo.polish_steps, 2);
   if (options.intrinsic_flips && mo.scheme == Scheme::Yamabe) {
-    bool solved = flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri, leaning);
+    bool solved = flow_with_flips(mesh, topology, fo, mo.mollify_margin, r, m.tri, leaning,
+                                  plan ? std::span<const double>(plan->start_u) : std::span<const double>(),
+                                  leaning ? &plan->last_u : nullptr);
     if (!solved && leaning && !leaning->empty())
       return fail(r.flow.status, "flow", r.intrinsic.fallback + "; " + std::to_string(leaning->size()) +
                                              " boundary edges with triangles leaning over them");
@@ -918,19 +950,6 @@ void cut_beside_flow(const Mesh& mesh, const Topology& topology, const Uniformiz
   });
 }
 
-// Steiner levels asked for by a run of uniformize_unit() (it stops after the metric stages).
-struct SteinerPlan {
-  int levels = 0;
-  double median_jump = 0;
-  // Boundary splits: asked for with want_leaning; the boundary edges to split when the solve with
-  // flips stopped on triangles leaning over them (metric_stages()), the run then failed.
-  bool want_leaning = false;
-  std::vector<Index> leaning;
-  // Chord splits: asked for with want_chords; set when the solve with flips stopped and chords
-  // refused its double (metric_stages()), the run then failed.
-  bool want_chords = false;
-  bool chords = false;
-};
 
 // The whole job on (mesh, topology). With `plan`: when Steiner points apply (the header comment;
 // UniformizeOptions::steiner_max_levels), returns right after the metric stages with plan->levels
@@ -944,9 +963,7 @@ UniformizeResult uniformize_unit(const Mesh& mesh, const Topology& topology, con
   if (!steiner) cut_beside_flow(mesh, topology, options, target, cut_beside);
   UniformizeResult r;
   StageClock stage_done{r, options};
-  MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done,
-                                 plan && plan->want_leaning ? &plan->leaning : nullptr,
-                                 plan && plan->want_chords ? &plan->chords : nullptr,
+  MetricStages m = metric_stages(mesh, topology, options, target, r, start, stage_done, plan,
                                  steiner != nullptr && steiner->levels == 0);
   if (!m.ok) return r;
   if (plan && !steiner && m.flips && !m.doubled && !m.straight.tiles() &&
@@ -1175,12 +1192,37 @@ UniformizeResult uniformize_subdivided(const Mesh& mesh, const Topology& topolog
   return r;
 }
 
+// The start of a boundary split round: `u` (the last iterate on the surface before the split, #V
+// of `before`) on the vertices that were there, and on each vertex the split added, between the
+// two ends of its boundary edge a and b, the u that keeps that edge's length at u in its two
+// halves: ½ l e^((u_a+u_m)/2) + ½ l e^((u_m+u_b)/2) = l e^((u_a+u_b)/2).
+std::vector<double> split_start(const SteinerMesh& after, Index before, const std::vector<double>& u) {
+  const Topology& t = after.topology;
+  std::vector<double> out(static_cast<std::size_t>(t.num_vertices), 0.0);
+  if (u.size() != static_cast<std::size_t>(before)) return {};
+  std::copy(u.begin(), u.end(), out.begin());
+  for (Index L = 0; L < t.num_boundary_loops(); ++L) {
+    const Index b0 = t.boundary_offsets[L], n = t.boundary_offsets[L + 1] - b0;
+    for (Index i = 0; i < n; ++i) {
+      const Index m = t.boundary_vertices[b0 + i];
+      if (m < before) continue;
+      const Index a = t.boundary_vertices[b0 + (i + n - 1) % n], b = t.boundary_vertices[b0 + (i + 1) % n];
+      if (a >= before || b >= before) return {};  // not one split per edge: no start
+      const double ha = 0.5 * u[a], hb = 0.5 * u[b];
+      out[m] = 2 * (ha + hb + std::log(2.0) - (std::max(ha, hb) + std::log1p(std::exp(-std::abs(ha - hb)))));
+    }
+  }
+  return out;
+}
+
 // Boundary splits (the header comment): the edges `leaning` of (mesh, topology) split, the job run
-// on the split surface, and again with the edges its own stalled solve names, up to
+// on the split surface from the stalled solve's last iterate `last_u` (split_start()), and again
+// with the edges its own stalled solve names from its own last iterate, up to
 // options.boundary_split_rounds rounds; status not Ok when no round succeeded (its message says
 // why; the caller runs the input's own job with its fallbacks).
 UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& topology, const UniformizeOptions& options,
-                                           const Target& target, std::vector<Index> leaning) {
+                                           const Target& target, std::vector<Index> leaning,
+                                           std::vector<double> last_u) {
   SteinerMesh s = subdivide_on_faces(mesh, topology, 0);
   UniformizeResult sub;
   Index splits = 0;
@@ -1195,12 +1237,14 @@ UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& top
       return sub;
     }
     splits += n;
+    const Index before = s.topology.num_vertices;
     s = std::move(next);
     const Target st = steiner_target(s, topology, target);
     // Every round stops at the flow when triangles still lean (no fallback run on a surface
     // whose result would be dropped); the last round's edges are then left unsplit.
     SteinerPlan p;
     p.want_leaning = true;
+    p.start_u = split_start(s, before, last_u);
     sub = uniformize_unit(s.mesh, s.topology, options, &st, &p, &s);
     if (onto_input(mesh, topology, s, sub)) {
       sub.steiner.boundary_split_rounds = round;
@@ -1212,6 +1256,7 @@ UniformizeResult uniformize_boundary_split(const Mesh& mesh, const Topology& top
     }
     if (p.leaning.empty()) return sub;
     leaning = std::move(p.leaning);
+    last_u = std::move(p.last_u);
   }
   return sub;
 }
@@ -1290,7 +1335,7 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
     const std::vector<std::pair<std::string, double>> probe = r.timings;
     const std::string stopped = r.message;
     const Target given = target ? *target : uniform_target(topology, r.boundary);
-    UniformizeResult sub = uniformize_boundary_split(*u.mesh, topology, options, given, plan.leaning);
+    UniformizeResult sub = uniformize_boundary_split(*u.mesh, topology, options, given, plan.leaning, plan.last_u);
     if (sub.status == Status::Ok) {
       r = std::move(sub);
     } else {
@@ -1298,6 +1343,21 @@ UniformizeResult uniformize(const Mesh& mesh, const Topology& topology, const Un
       r.steiner.note = "vertex scaling with flips stopped on triangles leaning over boundary edges (" + stopped +
                        "), and splitting those edges did not solve it (" + sub.message + ")";
       r.flow.notes.push_back(r.steiner.note);
+      // Where the split surface's metric converged and a later stage stopped it while the input's
+      // own run stopped at its flow, the split run's failure is what blocks the job: named so.
+      const std::string stage = sub.failed_stage;
+      if (r.status != Status::Ok && r.failed_stage == "flow" && sub.flow.status == Status::Ok && !stage.empty() &&
+          stage != "flow" && sub.message.rfind(stage + ": ", 0) == 0) {
+        const std::string own = r.message;
+        std::vector<std::string> notes = std::move(r.flow.notes);
+        r = std::move(sub);
+        r.message = stage + ": with its leaning boundary edges split, vertex scaling with flips converged (" +
+                    r.flow.brief_report() + "), and then " + r.message.substr(stage.size() + 2) +
+                    "; the input's own run stopped at its flow (" + own + ")";
+        r.steiner.note = "the surface's leaning boundary edges were split; the run failed at " + stage;
+        notes.insert(notes.end(), r.flow.notes.begin(), r.flow.notes.end());
+        r.flow.notes = std::move(notes);
+      }
     }
     after_probe(r, probe, start);
   } else if (plan.levels > 0) {

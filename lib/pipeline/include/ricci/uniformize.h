@@ -81,8 +81,11 @@
 // (the surface unchanged, a flat boundary vertex more), and the job runs again on the split surface,
 // always through the common subdivision as with Steiner points (steiner.boundary_splits,
 // steiner.boundary_split_rounds; the split vertices after the input's); up to
-// boundary_split_rounds rounds, each splitting the edges its own stalled solve names. Should every
-// round fail, the input's own run with its fallbacks is returned and steiner.note says why.
+// boundary_split_rounds rounds, each splitting the edges its own stalled solve names and solving
+// from its last iterate (a split vertex's u keeps its edge's length). Should every round fail, the
+// input's own run with its fallbacks is returned and steiner.note says why — unless that run too
+// stops at its flow while a round's flow converged and a later stage stopped it: that failure is
+// returned then, its message saying so.
 // Chord splits (steiner.h: split_chords()). Where the solve with flips on a bordered surface stops
 // and its boundary condition has a double (geodesic, fixed lengths, free: doubled_surface() in
 // uniformize.cpp) but an interior edge joins two boundary vertices — the double then glues that
