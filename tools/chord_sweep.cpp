@@ -20,13 +20,7 @@ using namespace ricci;
 
 namespace {
 
-Index count_chords(const Topology& t) {
-  Index n = 0;
-  for (Index e = 0; e < t.num_edges; ++e)
-    n += t.edge_corners[2 * e + 1] != kInvalid && t.is_boundary_vertex(t.edge_vertices[2 * e]) &&
-         t.is_boundary_vertex(t.edge_vertices[2 * e + 1]);
-  return n;
-}
+Index count_chords(const Topology& t) { return static_cast<Index>(find_chords(t).size()); }
 
 std::string cell(const UniformizeResult& r, double seconds) {
   char buf[256];

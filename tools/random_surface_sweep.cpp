@@ -12,7 +12,8 @@
 // Each draw's face count is log-uniform in [min, max] (defaults 1000 and 50000), drawn from its
 // seed. Columns: the surface; how the run ended (ok, or the status and failing stage); Newton
 // iterations and max |K̄ − K|; the layout's max relative edge error (over its charts, with their
-// number when there is an atlas) and flipped faces; closed genus ≥ 1: the relation error; the
+// number when there is an atlas, and the error over the faces other than the needles of the common
+// subdivision within their coarse face's rounding, LayoutAtlas::frame_rounding_faces) and flipped faces; closed genus ≥ 1: the relation error; the
 // seconds of uniformize(). "ok (on the double)": vertex scaling with flips solved on the surface's
 // double after the solve on the surface stopped ("N chords split": on the double of the surface
 // with its chords split, UniformizeOptions::split_chords); "ok (circle packing)": the fallback. Failures
@@ -121,7 +122,12 @@ int main(int argc, char** argv) {
                             (result == "ok" ? ")" : ""));
         if (!r.intrinsic.fallback.empty()) fallbacks << "- seed " << seed << ": " << r.intrinsic.fallback << "\n";
         if (r.has_atlas) {
-          lay = sci(r.atlas.max_edge_length_error) + " (" + std::to_string(r.atlas.num_charts()) + " charts)";
+          lay = sci(r.atlas.max_edge_length_error) + " (" + std::to_string(r.atlas.num_charts()) + " charts" +
+                (r.atlas.frame_rounding_faces.empty()
+                     ? std::string()
+                     : "; " + sci(r.atlas.max_resolved_error) + " but for " +
+                           std::to_string(r.atlas.frame_rounding_faces.size()) + " needles") +
+                ")";
           flipped = std::to_string(r.atlas.flipped_faces);
         } else if (r.has_cut) {
           lay = sci(r.layout.max_edge_length_error);

@@ -376,6 +376,8 @@ Json atlas_json(const ricci::UniformizeResult& r) {
               {"max_transition_error", real(a.max_transition_error)},
               {"unresolvable_faces", a.unresolvable_faces},
               {"unresolvable_error", real(a.unresolvable_error)},
+              {"frame_rounding_faces", a.frame_rounding_faces.size()},
+              {"max_resolved_error", real(a.max_resolved_error)},
               {"charts", std::move(charts)},
               {"face_chart_of", r.intrinsic.refined ? "refinement.obj" : "mesh.obj"},
               {"face_chart", a.face_chart}};

@@ -48,6 +48,17 @@ struct AtlasBuild {
   /// group's smallest face, near its origin): no further chart resolves it better, so it starts
   /// no group of its own (see LayoutAtlas::unresolvable_faces).
   std::vector<std::uint8_t> settled;
+  /// #F, with coarse frames: the rounding of the face's own coarse face, relative to the face's
+  /// shortest edge — 2^-53 × the coarse face's longest side / that edge. Every chart places the
+  /// face's corners by that face's one isometry, so even the chart made for it resolves the face
+  /// only to about that (a needle of the common subdivision, an edge 1e-11 of its coarse face:
+  /// about 1e-5); an error within it there is rounding, not lengths that are not one metric.
+  std::vector<double> frame_floor;
+  /// Errors within this many times the frame floor are that rounding (rounding_only()).
+  static constexpr double kFrameAllowance = 64;
+  bool rounding_only(Index f) const {
+    return !frame_floor.empty() && face_error[f] <= kFrameAllowance * frame_floor[f];
+  }
 
   Cx corner(Index f, int c) const { return {out.corner_positions[6 * f + 2 * c], out.corner_positions[6 * f + 2 * c + 1]}; }
 
@@ -248,7 +259,7 @@ struct AtlasBuild {
     }
     // A face its own chart misses by more than a collar may: not rounding, the lengths do not close.
     for (Index f : group)
-      if (!(face_error[f] <= options.max_transition_error))
+      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f))
         return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
                                           " made for it (" + std::to_string(resolved) + " of its group's " +
@@ -284,6 +295,11 @@ struct AtlasBuild {
       if (unresolved(f)) {
         ++out.unresolvable_faces;
         out.unresolvable_error = std::isnan(err) ? err : std::max(out.unresolvable_error, err);
+      }
+      if (unresolved(f) && rounding_only(f)) {
+        out.frame_rounding_faces.push_back(f);
+      } else {
+        out.max_resolved_error = std::isnan(err) ? err : std::max(out.max_resolved_error, err);
       }
       ++ch.faces;
       ch.rounding_floor = std::max(ch.rounding_floor, floor);
@@ -345,7 +361,17 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   out.charts.push_back(root);
   AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
                std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1),
-               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0)};
+               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0), {}};
+  if (options.frames && options.frames->face_frame.size() == static_cast<std::size_t>(nf)) {
+    const FaceFrames& fr = *options.frames;
+    b.frame_floor.assign(static_cast<std::size_t>(nf), 0.0);
+    for (Index f = 0; f < nf; ++f) {
+      const std::size_t cf = 3 * static_cast<std::size_t>(fr.face_frame[f]);
+      const double coarse = std::max({fr.frame_lengths[cf], fr.frame_lengths[cf + 1], fr.frame_lengths[cf + 2]});
+      const double own = std::min({l[disk.corner_edge[3 * f]], l[disk.corner_edge[3 * f + 1]], l[disk.corner_edge[3 * f + 2]]});
+      b.frame_floor[f] = own > 0 ? 0x1p-53 * coarse / own : std::numeric_limits<double>::infinity();
+    }
+  }
 #pragma omp parallel for schedule(static)
   for (Index f = 0; f < nf; ++f) b.measure_face(f, b.face_error[f], b.face_floor[f]);
   for (Index k = 0; k < out.num_charts(); ++k) {
@@ -365,7 +391,12 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
                 (out.unresolvable_faces > 0 ? "; " + std::to_string(out.unresolvable_faces) +
                                                   " faces no chart resolves to " + sci(options.limit) + " (worst " +
                                                   sci(out.unresolvable_error) + " in the chart made for them)"
-                                            : "");
+                                            : "") +
+                (!out.frame_rounding_faces.empty()
+                     ? ", " + std::to_string(out.frame_rounding_faces.size()) +
+                           " of them within the rounding of their coarse face (faces elsewhere to " +
+                           sci(out.max_resolved_error) + ")"
+                     : "");
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

@@ -28,6 +28,19 @@ bool finish_subdivision(SteinerMesh& out, Index num_vertices, const std::vector<
   return true;
 }
 
+// The start of a split of `s` into `out`: its mesh, places and face inputs copied; returns the
+// input edge under each corner's opposite edge (kInvalid inside an input face).
+std::vector<Index> start_split(const SteinerMesh& s, SteinerMesh& out) {
+  out.mesh.positions = s.mesh.positions;
+  out.mesh.faces = s.mesh.faces;
+  out.place = s.place;
+  out.face_input = s.face_input;
+  const Topology& t = s.topology;
+  std::vector<Index> opposite_input(static_cast<std::size_t>(t.num_corners()));
+  for (Index c = 0; c < t.num_corners(); ++c) opposite_input[c] = s.edge_input[t.corner_edge[c]];
+  return opposite_input;
+}
+
 // One midpoint split of `in` (level k) into `out` (level k + 1).
 bool split_once(const SteinerMesh& in, SteinerMesh& out) {
   const Topology& t = in.topology;
@@ -119,13 +132,7 @@ SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> ed
       out.message = "edge " + std::to_string(e) + " is not an edge (the surface has " + std::to_string(t.num_edges) + ")";
       return out;
     }
-  out.mesh.positions = s.mesh.positions;
-  out.mesh.faces = s.mesh.faces;
-  out.place = s.place;
-  out.face_input = s.face_input;
-  // The input edge under each corner's opposite edge (kInvalid inside an input face).
-  std::vector<Index> opposite_input(3 * static_cast<std::size_t>(nf));
-  for (Index c = 0; c < 3 * nf; ++c) opposite_input[c] = s.edge_input[t.corner_edge[c]];
+  std::vector<Index> opposite_input = start_split(s, out);
   std::vector<std::uint8_t> touched(static_cast<std::size_t>(nf), 0);
   Index n = 0;
   for (const Index e : edges) {
@@ -165,12 +172,7 @@ namespace {
 bool split_chords_once(const SteinerMesh& s, SteinerMesh& out, Index& n) {
   const Topology& t = s.topology;
   const Index nv = t.num_vertices, nf = t.num_faces;
-  out.mesh.positions = s.mesh.positions;
-  out.mesh.faces = s.mesh.faces;
-  out.place = s.place;
-  out.face_input = s.face_input;
-  std::vector<Index> opposite_input(3 * static_cast<std::size_t>(nf));
-  for (Index c = 0; c < 3 * nf; ++c) opposite_input[c] = s.edge_input[t.corner_edge[c]];
+  std::vector<Index> opposite_input = start_split(s, out);
   std::vector<std::uint8_t> touched(static_cast<std::size_t>(nf), 0);
   n = 0;
   // Splits face corner_face(c) at the new vertex m on the edge opposite c: the face keeps its
@@ -212,6 +214,15 @@ bool split_chords_once(const SteinerMesh& s, SteinerMesh& out, Index& n) {
 }
 
 }  // namespace
+
+std::vector<Index> find_chords(const Topology& t) {
+  std::vector<Index> out;
+  for (Index e = 0; e < t.num_edges; ++e)
+    if (t.edge_corners[2 * e + 1] != kInvalid && t.is_boundary_vertex(t.edge_vertices[2 * e]) &&
+        t.is_boundary_vertex(t.edge_vertices[2 * e + 1]))
+      out.push_back(e);
+  return out;
+}
 
 SteinerMesh split_chords(const SteinerMesh& s, Index* split) {
   if (split) *split = 0;

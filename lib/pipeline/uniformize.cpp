@@ -630,7 +630,12 @@ std::string UniformizeResult::brief_report() const {
   s += ": " + std::to_string(flow.iterations) + " iterations, max |K̄ − K| " + sci(flow.max_curvature_error);
   if (layout.status == Status::Ok && has_atlas)
     s += ", layout edge error " + sci(atlas.max_edge_length_error) + " in " + std::to_string(atlas.num_charts()) +
-         " charts, " + std::to_string(atlas.flipped_faces) + " flipped";
+         " charts" +
+         (atlas.frame_rounding_faces.empty()
+              ? std::string()
+              : " (" + sci(atlas.max_resolved_error) + " but for " + std::to_string(atlas.frame_rounding_faces.size()) +
+                    " needles within their coarse face's rounding)") +
+         ", " + std::to_string(atlas.flipped_faces) + " flipped";
   else if (layout.status == Status::Ok)
     s += ", layout edge error " + sci(layout.max_edge_length_error) + ", " + std::to_string(layout.flipped_faces) +
          " flipped";
@@ -1493,6 +1498,15 @@ struct LayoutRun {
   }
 };
 
+// Needles of the common subdivision within their coarse face's rounding (frame_rounding_faces:
+// their corners placed as exactly as the coarse face that holds them, whose other pieces are
+// resolved) pass when every other face is within the limit. Their 3D area is not the measure here
+// (as it is for the one chart's excuse): a piece that is a needle in the metric can span a share
+// of its input face in 3D, its corners being crossings placed by metric fractions.
+bool needles_excused_in(const LayoutAtlas& atlas, double limit) {
+  return atlas.status == Status::Ok && !atlas.frame_rounding_faces.empty() && atlas.max_resolved_error <= limit;
+}
+
 // The 3D area of each face of the cut's surface (the disk's faces, slot by slot); empty when the
 // cut has no positions.
 std::vector<double> cut_face_areas(const CutResult& cut) {
@@ -1725,7 +1739,9 @@ bool cut_and_lay_out(LayoutRun& run) {
     const bool better = misses(r.layout) || (r.atlas.flipped_faces <= r.layout.flipped_faces &&
                                              (flips_only ? r.atlas.flipped_faces == 0
                                                          : r.atlas.max_edge_length_error < r.layout.max_edge_length_error));
-    r.has_atlas = r.atlas.status == Status::Ok && r.atlas.max_edge_length_error <= options.max_layout_error && better;
+    const bool needles_excused = needles_excused_in(r.atlas, options.max_layout_error);
+    r.has_atlas = r.atlas.status == Status::Ok &&
+                  (r.atlas.max_edge_length_error <= options.max_layout_error || needles_excused) && better;
     stage_done("atlas", r.atlas.message + (!misses(r.layout) && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
   }
   if (!excused && !r.has_atlas && misses(r.layout)) {

@@ -440,6 +440,13 @@ struct LayoutAtlas {
   /// error is unresolvable_error (within max_edge_length_error).
   Index unresolvable_faces = 0;
   double unresolvable_error = 0;
+  /// With coarse frames: the unresolvable faces whose error is within 64 times the rounding of
+  /// their coarse face relative to their shortest edge (2^-53 × its longest side / that edge),
+  /// ascending — needles of the common subdivision that every chart places by their coarse face's
+  /// isometry; their error above max_transition_error in the chart made for them is not taken for
+  /// lengths that are not one metric. max_resolved_error: the max edge error over the other faces.
+  std::vector<Index> frame_rounding_faces;
+  double max_resolved_error = 0;
   /// Faces negatively oriented in their chart (H: in Klein coordinates), and the smallest.
   Index flipped_faces = 0;
   Index first_flipped_face = kInvalid;

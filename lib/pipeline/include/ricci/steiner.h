@@ -67,6 +67,9 @@ SteinerMesh split_boundary_edges(const SteinerMesh& s, std::span<const Index> ed
 /// counts the chords split. O(#F) per round.
 SteinerMesh split_chords(const SteinerMesh& s, Index* split = nullptr);
 
+/// The chords of a surface (interior edges whose two ends are boundary vertices), ascending. O(#E).
+std::vector<Index> find_chords(const Topology& topology);
+
 /// The same target on the subdivided surface: the input's vertices keep theirs, a Steiner vertex
 /// gets K̄ = 0 (flat inside a face or on an interior edge; on a boundary edge the boundary does
 /// not turn there, and Circle / LoopTotals loops spread their totals by length anyway), held u on
