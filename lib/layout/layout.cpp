@@ -365,7 +365,10 @@ void reduce_edges(Index ne, At&& at, Layout& o) {
     for (Index e = 0; e < ne; ++e) {
       const auto [err, drift] = at(e);
       my_floor = std::max(my_floor, drift);
-      if (rank(err - drift) > rank(my_above)) my_above = err - drift;
+      // An edge whose ends rounding cannot place (drift ∞: at or beyond the circle) has no
+      // error above rounding (and ∞ − ∞ would raise FE_INVALID).
+      const double excess = std::isinf(drift) ? 0.0 : err - drift;
+      if (rank(excess) > rank(my_above)) my_above = excess;
       if (rank(err) > rank(my_worst)) {
         my_worst = err;
         my_edge = e;
@@ -863,8 +866,12 @@ void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std
     m.scale = extent > 0 ? extent : 1;
     return;
   }
+  // Vertices at or beyond the unit circle (kept aside unplaced, LayoutOptions::keep_unresolved)
+  // have no point on the hyperboloid: the fit takes the others, and is the identity without any.
+  auto placed = [&](Index v) { return std::norm(X.z(v)) < 1 && std::norm(L.z(v)) < 1; };
   V3 CA{0, 0, 0}, CB{0, 0, 0};
   for (Index v : touched) {
+    if (!placed(v)) continue;
     const V3 A = hyperboloid(X.z(v)), B = hyperboloid(L.z(v));
     for (int dd = 0; dd < 3; ++dd) {
       CA[dd] += A[dd];
@@ -872,8 +879,13 @@ void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std
     }
   }
   const Cx ca = poincare(CA), cb = poincare(CB);
+  if (!(std::norm(ca) < 1 && std::norm(cb) < 1)) {
+    m.m0 = Su11{};
+    return;
+  }
   Cx acc(0, 0);
-  for (Index v : touched) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
+  for (Index v : touched)
+    if (placed(v)) acc += to_origin(ca, X.z(v)) * std::conj(to_origin(cb, L.z(v)));
   const double psi = std::abs(acc) > 0 ? std::arg(acc) : 0.0;
   m.m0 = Su11::to_origin(ca).inverse() * Su11::rotation(psi) * Su11::to_origin(cb);
 }
@@ -2345,8 +2357,9 @@ namespace detail {
 double rounding_drift_planar(Geometry g, std::complex<double> a, std::complex<double> b) {
   constexpr double u = 0x1p-53;
   if (g == Geometry::Euclidean) return u * std::sqrt(2.0) * (std::abs(a) + std::abs(b));
-  const double ra = std::abs(a), rb = std::abs(b);
-  return 2 * u * std::sqrt(2.0) * (1 / ((1 - ra) * (1 + ra)) + 1 / ((1 - rb) * (1 + rb)));
+  const double ra = std::abs(a), rb = std::abs(b), da = (1 - ra) * (1 + ra), db = (1 - rb) * (1 + rb);
+  if (!(da > 0 && db > 0)) return std::numeric_limits<double>::infinity();  // at or beyond the circle
+  return 2 * u * std::sqrt(2.0) * (1 / da + 1 / db);
 }
 
 bool propagate_faces(const Topology& t, Geometry g, std::span<const double> l, Index seed,

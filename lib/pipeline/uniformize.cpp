@@ -323,11 +323,8 @@ struct DoubledSurface {
 // An interior edge joining two boundary vertices (a chord), or kInvalid: in the double it and its
 // mirror copy join the same two vertices, so the glued double is not a surface there.
 Index boundary_chord(const Topology& topology) {
-  for (Index e = 0; e < topology.num_edges; ++e)
-    if (topology.edge_corners[2 * e + 1] != kInvalid && topology.is_boundary_vertex(topology.edge_vertices[2 * e]) &&
-        topology.is_boundary_vertex(topology.edge_vertices[2 * e + 1]))
-      return e;
-  return kInvalid;
+  const std::vector<Index> chords = find_chords(topology);  // steiner.h
+  return chords.empty() ? kInvalid : chords.front();
 }
 
 // Whether the boundary condition of `target` on a bordered surface has a double (above).

@@ -366,7 +366,7 @@ TEST_CASE("uniformize: chords split at their midpoints open the double to border
 TEST_CASE("uniformize: boundary split rounds continue from the stalled iterate, and needles of the common subdivision within their coarse face's rounding pass the atlas") {
   // The sweep's draw 2 (genus 0, 3 loops, 7447 faces, stretched 21:1; its holes 21 and 40 tube
   // lengths apart): vertex scaling with flips stalls on its circle target with triangles leaning
-  // over 7 boundary edges; split there and solved from that last iterate, the circle domain
+  // over boundary edges; split there and solved from that last iterate, the circle domain
   // converges (restarted from u = 0, as the rounds were before, `ricci uniformize` on this draw
   // stalled at 0.058 after 60 steps). Its common subdivision then has needles — an edge 1e-11 of
   // its coarse face — that every chart places by that face's isometry, to about 1e-5 of their own
