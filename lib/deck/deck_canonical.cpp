@@ -30,6 +30,7 @@ namespace {
 using detail::CQ;
 using detail::MoebiusQ;
 using detail::quad;
+using detail::quad_map;
 using cplx = std::complex<double>;
 
 // ---- words in the side pairings ---------------------------------------------------------------
@@ -551,10 +552,6 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
 int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps);
 int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, MoebiusQ& C);
 
-MoebiusQ quad_map(const DeckGenerator& g) {
-  return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
-}
-
 
 
 double Sizer::operator()(const Schema& s) const {
@@ -568,11 +565,7 @@ DeckGenerator generator_from(const MoebiusQ& M, const std::string& name) {
   DeckGenerator G;
   G.name = name;
   G.geometry = Geometry::Hyperbolic;
-  G.map = M.to_double();
-  G.map_low = MoebiusQ(M.a - CQ(G.map.a), M.b - CQ(G.map.b)).to_double();
-  G.theta = G.map.theta();
-  G.z0 = G.map.z0();
-  G.translation_length = G.map.translation_length();
+  detail::set_quad_map(G, M);
   return G;
 }
 

@@ -119,6 +119,21 @@ struct HyperboloidSum {
   }
 };
 
+/// A generator's map to quad precision: map + map_low, entry by entry.
+inline MoebiusQ quad_map(const DeckGenerator& g) {
+  return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
+}
+
+/// Stores M into g: map rounded entry by entry, map_low what that rounding left out, and the
+/// figures read from the map (theta, z0, translation_length).
+inline void set_quad_map(DeckGenerator& g, const MoebiusQ& M) {
+  g.map = M.to_double();
+  g.map_low = MoebiusQ(M.a - CQ(g.map.a), M.b - CQ(g.map.b)).to_double();
+  g.theta = g.map.theta();
+  g.z0 = g.map.z0();
+  g.translation_length = g.map.translation_length();
+}
+
 /// The canonical relator [A1^-1, B1] … [Ag^-1, Bg] of generators in the order a1 b1 a2 b2 …
 /// (deck.h's relation).
 inline MoebiusQ canonical_relator(const std::vector<MoebiusQ>& gens) {

@@ -793,3 +793,48 @@ TEST_CASE("deck: a layout no surface group fits is refused, not adjusted") {
   REQUIRE(good.status == Status::Ok);
   CHECK(good.pairing_adjustment < 1e-10);
 }
+
+TEST_CASE("deck: side pairings of a domain laid out far from the origin keep their digits") {
+  // The genus-2 domain moved by a translation of hyperbolic length 12: its points keep what double
+  // coordinates resolve there (~2^-53·e^15, 1e-10), but a pairing between two sides at that
+  // distance has entries of size e^15, and rounded to double it misplaces the sides' own points by
+  // ~2^-53·e^30 (1e-3). Fitted in frames on the sides and kept as map + map_low, the pairings close
+  // the vertex cycles to what the points resolve, and the canonical relation holds.
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(2, 4));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult u = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  REQUIRE(u.cut.compact);
+  const Moebius T = Moebius::translation_real(12);
+  std::vector<double> far = u.layout.positions;
+  for (std::size_t i = 0; i + 1 < far.size(); i += 2) {
+    const cplx z = T.apply(cplx(far[i], far[i + 1]));
+    far[i] = z.real();
+    far[i + 1] = z.imag();
+  }
+  DeckOptions raw;
+  raw.adjust_pairings = false;
+  const DomainDeck near = fit_domain_pairings(u.cut, u.layout.positions, raw);
+  const DomainDeck a = fit_domain_pairings(u.cut, far, raw);
+  const DomainDeck b = fit_domain_pairings(u.cut, far);
+  REQUIRE_MESSAGE(near.status == Status::Ok, near.message);
+  REQUIRE_MESSAGE(a.status == Status::Ok, a.message);
+  REQUIRE_MESSAGE(b.status == Status::Ok, b.message);
+  MESSAGE("vertex cycles: " << near.cycle_error << " at the origin, " << a.cycle_error << " moved by 12 (adjusted "
+                            << b.pairing_adjustment << " to " << b.adjusted_cycle_error << ", rounding "
+                            << b.cycle_rounding << ")");
+  CHECK(a.cycle_error < 1e-7);
+  for (const DeckGenerator& G : a.side_maps) {
+    CHECK(G.residual_max < 1e-8);
+    // Far pairings need their low parts: the map rounded to double alone is not the fitted one.
+    CHECK(std::abs(G.map_low.a) + std::abs(G.map_low.b) > 0);
+  }
+  CHECK(b.pairing_adjustment < 1e-7);
+  CHECK(b.adjusted_cycle_error <= 64 * b.cycle_rounding + 1e-19);
+  CHECK(b.cycle_rounding < 1e-15);
+  const CanonicalGenerators cg = canonical_generators(u.cut, b.side_maps, b.fitted_side_maps);
+  REQUIRE_MESSAGE(cg.status == Status::Ok, cg.message);
+  CHECK(cg.deck.relation_error < 1e-12);
+}
