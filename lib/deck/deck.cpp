@@ -302,13 +302,11 @@ DeckResult fail(DeckResult r, Status s, std::string msg) {
 
 /// The relator R = [A_1^-1, B_1] … [A_g^-1, B_g] of `gens` (quad, order a1 b1 a2 b2 …): its
 /// double value and the distance to the identity of C R C^-1, C the map moving the polygon corner
-/// v0 to the origin (R first: conjugating the generators first would multiply their rounding by
-/// |C|², large when v0 lies far from the frame's centre).
+/// v0 to the origin, formed in frames at the corners its letters visit (detail::product_at():
+/// neither the generators nor R conjugated whole, which would multiply their rounding by |C|²).
 double relation_of(const std::vector<MoebiusQ>& gens, CQ v0, Moebius* relator) {
-  const MoebiusQ R = detail::canonical_relator(gens);
-  if (relator) *relator = R.to_double();
-  const MoebiusQ C = MoebiusQ::to_origin(v0);
-  return (C * R * C.inverse()).distance_to_identity();
+  if (relator) *relator = detail::canonical_relator(gens).to_double();
+  return detail::product_at(detail::canonical_relator_letters(gens), v0).distance_to_identity();
 }
 
 /// Finds the side labelled `name` and its partner labelled name^-1 in a canonical cut.
@@ -523,26 +521,12 @@ struct Cycle {
   CQ at;
 };
 
-/// The product M = L_1 ⋯ L_n of a cycle's letters conjugated to its vertex v, C M C^-1 with
-/// C = to_origin(v), formed as the product of the factors C_{i-1} L_i C_i^-1, C_i = to_origin(p_i)
-/// at the images p_n = v, p_{i-1} = L_i(p_i) of v along the word (C_0 = C_n = C): the same map,
-/// but each factor moves a point near the origin to near the origin and has moderate entries, so
-/// rounding is not multiplied by the size of the pairings far out in the disk (entries e^r for
-/// sides at distance r) twice over.
+/// The product of a cycle's letters conjugated to its vertex (product_at(): formed in frames at
+/// the vertex's images along the word, where each factor has moderate entries).
 MoebiusQ cycle_product(const std::vector<MoebiusQ>& P, const Cycle& c) {
-  const std::size_t n = c.word.size();
-  const MoebiusQ C = MoebiusQ::to_origin(c.at);
-  std::vector<MoebiusQ> frame(n + 1);  // frame[i] = C_i
-  frame[n] = C;
-  frame[0] = C;
-  CQ p = c.at;
-  for (std::size_t i = n; i-- > 1;) {
-    p = letter_map(P, c.word[i]).apply(p);
-    frame[i] = MoebiusQ::to_origin(p);
-  }
-  MoebiusQ M;
-  for (std::size_t i = 0; i < n; ++i) M = M * (frame[i] * letter_map(P, c.word[i]) * frame[i + 1].inverse());
-  return M;
+  std::vector<MoebiusQ> maps;
+  for (const Letter& l : c.word) maps.push_back(letter_map(P, l));
+  return detail::product_at(maps, c.at);
 }
 
 /// The product of a cycle conjugated to the origin (cycle_product()); it is ±I exactly when

@@ -1235,10 +1235,9 @@ GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, 
     G.pairs = canonical.generators[i].pairs;
     out.deck.generators.push_back(G);
   }
-  const MoebiusQ R = detail::canonical_relator(gp);
-  out.deck.relator = R.to_double();
-  const MoebiusQ V0 = MoebiusQ::to_origin(v[0]);
-  out.deck.relation_error = (V0 * R * V0.inverse()).distance_to_identity();
+  out.deck.relator = detail::canonical_relator(gp).to_double();
+  // At corner 0, formed in frames at the corners the relator's letters visit.
+  out.deck.relation_error = detail::product_at(detail::canonical_relator_letters(gp), v[0]).distance_to_identity();
 
   // Sides, angles, reach, simplicity.
   for (std::size_t k = 0; k < n; ++k) {

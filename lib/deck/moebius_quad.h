@@ -134,6 +134,34 @@ inline void set_quad_map(DeckGenerator& g, const MoebiusQ& M) {
   g.translation_length = g.map.translation_length();
 }
 
+/// C M C^-1 for the product M = M_1 ⋯ M_n of `maps` and C = to_origin(at), formed as the product
+/// of the factors C_{i-1} M_i C_i^-1, C_i = to_origin(p_i) at the images p_n = at,
+/// p_{i-1} = M_i(p_i) (C_0 = C_n = C). The same map; where M nearly fixes `at` (a vertex cycle, a
+/// relator) each factor moves a point near the origin to near the origin and has moderate entries,
+/// so the rounding is not multiplied by the size of maps whose axes lie far out (entries e^r)
+/// twice over, as forming M first and conjugating it would.
+inline MoebiusQ product_at(const std::vector<MoebiusQ>& maps, CQ at) {
+  const std::size_t n = maps.size();
+  const MoebiusQ C = MoebiusQ::to_origin(at);
+  std::vector<MoebiusQ> frame(n + 1, C);
+  CQ p = at;
+  for (std::size_t i = n; i-- > 1;) {
+    p = maps[i].apply(p);
+    frame[i] = MoebiusQ::to_origin(p);
+  }
+  MoebiusQ M;
+  for (std::size_t i = 0; i < n; ++i) M = M * (frame[i] * maps[i] * frame[i + 1].inverse());
+  return M;
+}
+
+/// The letters of the canonical relator [A1^-1, B1] … [Ag^-1, Bg] (product_at()'s maps).
+inline std::vector<MoebiusQ> canonical_relator_letters(const std::vector<MoebiusQ>& gens) {
+  std::vector<MoebiusQ> out;
+  for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
+    out.insert(out.end(), {gens[i].inverse(), gens[i + 1], gens[i], gens[i + 1].inverse()});
+  return out;
+}
+
 /// The canonical relator [A1^-1, B1] … [Ag^-1, Bg] of generators in the order a1 b1 a2 b2 …
 /// (deck.h's relation).
 inline MoebiusQ canonical_relator(const std::vector<MoebiusQ>& gens) {
