@@ -519,14 +519,28 @@ MoebiusQ letter_map(const std::vector<MoebiusQ>& P, Letter l) {
 struct Cycle {
   std::vector<Letter> word;
   CQ at;
+  /// The frames of detail::product_at() at the vertex's images along the word under the pairings
+  /// as fitted (set_frames()); frames[0] = frames[n] = to_origin(at). Any frames give the same
+  /// product; these keep its factors moderate for every pairing near the fitted ones, so they are
+  /// made once and serve the adjustment's every evaluation.
+  std::vector<MoebiusQ> frames, frames_inv;
+  void set_frames(const std::vector<MoebiusQ>& P);
 };
 
-/// The product of a cycle's letters conjugated to its vertex (product_at(): formed in frames at
-/// the vertex's images along the word, where each factor has moderate entries).
-MoebiusQ cycle_product(const std::vector<MoebiusQ>& P, const Cycle& c) {
+void Cycle::set_frames(const std::vector<MoebiusQ>& P) {
   std::vector<MoebiusQ> maps;
-  for (const Letter& l : c.word) maps.push_back(letter_map(P, l));
-  return detail::product_at(maps, c.at);
+  for (const Letter& l : word) maps.push_back(letter_map(P, l));
+  frames = detail::product_frames(maps, at);
+  frames_inv.clear();
+  for (const MoebiusQ& F : frames) frames_inv.push_back(F.inverse());
+}
+
+/// The product of a cycle's letters conjugated to its vertex, formed in its frames (as
+/// detail::product_at(): each factor moves a point near the origin to near the origin).
+MoebiusQ cycle_product(const std::vector<MoebiusQ>& P, const Cycle& c) {
+  MoebiusQ M;
+  for (std::size_t i = 0; i < c.word.size(); ++i) M = M * (c.frames[i] * letter_map(P, c.word[i]) * c.frames_inv[i + 1]);
+  return M;
 }
 
 /// The product of a cycle conjugated to the origin (cycle_product()); it is ±I exactly when
@@ -879,6 +893,7 @@ class DomainDeckRun {
       }
       if (!closed || cyc.word.empty()) continue;
       cyc.at = CQ(dz(domain_.cut_faces[I.vertex_corners[k0]]));
+      cyc.set_frames(X_);
       cycles_.push_back(std::move(cyc));
     }
     double res[3];

@@ -6,7 +6,9 @@
 // Gives: the generators A1 B1 … Ag Bg as exact products of those pairings (canonical_generators())
 // and the geodesic polygon with vertices p, A1 p, … (geodesic_polygon()). Nothing here touches the
 // mesh: the classification proof's cut-and-paste runs on the polygon's word (a few dozen letters),
-// so the cost does not grow with the mesh or, beyond the word's length, with the genus.
+// so the cost does not grow with the mesh or, beyond the word's length, with the genus. The
+// moves and substitutions are made in quad; the many that are only tried and measured (Schema::
+// light(), reduce_generators()) run in double-double (moebius_quad.h), a fraction of the cost.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -18,6 +20,7 @@
 #include <numeric>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "moebius_quad.h"
@@ -27,10 +30,8 @@ namespace ricci {
 
 namespace {
 
-using detail::CQ;
-using detail::MoebiusQ;
-using detail::quad;
 using detail::quad_map;
+using DD = detail::DoubleDouble;
 using cplx = std::complex<double>;
 
 // ---- words in the side pairings ---------------------------------------------------------------
@@ -62,29 +63,35 @@ Word concat(std::initializer_list<const Word*> parts) {
 
 /// 2 asinh |b| from |b|² in quad, without leaving double's range: pairings beyond |b| = 1e150 (a
 /// displacement above 690, far beyond what a layout resolves) all count as that large.
-double size_of_b(quad b_norm) {
+template <class Q>
+double size_of_b(Q b_norm) {
   constexpr double kMaxNorm = 1e300;
-  if (__builtin_isnan(b_norm) || !(b_norm < quad(kMaxNorm))) return 2 * std::asinh(std::sqrt(kMaxNorm));
+  if (detail::qisnan(b_norm) || !(b_norm < Q(kMaxNorm))) return 2 * std::asinh(std::sqrt(kMaxNorm));
   return 2 * std::asinh(std::sqrt(static_cast<double>(b_norm)));
 }
 
 /// A polygon with side pairings, read counter-clockwise: side j carries letter[j] with sign[j]
 /// (+1: the side labelled x, −1: x^-1). Corner j is where side j starts. element[L] is letter L's
 /// pairing (it maps the +1 side onto the −1 side, reversed) as a word in the original pairings.
+template <class Q>
 struct Schema {
+  using quad = Q;
+  using CQ = detail::BasicCQ<Q>;
+  using MoebiusQ = detail::BasicMoebius<Q>;
   std::vector<int> letter, sign;
   std::vector<Word> element;
   std::vector<MoebiusQ> map;  ///< element[L] evaluated, updated by the same products move by move
   int moves = 0;
   bool words = true;  ///< false: a trial copy (light()) that keeps no words, only letters and maps
 
-  /// A copy for trying moves: the letters, signs and maps, not the words (the move chosen is then
-  /// made again on the schema itself).
-  Schema light() const {
-    Schema t;
+  /// A copy for trying moves: the letters, signs and maps, not the words, in double-double (a
+  /// trial is only sized; the move chosen is then made again on the schema itself, in its own
+  /// precision).
+  Schema<detail::DoubleDouble> light() const {
+    Schema<detail::DoubleDouble> t;
     t.letter = letter;
     t.sign = sign;
-    t.map = map;
+    for (const MoebiusQ& M : map) t.map.push_back(detail::to_dd(M));
     t.moves = moves;
     t.words = false;
     return t;
@@ -260,7 +267,7 @@ struct Schema {
     const MoebiusQ G = plus_stays ? map[x].inverse() : map[x];
     // b of M N = a_M b_N + b_M conj(a_N); of N G^-1 (G^-1 = (conj a_G, −b_G)) = b_N a_G − a_N b_G.
     auto b_times_inverse = [&](const MoebiusQ& N) { return N.b * G.a - N.a * G.b; };
-    auto size_of = [](const detail::CQ& b) { return size_of_b(b.norm()); };
+    auto size_of = [](const CQ& b) { return size_of_b(b.norm()); };
     double sum = size_of(G.b);  // the new letter y: G or its inverse, of the same |b|
     for (int q = 0; q < n; ++q) {
       if (sign[q] != 1 || letter[q] == x) continue;
@@ -327,7 +334,8 @@ struct Schema {
 /// so short canonical loops are those that move it little; the greedy choice among moves keeps this
 /// sum small, which keeps the generators' axes near the domain and their products resolvable.
 struct Sizer {
-  double operator()(const Schema& s) const;
+  template <class Q>
+  double operator()(const Schema<Q>& s) const;
 };
 
 /// Relative difference below which two move sizes count as equal (BestMove).
@@ -356,17 +364,18 @@ struct BestMove {
 /// along b's partner; that merges it with the corner at b's partner. Among the candidate corners
 /// the move leaving the shortest words is taken (its size by Schema::size_after_cut_paste(), without
 /// making the move). False when no move applies.
-bool reduce_classes(Schema& s) {
+template <class Q>
+bool reduce_classes(Schema<Q>& s) {
   int count = 0;
   std::vector<int> cls = s.corner_classes(&count);
   if (count <= 1) return true;
   std::vector<int> size(static_cast<std::size_t>(count), 0);
   for (int c : cls) ++size[c];
-  const int Q = static_cast<int>(std::min_element(size.begin(), size.end()) - size.begin());
+  const int smallest = static_cast<int>(std::min_element(size.begin(), size.end()) - size.begin());
   const int n = s.size();
   BestMove best;
   for (int k = 0; k < n; ++k) {
-    if (cls[k] != Q || cls[s.at(k + 1)] == Q) continue;
+    if (cls[k] != smallest || cls[s.at(k + 1)] == smallest) continue;
     best.offer(k, -1, s.size_after_cut_paste(s.at(k - 1), s.at(k + 1), s.letter[s.at(k - 1)]));
   }
   if (!best.found) return false;
@@ -392,13 +401,15 @@ bool reduce_classes(Schema& s) {
 /// γ_b M_L^-1 γ_f^-1. False, with s unchanged, when s has one class already, or when the trace
 /// is not one face of 2·(kept letters) sides or does not close (γ_n the relation: the identity to
 /// the rounding of the products, far below kClosure; a wrong reading would miss by O(1)).
-bool one_vertex_schema(Schema& s) {
+template <class Q>
+bool one_vertex_schema(Schema<Q>& s) {
+  using MoebiusQ = detail::BasicMoebius<Q>;
   constexpr double kClosure = 1e-9;
   const int n = s.size();
   int classes = 0;
   const std::vector<int> cls = s.corner_classes(&classes);
   if (classes <= 1) return false;
-  const Schema::Sides sd = s.sides();
+  const typename Schema<Q>::Sides sd = s.sides();
   const int letters = static_cast<int>(s.map.size());
   std::vector<int> order;
   for (int L = 0; L < letters; ++L)
@@ -470,7 +481,7 @@ bool one_vertex_schema(Schema& s) {
     }
   }
   if (!(gamma.back().distance_to_identity() < kClosure)) return false;
-  Schema t;
+  Schema<Q> t;
   t.words = s.words;
   t.moves = s.moves;
   std::vector<int> renamed(static_cast<std::size_t>(letters), -1);
@@ -502,7 +513,8 @@ bool one_vertex_schema(Schema& s) {
 /// the corner after c^-1 and reglue along a, giving the block c^-1 e c e^-1. Among linked pairs
 /// the one leaving the shortest words is taken (tried on light() copies, then made on s). False when
 /// none makes progress.
-bool add_commutator(Schema& s, const Sizer& size_of) {
+template <class Q>
+bool add_commutator(Schema<Q>& s, const Sizer& size_of) {
   std::vector<char> in_block;
   int start = 0;
   const int blocks = s.commutator_blocks(&in_block, &start);
@@ -510,7 +522,7 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
   BestMove best;
   // The move for the pair (ta, tb) on a schema t (a light() trial, or s itself once chosen); false
   // when it does not apply.
-  auto make = [&](Schema& t, int ta, int tb) {
+  auto make = [&](auto& t, int ta, int tb) {
     const int La = t.letter[ta], Lb = t.letter[tb];
     int ta2 = -1;
     for (int k = 1; k < n; ++k)
@@ -538,7 +550,7 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
       for (int m = 1; m < n; ++m)
         if (s.letter[s.at(ta + m)] == Lb && s.at(ta + m) != tb) tb2 = s.at(ta + m);
       if ((tb2 - ta + n) % n <= span) continue;  // not linked
-      Schema t = s.light();
+      auto t = s.light();
       if (!make(t, ta, tb)) continue;
       if (t.commutator_blocks(nullptr, nullptr) <= blocks) continue;
       best.offer(ta, tb, size_of(t));
@@ -549,19 +561,22 @@ bool add_commutator(Schema& s, const Sizer& size_of) {
   return true;
 }
 
-int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps);
-int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, MoebiusQ& C);
+template <class Q>
+int minimise_displacement(std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicMoebius<Q>& F, int max_steps);
+template <class Q>
+int reduce_generators(std::vector<detail::BasicMoebius<Q>>& gens, std::vector<Word>& words, detail::BasicMoebius<Q>& C);
 
 
 
-double Sizer::operator()(const Schema& s) const {
+template <class Q>
+double Sizer::operator()(const Schema<Q>& s) const {
   double sum = 0;
   for (int j = 0; j < s.size(); ++j)
     if (s.sign[j] == 1) sum += size_of_b(s.map[s.letter[j]].b.norm());
   return sum;
 }
 
-DeckGenerator generator_from(const MoebiusQ& M, const std::string& name) {
+DeckGenerator generator_from(const detail::MoebiusQ& M, const std::string& name) {
   DeckGenerator G;
   G.name = name;
   G.geometry = Geometry::Hyperbolic;
@@ -588,7 +603,9 @@ namespace {
 /// frame and their words, or a status. `recentre`: keep the working frame at the point where the
 /// pairings move least (sizes then compare shapes, not where the moved pieces drifted); without
 /// it sizes are taken at the origin of the pairings' frame, the domain's centre.
+template <class Q>
 struct NormalForm {
+  using MoebiusQ = detail::BasicMoebius<Q>;
   Status status = Status::NotRun;
   std::string message;
   std::vector<MoebiusQ> gens;  ///< in the pairings' frame
@@ -600,8 +617,10 @@ struct NormalForm {
 
 /// `one_vertex`: start from one_vertex_schema() (NotRun when it does not apply) rather than
 /// joining the domain's corner classes by moves; `reduce`: end with reduce_generators().
-NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vertex, bool reduce) {
-  NormalForm nf;
+template <class Q>
+NormalForm<Q> normal_form(Schema<Q> s, Index genus, bool recentre_moves, bool one_vertex, bool reduce) {
+  using MoebiusQ = detail::BasicMoebius<Q>;
+  NormalForm<Q> nf;
   if (one_vertex && !one_vertex_schema(s)) return nf;
   auto bad = [&](Status st, const std::string& m) {
     nf.status = st;
@@ -676,7 +695,7 @@ NormalForm normal_form(Schema s, Index genus, bool recentre_moves, bool one_vert
 namespace {
 
 /// Generators a1 b1 … of genus g as a DeckResult (names, maps; nothing else set).
-DeckResult trial_deck(Index g, const std::vector<MoebiusQ>& gens) {
+DeckResult trial_deck(Index g, const std::vector<detail::MoebiusQ>& gens) {
   DeckResult d;
   d.geometry = Geometry::Hyperbolic;
   d.genus = g;
@@ -685,7 +704,7 @@ DeckResult trial_deck(Index g, const std::vector<MoebiusQ>& gens) {
   return d;
 }
 
-GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, const DeckResult& canonical);
+GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical);
 
 /// The normal form of the schema's word with the shortest geodesic polygon, or none (last_error
 /// then says why the last run failed). Runs in two rounds, each two runs in parallel with sizes at the domain's centre or where the
@@ -696,11 +715,12 @@ GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, 
 /// grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex runs 0.02 s).
 /// The run whose geodesic polygon is a fundamental domain with the smallest perimeter is kept
 /// (else the smallest relation error; ties: the earlier run).
-std::optional<NormalForm> best_normal_form(const Schema& s, Index g, std::string& last_error) {
-  std::optional<NormalForm> best;
+std::optional<NormalForm<detail::quad>> best_normal_form(const Schema<detail::quad>& s, Index g,
+                                                         std::string& last_error) {
+  std::optional<NormalForm<detail::quad>> best;
   double best_score = 0, best_relation = 0;
   struct Run {
-    NormalForm nf;
+    NormalForm<detail::quad> nf;
     double relation = 0, score = 0;
   };
   for (const bool one_vertex : {true, false}) {
@@ -749,6 +769,7 @@ std::optional<NormalForm> best_normal_form(const Schema& s, Index g, std::string
 
 CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
                                          std::span<const DeckGenerator> fitted_maps) {
+  using detail::MoebiusQ;
   const auto t_start = std::chrono::steady_clock::now();
   CanonicalGenerators out;
   auto bad = [&](Status st, const std::string& m) {
@@ -765,7 +786,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   if (static_cast<Index>(side_maps.size()) != letters ||
       (!fitted_maps.empty() && static_cast<Index>(fitted_maps.size()) != letters))
     return bad(Status::InvalidArgument, "canonical generators: expected one side pairing per generator of the cut.");
-  Schema s;
+  Schema<detail::quad> s;
   std::vector<std::string> names;
   for (Index L = 0; L < letters; ++L) {
     s.element.push_back({static_cast<int>(L) + 1});
@@ -791,7 +812,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
 
   const Index g = domain.genus;
   std::string last_error;
-  std::optional<NormalForm> best = best_normal_form(s, g, last_error);
+  std::optional<NormalForm<detail::quad>> best = best_normal_form(s, g, last_error);
   if (!best) return bad(Status::NumericalFailure, last_error);
 
   DeckResult& r = out.deck;
@@ -852,16 +873,23 @@ namespace {
 /// (displacement_derivatives()); in quad (β cancels when Y nearly fixes p), ∞ outside the disk.
 /// (1 − |p|²) times the b entry of M in the frame moved to p (z ↦ (z − p)/(1 − p̄ z)):
 /// b + (a − ā) p − b̄ p², with p2 = p².
-CQ moved_b_scaled(const MoebiusQ& M, CQ p, CQ p2) { return M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2; }
+template <class Q>
+detail::BasicCQ<Q> moved_b_scaled(const detail::BasicMoebius<Q>& M, detail::BasicCQ<Q> p, detail::BasicCQ<Q> p2) {
+  return M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
+}
 
-double perimeter_at(const std::vector<MoebiusQ>& Y, CQ p) {
+template <class Q>
+double perimeter_at(const std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicCQ<Q> p) {
+  using quad = Q;
+  using CQ = detail::BasicCQ<Q>;
+  using MoebiusQ = detail::BasicMoebius<Q>;
   const quad inside = 1 - p.norm();
   if (!(inside > 0)) return INFINITY;
   const CQ p2 = p * p;
   double sum = 0;
   for (const MoebiusQ& M : Y) {
     const quad u = moved_b_scaled(M, p, p2).norm() / (inside * inside);
-    if (__builtin_isnan(u) || !(u < quad(1e300))) return INFINITY;  // beyond double's range
+    if (detail::qisnan(u) || !(u < quad(1e300))) return INFINITY;  // beyond double's range
     sum += 2 * std::asinh(std::sqrt(static_cast<double>(u)));
   }
   return sum;
@@ -874,13 +902,16 @@ double perimeter_at(const std::vector<MoebiusQ>& Y, CQ p) {
 /// c = a − ā, and each term is g(|β|²) with g(u) = 2 asinh √u. The entries are rounded to double
 /// (the terms are of the size of the entries: no cancellation). False when an element nearly
 /// fixes the origin (|b|² tiny: a side element is hyperbolic and moves every point).
-bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double& gy, double& hxx, double& hyy,
-                              double& hxy) {
+template <class Q>
+bool displacement_derivatives(const std::vector<detail::BasicMoebius<Q>>& Y, double& gx, double& gy, double& hxx,
+                              double& hyy, double& hxy) {
+  using quad = Q;
+  using MoebiusQ = detail::BasicMoebius<Q>;
   gx = gy = hxx = hyy = hxy = 0;
   for (const MoebiusQ& M : Y) {
     // Entries up to 1e150, so that no product below leaves double's range.
     const quad aa = M.a.norm(), bb = M.b.norm();
-    if (__builtin_isnan(aa) || __builtin_isnan(bb) || !(aa < quad(1e300)) || !(bb < quad(1e300))) return false;
+    if (detail::qisnan(aa) || detail::qisnan(bb) || !(aa < quad(1e300)) || !(bb < quad(1e300))) return false;
     const cplx a = M.a.to_double(), b = M.b.to_double();
     const double u = std::norm(b);
     if (!(u > 1e-24)) return false;
@@ -907,7 +938,11 @@ bool displacement_derivatives(const std::vector<MoebiusQ>& Y, double& gx, double
 /// (displacement_derivatives()), each step at most hyperbolic distance 2 and backtracked so D (in
 /// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F), until a step
 /// would be below 1e-9. Returns the steps taken, −1 when D is not finite.
-int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) {
+template <class Q>
+int minimise_displacement(std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicMoebius<Q>& F, int max_steps) {
+  using quad = Q;
+  using CQ = detail::BasicCQ<Q>;
+  using MoebiusQ = detail::BasicMoebius<Q>;
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
   auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
@@ -953,7 +988,9 @@ int minimise_displacement(std::vector<MoebiusQ>& Y, MoebiusQ& F, int max_steps) 
 
 /// The polygon's corner maps: corner j is W[j](p), W[0] = identity, with deck.h's convention
 /// (block i from u: A^-1 B^-1 A u, B^-1 A u, A u, then [B, A^-1] u).
-std::vector<MoebiusQ> corner_maps(const std::vector<MoebiusQ>& gens) {
+template <class Q>
+std::vector<detail::BasicMoebius<Q>> corner_maps(const std::vector<detail::BasicMoebius<Q>>& gens) {
+  using MoebiusQ = detail::BasicMoebius<Q>;
   std::vector<MoebiusQ> W;
   MoebiusQ U;  // block start
   for (std::size_t i = 0; i + 1 < gens.size(); i += 2) {
@@ -992,16 +1029,19 @@ const std::array<std::array<std::vector<int>, 2>, 4> kHandleMoves = {{
 /// into C; p returns corner 0's point there. There the generators move the polygon's corners by at
 /// most its diameter, so products of them keep the most digits. False (nothing changed) when the
 /// polygon cannot be found.
-bool centre_polygon(std::vector<MoebiusQ>& gens, MoebiusQ& C, CQ& p) {
+template <class Q>
+bool centre_polygon(std::vector<detail::BasicMoebius<Q>>& gens, detail::BasicMoebius<Q>& C, detail::BasicCQ<Q>& p) {
+  using CQ = detail::BasicCQ<Q>;
+  using MoebiusQ = detail::BasicMoebius<Q>;
   const std::vector<MoebiusQ> W = corner_maps(gens);
   std::vector<MoebiusQ> Y;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
   MoebiusQ F;
   if (minimise_displacement(Y, F, 200) < 0) return false;
-  detail::HyperboloidSum mass;
+  detail::BasicHyperboloidSum<Q> mass;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) {
     const CQ q = (F * W[k] * F.inverse()).apply(CQ{0, 0});
-    if (__builtin_isnan(q.norm()) || !(q.norm() < 1)) return false;
+    if (detail::qisnan(q.norm()) || !(q.norm() < 1)) return false;
     mass.add(q, 1);
   }
   CQ c;
@@ -1022,30 +1062,40 @@ bool centre_polygon(std::vector<MoebiusQ>& gens, MoebiusQ& C, CQ& p) {
 /// measured — until a sweep takes none; then the polygon is centred again (p moves to the new
 /// minimiser), until a centring is followed by no substitution (at most 20 centrings, 40 g
 /// sweeps each). gens are left in the centred frame (C updated); returns the substitutions made.
-int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, MoebiusQ& C) {
+template <class Q>
+int reduce_generators(std::vector<detail::BasicMoebius<Q>>& gens, std::vector<Word>& words, detail::BasicMoebius<Q>& C) {
+  using CQ = detail::BasicCQ<Q>;
+  using MoebiusQ = detail::BasicMoebius<Q>;
+  using FastCQ = detail::BasicCQ<DD>;
+  using FastMoebius = detail::BasicMoebius<DD>;
   const std::size_t g = gens.size() / 2;
   int made = 0;
+  // Substitutions are tried on the generators rounded to double-double (`fast`: a trial is only
+  // measured, against gains of 1e-6 of the perimeter), the one chosen is made on gens themselves.
+  std::vector<FastMoebius> fast;
   // A block's four sides from its start u; ∞ when a corner lies beyond `reach` from the centre.
   double reach = INFINITY;
-  auto block = [&reach](const MoebiusQ& A, const MoebiusQ& B, const CQ& u, CQ* next) {
-    const CQ v1 = (A.inverse() * B.inverse() * A).apply(u), v2 = (B.inverse() * A).apply(u), v3 = A.apply(u);
-    const CQ v4 = (B * A.inverse() * B.inverse() * A).apply(u);
+  auto block = [&reach](const FastMoebius& A, const FastMoebius& B, const FastCQ& u, FastCQ* next) {
+    const FastCQ v1 = (A.inverse() * B.inverse() * A).apply(u), v2 = (B.inverse() * A).apply(u), v3 = A.apply(u);
+    const FastCQ v4 = (B * A.inverse() * B.inverse() * A).apply(u);
     if (next) *next = v4;
-    for (const CQ& v : {v1, v2, v3})
-      if (!(detail::hyperbolic_distance_q(v, CQ{0, 0}) <= reach)) return static_cast<double>(INFINITY);
+    for (const FastCQ& v : {v1, v2, v3})
+      if (!(detail::hyperbolic_distance_q(v, FastCQ{0, 0}) <= reach)) return static_cast<double>(INFINITY);
     return detail::hyperbolic_distance_q(u, v1) + detail::hyperbolic_distance_q(v1, v2) +
            detail::hyperbolic_distance_q(v2, v3) + detail::hyperbolic_distance_q(v3, v4);
   };
-  auto image = [&](const std::vector<int>& w, std::size_t first) {
-    MoebiusQ M;
+  auto image = [](const auto& maps, const std::vector<int>& w, std::size_t first) {
+    using M = std::decay_t<decltype(maps[0])>;
+    M out;
     for (int x : w) {
-      const MoebiusQ& G = gens[first + static_cast<std::size_t>(std::abs(x) - 1)];
-      M = M * (x > 0 ? G : G.inverse());
+      const M& G = maps[first + static_cast<std::size_t>(std::abs(x) - 1)];
+      out = out * (x > 0 ? G : G.inverse());
     }
-    return M.normalized();
+    return out.normalized();
   };
-  auto substitute = [&](const std::vector<const std::vector<int>*>& move, std::size_t first, std::vector<MoebiusQ>& maps) {
+  auto substitute = [&](const std::vector<const std::vector<int>*>& move, std::size_t first) {
     std::vector<Word> new_words;
+    std::vector<MoebiusQ> maps;
     for (const std::vector<int>* w : move) {
       Word out;
       for (int x : *w) {
@@ -1054,9 +1104,11 @@ int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, Moe
         out = concat({&out, &step});
       }
       new_words.push_back(std::move(out));
+      maps.push_back(image(gens, *w, first));
     }
     for (std::size_t k = 0; k < maps.size(); ++k) {
       gens[first + k] = maps[k];
+      fast[first + k] = detail::to_dd(maps[k]);
       words[first + k] = std::move(new_words[k]);
     }
     ++made;
@@ -1065,20 +1117,23 @@ int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, Moe
   for (int centring = 0; centring < 20; ++centring) {
     if (!centre_polygon(gens, C, p)) return made;
     const int before = made;
-    const std::vector<MoebiusQ> W = corner_maps(gens);
-    std::vector<CQ> u;  // block starts: a substitution moves only the start between the blocks it touches
-    for (std::size_t i = 0; i <= g; ++i) u.push_back(W[4 * i].apply(p));
+    fast.clear();
+    for (const MoebiusQ& M : gens) fast.push_back(detail::to_dd(M));
+    const std::vector<FastMoebius> W = corner_maps(fast);
+    const FastCQ p_fast{detail::to_dd(p.re), detail::to_dd(p.im)};
+    std::vector<FastCQ> u;  // block starts: a substitution moves only the start between the blocks it touches
+    for (std::size_t i = 0; i <= g; ++i) u.push_back(W[4 * i].apply(p_fast));
     // Substitutions may not move a corner beyond the polygon's reach at this centring: the
-    // lengths are measured in quad from the centre, and far corners would both lose their digits
+    // lengths are measured from the centre, and far corners would both lose their digits
     // (a gain computed there can be rounding) and spread the polygon.
     // (The same corners computed through other products differ by rounding: 1e-6 of slack.)
     reach = 0;
     for (std::size_t k = 0; k + 1 < W.size(); ++k)
-      reach = std::max(reach, detail::hyperbolic_distance_q(W[k].apply(p), CQ{0, 0}));
+      reach = std::max(reach, detail::hyperbolic_distance_q(W[k].apply(p_fast), FastCQ{0, 0}));
     reach += 1e-6;
     double perimeter = 0;
     std::vector<double> len(g);
-    for (std::size_t i = 0; i < g; ++i) perimeter += len[i] = block(gens[2 * i], gens[2 * i + 1], u[i], nullptr);
+    for (std::size_t i = 0; i < g; ++i) perimeter += len[i] = block(fast[2 * i], fast[2 * i + 1], u[i], nullptr);
     if (!std::isfinite(perimeter)) break;
     // Gains below 1e-6 of the perimeter are left, and among gains within that of each other the
     // first substitution offered is taken: the polygon's lengths carry the rounding of the flow's
@@ -1090,35 +1145,33 @@ int reduce_generators(std::vector<MoebiusQ>& gens, std::vector<Word>& words, Moe
       const int at_sweep = made;
       for (std::size_t i = 0; i < g; ++i) {
         double best_gain = least_gain;
-        std::vector<MoebiusQ> best;
         const std::array<std::vector<int>, 2>* chosen = nullptr;
         for (const auto& m : kHandleMoves) {
-          std::vector<MoebiusQ> maps = {image(m[0], 2 * i), image(m[1], 2 * i)};
-          const double gain = len[i] - block(maps[0], maps[1], u[i], nullptr);
-          if (gain > best_gain + (chosen ? least_gain : 0)) best_gain = gain, best = std::move(maps), chosen = &m;
+          const double gain = len[i] - block(image(fast, m[0], 2 * i), image(fast, m[1], 2 * i), u[i], nullptr);
+          if (gain > best_gain + (chosen ? least_gain : 0)) best_gain = gain, chosen = &m;
         }
         if (chosen) {
           len[i] -= best_gain;
-          substitute({&(*chosen)[0], &(*chosen)[1]}, 2 * i, best);
+          substitute({&(*chosen)[0], &(*chosen)[1]}, 2 * i);
         }
         if (i + 1 == g) continue;
         best_gain = least_gain;
         const PairMove* pair = nullptr;
         double len0 = 0, len1 = 0;
-        CQ start1;  // the second block's start after the chosen substitution (the first's stays)
+        FastCQ start1;  // the second block's start after the chosen substitution (the first's stays)
         for (const PairMove& m : kPairMoves) {
-          std::vector<MoebiusQ> maps = {image(m[0], 2 * i), image(m[1], 2 * i), image(m[2], 2 * i), image(m[3], 2 * i)};
-          CQ mid;
-          const double l0 = block(maps[0], maps[1], u[i], &mid), l1 = block(maps[2], maps[3], mid, nullptr);
+          FastCQ mid;
+          const double l0 = block(image(fast, m[0], 2 * i), image(fast, m[1], 2 * i), u[i], &mid),
+                       l1 = block(image(fast, m[2], 2 * i), image(fast, m[3], 2 * i), mid, nullptr);
           const double gain = len[i] + len[i + 1] - l0 - l1;
           if (gain > best_gain + (pair ? least_gain : 0))
-            best_gain = gain, best = std::move(maps), pair = &m, len0 = l0, len1 = l1, start1 = mid;
+            best_gain = gain, pair = &m, len0 = l0, len1 = l1, start1 = mid;
         }
         if (pair) {
           len[i] = len0;
           len[i + 1] = len1;
           u[i + 1] = start1;
-          substitute({&(*pair)[0], &(*pair)[1], &(*pair)[2], &(*pair)[3]}, 2 * i, best);
+          substitute({&(*pair)[0], &(*pair)[1], &(*pair)[2], &(*pair)[3]}, 2 * i);
         }
       }
       if (made == at_sweep) break;
@@ -1148,12 +1201,14 @@ bool segments_meet(cplx p, cplx q, cplx r, cplx s) {
 }  // namespace
 
 GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
+  using detail::MoebiusQ;
   std::vector<MoebiusQ> gens;
   for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
   return polygon_from(std::move(gens), MoebiusQ(), canonical);
 }
 
 GeodesicPolygon geodesic_polygon(const CanonicalGenerators& cg) {
+  using detail::MoebiusQ;
   if (cg.status != Status::Ok || cg.working.generators.size() != cg.deck.generators.size()) return geodesic_polygon(cg.deck);
   std::vector<MoebiusQ> gens;
   for (const DeckGenerator& G : cg.working.generators) gens.push_back(quad_map(G).normalized());
@@ -1166,7 +1221,9 @@ namespace {
 /// (gens = prior G prior^-1 for canonical's G): the polygon's frame is reported from the
 /// generators' frame, its generators are conjugated from `gens` (a short move), and canonical
 /// gives their names and residuals.
-GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, const DeckResult& canonical) {
+GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical) {
+  using detail::CQ;
+  using detail::MoebiusQ;
   const auto t_start = std::chrono::steady_clock::now();
   GeodesicPolygon out;
   auto bad = [&](Status st, const std::string& m) {
@@ -1197,7 +1254,7 @@ GeodesicPolygon polygon_from(std::vector<MoebiusQ> gens, const MoebiusQ& prior, 
   const CQ end = (F * W[n] * F.inverse()).apply(CQ{0, 0});
   // A corner (or, below, the centre) on the unit circle in quad: the polygon reaches beyond what
   // 113 bits resolve in the disk.
-  auto in_disk = [](const CQ& q) { return !__builtin_isnan(q.norm()) && q.norm() < 1; };
+  auto in_disk = [](const CQ& q) { return !detail::qisnan(q.norm()) && q.norm() < 1; };
   auto beyond = [&](const std::string& what) {
     return bad(Status::NumericalFailure, "the geodesic polygon's " + what + " lies beyond what 113 bits resolve in the disk.");
   };

@@ -9,6 +9,7 @@
 #include <complex>
 #include <vector>
 
+#include "double_double.h"
 #include "ricci/deck.h"
 
 namespace ricci::detail {
@@ -21,78 +22,167 @@ using quad = long double;  // IEEE binary128 on aarch64 Linux; extended precisio
 inline constexpr double kQuadEpsilon = static_cast<double>(LDBL_EPSILON);
 #endif
 
-/// Square root of x ≥ 0 in quad: Newton's iteration from the double root (each step doubles the
-/// correct digits: 53 → 106 → 113+).
-inline quad qsqrt(quad x) {
+/// A double-double h + l (|l| ≤ ulp(h)/2), about 106 bits, in hardware double arithmetic
+/// (double_double.h's error-free sums and products, two correction steps per quotient): several
+/// times faster than software binary128, for what is only measured — the trial moves and
+/// substitutions of canonical_generators(), whose chosen moves are then made in quad. Each
+/// operation is exact to about 2^-104 of its result; the range is double's. Needs round-to-nearest
+/// and no reassociation (-ffast-math breaks these identities).
+struct DoubleDouble {
+  double h = 0, l = 0;
+  DoubleDouble() = default;
+  DoubleDouble(double x) : h(x) {}  // NOLINT: implicit, as for a built-in floating type
+  constexpr DoubleDouble(double hi, double lo, int) : h(hi), l(lo) {}
+  explicit operator double() const { return h + l; }
+};
+
+// The sum with both parts' errors kept (the products and cycles here cancel heavily; the
+// layout's dd::Real adds the low parts without them).
+inline DoubleDouble operator+(DoubleDouble x, DoubleDouble y) {
+  double s, e, t, f;
+  dd::two_sum(x.h, y.h, s, e);
+  dd::two_sum(x.l, y.l, t, f);
+  e += t;
+  dd::fast_two_sum(s, e, s, e);
+  e += f;
+  dd::fast_two_sum(s, e, s, e);
+  return {s, e, 0};
+}
+inline DoubleDouble operator-(DoubleDouble x) { return {-x.h, -x.l, 0}; }
+inline DoubleDouble operator-(DoubleDouble x, DoubleDouble y) { return x + -y; }
+inline DoubleDouble operator*(DoubleDouble x, DoubleDouble y) {
+  double p, e, s;
+  dd::two_prod(x.h, y.h, p, e);
+  dd::fast_two_sum(p, e + (x.h * y.l + x.l * y.h), s, e);
+  return {s, e, 0};
+}
+inline DoubleDouble operator/(DoubleDouble x, DoubleDouble y) {
+  const double q1 = x.h / y.h;
+  const DoubleDouble r = x - y * DoubleDouble(q1);
+  const double q2 = r.h / y.h;
+  const DoubleDouble r2 = r - y * DoubleDouble(q2);
+  const double q3 = r2.h / y.h;
+  double s, e;
+  dd::fast_two_sum(q1, q2, s, e);
+  return DoubleDouble{s, e, 0} + DoubleDouble(q3);
+}
+inline DoubleDouble& operator+=(DoubleDouble& x, DoubleDouble y) { return x = x + y; }
+inline DoubleDouble& operator-=(DoubleDouble& x, DoubleDouble y) { return x = x - y; }
+inline DoubleDouble& operator*=(DoubleDouble& x, DoubleDouble y) { return x = x * y; }
+inline DoubleDouble& operator/=(DoubleDouble& x, DoubleDouble y) { return x = x / y; }
+inline bool operator<(DoubleDouble x, DoubleDouble y) { return x.h < y.h || (x.h == y.h && x.l < y.l); }
+inline bool operator>(DoubleDouble x, DoubleDouble y) { return y < x; }
+inline bool operator<=(DoubleDouble x, DoubleDouble y) { return !(y < x) && x.h == x.h && y.h == y.h; }
+inline bool operator>=(DoubleDouble x, DoubleDouble y) { return y <= x; }
+inline bool operator==(DoubleDouble x, DoubleDouble y) { return x.h == y.h && x.l == y.l; }
+inline bool operator!=(DoubleDouble x, DoubleDouble y) { return !(x == y); }
+
+/// NaN (or an overflow, whose low part is then NaN).
+inline bool qisnan(DoubleDouble x) { return std::isnan(x.h + x.l); }
+inline bool qisnan(quad x) { return __builtin_isnan(x); }
+
+/// A quad value as a double-double (rounded to its 106 bits), and back (exactly).
+inline DoubleDouble to_dd(quad x) {
+  const double h = static_cast<double>(x);
+  return {h, static_cast<double>(x - h), 0};
+}
+inline quad to_quad(DoubleDouble x) { return quad(x.h) + quad(x.l); }
+inline quad to_quad(quad x) { return x; }
+
+/// Square root of x ≥ 0: Newton's iteration from the double root (each step doubles the correct
+/// digits: 53 → 106 → 113+).
+template <class T>
+T qsqrt(T x) {
   if (!(x > 0)) return 0;
-  quad y = std::sqrt(static_cast<double>(x));
+  T y = std::sqrt(static_cast<double>(x));
   if (!(y > 0)) return 0;
   for (int k = 0; k < 3; ++k) y = (y + x / y) / 2;
   return y;
 }
 
-inline quad qabs(quad x) { return x < 0 ? -x : x; }
-
-/// A complex number in quad.
-struct CQ {
-  quad re = 0, im = 0;
-  CQ() = default;
-  CQ(quad r, quad i) : re(r), im(i) {}
-  explicit CQ(std::complex<double> z) : re(z.real()), im(z.imag()) {}
-  std::complex<double> to_double() const { return {static_cast<double>(re), static_cast<double>(im)}; }
-  quad norm() const { return re * re + im * im; }
-  CQ conj() const { return {re, -im}; }
-};
-inline CQ operator+(CQ x, CQ y) { return {x.re + y.re, x.im + y.im}; }
-inline CQ operator-(CQ x, CQ y) { return {x.re - y.re, x.im - y.im}; }
-inline CQ operator-(CQ x) { return {-x.re, -x.im}; }
-inline CQ operator*(CQ x, CQ y) { return {x.re * y.re - x.im * y.im, x.re * y.im + x.im * y.re}; }
-inline CQ operator*(quad s, CQ x) { return {s * x.re, s * x.im}; }
-inline CQ operator/(CQ x, CQ y) {
-  const quad d = y.norm();
-  return {(x.re * y.re + x.im * y.im) / d, (x.im * y.re - x.re * y.im) / d};
+template <class T>
+T qabs(T x) {
+  return x < 0 ? -x : x;
 }
 
-/// z ↦ (a z + b)/(b̄ z + ā) with |a|² − |b|² = 1, in quad.
-struct MoebiusQ {
-  CQ a{1, 0}, b{0, 0};
-  MoebiusQ() = default;
-  MoebiusQ(CQ a_, CQ b_) : a(a_), b(b_) {}
-  explicit MoebiusQ(const Moebius& m) : a(m.a), b(m.b) {}
-  /// The map moving p to the origin (z ↦ (z − p)/(1 − p̄ z), normalised).
-  static MoebiusQ to_origin(CQ p) {
-    const quad s = qsqrt(1 - p.norm());
-    return {CQ{1 / s, 0}, (-1 / s) * p};
+/// A complex number in quad (T = quad) or double-double.
+template <class T>
+struct BasicCQ {
+  T re = 0, im = 0;
+  BasicCQ() = default;
+  BasicCQ(T r, T i) : re(r), im(i) {}
+  explicit BasicCQ(std::complex<double> z) : re(z.real()), im(z.imag()) {}
+  std::complex<double> to_double() const { return {static_cast<double>(re), static_cast<double>(im)}; }
+  T norm() const { return re * re + im * im; }
+  BasicCQ conj() const { return {re, -im}; }
+  friend BasicCQ operator+(BasicCQ x, BasicCQ y) { return {x.re + y.re, x.im + y.im}; }
+  friend BasicCQ operator-(BasicCQ x, BasicCQ y) { return {x.re - y.re, x.im - y.im}; }
+  friend BasicCQ operator-(BasicCQ x) { return {-x.re, -x.im}; }
+  friend BasicCQ operator*(BasicCQ x, BasicCQ y) { return {x.re * y.re - x.im * y.im, x.re * y.im + x.im * y.re}; }
+  friend BasicCQ operator*(T s, BasicCQ x) { return {s * x.re, s * x.im}; }
+  friend BasicCQ operator/(BasicCQ x, BasicCQ y) {
+    const T d = y.norm();
+    return {(x.re * y.re + x.im * y.im) / d, (x.im * y.re - x.re * y.im) / d};
   }
-  MoebiusQ inverse() const { return {a.conj(), -b}; }
-  MoebiusQ operator*(const MoebiusQ& n) const { return {a * n.a + b * n.b.conj(), a * n.b + b * n.a.conj()}; }
+};
+
+/// z ↦ (a z + b)/(b̄ z + ā) with |a|² − |b|² = 1, in quad (T = quad) or double-double.
+template <class T>
+struct BasicMoebius {
+  using CQ = BasicCQ<T>;
+  CQ a{1, 0}, b{0, 0};
+  BasicMoebius() = default;
+  BasicMoebius(CQ a_, CQ b_) : a(a_), b(b_) {}
+  explicit BasicMoebius(const Moebius& m) : a(m.a), b(m.b) {}
+  /// The map moving p to the origin (z ↦ (z − p)/(1 − p̄ z), normalised).
+  static BasicMoebius to_origin(CQ p) {
+    const T s = qsqrt(T(1) - p.norm());
+    return {CQ{T(1) / s, 0}, (T(-1) / s) * p};
+  }
+  BasicMoebius inverse() const { return {a.conj(), -b}; }
+  BasicMoebius operator*(const BasicMoebius& n) const { return {a * n.a + b * n.b.conj(), a * n.b + b * n.a.conj()}; }
   CQ apply(CQ z) const { return (a * z + b) / (b.conj() * z + a.conj()); }
   /// Rescaled to determinant 1 (rounding drift of long products).
-  MoebiusQ normalized() const {
-    const quad det = a.norm() - b.norm();
+  BasicMoebius normalized() const {
+    const T det = a.norm() - b.norm();
     if (!(det > 0)) return *this;
-    const quad s = qsqrt(det);
-    return {(1 / s) * a, (1 / s) * b};
+    const T s = qsqrt(det);
+    return {(T(1) / s) * a, (T(1) / s) * b};
   }
   /// Rounded entry by entry (no renormalisation in double: far from the origin |a|² − |b|²
   /// cancels there; the rounded map still acts to double precision and keeps its trace).
   Moebius to_double() const { return Moebius{a.to_double(), b.to_double()}; }
   /// Largest entry of M ∓ I, the sign nearer to the identity (PSU(1,1)).
   double distance_to_identity() const {
-    const quad bb = qsqrt(b.norm());
-    const quad minus = std::max(qsqrt((a - CQ{1, 0}).norm()), bb);
-    const quad plus = std::max(qsqrt((a + CQ{1, 0}).norm()), bb);
+    const T bb = qsqrt(b.norm());
+    const T minus = std::max(qsqrt((a - CQ{1, 0}).norm()), bb);
+    const T plus = std::max(qsqrt((a + CQ{1, 0}).norm()), bb);
     return static_cast<double>(std::min(minus, plus));
   }
 };
 
+using CQ = BasicCQ<quad>;
+using MoebiusQ = BasicMoebius<quad>;
+
+/// A map in quad as a double-double one (each entry rounded to 106 bits), and back (exactly).
+inline BasicMoebius<DoubleDouble> to_dd(const MoebiusQ& m) {
+  using C = BasicCQ<DoubleDouble>;
+  return {C{to_dd(m.a.re), to_dd(m.a.im)}, C{to_dd(m.b.re), to_dd(m.b.im)}};
+}
+inline const BasicMoebius<DoubleDouble>& to_dd(const BasicMoebius<DoubleDouble>& m) { return m; }
+template <class T>
+MoebiusQ to_quad(const BasicMoebius<T>& m) {
+  return {CQ{to_quad(m.a.re), to_quad(m.a.im)}, CQ{to_quad(m.b.re), to_quad(m.b.im)}};
+}
+
 /// Hyperbolic distance between two points of the disk given in quad (∞ outside the disk).
-inline double hyperbolic_distance_q(CQ z, CQ w) {
-  const quad oz = 1 - z.norm(), ow = 1 - w.norm();
+template <class T>
+double hyperbolic_distance_q(BasicCQ<T> z, BasicCQ<T> w) {
+  const T oz = T(1) - z.norm(), ow = T(1) - w.norm();
   if (!(oz > 0) || !(ow > 0)) return INFINITY;
-  const CQ den = CQ{1, 0} - w.conj() * z;
-  const quad dn = den.norm();
-  const quad x2 = (z - w).norm() / dn;
+  const BasicCQ<T> den = BasicCQ<T>{1, 0} - w.conj() * z;
+  const T dn = den.norm();
+  const T x2 = (z - w).norm() / dn;
   const double x = std::sqrt(static_cast<double>(x2));
   if (x < 0.5) return 2 * std::atanh(static_cast<double>(qsqrt(x2)));
   // 2 artanh x = log((1 + x)² / (1 − x²)), 1 − x² = (1 − |z|²)(1 − |w|²)/|1 − w̄ z|².
@@ -101,23 +191,25 @@ inline double hyperbolic_distance_q(CQ z, CQ w) {
 
 /// A weighted sum of points of the disk lifted to the hyperboloid, and its projection back: the
 /// hyperboloid combination (the record of a vertex the cut added inside a face) or centre of mass.
-struct HyperboloidSum {
-  quad t = 0, x = 0, y = 0;
-  void add(CQ z, quad weight) {
-    const quad o = 1 - z.norm();
-    t += weight * (1 + z.norm()) / o;
-    x += weight * 2 * z.re / o;
-    y += weight * 2 * z.im / o;
+template <class T>
+struct BasicHyperboloidSum {
+  T t = 0, x = 0, y = 0;
+  void add(BasicCQ<T> z, T weight) {
+    const T o = T(1) - z.norm();
+    t += weight * (T(1) + z.norm()) / o;
+    x += weight * T(2) * z.re / o;
+    y += weight * T(2) * z.im / o;
   }
   /// The normalised sum in the disk; false when degenerate.
-  bool point(CQ& w) const {
-    const quad n2 = t * t - x * x - y * y;
+  bool point(BasicCQ<T>& w) const {
+    const T n2 = t * t - x * x - y * y;
     if (!(n2 > 0)) return false;
-    const quad den = t + qsqrt(n2);
-    w = CQ{x / den, y / den};
+    const T den = t + qsqrt(n2);
+    w = BasicCQ<T>{x / den, y / den};
     return true;
   }
 };
+using HyperboloidSum = BasicHyperboloidSum<quad>;
 
 /// A generator's map to quad precision: map + map_low, entry by entry.
 inline MoebiusQ quad_map(const DeckGenerator& g) {
@@ -134,29 +226,38 @@ inline void set_quad_map(DeckGenerator& g, const MoebiusQ& M) {
   g.translation_length = g.map.translation_length();
 }
 
-/// C M C^-1 for the product M = M_1 ⋯ M_n of `maps` and C = to_origin(at), formed as the product
-/// of the factors C_{i-1} M_i C_i^-1, C_i = to_origin(p_i) at the images p_n = at,
-/// p_{i-1} = M_i(p_i) (C_0 = C_n = C). The same map; where M nearly fixes `at` (a vertex cycle, a
-/// relator) each factor moves a point near the origin to near the origin and has moderate entries,
-/// so the rounding is not multiplied by the size of maps whose axes lie far out (entries e^r)
-/// twice over, as forming M first and conjugating it would.
-inline MoebiusQ product_at(const std::vector<MoebiusQ>& maps, CQ at) {
+/// The frames C_i = to_origin(p_i) at the images p_n = at, p_{i-1} = M_i(p_i) of `at` along the
+/// product M_1 ⋯ M_n of `maps`, with C_0 = C_n = to_origin(at) (product_at()).
+template <class T>
+std::vector<BasicMoebius<T>> product_frames(const std::vector<BasicMoebius<T>>& maps, BasicCQ<T> at) {
+  using M = BasicMoebius<T>;
   const std::size_t n = maps.size();
-  const MoebiusQ C = MoebiusQ::to_origin(at);
-  std::vector<MoebiusQ> frame(n + 1, C);
-  CQ p = at;
+  std::vector<M> frame(n + 1, M::to_origin(at));
+  BasicCQ<T> p = at;
   for (std::size_t i = n; i-- > 1;) {
     p = maps[i].apply(p);
-    frame[i] = MoebiusQ::to_origin(p);
+    frame[i] = M::to_origin(p);
   }
-  MoebiusQ M;
-  for (std::size_t i = 0; i < n; ++i) M = M * (frame[i] * maps[i] * frame[i + 1].inverse());
-  return M;
+  return frame;
+}
+
+/// C M C^-1 for the product M = M_1 ⋯ M_n of `maps` and C = to_origin(at), formed as the product
+/// of the factors C_{i-1} M_i C_i^-1 (product_frames()). The same map; where M nearly fixes `at`
+/// (a vertex cycle, a relator) each factor moves a point near the origin to near the origin and
+/// has moderate entries, so the rounding is not multiplied by the size of maps whose axes lie far
+/// out (entries e^r) twice over, as forming M first and conjugating it would.
+template <class T>
+BasicMoebius<T> product_at(const std::vector<BasicMoebius<T>>& maps, BasicCQ<T> at) {
+  const std::vector<BasicMoebius<T>> frame = product_frames(maps, at);
+  BasicMoebius<T> out;
+  for (std::size_t i = 0; i < maps.size(); ++i) out = out * (frame[i] * maps[i] * frame[i + 1].inverse());
+  return out;
 }
 
 /// The letters of the canonical relator [A1^-1, B1] … [Ag^-1, Bg] (product_at()'s maps).
-inline std::vector<MoebiusQ> canonical_relator_letters(const std::vector<MoebiusQ>& gens) {
-  std::vector<MoebiusQ> out;
+template <class T>
+std::vector<BasicMoebius<T>> canonical_relator_letters(const std::vector<BasicMoebius<T>>& gens) {
+  std::vector<BasicMoebius<T>> out;
   for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
     out.insert(out.end(), {gens[i].inverse(), gens[i + 1], gens[i], gens[i + 1].inverse()});
   return out;
@@ -164,8 +265,9 @@ inline std::vector<MoebiusQ> canonical_relator_letters(const std::vector<Moebius
 
 /// The canonical relator [A1^-1, B1] … [Ag^-1, Bg] of generators in the order a1 b1 a2 b2 …
 /// (deck.h's relation).
-inline MoebiusQ canonical_relator(const std::vector<MoebiusQ>& gens) {
-  MoebiusQ R;
+template <class T>
+BasicMoebius<T> canonical_relator(const std::vector<BasicMoebius<T>>& gens) {
+  BasicMoebius<T> R;
   for (std::size_t i = 0; i + 1 < gens.size(); i += 2)
     R = R * gens[i].inverse() * gens[i + 1] * gens[i] * gens[i + 1].inverse();
   return R;

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "moebius_quad.h"
 #include "ricci/deck.h"
 #include "ricci/layout.h"
 #include "ricci/flow.h"
@@ -837,4 +838,45 @@ TEST_CASE("deck: side pairings of a domain laid out far from the origin keep the
   const CanonicalGenerators cg = canonical_generators(u.cut, b.side_maps, b.fitted_side_maps);
   REQUIRE_MESSAGE(cg.status == Status::Ok, cg.message);
   CHECK(cg.deck.relation_error < 1e-12);
+}
+
+TEST_CASE("deck: double-double arithmetic is exact to 2^-104 of each result (against binary128)") {
+  // The canonical-generator search measures its trial moves in double-double (moebius_quad.h);
+  // each operation must round at most where the trials' ties (1e-9) and gains (1e-6) are far away.
+  using ricci::detail::DoubleDouble;
+  using ricci::detail::quad;
+  std::mt19937_64 rng(20261206);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::uniform_int_distribution<int> exponent(-30, 30);
+  auto draw = [&] {
+    const double h = std::ldexp(unit(rng), exponent(rng));
+    return ricci::detail::to_dd(quad(h) + quad(h) * quad(unit(rng)) * quad(1e-17));
+  };
+  auto rel = [](DoubleDouble x, quad exact) {
+    const quad d = ricci::detail::to_quad(x) - exact;
+    return static_cast<double>(ricci::detail::qabs(d) / ricci::detail::qabs(exact));
+  };
+  double worst[5] = {0, 0, 0, 0, 0};
+  for (int k = 0; k < 20000; ++k) {
+    const DoubleDouble a = draw(), b = draw();
+    const quad qa = ricci::detail::to_quad(a), qb = ricci::detail::to_quad(b);
+    // Exact both ways: a double-double is a sum of two doubles.
+    CHECK(ricci::detail::to_dd(qa).h == a.h);
+    CHECK(ricci::detail::to_dd(qa).l == a.l);
+    if (qa + qb != 0) worst[0] = std::max(worst[0], rel(a + b, qa + qb));
+    if (qa - qb != 0) worst[1] = std::max(worst[1], rel(a - b, qa - qb));
+    worst[2] = std::max(worst[2], rel(a * b, qa * qb));
+    worst[3] = std::max(worst[3], rel(a / b, qa / qb));
+    const DoubleDouble sq = a * a;
+    worst[4] = std::max(worst[4], rel(ricci::detail::qsqrt(sq), ricci::detail::qabs(ricci::detail::to_quad(a))));
+  }
+  MESSAGE("double-double relative errors: + " << worst[0] << ", - " << worst[1] << ", * " << worst[2] << ", / "
+                                              << worst[3] << ", sqrt(a²) " << worst[4]);
+  for (double w : worst) CHECK(w <= std::ldexp(1.0, -104));
+  // Comparisons read the low part where the high parts tie.
+  const DoubleDouble one(1.0), just_above{1.0, 1e-20, 0};
+  CHECK(one < just_above);
+  CHECK(!(just_above < one));
+  CHECK(just_above > one);
+  CHECK(ricci::detail::qisnan(DoubleDouble(std::nan(""))));
 }

@@ -1,6 +1,7 @@
 // Error-free transformations of IEEE doubles (Knuth's two-sum, Dekker's fast two-sum, the
-// fused-multiply-add product) and the few unevaluated sums hi + lo ("double-double", about 106
-// bits) that the propagation keeps its positions in (layout.cpp, Positions): a vertex placed at
+// fused-multiply-add product), used by deck's double-double arithmetic (moebius_quad.h), and the
+// few unevaluated sums hi + lo ("double-double", about 106 bits) that the layout's propagation
+// keeps its positions in (layout.cpp, Positions): a vertex placed at
 // p + offset keeps the digits of p that double coordinates would round away, so differences of
 // neighbouring positions — the directions every later placement turns from — stay exact to the
 // rounding of the offsets themselves however far from the origin the faces lie.
