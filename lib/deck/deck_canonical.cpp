@@ -520,6 +520,7 @@ bool add_commutator(Schema<Q>& s, const Sizer& size_of) {
   const int blocks = s.commutator_blocks(&in_block, &start);
   const int n = s.size();
   BestMove best;
+  const Schema<DD> trial_base = s.light();  // rounded once; each trial copies it
   // The move for the pair (ta, tb) on a schema t (a light() trial, or s itself once chosen); false
   // when it does not apply.
   auto make = [&](auto& t, int ta, int tb) {
@@ -550,7 +551,7 @@ bool add_commutator(Schema<Q>& s, const Sizer& size_of) {
       for (int m = 1; m < n; ++m)
         if (s.letter[s.at(ta + m)] == Lb && s.at(ta + m) != tb) tb2 = s.at(ta + m);
       if ((tb2 - ta + n) % n <= span) continue;  // not linked
-      auto t = s.light();
+      Schema<DD> t = trial_base;
       if (!make(t, ta, tb)) continue;
       if (t.commutator_blocks(nullptr, nullptr) <= blocks) continue;
       best.offer(ta, tb, size_of(t));
