@@ -30,6 +30,9 @@ namespace ricci {
 
 namespace {
 
+using detail::CQ;
+using detail::MoebiusQ;
+using detail::quad;
 using detail::quad_map;
 using DD = detail::DoubleDouble;
 using cplx = std::complex<double>;
@@ -75,7 +78,6 @@ double size_of_b(Q b_norm) {
 /// pairing (it maps the +1 side onto the −1 side, reversed) as a word in the original pairings.
 template <class Q>
 struct Schema {
-  using quad = Q;
   using CQ = detail::BasicCQ<Q>;
   using MoebiusQ = detail::BasicMoebius<Q>;
   std::vector<int> letter, sign;
@@ -364,8 +366,7 @@ struct BestMove {
 /// along b's partner; that merges it with the corner at b's partner. Among the candidate corners
 /// the move leaving the shortest words is taken (its size by Schema::size_after_cut_paste(), without
 /// making the move). False when no move applies.
-template <class Q>
-bool reduce_classes(Schema<Q>& s) {
+bool reduce_classes(Schema<quad>& s) {
   int count = 0;
   std::vector<int> cls = s.corner_classes(&count);
   if (count <= 1) return true;
@@ -401,15 +402,13 @@ bool reduce_classes(Schema<Q>& s) {
 /// γ_b M_L^-1 γ_f^-1. False, with s unchanged, when s has one class already, or when the trace
 /// is not one face of 2·(kept letters) sides or does not close (γ_n the relation: the identity to
 /// the rounding of the products, far below kClosure; a wrong reading would miss by O(1)).
-template <class Q>
-bool one_vertex_schema(Schema<Q>& s) {
-  using MoebiusQ = detail::BasicMoebius<Q>;
+bool one_vertex_schema(Schema<quad>& s) {
   constexpr double kClosure = 1e-9;
   const int n = s.size();
   int classes = 0;
   const std::vector<int> cls = s.corner_classes(&classes);
   if (classes <= 1) return false;
-  const typename Schema<Q>::Sides sd = s.sides();
+  const Schema<quad>::Sides sd = s.sides();
   const int letters = static_cast<int>(s.map.size());
   std::vector<int> order;
   for (int L = 0; L < letters; ++L)
@@ -481,7 +480,7 @@ bool one_vertex_schema(Schema<Q>& s) {
     }
   }
   if (!(gamma.back().distance_to_identity() < kClosure)) return false;
-  Schema<Q> t;
+  Schema<quad> t;
   t.words = s.words;
   t.moves = s.moves;
   std::vector<int> renamed(static_cast<std::size_t>(letters), -1);
@@ -513,8 +512,7 @@ bool one_vertex_schema(Schema<Q>& s) {
 /// the corner after c^-1 and reglue along a, giving the block c^-1 e c e^-1. Among linked pairs
 /// the one leaving the shortest words is taken (tried on light() copies, then made on s). False when
 /// none makes progress.
-template <class Q>
-bool add_commutator(Schema<Q>& s, const Sizer& size_of) {
+bool add_commutator(Schema<quad>& s, const Sizer& size_of) {
   std::vector<char> in_block;
   int start = 0;
   const int blocks = s.commutator_blocks(&in_block, &start);
@@ -562,10 +560,8 @@ bool add_commutator(Schema<Q>& s, const Sizer& size_of) {
   return true;
 }
 
-template <class Q>
-int minimise_displacement(std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicMoebius<Q>& F, int max_steps);
-template <class Q>
-int reduce_generators(std::vector<detail::BasicMoebius<Q>>& gens, std::vector<Word>& words, detail::BasicMoebius<Q>& C);
+int minimise_displacement(std::vector<detail::MoebiusQ>& Y, detail::MoebiusQ& F, int max_steps);
+int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& words, detail::MoebiusQ& C);
 
 
 
@@ -604,9 +600,7 @@ namespace {
 /// frame and their words, or a status. `recentre`: keep the working frame at the point where the
 /// pairings move least (sizes then compare shapes, not where the moved pieces drifted); without
 /// it sizes are taken at the origin of the pairings' frame, the domain's centre.
-template <class Q>
 struct NormalForm {
-  using MoebiusQ = detail::BasicMoebius<Q>;
   Status status = Status::NotRun;
   std::string message;
   std::vector<MoebiusQ> gens;  ///< in the pairings' frame
@@ -618,10 +612,8 @@ struct NormalForm {
 
 /// `one_vertex`: start from one_vertex_schema() (NotRun when it does not apply) rather than
 /// joining the domain's corner classes by moves; `reduce`: end with reduce_generators().
-template <class Q>
-NormalForm<Q> normal_form(Schema<Q> s, Index genus, bool recentre_moves, bool one_vertex, bool reduce) {
-  using MoebiusQ = detail::BasicMoebius<Q>;
-  NormalForm<Q> nf;
+NormalForm normal_form(Schema<quad> s, Index genus, bool recentre_moves, bool one_vertex, bool reduce) {
+  NormalForm nf;
   if (one_vertex && !one_vertex_schema(s)) return nf;
   auto bad = [&](Status st, const std::string& m) {
     nf.status = st;
@@ -716,12 +708,12 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
 /// grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex runs 0.02 s).
 /// The run whose geodesic polygon is a fundamental domain with the smallest perimeter is kept
 /// (else the smallest relation error; ties: the earlier run).
-std::optional<NormalForm<detail::quad>> best_normal_form(const Schema<detail::quad>& s, Index g,
+std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
                                                          std::string& last_error) {
-  std::optional<NormalForm<detail::quad>> best;
+  std::optional<NormalForm> best;
   double best_score = 0, best_relation = 0;
   struct Run {
-    NormalForm<detail::quad> nf;
+    NormalForm nf;
     double relation = 0, score = 0;
   };
   for (const bool one_vertex : {true, false}) {
@@ -770,7 +762,6 @@ std::optional<NormalForm<detail::quad>> best_normal_form(const Schema<detail::qu
 
 CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
                                          std::span<const DeckGenerator> fitted_maps) {
-  using detail::MoebiusQ;
   const auto t_start = std::chrono::steady_clock::now();
   CanonicalGenerators out;
   auto bad = [&](Status st, const std::string& m) {
@@ -787,7 +778,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   if (static_cast<Index>(side_maps.size()) != letters ||
       (!fitted_maps.empty() && static_cast<Index>(fitted_maps.size()) != letters))
     return bad(Status::InvalidArgument, "canonical generators: expected one side pairing per generator of the cut.");
-  Schema<detail::quad> s;
+  Schema<quad> s;
   std::vector<std::string> names;
   for (Index L = 0; L < letters; ++L) {
     s.element.push_back({static_cast<int>(L) + 1});
@@ -813,7 +804,7 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
 
   const Index g = domain.genus;
   std::string last_error;
-  std::optional<NormalForm<detail::quad>> best = best_normal_form(s, g, last_error);
+  std::optional<NormalForm> best = best_normal_form(s, g, last_error);
   if (!best) return bad(Status::NumericalFailure, last_error);
 
   DeckResult& r = out.deck;
@@ -874,16 +865,11 @@ namespace {
 /// (displacement_derivatives()); in quad (β cancels when Y nearly fixes p), ∞ outside the disk.
 /// (1 − |p|²) times the b entry of M in the frame moved to p (z ↦ (z − p)/(1 − p̄ z)):
 /// b + (a − ā) p − b̄ p², with p2 = p².
-template <class Q>
-detail::BasicCQ<Q> moved_b_scaled(const detail::BasicMoebius<Q>& M, detail::BasicCQ<Q> p, detail::BasicCQ<Q> p2) {
+detail::CQ moved_b_scaled(const detail::MoebiusQ& M, detail::CQ p, detail::CQ p2) {
   return M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
 }
 
-template <class Q>
-double perimeter_at(const std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicCQ<Q> p) {
-  using quad = Q;
-  using CQ = detail::BasicCQ<Q>;
-  using MoebiusQ = detail::BasicMoebius<Q>;
+double perimeter_at(const std::vector<detail::MoebiusQ>& Y, detail::CQ p) {
   const quad inside = 1 - p.norm();
   if (!(inside > 0)) return INFINITY;
   const CQ p2 = p * p;
@@ -903,11 +889,8 @@ double perimeter_at(const std::vector<detail::BasicMoebius<Q>>& Y, detail::Basic
 /// c = a − ā, and each term is g(|β|²) with g(u) = 2 asinh √u. The entries are rounded to double
 /// (the terms are of the size of the entries: no cancellation). False when an element nearly
 /// fixes the origin (|b|² tiny: a side element is hyperbolic and moves every point).
-template <class Q>
-bool displacement_derivatives(const std::vector<detail::BasicMoebius<Q>>& Y, double& gx, double& gy, double& hxx,
+bool displacement_derivatives(const std::vector<detail::MoebiusQ>& Y, double& gx, double& gy, double& hxx,
                               double& hyy, double& hxy) {
-  using quad = Q;
-  using MoebiusQ = detail::BasicMoebius<Q>;
   gx = gy = hxx = hyy = hxy = 0;
   for (const MoebiusQ& M : Y) {
     // Entries up to 1e150, so that no product below leaves double's range.
@@ -939,11 +922,7 @@ bool displacement_derivatives(const std::vector<detail::BasicMoebius<Q>>& Y, dou
 /// (displacement_derivatives()), each step at most hyperbolic distance 2 and backtracked so D (in
 /// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F), until a step
 /// would be below 1e-9. Returns the steps taken, −1 when D is not finite.
-template <class Q>
-int minimise_displacement(std::vector<detail::BasicMoebius<Q>>& Y, detail::BasicMoebius<Q>& F, int max_steps) {
-  using quad = Q;
-  using CQ = detail::BasicCQ<Q>;
-  using MoebiusQ = detail::BasicMoebius<Q>;
+int minimise_displacement(std::vector<detail::MoebiusQ>& Y, detail::MoebiusQ& F, int max_steps) {
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
   auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
@@ -991,12 +970,12 @@ int minimise_displacement(std::vector<detail::BasicMoebius<Q>>& Y, detail::Basic
 /// (block i from u: A^-1 B^-1 A u, B^-1 A u, A u, then [B, A^-1] u).
 template <class Q>
 std::vector<detail::BasicMoebius<Q>> corner_maps(const std::vector<detail::BasicMoebius<Q>>& gens) {
-  using MoebiusQ = detail::BasicMoebius<Q>;
-  std::vector<MoebiusQ> W;
-  MoebiusQ U;  // block start
+  using M = detail::BasicMoebius<Q>;
+  std::vector<M> W;
+  M U;  // block start
   for (std::size_t i = 0; i + 1 < gens.size(); i += 2) {
-    const MoebiusQ& A = gens[i];
-    const MoebiusQ& B = gens[i + 1];
+    const M& A = gens[i];
+    const M& B = gens[i + 1];
     W.push_back(U);
     W.push_back((A.inverse() * B.inverse() * A * U).normalized());
     W.push_back((B.inverse() * A * U).normalized());
@@ -1030,16 +1009,13 @@ const std::array<std::array<std::vector<int>, 2>, 4> kHandleMoves = {{
 /// into C; p returns corner 0's point there. There the generators move the polygon's corners by at
 /// most its diameter, so products of them keep the most digits. False (nothing changed) when the
 /// polygon cannot be found.
-template <class Q>
-bool centre_polygon(std::vector<detail::BasicMoebius<Q>>& gens, detail::BasicMoebius<Q>& C, detail::BasicCQ<Q>& p) {
-  using CQ = detail::BasicCQ<Q>;
-  using MoebiusQ = detail::BasicMoebius<Q>;
+bool centre_polygon(std::vector<detail::MoebiusQ>& gens, detail::MoebiusQ& C, detail::CQ& p) {
   const std::vector<MoebiusQ> W = corner_maps(gens);
   std::vector<MoebiusQ> Y;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
   MoebiusQ F;
   if (minimise_displacement(Y, F, 200) < 0) return false;
-  detail::BasicHyperboloidSum<Q> mass;
+  detail::HyperboloidSum mass;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) {
     const CQ q = (F * W[k] * F.inverse()).apply(CQ{0, 0});
     if (detail::qisnan(q.norm()) || !(q.norm() < 1)) return false;
@@ -1063,10 +1039,7 @@ bool centre_polygon(std::vector<detail::BasicMoebius<Q>>& gens, detail::BasicMoe
 /// measured — until a sweep takes none; then the polygon is centred again (p moves to the new
 /// minimiser), until a centring is followed by no substitution (at most 20 centrings, 40 g
 /// sweeps each). gens are left in the centred frame (C updated); returns the substitutions made.
-template <class Q>
-int reduce_generators(std::vector<detail::BasicMoebius<Q>>& gens, std::vector<Word>& words, detail::BasicMoebius<Q>& C) {
-  using CQ = detail::BasicCQ<Q>;
-  using MoebiusQ = detail::BasicMoebius<Q>;
+int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& words, detail::MoebiusQ& C) {
   using FastCQ = detail::BasicCQ<DD>;
   using FastMoebius = detail::BasicMoebius<DD>;
   const std::size_t g = gens.size() / 2;
@@ -1202,14 +1175,12 @@ bool segments_meet(cplx p, cplx q, cplx r, cplx s) {
 }  // namespace
 
 GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
-  using detail::MoebiusQ;
   std::vector<MoebiusQ> gens;
   for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
   return polygon_from(std::move(gens), MoebiusQ(), canonical);
 }
 
 GeodesicPolygon geodesic_polygon(const CanonicalGenerators& cg) {
-  using detail::MoebiusQ;
   if (cg.status != Status::Ok || cg.working.generators.size() != cg.deck.generators.size()) return geodesic_polygon(cg.deck);
   std::vector<MoebiusQ> gens;
   for (const DeckGenerator& G : cg.working.generators) gens.push_back(quad_map(G).normalized());
@@ -1223,8 +1194,6 @@ namespace {
 /// generators' frame, its generators are conjugated from `gens` (a short move), and canonical
 /// gives their names and residuals.
 GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical) {
-  using detail::CQ;
-  using detail::MoebiusQ;
   const auto t_start = std::chrono::steady_clock::now();
   GeodesicPolygon out;
   auto bad = [&](Status st, const std::string& m) {

@@ -87,7 +87,6 @@ inline DoubleDouble to_dd(quad x) {
   return {h, static_cast<double>(x - h), 0};
 }
 inline quad to_quad(DoubleDouble x) { return quad(x.h) + quad(x.l); }
-inline quad to_quad(quad x) { return x; }
 
 /// Square root of x ≥ 0: Newton's iteration from the double root (each step doubles the correct
 /// digits: 53 → 106 → 113+).
@@ -164,15 +163,10 @@ struct BasicMoebius {
 using CQ = BasicCQ<quad>;
 using MoebiusQ = BasicMoebius<quad>;
 
-/// A map in quad as a double-double one (each entry rounded to 106 bits), and back (exactly).
+/// A map in quad as a double-double one (each entry rounded to 106 bits).
 inline BasicMoebius<DoubleDouble> to_dd(const MoebiusQ& m) {
   using C = BasicCQ<DoubleDouble>;
   return {C{to_dd(m.a.re), to_dd(m.a.im)}, C{to_dd(m.b.re), to_dd(m.b.im)}};
-}
-inline const BasicMoebius<DoubleDouble>& to_dd(const BasicMoebius<DoubleDouble>& m) { return m; }
-template <class T>
-MoebiusQ to_quad(const BasicMoebius<T>& m) {
-  return {CQ{to_quad(m.a.re), to_quad(m.a.im)}, CQ{to_quad(m.b.re), to_quad(m.b.im)}};
 }
 
 /// Hyperbolic distance between two points of the disk given in quad (∞ outside the disk).
