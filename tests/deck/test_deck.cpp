@@ -880,3 +880,35 @@ TEST_CASE("deck: double-double arithmetic is exact to 2^-104 of each result (aga
   CHECK(just_above > one);
   CHECK(ricci::detail::qisnan(DoubleDouble(std::nan(""))));
 }
+
+TEST_CASE("deck: a pairing's fit ends once its steps are below the rounding of its parameters") {
+  // The layout's pairs are exact to double's rounding, so a fit from the two-point start needs a
+  // few Levenberg–Marquardt steps; with tolerances alone it went on through ~40 steps per round of
+  // rounding noise (accepted and rejected at random) until the trust region collapsed.
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(3, 4));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult u = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  REQUIRE(u.cut.compact);
+  DeckOptions raw;
+  raw.adjust_pairings = false;
+  const DomainDeck d = fit_domain_pairings(u.cut, u.layout.positions, raw);
+  REQUIRE_MESSAGE(d.status == Status::Ok, d.message);
+  const double per_fit = double(d.deck.ceres_iterations) / double(d.side_maps.size() * raw.rounds);
+  MESSAGE(d.side_maps.size() << " pairings, " << d.deck.ceres_iterations << " Ceres iterations (" << per_fit
+                             << " per fit round), vertex cycles " << d.cycle_error);
+  CHECK(per_fit <= 8);
+  for (const DeckGenerator& G : d.side_maps) CHECK(G.residual_max < 1e-11);
+  CHECK(d.cycle_error < 1e-11);
+  // A third round, or many more iterations allowed, moves no pairing beyond rounding.
+  DeckOptions more = raw;
+  more.rounds = 3;
+  const DomainDeck e = fit_domain_pairings(u.cut, u.layout.positions, more);
+  REQUIRE(e.status == Status::Ok);
+  for (std::size_t k = 0; k < d.side_maps.size(); ++k) {
+    const cplx z(0.05, -0.1);
+    CHECK(hyperbolic_distance(d.side_maps[k].map.apply(z), e.side_maps[k].map.apply(z)) < 1e-13);
+  }
+}
