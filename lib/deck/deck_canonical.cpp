@@ -8,7 +8,8 @@
 // mesh: the classification proof's cut-and-paste runs on the polygon's word (a few dozen letters),
 // so the cost does not grow with the mesh or, beyond the word's length, with the genus. The
 // moves and substitutions are made in quad; the many that are only tried and measured (Schema::
-// light(), reduce_generators()) run in double-double (moebius_quad.h), a fraction of the cost.
+// light(), reduce_generators()) and the search for where a frame goes (displacement_frame(),
+// centre_polygon()) run in double-double (moebius_quad.h), a fraction of the cost.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -256,7 +257,7 @@ struct Schema {
     return y;
   }
 
-  /// The size (Sizer) the schema would have after cut_paste(i, j, x), without the move: each
+  /// The size the schema would have after cut_paste(i, j, x), without the move: each
   /// letter's pairing as cut_paste() would make it, but only its b entry (the size reads |b|) and
   /// not normalised (the determinant stays 1 to quad's rounding).
   double size_after_cut_paste(int i, int j, int x) const {
@@ -331,14 +332,11 @@ struct Schema {
   }
 };
 
-/// Size of a schema's pairings: the sum over its letters of how far each moves the frame's origin
-/// (2 asinh |b|), the pairings evaluated in quad. The compact domain is laid out around that origin,
-/// so short canonical loops are those that move it little; the greedy choice among moves keeps this
-/// sum small, which keeps the generators' axes near the domain and their products resolvable.
-struct Sizer {
-  template <class Q>
-  double operator()(const Schema<Q>& s) const;
-};
+// A schema's size (Schema::size_after_cut_paste()) is the sum over its letters of how far each
+// pairing moves the frame's origin (2 asinh |b|). The compact domain is laid out around that
+// origin, so short canonical loops are those that move it little; the greedy choice among moves
+// keeps this sum small, which keeps the generators' axes near the domain and their products
+// resolvable.
 
 /// Relative difference below which two move sizes count as equal (BestMove).
 constexpr double kSizeTie = 1e-9;
@@ -510,68 +508,62 @@ bool one_vertex_schema(Schema<quad>& s) {
 /// blocks (signs made so by flipping letters), cut from the corner before a to the corner after
 /// a^-1 and reglue along b, giving a X U c^-1 Z Y a^-1 c; then cut from the corner after a^-1 to
 /// the corner after c^-1 and reglue along a, giving the block c^-1 e c e^-1. Among linked pairs
-/// the one leaving the shortest words is taken (tried on light() copies, then made on s). False when
-/// none makes progress.
-bool add_commutator(Schema<quad>& s, const Sizer& size_of) {
+/// the one leaving the shortest words is taken: each tried on a light() copy, its first move made
+/// and its second only sized (Schema::size_after_cut_paste()); the one chosen is made on s. The
+/// existing blocks stay whole (the cuts run from corners of letters outside them, and each piece
+/// is reglued at such a letter), and in a word where every letter appears twice two windows
+/// u v u^-1 v^-1 either coincide or are disjoint, so every pair adds a block; checked on the
+/// move made. False when no pair applies or the move added none.
+bool add_commutator(Schema<quad>& s) {
   std::vector<char> in_block;
   int start = 0;
   const int blocks = s.commutator_blocks(&in_block, &start);
   const int n = s.size();
   BestMove best;
   const Schema<DD> trial_base = s.light();  // rounded once; each trial copies it
-  // The move for the pair (ta, tb) on a schema t (a light() trial, or s itself once chosen); false
-  // when it does not apply.
-  auto make = [&](auto& t, int ta, int tb) {
-    const int La = t.letter[ta], Lb = t.letter[tb];
-    int ta2 = -1;
-    for (int k = 1; k < n; ++k)
-      if (t.letter[t.at(ta + k)] == La) ta2 = t.at(ta + k);
-    if (t.sign[ta] != 1) t.flip(La);
-    if (t.sign[tb] != 1) t.flip(Lb);
-    const int c = t.cut_paste(ta, t.at(ta2 + 1), Lb);
-    const int qa = t.find(La, -1), qc = t.find(c, -1);
-    if (qa < 0 || qc < 0) return false;
-    t.cut_paste(t.at(qa + 1), t.at(qc + 1), La);
-    return true;
+  // Each side's partner (the other side of its letter).
+  std::vector<int> other(static_cast<std::size_t>(n), -1), first_side(s.map.size(), -1);
+  for (int j = 0; j < n; ++j) {
+    int& f = first_side[static_cast<std::size_t>(s.letter[j])];
+    if (f < 0) f = j;
+    else other[f] = j, other[j] = f;
+  }
+  // The first move for the pair (ta, tb) on a schema t (a light() trial, or s itself once chosen):
+  // the letters a, b flipped to signs +1 and the cut along b; returns a's new letter c.
+  auto first_move = [&](auto& t, int ta, int tb) {
+    if (t.sign[ta] != 1) t.flip(t.letter[ta]);
+    if (t.sign[tb] != 1) t.flip(t.letter[tb]);
+    return t.cut_paste(ta, t.at(other[ta] + 1), t.letter[tb]);
   };
   for (int ta = 0; ta < n; ++ta) {
-    if (in_block[ta]) continue;
+    if (in_block[ta] || other[ta] < 0) continue;
     const int La = s.letter[ta];
-    int ta2 = -1;
-    for (int k = 1; k < n; ++k)
-      if (s.letter[s.at(ta + k)] == La) ta2 = s.at(ta + k);
-    const int span = (ta2 - ta + n) % n;
+    const int span = (other[ta] - ta + n) % n;
     for (int k = 1; k < span; ++k) {
       const int tb = s.at(ta + k);
-      if (in_block[tb]) continue;
-      const int Lb = s.letter[tb];
-      int tb2 = -1;
-      for (int m = 1; m < n; ++m)
-        if (s.letter[s.at(ta + m)] == Lb && s.at(ta + m) != tb) tb2 = s.at(ta + m);
-      if ((tb2 - ta + n) % n <= span) continue;  // not linked
+      if (in_block[tb] || other[tb] < 0) continue;
+      if ((other[tb] - ta + n) % n <= span) continue;  // not linked
       Schema<DD> t = trial_base;
-      if (!make(t, ta, tb)) continue;
-      if (t.commutator_blocks(nullptr, nullptr) <= blocks) continue;
-      best.offer(ta, tb, size_of(t));
+      const int c = first_move(t, ta, tb);
+      const int qa = t.find(La, -1), qc = t.find(c, -1);
+      if (qa < 0 || qc < 0) continue;
+      best.offer(ta, tb, t.size_after_cut_paste(t.at(qa + 1), t.at(qc + 1), La));
     }
   }
   if (!best.found) return false;
-  make(s, best.first, best.second);
-  return true;
+  const int La = s.letter[best.first];
+  const int c = first_move(s, best.first, best.second);
+  const int qa = s.find(La, -1), qc = s.find(c, -1);
+  if (qa < 0 || qc < 0) return false;
+  s.cut_paste(s.at(qa + 1), s.at(qc + 1), La);
+  return s.commutator_blocks(nullptr, nullptr) > blocks;
 }
 
-int minimise_displacement(std::vector<detail::MoebiusQ>& Y, detail::MoebiusQ& F, int max_steps);
+MoebiusQ displacement_frame(const std::vector<MoebiusQ>& Y, int max_steps, int* steps);
 int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& words, detail::MoebiusQ& C);
 
 
 
-template <class Q>
-double Sizer::operator()(const Schema<Q>& s) const {
-  double sum = 0;
-  for (int j = 0; j < s.size(); ++j)
-    if (s.sign[j] == 1) sum += size_of_b(s.map[s.letter[j]].b.norm());
-  return sum;
-}
 
 DeckGenerator generator_from(const detail::MoebiusQ& M, const std::string& name) {
   DeckGenerator G;
@@ -620,7 +612,6 @@ NormalForm normal_form(Schema<quad> s, Index genus, bool recentre_moves, bool on
     nf.message = "canonical generators: " + m;
     return nf;
   };
-  const Sizer sizer;
   MoebiusQ C;  // pairings' frame → working frame
   auto recentre = [&] {
     if (!recentre_moves) return true;
@@ -632,9 +623,12 @@ NormalForm normal_form(Schema<quad> s, Index genus, bool recentre_moves, bool on
         letters.push_back(s.letter[j]);
         alive.push_back(s.map[s.letter[j]]);
       }
-    MoebiusQ T;
-    if (minimise_displacement(alive, T, 8) < 0) return false;
-    for (std::size_t k = 0; k < letters.size(); ++k) s.map[letters[k]] = alive[k];
+    int steps = 0;
+    const MoebiusQ T = displacement_frame(alive, 8, &steps);
+    if (steps < 0) return false;
+    if (steps == 0) return true;
+    const MoebiusQ T_inv = T.inverse();
+    for (const int L : letters) s.map[L] = (T * s.map[L] * T_inv).normalized();
     C = (T * C).normalized();
     return true;
   };
@@ -657,7 +651,7 @@ NormalForm normal_form(Schema<quad> s, Index genus, bool recentre_moves, bool on
       std::rotate(s.sign.begin(), s.sign.begin() + start, s.sign.end());
       break;
     }
-    if (!add_commutator(s, sizer)) return bad(Status::NumericalFailure, "no linked pair of letters makes progress.");
+    if (!add_commutator(s)) return bad(Status::NumericalFailure, "no linked pair of letters makes progress.");
   }
   if (s.size() != 4 * static_cast<int>(genus))
     return bad(Status::NumericalFailure, "the normal form has " + std::to_string(s.size()) + " sides, not 4g = " +
@@ -862,21 +856,24 @@ namespace {
 /// Perimeter of the polygon with corner 0 at p (|p| < 1), for the side elements Y_k (side k runs
 /// from W_k p to W_k Y_k p, so its length is the displacement of Y_k at p): d(p, Y p) = 2 asinh|β|
 /// with β = (b + (a − ā) p − b̄ p²)/(1 − |p|²), the b entry of Y in the frame moved to p
-/// (displacement_derivatives()); in quad (β cancels when Y nearly fixes p), ∞ outside the disk.
+/// (displacement_derivatives()); in T, double-double or quad (β cancels when Y nearly fixes p), ∞
+/// outside the disk.
 /// (1 − |p|²) times the b entry of M in the frame moved to p (z ↦ (z − p)/(1 − p̄ z)):
 /// b + (a − ā) p − b̄ p², with p2 = p².
-detail::CQ moved_b_scaled(const detail::MoebiusQ& M, detail::CQ p, detail::CQ p2) {
+template <class T>
+detail::BasicCQ<T> moved_b_scaled(const detail::BasicMoebius<T>& M, detail::BasicCQ<T> p, detail::BasicCQ<T> p2) {
   return M.b + (M.a - M.a.conj()) * p - M.b.conj() * p2;
 }
 
-double perimeter_at(const std::vector<detail::MoebiusQ>& Y, detail::CQ p) {
-  const quad inside = 1 - p.norm();
+template <class T>
+double perimeter_at(const std::vector<detail::BasicMoebius<T>>& Y, detail::BasicCQ<T> p) {
+  const T inside = T(1) - p.norm();
   if (!(inside > 0)) return INFINITY;
-  const CQ p2 = p * p;
+  const detail::BasicCQ<T> p2 = p * p;
   double sum = 0;
-  for (const MoebiusQ& M : Y) {
-    const quad u = moved_b_scaled(M, p, p2).norm() / (inside * inside);
-    if (detail::qisnan(u) || !(u < quad(1e300))) return INFINITY;  // beyond double's range
+  for (const detail::BasicMoebius<T>& M : Y) {
+    const T u = moved_b_scaled(M, p, p2).norm() / (inside * inside);
+    if (detail::qisnan(u) || !(u < T(1e300))) return INFINITY;  // beyond double's range
     sum += 2 * std::asinh(std::sqrt(static_cast<double>(u)));
   }
   return sum;
@@ -889,13 +886,14 @@ double perimeter_at(const std::vector<detail::MoebiusQ>& Y, detail::CQ p) {
 /// c = a − ā, and each term is g(|β|²) with g(u) = 2 asinh √u. The entries are rounded to double
 /// (the terms are of the size of the entries: no cancellation). False when an element nearly
 /// fixes the origin (|b|² tiny: a side element is hyperbolic and moves every point).
-bool displacement_derivatives(const std::vector<detail::MoebiusQ>& Y, double& gx, double& gy, double& hxx,
+template <class T>
+bool displacement_derivatives(const std::vector<detail::BasicMoebius<T>>& Y, double& gx, double& gy, double& hxx,
                               double& hyy, double& hxy) {
   gx = gy = hxx = hyy = hxy = 0;
-  for (const MoebiusQ& M : Y) {
+  for (const detail::BasicMoebius<T>& M : Y) {
     // Entries up to 1e150, so that no product below leaves double's range.
-    const quad aa = M.a.norm(), bb = M.b.norm();
-    if (detail::qisnan(aa) || detail::qisnan(bb) || !(aa < quad(1e300)) || !(bb < quad(1e300))) return false;
+    const T aa = M.a.norm(), bb = M.b.norm();
+    if (detail::qisnan(aa) || detail::qisnan(bb) || !(aa < T(1e300)) || !(bb < T(1e300))) return false;
     const cplx a = M.a.to_double(), b = M.b.to_double();
     const double u = std::norm(b);
     if (!(u > 1e-24)) return false;
@@ -920,12 +918,15 @@ bool displacement_derivatives(const std::vector<detail::MoebiusQ>& Y, double& gx
 /// Moves the frame to the point p minimising D(p) = Σ_k d(p, Y_k p) (a convex function: each term
 /// is an isometry's displacement): Newton at the frame's origin with D's derivatives in closed form
 /// (displacement_derivatives()), each step at most hyperbolic distance 2 and backtracked so D (in
-/// quad) does not grow, then the frame moved there (Y conjugated in place, F ← T F), until a step
-/// would be below 1e-9. Returns the steps taken, −1 when D is not finite.
-int minimise_displacement(std::vector<detail::MoebiusQ>& Y, detail::MoebiusQ& F, int max_steps) {
+/// T: double-double or quad) does not grow, then the frame moved there (Y conjugated in place,
+/// F ← T F), until a step would be below 1e-9. Returns the steps taken, −1 when D is not finite.
+template <class T>
+int minimise_displacement(std::vector<detail::BasicMoebius<T>>& Y, detail::BasicMoebius<T>& F, int max_steps) {
+  using M_T = detail::BasicMoebius<T>;
+  using C_T = detail::BasicCQ<T>;
   constexpr double kMaxStep = 0.76;  // tanh(1)
   int steps = 0;
-  auto f = [&](double x, double y) { return perimeter_at(Y, CQ{x, y}); };
+  auto f = [&](double x, double y) { return perimeter_at(Y, C_T{x, y}); };
   double f0 = f(0, 0);  // D at the frame's origin; after a step, the value the search accepted there
   if (!std::isfinite(f0)) return -1;
   for (int it = 0; it < max_steps; ++it) {
@@ -948,22 +949,36 @@ int minimise_displacement(std::vector<detail::MoebiusQ>& Y, detail::MoebiusQ& F,
     f0 = ft;
     step *= t;
     ++steps;
-    const CQ p(step);
-    F = (MoebiusQ::to_origin(p) * F).normalized();
+    const C_T p(step);
+    F = (M_T::to_origin(p) * F).normalized();
     // Y conjugated by T = to_origin(p) in closed form (T's diagonal is real): with r = 1 − |p|²,
     // a' = (a + b p̄ − b̄ p − ā |p|²)/r and b' = (b + (a − ā) p − b̄ p²)/r; normalised once, after
     // the steps.
-    const quad pp = p.norm(), inv = 1 / (1 - pp);
-    const CQ p2 = p * p;
-    for (MoebiusQ& M : Y) {
-      const CQ a = M.a + M.b * p.conj() - M.b.conj() * p - pp * M.a.conj();
-      M = MoebiusQ(inv * a, inv * moved_b_scaled(M, p, p2));
+    const T pp = p.norm(), inv = T(1) / (T(1) - pp);
+    const C_T p2 = p * p;
+    for (M_T& M : Y) {
+      const C_T a = M.a + M.b * p.conj() - M.b.conj() * p - pp * M.a.conj();
+      M = M_T(inv * a, inv * moved_b_scaled(M, p, p2));
     }
     if (std::abs(step) < 1e-9) break;
   }
   if (steps > 0)
-    for (MoebiusQ& M : Y) M = M.normalized();
+    for (M_T& M : Y) M = M.normalized();
   return steps;
+}
+
+/// The frame of minimise_displacement() for maps given in quad, found in double-double (only
+/// where the minimum lies is read: the frame is an exact map in quad, normalised there) and
+/// returned as the move T (the identity when no step was taken); −1 in *steps when D is not
+/// finite. The callers conjugate their own quad maps by T once.
+MoebiusQ displacement_frame(const std::vector<MoebiusQ>& Y, int max_steps, int* steps) {
+  std::vector<detail::BasicMoebius<DD>> Yd;
+  for (const MoebiusQ& M : Y) Yd.push_back(detail::to_dd(M));
+  detail::BasicMoebius<DD> F;
+  *steps = minimise_displacement(Yd, F, max_steps);
+  if (*steps <= 0) return MoebiusQ();
+  return MoebiusQ(CQ{detail::to_quad(F.a.re), detail::to_quad(F.a.im)}, CQ{detail::to_quad(F.b.re), detail::to_quad(F.b.im)})
+      .normalized();
 }
 
 /// The polygon's corner maps: corner j is W[j](p), W[0] = identity, with deck.h's convention
@@ -1010,24 +1025,32 @@ const std::array<std::array<std::vector<int>, 2>, 4> kHandleMoves = {{
 /// most its diameter, so products of them keep the most digits. False (nothing changed) when the
 /// polygon cannot be found.
 bool centre_polygon(std::vector<detail::MoebiusQ>& gens, detail::MoebiusQ& C, detail::CQ& p) {
-  const std::vector<MoebiusQ> W = corner_maps(gens);
-  std::vector<MoebiusQ> Y;
+  // Where the centre lies is found in double-double; the move is then made on gens in quad.
+  using MD = detail::BasicMoebius<DD>;
+  using CD = detail::BasicCQ<DD>;
+  std::vector<MD> gd;
+  for (const MoebiusQ& M : gens) gd.push_back(detail::to_dd(M));
+  const std::vector<MD> W = corner_maps(gd);
+  std::vector<MD> Y;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
-  MoebiusQ F;
+  MD F;
   if (minimise_displacement(Y, F, 200) < 0) return false;
-  detail::HyperboloidSum mass;
+  detail::BasicHyperboloidSum<DD> mass;
   for (std::size_t k = 0; k + 1 < W.size(); ++k) {
-    const CQ q = (F * W[k] * F.inverse()).apply(CQ{0, 0});
+    const CD q = (F * W[k] * F.inverse()).apply(CD{0, 0});
     if (detail::qisnan(q.norm()) || !(q.norm() < 1)) return false;
     mass.add(q, 1);
   }
-  CQ c;
+  CD c;
   if (!mass.point(c) || !(c.norm() < 1)) return false;
-  const MoebiusQ to_c = MoebiusQ::to_origin(c);
-  const MoebiusQ T = (to_c * F).normalized();
-  for (MoebiusQ& M : gens) M = (T * M * T.inverse()).normalized();
+  const MD to_c = MD::to_origin(c);
+  const MD Td = to_c * F;
+  auto to_q = [](const CD& z) { return CQ{detail::to_quad(z.re), detail::to_quad(z.im)}; };
+  const MoebiusQ T = MoebiusQ(to_q(Td.a), to_q(Td.b)).normalized(), T_inv = T.inverse();
+  for (MoebiusQ& M : gens) M = (T * M * T_inv).normalized();
   C = (T * C).normalized();
-  p = to_c.apply(CQ{0, 0});
+  // Corner 0 (F's origin) in the new frame.
+  p = T.apply(MoebiusQ(to_q(F.a), to_q(F.b)).normalized().inverse().apply(CQ{0, 0}));
   return true;
 }
 
@@ -1212,9 +1235,8 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
   for (std::size_t k = 0; k < n; ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
 
   // p minimising the perimeter, at the origin of the frame F.
-  MoebiusQ F;
-  std::vector<MoebiusQ> Yf = Y;
-  const int steps = minimise_displacement(Yf, F, 200);
+  int steps = 0;
+  const MoebiusQ F = displacement_frame(Y, 200, &steps);
   if (steps < 0) return bad(Status::NumericalFailure, "the geodesic polygon's perimeter is not finite.");
   out.newton_steps = steps;
 
