@@ -1317,6 +1317,7 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
       !std::isfinite(out.closure_error))
     return bad(Status::NumericalFailure, "the geodesic polygon has a value that is not finite.");
   out.angle_tolerance = std::max(1e-9, out.deck.relation_error * std::exp(out.reach));
+  out.relation_floor = detail::kQuadEpsilon * std::exp(2 * out.reach);
   out.fundamental = out.simple && std::abs(out.angle_sum - 2 * M_PI) <= out.angle_tolerance;
   out.word.clear();
   for (std::size_t i = 1; i <= g; ++i) {

@@ -1859,8 +1859,11 @@ GeodesicPolygon geodesic_in_frame_of(const DeckResult& deck) {
 // pairings (canonical_generators()) and their geodesic 4g-gon (geodesic_polygon()), kept when
 // the polygon is a fundamental domain (simple, angle sum 2π) and the relation holds to 1e-12.
 // Otherwise polygon_note says why and the caller tries the mesh path (Fallback), unless the
-// domain's pairings themselves failed (PairingsFailed: the mesh path needs the same pairings).
-enum class GeodesicOutcome { Done, Fallback, PairingsFailed };
+// domain's pairings themselves failed (PairingsFailed: the mesh path needs the same pairings) or
+// the polygon is simple and misses 1e-12 only by what quad generators resolve at its reach
+// (BeyondQuad: the domain's pairings stand as the deck group; the mesh path's generators are
+// products of the same quad pairings, and its view needs a reach double coordinates resolve).
+enum class GeodesicOutcome { Done, Fallback, PairingsFailed, BeyondQuad };
 
 GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_failure) {
   UniformizeResult& r = run.r;
@@ -1876,6 +1879,22 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
   }
   GeodesicPolygon gp = geodesic_polygon(cg);
   const bool fundamental = gp.status == Status::Ok && gp.fundamental;
+  if (fundamental && gp.deck.relation_error > 1e-12 && gp.simple && gp.deck.relation_error <= 16 * gp.relation_floor) {
+    char buf[520];
+    std::snprintf(buf, sizeof buf,
+                  "no canonical polygon: the geodesic %d-gon of the canonical generators found is simple but reaches "
+                  "%.1f from its centre, where generators in quad (113-bit) arithmetic resolve the relation only to "
+                  "about %.2g (it holds to %.2g, above 1e-12); the deck group is given by the compact domain's side "
+                  "pairings",
+                  static_cast<int>(gp.vertices.size()), gp.reach, gp.relation_floor, gp.deck.relation_error);
+    r.polygon_note = buf;
+    take_domain(r, dd);
+    r.deck = DeckResult{};
+    run.stage_done("polygon", r.polygon_note);
+    run.stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
+                               sci(r.domain_cycle_error) + ")");
+    return GeodesicOutcome::BeyondQuad;
+  }
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
     r.polygon_note = "no geodesic polygon: " + gp.message;
     return GeodesicOutcome::Fallback;
@@ -1911,7 +1930,7 @@ bool canonical_polygon(LayoutRun& run) {
   if (!run.options.mesh_polygon) {
     DomainDeck failed;
     const GeodesicOutcome outcome = geodesic_canonical_polygon(run, failed);
-    if (outcome == GeodesicOutcome::Done) return true;
+    if (outcome == GeodesicOutcome::Done || outcome == GeodesicOutcome::BeyondQuad) return true;
     if (outcome == GeodesicOutcome::PairingsFailed) return run.fail(failed.status, "deck", failed.message);
   }
   const std::string geodesic_note = run.r.polygon_note;
