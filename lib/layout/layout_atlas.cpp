@@ -45,8 +45,8 @@ struct AtlasBuild {
   std::vector<double> face_floor;  ///< #F: its rounding floor there (rounding_drift() / length)
   std::vector<Index> owner;        ///< scratch labels for a chart's propagation (-1 elsewhere)
   /// #F: the face stays unresolved in the chart made for its own group (laid out from that
-  /// group's smallest face, near its origin): no further chart resolves it better, so it starts
-  /// no group of its own (see LayoutAtlas::unresolvable_faces).
+  /// group's smallest face, near its origin) and no further chart resolves it better, so it starts
+  /// no group of its own (see LayoutAtlas::unresolvable_faces); a deferred() face is not settled.
   std::vector<std::uint8_t> settled;
   /// #F, with coarse frames: the rounding of the face's own coarse face, relative to the face's
   /// shortest edge — 2^-53 × the coarse face's longest side / that edge. Every chart places the
@@ -58,6 +58,21 @@ struct AtlasBuild {
   static constexpr double kFrameAllowance = 64;
   bool rounding_only(Index f) const {
     return !frame_floor.empty() && face_error[f] <= kFrameAllowance * frame_floor[f];
+  }
+  /// The least rounding floor any chart can give the face: its frame floor with coarse frames,
+  /// else 2^-53 × its longest edge / its shortest (the face laid out at a chart's origin).
+  double best_floor(Index f) const {
+    if (!frame_floor.empty()) return frame_floor[f];
+    const double a = l[t.corner_edge[3 * f]], b = l[t.corner_edge[3 * f + 1]], c = l[t.corner_edge[3 * f + 2]];
+    return 0x1p-53 * std::max({a, b, c}) / std::min({a, b, c});
+  }
+  /// A face left unresolved in the chart made for its group, but only by that chart's rounding
+  /// where it lies (within kFrameAllowance of face_floor) while a chart around it would resolve
+  /// it kFrameAllowance times better: it is not settled there but starts a group of that chart,
+  /// whose own chart is made around it (a needle at |z| = 0.98 of a chart seeded elsewhere in
+  /// its group).
+  bool deferred(Index f) const {
+    return face_error[f] <= kFrameAllowance * face_floor[f] && face_floor[f] > kFrameAllowance * best_floor(f);
   }
 
   Cx corner(Index f, int c) const { return {out.corner_positions[6 * f + 2 * c], out.corner_positions[6 * f + 2 * c + 1]}; }
@@ -174,13 +189,14 @@ struct AtlasBuild {
     if (ch.depth > options.max_depth)
       return fail(Element::Face, group[0], "charts nest deeper than " + std::to_string(options.max_depth) +
                                                " around face " + std::to_string(group[0]));
-    // The smallest face (least longest edge) is the new origin.
+    // The smallest face (least longest edge) is the new origin; not one settled in a chart made
+    // around it before (a nested group's deferred faces are what it is made for).
     auto longest = [&](Index f) {
       return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
     };
     ch.seed_face = group[0];
     for (Index f : group)
-      if (longest(f) < longest(ch.seed_face)) ch.seed_face = f;
+      if (!settled[f] && longest(f) < longest(ch.seed_face)) ch.seed_face = f;
     for (Index f : group) owner[f] = c;
     const std::vector<Index> ring = collar(group, k, c);
     if (ring.empty())
@@ -255,11 +271,11 @@ struct AtlasBuild {
       }
       measure_face(f, face_error[f], face_floor[f]);
       if (!unresolved(f)) ++resolved;
-      else settled[f] = 1;
+      else if (!deferred(f) || f == ch.seed_face) settled[f] = 1;
     }
     // A face its own chart misses by more than a collar may: not rounding, the lengths do not close.
     for (Index f : group)
-      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f))
+      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && !(deferred(f) && !settled[f]))
         return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
                                           " made for it (" + std::to_string(resolved) + " of its group's " +

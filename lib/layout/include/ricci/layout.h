@@ -436,8 +436,10 @@ struct LayoutAtlas {
   /// Faces above AtlasOptions::limit in the chart made for their own group, laid out from that
   /// group's smallest face: what no chart's coordinates resolve better (with coarse frames, a
   /// sliver of the common subdivision far smaller than its coarse face, whose corners that face's
-  /// isometry places to its own scale's rounding). They start no further chart; their worst
-  /// error is unresolvable_error (within max_edge_length_error).
+  /// isometry places to its own scale's rounding). A face that chart misses only by its own
+  /// rounding where the face lies, 64 times above what a chart around the face would give (far
+  /// from the group's smallest face), starts a nested chart instead. Unresolvable faces start no
+  /// further chart; their worst error is unresolvable_error (within max_edge_length_error).
   Index unresolvable_faces = 0;
   double unresolvable_error = 0;
   /// With coarse frames: the unresolvable faces whose error is within 64 times the rounding of
