@@ -2,6 +2,7 @@
 // layout of it (E or H); gives charts, each face's corners in its own chart, and the transition
 // maps between charts (H composed in quad). Calls the layout's propagation (layout_internal.h).
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <complex>
@@ -115,7 +116,9 @@ struct AtlasBuild {
   /// chart lies where the parent's positions are good to well below the limit (the transition map
   /// is fitted there).
   static constexpr double kMargin = 1e-2;
-  bool near_limit(Index f) const { return unresolved(f) || !(face_floor[f] <= kMargin * options.limit); }
+  bool near_limit(Index f) const {
+    return unresolved(f) || !(face_floor[f] <= std::max(kMargin * options.limit, kFrameAllowance * best_floor(f)));
+  }
 
   /// Groups of chart k's faces for new charts: each unresolved face with the faces near the limit
   /// connected to it across edges (in face order).
@@ -181,27 +184,69 @@ struct AtlasBuild {
 
   /// Makes a chart of `group` (faces of chart k): lays it out with its collar, fits the
   /// transition, moves the group's faces into it.
-  bool make_chart(const std::vector<Index>& group, Index k) {
+  bool make_chart(const std::vector<Index>& group, Index home) {
     const Index c = out.num_charts();
     LayoutChart ch;
-    ch.parent = k;
-    ch.depth = out.charts[static_cast<std::size_t>(k)].depth + 1;
-    if (ch.depth > options.max_depth)
-      return fail(Element::Face, group[0], "charts nest deeper than " + std::to_string(options.max_depth) +
-                                               " around face " + std::to_string(group[0]));
-    // The smallest face (least longest edge) is the new origin; not one settled in a chart made
-    // around it before (a nested group's deferred faces are what it is made for).
+    // The smallest face (least longest edge) is the new origin; in a group of a chart made for a
+    // group before, the smallest of its unresolved faces not settled (the deferred() faces it is
+    // made for, not the faces near them that chart resolves).
     auto longest = [&](Index f) {
       return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
     };
+    const bool nested = home != 0;
     ch.seed_face = group[0];
     for (Index f : group)
-      if (!settled[f] && longest(f) < longest(ch.seed_face)) ch.seed_face = f;
+      if (!settled[f] && (!nested || unresolved(f)) && longest(f) < longest(ch.seed_face)) ch.seed_face = f;
     for (Index f : group) owner[f] = c;
-    const std::vector<Index> ring = collar(group, k, c);
-    if (ring.empty())
-      return fail(Element::Face, ch.seed_face, "no face of chart " + std::to_string(k) + " around face " +
-                                                   std::to_string(ch.seed_face) + " is resolved: nothing to fit a chart to");
+    // The collar in the group's chart; where that chart resolves none of the faces around the
+    // group (a nested group at the rim of the chart made for its parent group), in the chart
+    // holding most of the group's neighbours that has a collar there, which becomes the parent.
+    std::vector<Index> ring = collar(group, home, c);
+    Index parent = home;
+    if (ring.empty()) {
+      std::vector<Index> around;
+      for (Index f : group)
+        for (int cc = 0; cc < 3; ++cc) {
+          const Index o = t.opposite[3 * f + cc];
+          if (o == kInvalid) continue;
+          const Index j = out.face_chart[corner_face(o)];
+          if (owner[corner_face(o)] != c && j != home) around.push_back(j);
+        }
+      std::sort(around.begin(), around.end());
+      std::vector<std::pair<Index, Index>> counts;  // (−count, chart)
+      for (std::size_t i = 0; i < around.size();) {
+        std::size_t e = i;
+        while (e < around.size() && around[e] == around[i]) ++e;
+        counts.push_back({-static_cast<Index>(e - i), around[i]});
+        i = e;
+      }
+      std::sort(counts.begin(), counts.end());
+      for (const auto& [neg, j] : counts) {
+        ring = collar(group, j, c);
+        if (!ring.empty()) {
+          parent = j;
+          break;
+        }
+      }
+    }
+    if (ring.empty()) {
+      // No chart resolves the faces around the group: they stay where they are, unresolvable.
+      for (Index f : group) {
+        owner[f] = -1;
+        if (unresolved(f)) settled[f] = 1;
+      }
+      return true;
+    }
+    const Index k = parent;
+    ch.parent = k;
+    // Nested below the group's own chart too (the depth bound ends a chain of nested groups).
+    ch.depth = std::max(out.charts[static_cast<std::size_t>(k)].depth, out.charts[static_cast<std::size_t>(home)].depth) + 1;
+    if (ch.depth > options.max_depth) {
+      for (Index f : group) owner[f] = -1;
+      for (Index f : ring) owner[f] = -1;
+      return fail(Element::Face, group[0], "charts nest deeper than " + std::to_string(options.max_depth) +
+                                               " around face " + std::to_string(group[0]));
+    }
     std::vector<double> x;
     std::vector<Index> touched;
     Layout pl;

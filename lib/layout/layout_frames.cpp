@@ -134,6 +134,33 @@ M3 corner_frame(Geometry g, const CoarseFace& c, int k, bool towards_next) {
   }
 }
 
+// corner_frame() as a map of the Poincaré disk (H): rotations about the origin and translations
+// along +x by the same angles and lengths.
+Moebius corner_frame_h(const CoarseFace& c, int k, bool towards_next) {
+  constexpr double pi = std::numbers::pi;
+  switch (k) {
+    case 0: return towards_next ? Moebius{} : Moebius::rotation(c.theta[0]);
+    case 1: return Moebius::translation_real(c.l[2]) * Moebius::rotation(towards_next ? pi - c.theta[1] : pi);
+    default:
+      return Moebius::rotation(c.theta[0]) * Moebius::translation_real(c.l[1]) *
+             Moebius::rotation(towards_next ? pi : pi + c.theta[2]);
+  }
+}
+
+// The disk map of a Lorentz matrix: the pole to the image of its point column P at w, and the +x
+// direction there to the image of its T column.
+Moebius moebius_of_lorentz(const M3& m) {
+  const Cx p(m[2], m[5]), t(m[0], m[3]);
+  const double pt = m[8], tt = m[6];
+  const Cx w = p / (1 + pt);
+  const Cx dir = t * (1 + pt) - p * tt;
+  return (Moebius::to_origin(w).inverse() * Moebius::rotation(std::arg(dir))).normalized();
+}
+
+bool finite(const Moebius& m) {
+  return std::isfinite(m.a.real()) && std::isfinite(m.a.imag()) && std::isfinite(m.b.real()) && std::isfinite(m.b.imag());
+}
+
 // Corner k's model point in its coarse face's frame.
 P3 corner_point(Geometry g, const CoarseFace& c, int k) {
   if (k == 0) return model::pole(g);
@@ -198,7 +225,8 @@ FrameDevelopment::FrameDevelopment(const Topology& t, Geometry g, const FaceFram
                                    bool keep_going)
     : t_(t), g_(g), fr_(frames), seed_(seed), keep_going_(keep_going) {
   const auto nf = static_cast<std::size_t>(t.num_faces);
-  map_.resize(nf);
+  if (g == Geometry::Hyperbolic) mob_.resize(nf);
+  else map_.resize(nf);
   dist_.resize(nf);
   via_.resize(nf);
   taken_.resize(nf);
@@ -219,32 +247,52 @@ M3 FrameDevelopment::seed_map() const {
   return {1, 0, 0, 0, 1, 0, 0, 0, 1};
 }
 
-M3 FrameDevelopment::transition(Index from_corner, Index to_face) const {
+bool FrameDevelopment::shared_side(Index from_corner, Index to_face, int& k, int& ko) const {
   const Index from_face = corner_face(from_corner);
   const Index cf = fr_.face_frame[from_face], cg = fr_.face_frame[to_face];
-  const CoarseFace here = coarse_face(g_, fr_, cf), there = coarse_face(g_, fr_, cg);
+  const CoarseFace here = coarse_face(g_, fr_, cf);
   // The disk edge opposite from_corner, in the coarse frame of from_face; the coarse side it lies
   // on is the one of cf shared with cg (the nearest to it when they share several).
   const P3 a = model_point(fr_.corner_model, next_corner(from_corner));
   const P3 b = model_point(fr_.corner_model, prev_corner(from_corner));
   Index best = kInvalid;
   double best_off = std::numeric_limits<double>::infinity();
-  for (int k = 0; k < 3; ++k) {
-    const Index x = 3 * cf + k, o = fr_.frame_opposite[x];
+  for (int j = 0; j < 3; ++j) {
+    const Index x = 3 * cf + j, o = fr_.frame_opposite[x];
     if (o == kInvalid || corner_face(o) != cg) continue;
-    const double off = off_side(g_, corner_point(g_, here, (k + 1) % 3), corner_point(g_, here, (k + 2) % 3), a, b);
+    const double off = off_side(g_, corner_point(g_, here, (j + 1) % 3), corner_point(g_, here, (j + 2) % 3), a, b);
     if (best == kInvalid || off < best_off) {
       best = x;
       best_off = off;
     }
   }
-  if (best == kInvalid) return M3{std::numeric_limits<double>::quiet_NaN()};
+  if (best == kInvalid) return false;
+  k = static_cast<int>(best - 3 * cf);
+  ko = static_cast<int>(fr_.frame_opposite[best] - 3 * cg);
+  return true;
+}
+
+M3 FrameDevelopment::transition(Index from_corner, Index to_face) const {
+  int k = 0, ko = 0;
+  if (!shared_side(from_corner, to_face, k, ko)) return M3{std::numeric_limits<double>::quiet_NaN()};
   // The shared side runs from next(x) to prev(x) in cf, and from prev(o) to next(o) in cg: the
   // frames at that first end, pointing along the side.
-  const int k = static_cast<int>(best - 3 * cf), ko = static_cast<int>(fr_.frame_opposite[best] - 3 * cg);
+  const Index from_face = corner_face(from_corner);
+  const CoarseFace here = coarse_face(g_, fr_, fr_.face_frame[from_face]), there = coarse_face(g_, fr_, fr_.face_frame[to_face]);
   const M3 in_f = corner_frame(g_, here, (k + 1) % 3, true);
   const M3 in_g = corner_frame(g_, there, (ko + 2) % 3, false);
   return multiply(map_[static_cast<std::size_t>(from_face)], multiply(in_f, frame_inverse(g_, in_g)));
+}
+
+Moebius FrameDevelopment::transition_h(Index from_corner, Index to_face) const {
+  int k = 0, ko = 0;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!shared_side(from_corner, to_face, k, ko)) return Moebius{{nan, nan}, {nan, nan}};
+  const Index from_face = corner_face(from_corner);
+  const CoarseFace here = coarse_face(g_, fr_, fr_.face_frame[from_face]), there = coarse_face(g_, fr_, fr_.face_frame[to_face]);
+  const Moebius in_f = corner_frame_h(here, (k + 1) % 3, true);
+  const Moebius in_g = corner_frame_h(there, (ko + 2) % 3, false);
+  return (mob_[static_cast<std::size_t>(from_face)] * (in_f * in_g.inverse())).normalized();
 }
 
 bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
@@ -256,7 +304,8 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
       resolved = v;
       continue;
     }
-    const P3 X = apply(g_, map_[static_cast<std::size_t>(f)], model_point(fr_.corner_model, 3 * f + k));
+    const P3 m = model_point(fr_.corner_model, 3 * f + k);
+    const P3 X = g_ == Geometry::Hyperbolic ? m : apply(g_, map_[static_cast<std::size_t>(f)], m);
     double* xv = &x[static_cast<std::size_t>(dims) * static_cast<std::size_t>(v)];
     bool ok = true;
     switch (g_) {
@@ -266,12 +315,12 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
         ok = std::isfinite(X[0]) && std::isfinite(X[1]);
         break;
       case Geometry::Hyperbolic: {
-        // z = (x, y)/(1 + t) on the hyperboloid t² − x² − y² = 1, where the point lies up to the
-        // rounding of its isometry: the form itself, evaluated, loses ε·t² to cancellation (more
-        // than 1 far out).
+        // The model point (in its coarse face, near the pole) in the disk, z = (x, y)/(1 + t),
+        // then moved by the face's SU(1,1) map.
         const double den = X[2] + 1;
-        xv[0] = X[0] / den;
-        xv[1] = X[1] / den;
+        const Cx z = mob_[static_cast<std::size_t>(f)].apply(Cx(X[0] / den, X[1] / den));
+        xv[0] = z.real();
+        xv[1] = z.imag();
         ok = std::isfinite(xv[0]) && std::isfinite(xv[1]) && std::hypot(xv[0], xv[1]) < 1;
         break;
       }
@@ -319,16 +368,19 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
   std::deque<Index> queue{seed_};
   dist_[seed_] = 0;
   via_[seed_] = kInvalid;
-  map_[seed_] = seed_map;
+  const bool h = g_ == Geometry::Hyperbolic;
+  if (h) mob_[seed_] = moebius_of_lorentz(seed_map);
+  else map_[seed_] = seed_map;
   while (!queue.empty()) {
     const Index f = queue.front();
     queue.pop_front();
     if (taken_[f]) continue;
     taken_[f] = 1;
     if (via_[f] != kInvalid) {
-      map_[f] = fr_.face_frame[f] == fr_.face_frame[corner_face(via_[f])] ? map_[corner_face(via_[f])]
-                                                                          : transition(via_[f], f);
-      if (!finite(map_[f])) {
+      const bool same = fr_.face_frame[f] == fr_.face_frame[corner_face(via_[f])];
+      if (h) mob_[f] = same ? mob_[corner_face(via_[f])] : transition_h(via_[f], f);
+      else map_[f] = same ? map_[corner_face(via_[f])] : transition(via_[f], f);
+      if (h ? !finite(mob_[f]) : !finite(map_[f])) {
         out.status = Status::InvalidArgument;
         out.element = Element::Face;
         out.element_index = f;

@@ -351,15 +351,21 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // chart by chart in the order they are made: each face of a chart that misses an edge length by
 // more than AtlasOptions::limit starts a group, which takes every face connected to it across
 // edges that misses the limit too or whose coordinates resolve it to less than 1e-2 × the limit
-// (so that the collar below lies where the parent is good to well below the limit); each group
-// becomes a new chart, laid out by propagation from its smallest face (least longest edge; placed as
-// layout_disk()'s seed: corner 0 at the origin, corner 1 along +x) together with a collar of
-// the parent's resolved faces around it (collar_rings rings across edges). The transition map
-// into the parent is the isometry fitted on the collar's vertices (align_layouts(): closed form,
-// every point); the group's faces then belong to the new chart, the collar's stay in the parent.
-// A group that its own chart resolves no better, a transition map that misses its collar by more
-// than max_transition_error, or charts nested deeper than max_depth end the atlas with
-// NumericalFailure naming the face.
+// (so that the collar below lies where the parent is good to well below the limit; with coarse
+// frames, a needle resolved to within 64 times its coarse face's rounding counts as resolved);
+// each group becomes a new chart, laid out by propagation from its smallest face (least longest
+// edge; placed as layout_disk()'s seed: corner 0 at the origin, corner 1 along +x) together with
+// a collar of the parent's resolved faces around it (collar_rings rings across edges). The parent
+// is the group's chart, or, where that chart resolves no face around the group (a nested group at
+// its rim), the chart holding most of the group's neighbours that has a collar there. The
+// transition map into the parent is the isometry fitted on the collar's vertices (align_layouts():
+// closed form, every point); the group's faces then belong to the new chart, the collar's stay in
+// the parent. A face the new chart misses only by its rounding where the face lies, 64 times
+// above what a chart around it gives, starts a nested group, whose chart is seeded at the
+// smallest such face. A group no chart has a collar for stays where it is (its faces
+// unresolvable). A group that its own chart resolves no better, a transition map that misses its
+// collar by more than max_transition_error, or charts nested deeper than max_depth end the atlas
+// with NumericalFailure naming the face.
 //
 // The charts are consistent: a face's three edges always fit one chart, so what ties the charts to
 // one metric is the collar, whose vertices both charts place; transition_error is the largest
