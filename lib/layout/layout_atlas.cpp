@@ -165,6 +165,41 @@ struct AtlasBuild {
     return faces;
   }
 
+  /// The collar in the group's chart `home`; where that chart resolves none of the faces around
+  /// the group (a nested group at the rim of the chart made for its parent group), in the chart
+  /// holding most of the group's neighbours that has a collar there, which becomes the parent.
+  /// Empty when no chart has one.
+  std::vector<Index> collar_and_parent(const std::vector<Index>& group, Index home, Index label, Index& parent) {
+    parent = home;
+    std::vector<Index> ring = collar(group, home, label);
+    if (!ring.empty()) return ring;
+    std::vector<Index> around;
+    for (Index f : group)
+      for (int cc = 0; cc < 3; ++cc) {
+        const Index o = t.opposite[3 * f + cc];
+        if (o == kInvalid) continue;
+        const Index j = out.face_chart[corner_face(o)];
+        if (owner[corner_face(o)] != label && j != home) around.push_back(j);
+      }
+    std::sort(around.begin(), around.end());
+    std::vector<std::pair<Index, Index>> counts;  // (−count, chart)
+    for (std::size_t i = 0; i < around.size();) {
+      std::size_t e = i;
+      while (e < around.size() && around[e] == around[i]) ++e;
+      counts.push_back({-static_cast<Index>(e - i), around[i]});
+      i = e;
+    }
+    std::sort(counts.begin(), counts.end());
+    for (const auto& [neg, j] : counts) {
+      ring = collar(group, j, label);
+      if (!ring.empty()) {
+        parent = j;
+        break;
+      }
+    }
+    return ring;
+  }
+
   /// The chart's map into the root: the parent's composed with its own transition.
   void compose_to_root(LayoutChart& ch) const {
     const LayoutChart& p = out.charts[static_cast<std::size_t>(ch.parent)];
@@ -198,37 +233,8 @@ struct AtlasBuild {
     for (Index f : group)
       if (!settled[f] && (!nested || unresolved(f)) && longest(f) < longest(ch.seed_face)) ch.seed_face = f;
     for (Index f : group) owner[f] = c;
-    // The collar in the group's chart; where that chart resolves none of the faces around the
-    // group (a nested group at the rim of the chart made for its parent group), in the chart
-    // holding most of the group's neighbours that has a collar there, which becomes the parent.
-    std::vector<Index> ring = collar(group, home, c);
     Index parent = home;
-    if (ring.empty()) {
-      std::vector<Index> around;
-      for (Index f : group)
-        for (int cc = 0; cc < 3; ++cc) {
-          const Index o = t.opposite[3 * f + cc];
-          if (o == kInvalid) continue;
-          const Index j = out.face_chart[corner_face(o)];
-          if (owner[corner_face(o)] != c && j != home) around.push_back(j);
-        }
-      std::sort(around.begin(), around.end());
-      std::vector<std::pair<Index, Index>> counts;  // (−count, chart)
-      for (std::size_t i = 0; i < around.size();) {
-        std::size_t e = i;
-        while (e < around.size() && around[e] == around[i]) ++e;
-        counts.push_back({-static_cast<Index>(e - i), around[i]});
-        i = e;
-      }
-      std::sort(counts.begin(), counts.end());
-      for (const auto& [neg, j] : counts) {
-        ring = collar(group, j, c);
-        if (!ring.empty()) {
-          parent = j;
-          break;
-        }
-      }
-    }
+    const std::vector<Index> ring = collar_and_parent(group, home, c, parent);
     if (ring.empty()) {
       // No chart resolves the faces around the group: they stay where they are, unresolvable.
       for (Index f : group) {
