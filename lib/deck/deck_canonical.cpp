@@ -1138,20 +1138,34 @@ int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& wo
     // same system), and a symmetric surface offers substitutions of equal gain; smaller
     // differences would turn on the metric's last bits.
     const double least_gain = 1e-6 * perimeter;
+    // A handle's or pair's substitutions are tried again only when what they read changed since
+    // they were last tried without gain: the handles' maps (ver) and the block start (u_ver).
+    // A handle substitution keeps its commutator, so the next block's start stays.
+    std::vector<int> ver(g, 0), u_ver(g + 1, 0);
+    std::vector<std::array<int, 2>> tried_handle(g, {-1, -1});
+    std::vector<std::array<int, 3>> tried_pair(g, {-1, -1, -1});
     for (std::size_t sweep = 0; sweep < 40 * g; ++sweep) {
       const int at_sweep = made;
       for (std::size_t i = 0; i < g; ++i) {
         double best_gain = least_gain;
-        const std::array<std::vector<int>, 2>* chosen = nullptr;
-        for (const auto& m : kHandleMoves) {
-          const double gain = len[i] - block(image(fast, m[0], 2 * i), image(fast, m[1], 2 * i), u[i], nullptr);
-          if (gain > best_gain + (chosen ? least_gain : 0)) best_gain = gain, chosen = &m;
-        }
-        if (chosen) {
-          len[i] -= best_gain;
-          substitute({&(*chosen)[0], &(*chosen)[1]}, 2 * i);
+        const std::array<int, 2> handle_key{ver[i], u_ver[i]};
+        if (tried_handle[i] != handle_key) {
+          const std::array<std::vector<int>, 2>* chosen = nullptr;
+          for (const auto& m : kHandleMoves) {
+            const double gain = len[i] - block(image(fast, m[0], 2 * i), image(fast, m[1], 2 * i), u[i], nullptr);
+            if (gain > best_gain + (chosen ? least_gain : 0)) best_gain = gain, chosen = &m;
+          }
+          if (chosen) {
+            len[i] -= best_gain;
+            substitute({&(*chosen)[0], &(*chosen)[1]}, 2 * i);
+            ++ver[i];
+          } else {
+            tried_handle[i] = handle_key;
+          }
         }
         if (i + 1 == g) continue;
+        const std::array<int, 3> pair_key{ver[i], ver[i + 1], u_ver[i]};
+        if (tried_pair[i] == pair_key) continue;
         best_gain = least_gain;
         const PairMove* pair = nullptr;
         double len0 = 0, len1 = 0;
@@ -1169,6 +1183,11 @@ int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& wo
           len[i + 1] = len1;
           u[i + 1] = start1;
           substitute({&(*pair)[0], &(*pair)[1], &(*pair)[2], &(*pair)[3]}, 2 * i);
+          ++ver[i];
+          ++ver[i + 1];
+          ++u_ver[i + 1];
+        } else {
+          tried_pair[i] = pair_key;
         }
       }
       if (made == at_sweep) break;
