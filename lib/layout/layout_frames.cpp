@@ -15,7 +15,10 @@
 // by the face's angles and lengths — exact to rounding however short the sides. Crossing a coarse
 // edge from coarse face f to g, the frames at the same end of the shared edge, pointing along it,
 // in f and in g give the transition from g's frame into f's: only coarse lengths and angles —
-// never the faces' own, possibly tiny, edges, nor differences of model points — set it.
+// never the faces' own, possibly tiny, edges, nor differences of model points — set it. In H the
+// developed isometries are composed as SU(1,1) maps of the Poincaré disk instead (the same
+// rotations and translations; entries e^{r/2} at distance r, renormalised after each product),
+// whose products stay exact isometries far out; the seed's 3×3 map is converted once.
 #include <algorithm>
 #include <array>
 #include <cmath>
