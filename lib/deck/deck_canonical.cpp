@@ -694,14 +694,15 @@ DeckResult trial_deck(Index g, const std::vector<detail::MoebiusQ>& gens) {
 GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical);
 
 /// The normal form of the schema's word with the shortest geodesic polygon, or none (last_error
-/// then says why the last run failed). Runs in two rounds, each two runs in parallel with sizes at the domain's centre or where the
-/// pairings move least (the moves are greedy, so either can end with longer generators). First
-/// from the one-vertex polygon of the short pairings' loops (one_vertex_schema()); only when
-/// neither gives a fundamental polygon (or the domain has one corner class already), then with
-/// the corners joined by moves, whose products grow with the domain's corner classes (a genus-12
-/// grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex runs 0.02 s).
-/// The run whose geodesic polygon is a fundamental domain with the smallest perimeter is kept
-/// (else the smallest relation error; ties: the earlier run).
+/// then says why the last run failed). Runs in two rounds, each two runs in parallel with sizes
+/// at the domain's centre or where the pairings move least (the moves are greedy, so either can
+/// end with longer generators). First from the one-vertex polygon of the short pairings' loops
+/// (one_vertex_schema()); only when neither gives a fundamental polygon nor a simple one at
+/// quad's floor (GeodesicPolygon::at_quad_floor; or the domain has one corner class already),
+/// then with the corners joined by moves, whose products grow with the domain's corner classes
+/// (a genus-12 grid of holes, 42 classes: 0.1 s and generators beyond 113 bits; the one-vertex
+/// runs 0.02 s). The run whose geodesic polygon is a fundamental domain with the smallest
+/// perimeter is kept (else the smallest relation error; ties: the earlier run).
 std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
                                                          std::string& last_error) {
   std::optional<NormalForm> best;
@@ -709,6 +710,7 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
   struct Run {
     NormalForm nf;
     double relation = 0, score = 0;
+    bool at_floor = false;  ///< its polygon is simple and misses 1e-12 only by quad's floor
   };
   for (const bool one_vertex : {true, false}) {
     Run runs[2];
@@ -726,13 +728,16 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
             gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
         const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
         run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
+        run.at_floor = gp.status == Status::Ok && gp.at_quad_floor;
         if (fundamental || run.nf.handle_moves == 0) break;
       }
     } catch (const std::bad_alloc&) {
       out_of_memory = 1;
     }
     if (out_of_memory) throw std::bad_alloc();
+    bool floor_reached = false;
     for (Run& run : runs) {
+      floor_reached = floor_reached || (run.nf.status == Status::Ok && run.at_floor);
       if (run.nf.status == Status::NotRun) continue;
       if (run.nf.status != Status::Ok) {
         last_error = run.nf.message;
@@ -747,7 +752,9 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
         best_relation = relation;
       }
     }
-    if (best && std::isfinite(best_score)) break;
+    // A simple polygon at quad's floor: the corners joined by moves multiply more pairings, and
+    // their polygon would have to reach less far to be verified.
+    if (best && (std::isfinite(best_score) || floor_reached)) break;
   }
   return best;
 }
@@ -1337,6 +1344,7 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
     return bad(Status::NumericalFailure, "the geodesic polygon has a value that is not finite.");
   out.angle_tolerance = std::max(1e-9, out.deck.relation_error * std::exp(out.reach));
   out.relation_floor = detail::kQuadEpsilon * std::exp(2 * out.reach);
+  out.at_quad_floor = out.simple && out.deck.relation_error > 1e-12 && out.deck.relation_error <= 16 * out.relation_floor;
   out.fundamental = out.simple && std::abs(out.angle_sum - 2 * M_PI) <= out.angle_tolerance;
   out.word.clear();
   for (std::size_t i = 1; i <= g; ++i) {

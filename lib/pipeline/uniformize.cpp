@@ -1879,7 +1879,7 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
   }
   GeodesicPolygon gp = geodesic_polygon(cg);
   const bool fundamental = gp.status == Status::Ok && gp.fundamental;
-  if (fundamental && gp.deck.relation_error > 1e-12 && gp.simple && gp.deck.relation_error <= 16 * gp.relation_floor) {
+  if (gp.status == Status::Ok && gp.at_quad_floor) {
     char buf[520];
     std::snprintf(buf, sizeof buf,
                   "no canonical polygon: the geodesic %d-gon of the canonical generators found is simple but reaches "

@@ -409,6 +409,10 @@ struct GeodesicPolygon {
   /// the relator's factors in the corners' frames multiply their rounding by up to e^reach again
   /// (pretzel(20, 4), reach 27.9: floor 3.3e-10, relation as computed 3.7e-11).
   double relation_floor = 0;
+  /// Simple, with a relation error above 1e-12 but within 16 × relation_floor: what quad
+  /// generators can verify at this reach, not an inconsistent group (canonical_generators() then
+  /// tries no second round; the pipeline keeps the domain's pairings and says why).
+  bool at_quad_floor = false;
   /// Hyperbolic distance between corner 0 and where the walk around the 4g sides ends (quad).
   double closure_error = 0;
   /// No two non-adjacent sides meet and adjacent sides meet only at their corner.
