@@ -856,3 +856,33 @@ TEST_CASE("layout: shared real meshes (figures per mesh)") {
     CHECK(other.max_edge_length_error < std::max(1e-9, 8 * other.rounding_floor));
   });
 }
+
+TEST_CASE("layout: a face flat to the rounding of its lengths is laid out flat, a real violation refused") {
+  // A (0,0), B (1,0), C (2,0), D (1,1): faces ABD, BCD and the flat face BAC, whose lengths
+  // 1, 1, 2 meet the triangle inequality with equality — a sliver of a common subdivision whose
+  // lengths come from crossings can be flat to the last bit. Beyond 4 units in the last place it
+  // is a violation.
+  const std::vector<Index> faces = {0, 1, 3, 1, 2, 3, 1, 0, 2};
+  const TopologyResult tr = build_topology(faces, 4);
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  REQUIRE(t.num_boundary_loops() == 1);
+  const double xy[4][2] = {{0, 0}, {1, 0}, {2, 0}, {1, 1}};
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index u = t.edge_vertices[2 * e], w = t.edge_vertices[2 * e + 1];
+    l[e] = std::hypot(xy[u][0] - xy[w][0], xy[u][1] - xy[w][1]);
+  }
+  const Layout r = layout_disk(t, Geometry::Euclidean, l);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  CHECK(r.max_edge_length_error < 1e-14);
+  for (double v : r.positions) CHECK(std::isfinite(v));
+  // AC longer by 1e-12: the flat face violates the triangle inequality by far more than rounding.
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index u = t.edge_vertices[2 * e], w = t.edge_vertices[2 * e + 1];
+    if ((u == 0 && w == 2) || (u == 2 && w == 0)) l[e] = 2 + 1e-12;
+  }
+  const Layout bad = layout_disk(t, Geometry::Euclidean, l);
+  CHECK(bad.status == Status::TriangleInequality);
+  CHECK(bad.element == Element::Face);
+}

@@ -226,7 +226,8 @@ struct Layout {
   /// Ok: positions are valid (flips are reported, not an error). InvalidArgument: sizes, options,
   /// or a mesh that is not a disk (layout_disk) / not a closed genus-0 surface (layout_sphere);
   /// DegenerateFace: a length is not a positive finite number (element Edge); TriangleInequality:
-  /// a face violates it (or, in S, has perimeter ≥ 2π) (element Face); NumericalFailure: a placed
+  /// a face violates it by more than 4 units in the last place of its longest side (or, in S, has
+  /// perimeter ≥ 2π) (element Face; a face flat to that rounding is laid out flat); NumericalFailure: a placed
   /// vertex left the range of double precision (element Vertex). Otherwise positions empty.
   Status status = Status::NotRun;
   std::string message = "not run";  ///< what went wrong, naming the element; on success a summary
