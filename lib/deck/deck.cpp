@@ -635,7 +635,8 @@ Eigen::SparseMatrix<double> cycle_jacobian(const std::vector<MoebiusQ>& X, const
       const MD T_inv = T.inverse();
       for (int t = 0; t < 3; ++t) {
         const MD ad = T * D[static_cast<std::size_t>(t)] * T_inv;
-        const MD d_phi = l.inverse ? MD(-1.0 * (ad * phi[i]).a, -1.0 * (ad * phi[i]).b) : phi[i] * ad;
+        MD d_phi = l.inverse ? ad * phi[i] : phi[i] * ad;
+        if (l.inverse) d_phi = MD(-1.0 * d_phi.a, -1.0 * d_phi.b);
         const MD dM = prefix[i] * d_phi * suffix[i + 1];
         const Eigen::Index row = 3 * static_cast<Eigen::Index>(c), col = 3 * static_cast<Eigen::Index>(k) + t;
         entries.emplace_back(row, col, s * dM.a.im);

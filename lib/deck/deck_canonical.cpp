@@ -984,8 +984,7 @@ MoebiusQ displacement_frame(const std::vector<MoebiusQ>& Y, int max_steps, int* 
   detail::BasicMoebius<DD> F;
   *steps = minimise_displacement(Yd, F, max_steps);
   if (*steps <= 0) return MoebiusQ();
-  return MoebiusQ(CQ{detail::to_quad(F.a.re), detail::to_quad(F.a.im)}, CQ{detail::to_quad(F.b.re), detail::to_quad(F.b.im)})
-      .normalized();
+  return detail::to_quad(F).normalized();
 }
 
 /// The polygon's corner maps: corner j is W[j](p), W[0] = identity, with deck.h's convention
@@ -1052,12 +1051,11 @@ bool centre_polygon(std::vector<detail::MoebiusQ>& gens, detail::MoebiusQ& C, de
   if (!mass.point(c) || !(c.norm() < 1)) return false;
   const MD to_c = MD::to_origin(c);
   const MD Td = to_c * F;
-  auto to_q = [](const CD& z) { return CQ{detail::to_quad(z.re), detail::to_quad(z.im)}; };
-  const MoebiusQ T = MoebiusQ(to_q(Td.a), to_q(Td.b)).normalized(), T_inv = T.inverse();
+  const MoebiusQ T = detail::to_quad(Td).normalized(), T_inv = T.inverse();
   for (MoebiusQ& M : gens) M = (T * M * T_inv).normalized();
   C = (T * C).normalized();
   // Corner 0 (F's origin) in the new frame.
-  p = T.apply(MoebiusQ(to_q(F.a), to_q(F.b)).normalized().inverse().apply(CQ{0, 0}));
+  p = detail::to_quad(to_c.apply(CD{0, 0}));
   return true;
 }
 

@@ -168,6 +168,9 @@ inline BasicMoebius<DoubleDouble> to_dd(const MoebiusQ& m) {
   using C = BasicCQ<DoubleDouble>;
   return {C{to_dd(m.a.re), to_dd(m.a.im)}, C{to_dd(m.b.re), to_dd(m.b.im)}};
 }
+/// A double-double point or map in quad (exactly; a map is not renormalised).
+inline CQ to_quad(const BasicCQ<DoubleDouble>& z) { return {to_quad(z.re), to_quad(z.im)}; }
+inline MoebiusQ to_quad(const BasicMoebius<DoubleDouble>& m) { return {to_quad(m.a), to_quad(m.b)}; }
 
 /// Hyperbolic distance between two points of the disk given in quad (∞ outside the disk).
 template <class T>

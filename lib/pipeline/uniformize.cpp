@@ -1831,6 +1831,12 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   return true;
 }
 
+// The deck stage's line when the compact domain's side pairings stand as the deck group.
+std::string pairings_line(const UniformizeResult& r) {
+  return "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " + sci(r.domain_cycle_error) +
+         ")";
+}
+
 // The side pairings of a compact domain's layout, into r.
 void take_domain(UniformizeResult& r, const DomainDeck& dd) {
   r.domain_maps = dd.side_maps;
@@ -1891,8 +1897,7 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
     take_domain(r, dd);
     r.deck = DeckResult{};
     run.stage_done("polygon", r.polygon_note);
-    run.stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                               sci(r.domain_cycle_error) + ")");
+    run.stage_done("deck", pairings_line(r));
     return GeodesicOutcome::BeyondQuad;
   }
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
@@ -1987,8 +1992,7 @@ bool report_mesh_polygon(LayoutRun& run, bool found, std::optional<DomainDeck>& 
       take_domain(r, dd);
     }
     stage_done("polygon", r.polygon_note);
-    stage_done("deck", "deck: " + std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                           sci(r.domain_cycle_error) + ")");
+    stage_done("deck", pairings_line(r));
   } else {
     r.has_polygon = true;
     r.has_deck = true;

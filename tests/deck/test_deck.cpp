@@ -795,19 +795,29 @@ TEST_CASE("deck: a layout no surface group fits is refused, not adjusted") {
   CHECK(good.pairing_adjustment < 1e-10);
 }
 
+namespace {
+
+// pretzel(genus, 4) through the default job (no seed check), its compact domain laid out.
+UniformizeResult uniformized_pretzel(int genus) {
+  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(genus, 4));
+  REQUIRE(v.status == Status::Ok);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  UniformizeResult u = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  REQUIRE(u.cut.compact);
+  return u;
+}
+
+}  // namespace
+
 TEST_CASE("deck: side pairings of a domain laid out far from the origin keep their digits") {
   // The genus-2 domain moved by a translation of hyperbolic length 12: its points keep what double
   // coordinates resolve there (~2^-53·e^15, 1e-10), but a pairing between two sides at that
   // distance has entries of size e^15, and rounded to double it misplaces the sides' own points by
   // ~2^-53·e^30 (1e-3). Fitted in frames on the sides and kept as map + map_low, the pairings close
   // the vertex cycles to what the points resolve, and the canonical relation holds.
-  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(2, 4));
-  REQUIRE(v.status == Status::Ok);
-  UniformizeOptions o;
-  o.seed_checks = 0;
-  const UniformizeResult u = uniformize(v.mesh, v.topology, o);
-  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
-  REQUIRE(u.cut.compact);
+  const UniformizeResult u = uniformized_pretzel(2);
   const Moebius T = Moebius::translation_real(12);
   std::vector<double> far = u.layout.positions;
   for (std::size_t i = 0; i + 1 < far.size(); i += 2) {
@@ -885,13 +895,7 @@ TEST_CASE("deck: a pairing's fit ends once its steps are below the rounding of i
   // The layout's pairs are exact to double's rounding, so a fit from the two-point start needs a
   // few Levenberg–Marquardt steps; with tolerances alone it went on through ~40 steps per round of
   // rounding noise (accepted and rejected at random) until the trust region collapsed.
-  const ValidateResult v = validate_mesh(ricci_shapes::pretzel(3, 4));
-  REQUIRE(v.status == Status::Ok);
-  UniformizeOptions o;
-  o.seed_checks = 0;
-  const UniformizeResult u = uniformize(v.mesh, v.topology, o);
-  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
-  REQUIRE(u.cut.compact);
+  const UniformizeResult u = uniformized_pretzel(3);
   DeckOptions raw;
   raw.adjust_pairings = false;
   const DomainDeck d = fit_domain_pairings(u.cut, u.layout.positions, raw);
