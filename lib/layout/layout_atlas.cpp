@@ -217,6 +217,83 @@ struct AtlasBuild {
     }
   }
 
+  /// Fit points: each collar vertex once, with its parent and its own position (x), and the
+  /// shortest collar edge at it — with frames, the shortest side of the coarse faces at it: both
+  /// charts put every point of a coarse face by that face's one isometry, so their rounding moves
+  /// the coarse face rigidly, at its own scale, however short the fine edges inside it.
+  void collar_points(const std::vector<Index>& ring, const std::vector<double>& x, std::vector<double>& parent_pts,
+                     std::vector<double>& own_pts, std::vector<double>& scale) const {
+    parent_pts.clear();
+    own_pts.clear();
+    scale.clear();
+    std::vector<Index> index_of(static_cast<std::size_t>(t.num_vertices), kInvalid);
+    const FaceFrames* fr = options.frames.get();
+    for (Index f : ring) {
+      const std::size_t cf = fr ? 3 * static_cast<std::size_t>(fr->face_frame[f]) : 0;
+      for (int cc = 0; cc < 3; ++cc) {
+        const Index v = t.corner_vertex[3 * f + cc];
+        const double le =
+            fr ? std::min({fr->frame_lengths[cf], fr->frame_lengths[cf + 1], fr->frame_lengths[cf + 2]})
+               : std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
+        if (index_of[v] == kInvalid) {
+          index_of[v] = static_cast<Index>(scale.size());
+          const Cx p = corner(f, cc);
+          parent_pts.insert(parent_pts.end(), {p.real(), p.imag()});
+          own_pts.insert(own_pts.end(), {x[2 * v], x[2 * v + 1]});
+          scale.push_back(le);
+        } else {
+          scale[index_of[v]] = std::min(scale[index_of[v]], le);
+        }
+      }
+    }
+  }
+
+  /// How far rounding can move the chart's own collar points, relative to their scale (the largest
+  /// over the collar): their coordinates' rounding and, with frames in H, the drift of the maps
+  /// that placed them (`drift` per vertex; empty otherwise). Points as collar_points() lists them.
+  double collar_floor(const std::vector<Index>& ring, const std::vector<double>& drift,
+                      const std::vector<double>& own_pts, const std::vector<double>& scale) const {
+    std::vector<double> moved;
+    if (!drift.empty()) {  // in collar_points()'s order: each vertex at its first corner
+      std::vector<std::uint8_t> seen(static_cast<std::size_t>(t.num_vertices), 0);
+      for (Index f : ring)
+        for (int cc = 0; cc < 3; ++cc) {
+          const Index v = t.corner_vertex[3 * f + cc];
+          if (seen[v]) continue;
+          seen[v] = 1;
+          moved.push_back(drift[static_cast<std::size_t>(v)]);
+        }
+    }
+    double most = 0;
+    for (std::size_t i = 0; i < scale.size(); ++i) {
+      const Cx p{own_pts[2 * i], own_pts[2 * i + 1]};
+      most = std::max(most, (rounding_drift(p, p) / 2 + (moved.empty() ? 0.0 : moved[i])) / scale[i]);
+    }
+    return most;
+  }
+
+  /// The smallest (least longest edge) of the group's faces across an edge from a face of its
+  /// collar `ring`; kInvalid when none.
+  Index seed_at_collar(const std::vector<Index>& group, std::vector<Index> ring) const {
+    std::sort(ring.begin(), ring.end());
+    Index best = kInvalid;
+    double best_len = 0;
+    for (Index f : group) {
+      bool at = false;
+      for (int c = 0; c < 3 && !at; ++c) {
+        const Index o = t.opposite[3 * f + c];
+        at = o != kInvalid && std::binary_search(ring.begin(), ring.end(), corner_face(o));
+      }
+      if (!at) continue;
+      const double len = std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+      if (best == kInvalid || len < best_len) {
+        best = f;
+        best_len = len;
+      }
+    }
+    return best;
+  }
+
   /// Makes a chart of `group` (faces of chart k): lays it out with its collar, fits the
   /// transition, moves the group's faces into it.
   bool make_chart(const std::vector<Index>& group, Index home) {
@@ -253,40 +330,31 @@ struct AtlasBuild {
       return fail(Element::Face, group[0], "charts nest deeper than " + std::to_string(options.max_depth) +
                                                " around face " + std::to_string(group[0]));
     }
-    std::vector<double> x;
-    std::vector<Index> touched;
+    // The transition is fitted on the collar, so the chart must hold its collar well within its
+    // resolution. Around the group's smallest face it may not when the group is large (a long
+    // thin part whose far end is exponentially small): the collar then lies where the chart's
+    // coordinates or maps have few digits left, or beyond double range. Such a chart starts again
+    // at the collar, from the smallest of the group's faces across an edge from it, and leaves the
+    // far end to charts nested in it.
+    std::vector<double> x, drift, parent_pts, own_pts, scale;
     Layout pl;
-    const bool ok = options.frames
-                        ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c, x, touched, pl)
-                        : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
+    bool ok = false;
+    for (int attempt = 0;; ++attempt) {
+      std::vector<Index> touched;
+      pl = Layout{};
+      ok = options.frames ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c,
+                                                                         x, touched, drift, pl)
+                                     : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
+      if (ok) collar_points(ring, x, parent_pts, own_pts, scale);
+      if (attempt > 0 || (ok && collar_floor(ring, drift, own_pts, scale) <= kMargin * options.max_transition_error))
+        break;
+      const Index s = seed_at_collar(group, ring);
+      if (s == kInvalid || s == ch.seed_face) break;
+      ch.seed_face = s;
+    }
     for (Index f : group) owner[f] = -1;
     for (Index f : ring) owner[f] = -1;
     if (!ok) return fail(pl.element, pl.element_index, pl.message);
-    // Fit points: each collar vertex once, with its parent and its own position, and the shortest
-    // collar edge at it — with frames, the shortest side of the coarse faces at it: both charts
-    // put every point of a coarse face by that face's one isometry, so their rounding moves the
-    // coarse face rigidly, at its own scale, however short the fine edges inside it.
-    std::vector<double> parent_pts, own_pts, scale;
-    std::vector<Index> index_of(static_cast<std::size_t>(t.num_vertices), kInvalid);
-    const FaceFrames* fr = options.frames.get();
-    for (Index f : ring) {
-      const std::size_t cf = fr ? 3 * static_cast<std::size_t>(fr->face_frame[f]) : 0;
-      for (int cc = 0; cc < 3; ++cc) {
-        const Index v = t.corner_vertex[3 * f + cc];
-        const double le =
-            fr ? std::min({fr->frame_lengths[cf], fr->frame_lengths[cf + 1], fr->frame_lengths[cf + 2]})
-               : std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
-        if (index_of[v] == kInvalid) {
-          index_of[v] = static_cast<Index>(scale.size());
-          const Cx p = corner(f, cc);
-          parent_pts.insert(parent_pts.end(), {p.real(), p.imag()});
-          own_pts.insert(own_pts.end(), {x[2 * v], x[2 * v + 1]});
-          scale.push_back(le);
-        } else {
-          scale[index_of[v]] = std::min(scale[index_of[v]], le);
-        }
-      }
-    }
     const LayoutAlignment fit = align_layouts(g, parent_pts, own_pts);
     if (fit.status != Status::Ok)
       return fail(Element::Face, ch.seed_face, "the chart around face " + std::to_string(ch.seed_face) +
@@ -321,6 +389,12 @@ struct AtlasBuild {
         out.corner_positions[6 * f + 2 * cc + 1] = x[2 * v + 1];
       }
       measure_face(f, face_error[f], face_floor[f]);
+      // With frames in H, the drift of the maps that placed its corners adds to its floor.
+      if (!drift.empty())
+        for (int cc = 0; cc < 3; ++cc) {
+          const double moved = drift[t.corner_vertex[3 * f + (cc + 1) % 3]] + drift[t.corner_vertex[3 * f + (cc + 2) % 3]];
+          face_floor[f] = std::max(face_floor[f], moved / l[t.corner_edge[3 * f + cc]]);
+        }
       if (!unresolved(f)) ++resolved;
       else if (!deferred(f) || f == ch.seed_face) settled[f] = 1;
     }

@@ -38,6 +38,14 @@ namespace ricci::detail {
 namespace {
 
 using model::P3;
+/// Rounding a renormalised SU(1,1) product [a b; b̄ ā] moves the point its map takes the origin
+/// to by about 2ε·(|a| + |b|)·|b| in that point's own frame (ε·e^r at distance r from the
+/// origin, ε·2|b| near it); independent roundings add in quadrature along a chain.
+constexpr double kFrameRounding = 2 * 0x1p-53;
+/// A face whose map has drifted beyond this fraction of its coarse face's shortest side is not
+/// resolved by the development: two charts disagree there by more than the atlas's transitions
+/// may (AtlasOptions::max_transition_error).
+constexpr double kDriftLimit = 1e-6;
 using Cx = std::complex<double>;
 
 P3 apply(Geometry g, const M3& a, P3 m) {
@@ -228,8 +236,12 @@ FrameDevelopment::FrameDevelopment(const Topology& t, Geometry g, const FaceFram
                                    bool keep_going)
     : t_(t), g_(g), fr_(frames), seed_(seed), keep_going_(keep_going) {
   const auto nf = static_cast<std::size_t>(t.num_faces);
-  if (g == Geometry::Hyperbolic) mob_.resize(nf);
-  else map_.resize(nf);
+  if (g == Geometry::Hyperbolic) {
+    mob_.resize(nf);
+    drift_.resize(nf);
+  } else {
+    map_.resize(nf);
+  }
   dist_.resize(nf);
   via_.resize(nf);
   taken_.resize(nf);
@@ -301,6 +313,14 @@ Moebius FrameDevelopment::transition_h(Index from_corner, Index to_face) const {
 bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
   const int dims = g_ == Geometry::Spherical ? 3 : 2;
   Index resolved = kInvalid;  // a corner of f with a finite position, for unresolved ones
+  // H, kept for an atlas: a face whose map has drifted by more than kDriftLimit of its coarse
+  // face's shortest side places its corners as unresolved (in range, but off its neighbours).
+  bool drifted = false;
+  if (keep_going_ && g_ == Geometry::Hyperbolic) {
+    const std::size_t cf = 3 * static_cast<std::size_t>(fr_.face_frame[f]);
+    const double side = std::min({fr_.frame_lengths[cf], fr_.frame_lengths[cf + 1], fr_.frame_lengths[cf + 2]});
+    drifted = !(drift_[static_cast<std::size_t>(f)] <= kDriftLimit * side);
+  }
   for (int k = 0; k < 3; ++k) {
     const Index v = t_.corner_vertex[3 * f + k];
     if (placed_[v]) {
@@ -324,7 +344,7 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
         const Cx z = mob_[static_cast<std::size_t>(f)].apply(Cx(X[0] / den, X[1] / den));
         xv[0] = z.real();
         xv[1] = z.imag();
-        ok = std::isfinite(xv[0]) && std::isfinite(xv[1]) && std::hypot(xv[0], xv[1]) < 1;
+        ok = !drifted && std::isfinite(xv[0]) && std::isfinite(xv[1]) && std::hypot(xv[0], xv[1]) < 1;
         break;
       }
       case Geometry::Spherical: {
@@ -336,6 +356,7 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
     }
     placed_[v] = 1;
     touched_.push_back(v);
+    placed_by_.push_back(f);
     if (ok) {
       resolved = v;
       continue;
@@ -349,6 +370,7 @@ bool FrameDevelopment::place(Index f, std::vector<double>& x, Layout& out) {
                     ") at frame depth " + std::to_string(dist_[static_cast<std::size_t>(f)]);
       return false;
     }
+    lost_.push_back(v);
     // Kept for an atlas: at a resolved corner of the same face (else the base point).
     for (int d = 0; d < dims; ++d)
       xv[d] = resolved != kInvalid ? x[static_cast<std::size_t>(dims * resolved + d)] : (d == 2 ? 1.0 : 0.0);
@@ -366,14 +388,20 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
   out.unresolved_vertices = 0;
   out.depth = 0;
   touched_.clear();
+  placed_by_.clear();
+  lost_.clear();
   // Breadth-first in the number of coarse edges crossed (0–1 BFS): a face in the same coarse face
   // costs nothing, so every coarse face copy is developed from the fewest transitions.
   std::deque<Index> queue{seed_};
   dist_[seed_] = 0;
   via_[seed_] = kInvalid;
   const bool h = g_ == Geometry::Hyperbolic;
-  if (h) mob_[seed_] = moebius_of_lorentz(seed_map);
-  else map_[seed_] = seed_map;
+  if (h) {
+    mob_[seed_] = moebius_of_lorentz(seed_map);
+    drift_[seed_] = 0;
+  } else {
+    map_[seed_] = seed_map;
+  }
   while (!queue.empty()) {
     const Index f = queue.front();
     queue.pop_front();
@@ -381,8 +409,14 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
     taken_[f] = 1;
     if (via_[f] != kInvalid) {
       const bool same = fr_.face_frame[f] == fr_.face_frame[corner_face(via_[f])];
-      if (h) mob_[f] = same ? mob_[corner_face(via_[f])] : transition_h(via_[f], f);
-      else map_[f] = same ? map_[corner_face(via_[f])] : transition(via_[f], f);
+      if (h) {
+        const Index pf = corner_face(via_[f]);
+        mob_[f] = same ? mob_[pf] : transition_h(via_[f], f);
+        const double step = kFrameRounding * (std::abs(mob_[f].a) + std::abs(mob_[f].b)) * std::abs(mob_[f].b);
+        drift_[f] = same ? drift_[pf] : std::sqrt(drift_[pf] * drift_[pf] + step * step);
+      } else {
+        map_[f] = same ? map_[corner_face(via_[f])] : transition(via_[f], f);
+      }
       if (h ? !finite(mob_[f]) : !finite(map_[f])) {
         out.status = Status::InvalidArgument;
         out.element = Element::Face;
@@ -415,13 +449,20 @@ bool FrameDevelopment::run(std::vector<double>& x, const M3& seed_map, Layout& o
 
 bool propagate_faces_by_frames(const Topology& t, Geometry g, const FaceFrames& frames, Index seed,
                                std::span<const Index> owner, Index label, std::vector<double>& positions,
-                               std::vector<Index>& touched, Layout& out) {
+                               std::vector<Index>& touched, std::vector<double>& drift, Layout& out) {
   const int dims = g == Geometry::Spherical ? 3 : 2;
   positions.assign(static_cast<std::size_t>(dims) * static_cast<std::size_t>(t.num_vertices), 0.0);
-  FrameDevelopment dev(t, g, frames, seed, false);
+  drift.assign(static_cast<std::size_t>(t.num_vertices), 0.0);
+  const bool h = g == Geometry::Hyperbolic;
+  FrameDevelopment dev(t, g, frames, seed, h);
   dev.restrict_to(owner, label);
   const bool ok = dev.run(positions, dev.seed_map(), out);
   touched = dev.touched();
+  if (h) {
+    for (std::size_t i = 0; i < touched.size(); ++i)
+      drift[static_cast<std::size_t>(touched[i])] = dev.drift()[static_cast<std::size_t>(dev.placed_by()[i])];
+    for (Index v : dev.lost()) drift[static_cast<std::size_t>(v)] = std::numeric_limits<double>::infinity();
+  }
   return ok;
 }
 

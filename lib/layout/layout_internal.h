@@ -34,10 +34,13 @@ bool propagate_faces(const Topology& t, Geometry g, std::span<const double> l, I
 using M3 = std::array<double, 9>;
 
 /// propagate_faces() by coarse frames (FrameDevelopment restricted to the faces of `label`, the seed
-/// face's corner 0 at the base point).
+/// face's corner 0 at the base point). drift (#V, H): the drift estimate of the map of the face
+/// that placed each touched vertex (FrameDevelopment::drift()), 0 elsewhere and in E. H develops
+/// with keep_going: a vertex it cannot resolve gets drift +∞ (its faces are beyond the chart)
+/// instead of failing the call.
 bool propagate_faces_by_frames(const Topology& t, Geometry g, const FaceFrames& frames, Index seed,
                                std::span<const Index> owner, Index label, std::vector<double>& positions,
-                               std::vector<Index>& touched, Layout& out);
+                               std::vector<Index>& touched, std::vector<double>& drift, Layout& out);
 
 /// The product a·b of two isometries (apply b first).
 M3 multiply(const M3& a, const M3& b);
@@ -75,6 +78,13 @@ class FrameDevelopment {
   }
   /// The vertices the last run placed, in the order it placed them.
   const std::vector<Index>& touched() const { return touched_; }
+  /// H: the drift bound of each taken face's map (see drift_); empty in E and S.
+  const std::vector<double>& drift() const { return drift_; }
+  /// The face that placed each touched vertex.
+  const std::vector<Index>& placed_by() const { return placed_by_; }
+  /// keep_going: the vertices the last run could not resolve (beyond double range, or placed by a
+  /// face whose map drifted too far), in the order it met them.
+  const std::vector<Index>& lost() const { return lost_; }
 
  private:
   /// The corners k of from_corner's coarse face and ko of to_face's whose sides are the coarse
@@ -91,13 +101,19 @@ class FrameDevelopment {
   bool keep_going_;
   std::span<const Index> owner_;
   Index label_ = 0;
-  std::vector<Index> touched_;
+  std::vector<Index> touched_, placed_by_, lost_;
   std::vector<M3> map_;
   /// H: each face's coarse isometry as an SU(1,1) map of the disk (map_ is not used). A product
   /// of Lorentz matrices reaching distance r has entries e^r and drifts off the Lorentz group by
   /// ε·e^{2r} a product (depth 100 at r = 8: faces' edges off by 2e-7); SU(1,1) entries are
   /// e^{r/2} and each product is renormalised to an exact isometry.
   std::vector<Moebius> mob_;
+  /// H: an estimate of how far rounding has moved each face's map, in the face's own frame: each
+  /// product at distance r from the origin adds about ε·e^r (2ε·(|a| + |b|)·|b|), in quadrature along
+  /// the chain, and a face reached through a far region keeps what it gathered there when the
+  /// development comes back (its corners then resolve in double but sit off the faces developed
+  /// along other paths).
+  std::vector<double> drift_;
   std::vector<Index> dist_, via_;  // via_[f]: the corner of the face before f across whose opposite edge f was reached
   std::vector<std::uint8_t> taken_, placed_;
 };

@@ -202,6 +202,38 @@ TEST_CASE("layout by frames: a hyperbolic disk developed away from the origin ke
   }
 }
 
+TEST_CASE("layout by frames: the drift estimate of H maps is 0 in the seed's coarse face and grows as e^r") {
+  // Each product of SU(1,1) maps at distance r from the origin adds about ε·e^r to how far a
+  // face's map may have moved (FrameDevelopment::drift()); the atlas counts it in each chart's
+  // floor and leaves faces whose maps drifted beyond the transitions' limit unresolved.
+  const Mesh m = ricci_shapes::disk(6);
+  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
+  const double beta[3] = {0.3, 0.3, 0.4};
+  const Fine fine = split_faces(coarse, Geometry::Hyperbolic, coarse_lengths(m, coarse, Geometry::Hyperbolic), beta);
+  const Index seed = central_face(fine.topology);
+  double most[2] = {0, 0};
+  int i = 0;
+  for (const double moved : {0.0, 6.0}) {
+    detail::FrameDevelopment dev(fine.topology, Geometry::Hyperbolic, fine.frames, seed, false);
+    std::vector<double> x(2 * static_cast<std::size_t>(fine.topology.num_vertices));
+    Layout out;
+    REQUIRE(dev.run(x, detail::multiply(detail::disk_map_matrix({-std::tanh(moved / 2), 0}, 1), dev.seed_map()), out));
+    const std::vector<double>& drift = dev.drift();
+    REQUIRE(drift.size() == static_cast<std::size_t>(fine.topology.num_faces));
+    for (Index f = 0; f < fine.topology.num_faces; ++f) {
+      CHECK(std::isfinite(drift[f]));
+      if (fine.frames.face_frame[f] == fine.frames.face_frame[seed]) CHECK(drift[f] == 0);
+      most[i] = std::max(most[i], drift[f]);
+    }
+    ++i;
+  }
+  MESSAGE("largest drift from the origin " << most[0] << ", moved 6 out " << most[1]);
+  CHECK(most[0] > 0);
+  CHECK(most[0] < 1e-14);
+  CHECK(most[1] > 50 * most[0]);  // e^6 ≈ 403
+  CHECK(most[1] < 1e-11);
+}
+
 TEST_CASE("layout by frames: a split icosphere on the unit sphere, and frames that do not fit are refused") {
   const Mesh m = ricci_shapes::icosphere(2);
   const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;

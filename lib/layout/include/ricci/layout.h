@@ -361,7 +361,12 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // its rim), the chart holding most of the group's neighbours that has a collar there. The
 // transition map into the parent is the isometry fitted on the collar's vertices (align_layouts():
 // closed form, every point); the group's faces then belong to the new chart, the collar's stay in
-// the parent. A face the new chart misses only by its rounding where the face lies, 64 times
+// the parent. With coarse frames in H, a chart's floor at a face also counts the drift of the
+// SU(1,1) maps that placed its corners (each product at distance r from the chart's origin adds
+// about ε·e^r, in quadrature along the development), and a development kept for an atlas leaves
+// a face whose map drifted beyond 1e-6 of its coarse face's shortest side unresolved (its corners
+// would resolve in double yet sit off the faces developed along other paths, so no collar could
+// hold both). A face the new chart misses only by its floor where the face lies, 64 times
 // above what a chart around it gives, starts a nested group, whose chart is seeded at the
 // smallest such face. A group no chart has a collar for stays where it is (its faces
 // unresolvable). A group that its own chart resolves no better, a transition map that misses its
@@ -409,7 +414,7 @@ struct LayoutChart {
   Index faces = 0;             ///< faces it holds (LayoutAtlas::face_chart)
   double max_edge_length_error = 0;  ///< over the edges of its faces, in its coordinates (relative)
   Index worst_face = kInvalid;       ///< a face where that occurs; kInvalid without faces
-  double rounding_floor = 0;         ///< max over those edges of Layout::rounding_floor's measure
+  double rounding_floor = 0;         ///< max over those edges of Layout::rounding_floor's measure (H with frames: plus the maps' drift)
   Index collar_vertices = 0;         ///< vertices the transition map was fitted on
   double transition_error = 0;       ///< see the top of this section (0 for the root)
   /// The map from this chart's coordinates into its parent's, and into the root chart's:
