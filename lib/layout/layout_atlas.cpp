@@ -67,13 +67,14 @@ struct AtlasBuild {
     const double a = l[t.corner_edge[3 * f]], b = l[t.corner_edge[3 * f + 1]], c = l[t.corner_edge[3 * f + 2]];
     return 0x1p-53 * std::max({a, b, c}) / std::min({a, b, c});
   }
-  /// A face left unresolved in the chart made for its group, but only by that chart's rounding
+  /// A face left unresolved in the chart made for its group, but only by that chart's floor
   /// where it lies (within kFrameAllowance of face_floor) while a chart around it would resolve
-  /// it kFrameAllowance times better: it is not settled there but starts a group of that chart,
-  /// whose own chart is made around it (a needle at |z| = 0.98 of a chart seeded elsewhere in
-  /// its group).
+  /// it kNestGain times better: it is not settled there but starts a group of that chart, whose
+  /// own chart is made around it (a needle at |z| = 0.98 of a chart seeded elsewhere in its
+  /// group).
+  static constexpr double kNestGain = 4;
   bool deferred(Index f) const {
-    return face_error[f] <= kFrameAllowance * face_floor[f] && face_floor[f] > kFrameAllowance * best_floor(f);
+    return face_error[f] <= kFrameAllowance * face_floor[f] && face_floor[f] > kNestGain * best_floor(f);
   }
 
   Cx corner(Index f, int c) const { return {out.corner_positions[6 * f + 2 * c], out.corner_positions[6 * f + 2 * c + 1]}; }
@@ -398,9 +399,12 @@ struct AtlasBuild {
       if (!unresolved(f)) ++resolved;
       else if (!deferred(f) || f == ch.seed_face) settled[f] = 1;
     }
-    // A face its own chart misses by more than a collar may: not rounding, the lengths do not close.
+    // A face its own chart misses by more than a collar may and by more than kFrameAllowance times
+    // the chart's floor there: not rounding, the lengths do not close. (A miss within that floor,
+    // which no nested chart would resolve kNestGain times better, leaves the face unresolvable.)
     for (Index f : group)
-      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && !(deferred(f) && !settled[f]))
+      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && !(deferred(f) && !settled[f]) &&
+          !(face_error[f] <= kFrameAllowance * face_floor[f]))
         return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
                                           " made for it (" + std::to_string(resolved) + " of its group's " +

@@ -366,10 +366,15 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // about ε·e^r, in quadrature along the development), and a development kept for an atlas leaves
 // a face whose map drifted beyond 1e-6 of its coarse face's shortest side unresolved (its corners
 // would resolve in double yet sit off the faces developed along other paths, so no collar could
-// hold both). A face the new chart misses only by its floor where the face lies, 64 times
-// above what a chart around it gives, starts a nested group, whose chart is seeded at the
-// smallest such face. A group no chart has a collar for stays where it is (its faces
-// unresolvable). A group that its own chart resolves no better, a transition map that misses its
+// hold both); H chart developments keep going past vertices they cannot resolve, whose faces
+// then go to nested charts. A chart whose own collar points its coordinates and maps do not
+// resolve to 1e-2 of max_transition_error (seeded at the smallest face of a long thin group, far
+// from the collar) is laid out again from the smallest group face across an edge from the
+// collar. A face the new chart misses only by its floor where the face lies, 4 times above what a
+// chart around it gives, starts a nested group, whose chart is seeded at the smallest such face;
+// one that no chart would resolve that much better stays unresolvable. A group no chart has a
+// collar for stays where it is (its faces unresolvable). A face its own chart misses by more than
+// max_transition_error and by more than 64 times its floor there, a transition map that misses its
 // collar by more than max_transition_error, or charts nested deeper than max_depth end the atlas
 // with NumericalFailure naming the face.
 //
