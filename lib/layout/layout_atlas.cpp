@@ -273,6 +273,16 @@ struct AtlasBuild {
     return most;
   }
 
+  /// H: the farthest of the chart's own collar points from its origin (hyperbolic distance); E: 0
+  /// (a residual δ turns a loop's far side by δ times its distance only, not sinh of it).
+  static constexpr double kCollarReach = 4;
+  double collar_reach(const std::vector<double>& own_pts) const {
+    if (g != Geometry::Hyperbolic) return 0;
+    double most = 0;
+    for (std::size_t i = 0; i < own_pts.size(); i += 2) most = std::max(most, std::hypot(own_pts[i], own_pts[i + 1]));
+    return most < 1 ? 2 * std::atanh(most) : std::numeric_limits<double>::infinity();
+  }
+
   /// The smallest (least longest edge) of the group's faces across an edge from a face of its
   /// collar `ring`; kInvalid when none.
   Index seed_at_collar(const std::vector<Index>& group, std::vector<Index> ring) const {
@@ -332,10 +342,13 @@ struct AtlasBuild {
                                                " around face " + std::to_string(group[0]));
     }
     // The transition is fitted on the collar, so the chart must hold its collar well within its
-    // resolution. Around the group's smallest face it may not when the group is large (a long
-    // thin part whose far end is exponentially small): the collar then lies where the chart's
-    // coordinates or maps have few digits left, or beyond double range. Such a chart starts again
-    // at the collar, from the smallest of the group's faces across an edge from it, and leaves the
+    // resolution, and near its origin. Around the group's smallest face it may not when the group
+    // is large (a long thin part whose far end is exponentially small): the collar then lies where
+    // the chart's coordinates or maps have few digits left, or beyond double range; and in H the
+    // development reaches the collar's points along long paths that enclose vertices, each of
+    // which turns the far side of such a loop by its curvature residual δ times sinh of its
+    // distance (1e-13 at 19 units from the collar missed it by 9e-8). Such a chart starts again at
+    // the collar, from the smallest of the group's faces across an edge from it, and leaves the
     // far end to charts nested in it.
     std::vector<double> x, drift, parent_pts, own_pts, scale;
     Layout pl;
@@ -347,7 +360,8 @@ struct AtlasBuild {
                                                                          x, touched, drift, pl)
                                      : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
       if (ok) collar_points(ring, x, parent_pts, own_pts, scale);
-      if (attempt > 0 || (ok && collar_floor(ring, drift, own_pts, scale) <= kMargin * options.max_transition_error))
+      if (attempt > 0 || (ok && collar_floor(ring, drift, own_pts, scale) <= kMargin * options.max_transition_error &&
+                          collar_reach(own_pts) <= kCollarReach))
         break;
       const Index s = seed_at_collar(group, ring);
       if (s == kInvalid || s == ch.seed_face) break;
@@ -436,12 +450,13 @@ struct AtlasBuild {
     for (Index f = 0; f < t.num_faces; ++f) {
       LayoutChart& ch = out.charts[static_cast<std::size_t>(out.face_chart[f])];
       const double err = face_error[f], floor = face_floor[f];
-      if (!(orientation(f) > 0) && out.flipped_faces++ == 0) out.first_flipped_face = f;
+      const bool needle = unresolved(f) && rounding_only(f);  // orientation within rounding
+      if (!needle && !(orientation(f) > 0) && out.flipped_faces++ == 0) out.first_flipped_face = f;
       if (unresolved(f)) {
         ++out.unresolvable_faces;
         out.unresolvable_error = std::isnan(err) ? err : std::max(out.unresolvable_error, err);
       }
-      if (unresolved(f) && rounding_only(f)) {
+      if (needle) {
         out.frame_rounding_faces.push_back(f);
       } else {
         out.max_resolved_error = std::isnan(err) ? err : std::max(out.max_resolved_error, err);

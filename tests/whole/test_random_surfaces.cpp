@@ -295,6 +295,28 @@ TEST_CASE("atlas: faces a chart around them would resolve 4 times better get one
   CHECK(r.atlas.flipped_faces == 0);
 }
 
+TEST_CASE("atlas: a chart whose collar lies far from its seed starts again at the collar") {
+  // tools/random_surface_sweep's draw 7 (genus 12, 6 loops, 31348 faces, stretched 30:1), solved on
+  // the double. The chart made for a large group far out in the root chart, seeded at the group's
+  // smallest face, reached its collar 11-19 units away, along paths around vertices whose angle
+  // sums are off by up to 1.1e-13: each turns the far side of such a loop by δ·sinh r, and the chart
+  // missed its parent on the collar by 2.3e-6 of an edge (before: its development left double range
+  // first), so the job fell back to circle packing. Charts whose collar lies more than 4 units from
+  // their origin are laid out again from the collar; the faces they cannot resolve far from it go
+  // to charts nested in them.
+  if (ricci_test::kSanitized) return;  // 10 s in Release
+  const DrawRun d = default_job(7);
+  const UniformizeResult& r = d.r;
+  const UniformizeOptions o;
+  REQUIRE(d.v.topology.genus() == 12);
+  CHECK(r.intrinsic.doubled);
+  CHECK(r.intrinsic.fallback.empty());
+  REQUIRE(r.has_atlas);
+  CHECK(r.atlas.max_resolved_error <= o.atlas.limit);  // measured 9.9e-10, but for 8 needles
+  CHECK(r.atlas.max_transition_error <= o.atlas.max_transition_error);
+  CHECK(r.atlas.flipped_faces == 0);
+}
+
 TEST_CASE("layout: a development by coarse frames far out in the disk keeps each face's isometry exact") {
   // tools/random_surface_sweep's draw 13 (genus 5, 2 loops, 7563 faces), solved on the double: a
   // chart of its atlas is developed 8 units out from its seed through ~100 coarse transitions.
