@@ -114,6 +114,17 @@ std::vector<double> coarse_lengths(const Mesh& m, const Topology& t, Geometry g)
   return l;
 }
 
+// ricci_shapes::disk(6) in H (coarse_lengths()), each face split at (0.3, 0.3, 0.4).
+Fine split_h_disk() {
+  const Mesh m = ricci_shapes::disk(6);
+  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
+  const double beta[3] = {0.3, 0.3, 0.4};
+  return split_faces(coarse, Geometry::Hyperbolic, coarse_lengths(m, coarse, Geometry::Hyperbolic), beta);
+}
+
+// The isometry taking the origin to tanh(moved / 2) on the real axis (distance `moved`).
+detail::M3 away_by(double moved) { return detail::disk_map_matrix({-std::tanh(moved / 2), 0}, 1); }
+
 }  // namespace
 
 TEST_CASE("layout by frames: slivers inside well-shaped coarse faces lay out to rounding in E and H") {
@@ -171,15 +182,12 @@ TEST_CASE("layout by frames: a hyperbolic disk developed away from the origin ke
   // matrix is in closed form (built from frames of points that far out, it was off the Lorentz
   // group by ε·e^{2r}: 3.6e3 × the floor at 6), and Poincaré points are taken as (x, y)/(1 + t)
   // (the hyperboloid's form t² − x² − y² cancels out there).
-  const Mesh m = ricci_shapes::disk(6);
-  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
-  const double beta[3] = {0.3, 0.3, 0.4};
-  const Fine fine = split_faces(coarse, Geometry::Hyperbolic, coarse_lengths(m, coarse, Geometry::Hyperbolic), beta);
+  const Fine fine = split_h_disk();
   const Index seed = central_face(fine.topology);
   for (const double moved : {4.0, 6.0}) {
     CAPTURE(moved);
     detail::FrameDevelopment dev(fine.topology, Geometry::Hyperbolic, fine.frames, seed, false);
-    const detail::M3 away = detail::disk_map_matrix({-std::tanh(moved / 2), 0}, 1);  // the origin to tanh(moved/2)
+    const detail::M3 away = away_by(moved);
     // The map is a Lorentz transformation to rounding: Mᵀ J M = J.
     const double J[3] = {1, 1, -1};
     for (int i = 0; i < 3; ++i)
@@ -206,10 +214,7 @@ TEST_CASE("layout by frames: the drift estimate of H maps is 0 in the seed's coa
   // Each product of SU(1,1) maps at distance r from the origin adds about ε·e^r to how far a
   // face's map may have moved (FrameDevelopment::drift()); the atlas counts it in each chart's
   // floor and leaves faces whose maps drifted beyond the transitions' limit unresolved.
-  const Mesh m = ricci_shapes::disk(6);
-  const Topology coarse = build_topology(m.faces, m.num_vertices()).topology;
-  const double beta[3] = {0.3, 0.3, 0.4};
-  const Fine fine = split_faces(coarse, Geometry::Hyperbolic, coarse_lengths(m, coarse, Geometry::Hyperbolic), beta);
+  const Fine fine = split_h_disk();
   const Index seed = central_face(fine.topology);
   double most[2] = {0, 0};
   int i = 0;
@@ -217,7 +222,7 @@ TEST_CASE("layout by frames: the drift estimate of H maps is 0 in the seed's coa
     detail::FrameDevelopment dev(fine.topology, Geometry::Hyperbolic, fine.frames, seed, false);
     std::vector<double> x(2 * static_cast<std::size_t>(fine.topology.num_vertices));
     Layout out;
-    REQUIRE(dev.run(x, detail::multiply(detail::disk_map_matrix({-std::tanh(moved / 2), 0}, 1), dev.seed_map()), out));
+    REQUIRE(dev.run(x, detail::multiply(away_by(moved), dev.seed_map()), out));
     const std::vector<double>& drift = dev.drift();
     REQUIRE(drift.size() == static_cast<std::size_t>(fine.topology.num_faces));
     for (Index f = 0; f < fine.topology.num_faces; ++f) {

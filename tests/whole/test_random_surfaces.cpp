@@ -73,6 +73,26 @@ DrawRun default_job(std::uint64_t seed) {
   return d;
 }
 
+// That draw through the default job, which must map it with vertex scaling and flips on the
+// surface's double (not circle packing) in an atlas of charts.
+DrawRun atlas_on_double(std::uint64_t seed, int genus) {
+  DrawRun d = default_job(seed);
+  REQUIRE(d.v.topology.genus() == genus);
+  CHECK(d.r.intrinsic.doubled);
+  CHECK(d.r.intrinsic.fallback.empty());  // vertex scaling with flips, not circle packing
+  REQUIRE(d.r.has_atlas);
+  return d;
+}
+
+// Every face but needles within their coarse face's rounding to the atlas limit, the transitions
+// within theirs, no face flipped.
+void check_atlas_faces(const LayoutAtlas& a) {
+  const AtlasOptions o;
+  CHECK(a.max_resolved_error <= o.limit);
+  CHECK(a.max_transition_error <= o.max_transition_error);
+  CHECK(a.flipped_faces == 0);
+}
+
 }  // namespace
 
 TEST_CASE("property: random surfaces of genus 0-12 with 0-8 boundary loops map with every guarantee or end with a named status") {
@@ -253,20 +273,13 @@ TEST_CASE("atlas: a needle far out in the chart made for its group gets a chart 
   // one metric" (the job fell back to circle packing, mean |log ratio| of the angles 1.61). Such a
   // face now starts a nested chart, seeded at it.
   if (ricci_test::kSanitized) return;  // 0.6 s in Release
-  const DrawRun d = default_job(46);
+  const DrawRun d = atlas_on_double(46, 7);
   const UniformizeResult& r = d.r;
-  const UniformizeOptions o;
-  REQUIRE(d.v.topology.genus() == 7);
-  CHECK(r.intrinsic.doubled);
-  CHECK(r.intrinsic.fallback.empty());  // vertex scaling with flips, not circle packing
-  REQUIRE(r.has_atlas);
   CHECK(r.atlas.num_charts() > 1);
   int nested = 0;
   for (const LayoutChart& ch : r.atlas.charts) nested += ch.depth >= 2;
   CHECK(nested > 0);
-  // Every face but needles within their coarse face's rounding to the atlas limit.
-  CHECK(r.atlas.max_resolved_error <= o.atlas.limit);
-  CHECK(r.atlas.flipped_faces == 0);
+  check_atlas_faces(r.atlas);
   // Less distorted than the circle packing it fell back to (measured 1.31 against 1.61).
   MESSAGE("angle distortion (mean |log ratio|) " << r.angles.mean_abs_log);
   CHECK(r.angles.mean_abs_log < 1.61);
@@ -280,19 +293,12 @@ TEST_CASE("atlas: faces a chart around them would resolve 4 times better get one
   // maps that placed each face, 8 are (measured; tools/SWEEP-random-surfaces.md), every other
   // face within the limit.
   if (ricci_test::kSanitized) return;  // 0.8 s in Release
-  const DrawRun d = default_job(6);
-  const UniformizeResult& r = d.r;
-  const UniformizeOptions o;
-  REQUIRE(d.v.topology.genus() == 1);
-  CHECK(r.intrinsic.doubled);
-  CHECK(r.intrinsic.fallback.empty());
-  REQUIRE(r.has_atlas);
-  MESSAGE(r.atlas.num_charts() << " charts, " << r.atlas.frame_rounding_faces.size() << " needles at up to "
-                               << r.atlas.max_edge_length_error << ", other faces to " << r.atlas.max_resolved_error);
-  CHECK(r.atlas.frame_rounding_faces.size() <= 8);
-  CHECK(r.atlas.max_resolved_error <= o.atlas.limit);
-  CHECK(r.atlas.max_transition_error <= o.atlas.max_transition_error);
-  CHECK(r.atlas.flipped_faces == 0);
+  const DrawRun d = atlas_on_double(6, 1);
+  const LayoutAtlas& a = d.r.atlas;
+  MESSAGE(a.num_charts() << " charts, " << a.frame_rounding_faces.size() << " needles at up to "
+                         << a.max_edge_length_error << ", other faces to " << a.max_resolved_error);
+  CHECK(a.frame_rounding_faces.size() <= 8);
+  check_atlas_faces(a);
 }
 
 TEST_CASE("atlas: a chart whose collar lies far from its seed starts again at the collar") {
@@ -305,16 +311,8 @@ TEST_CASE("atlas: a chart whose collar lies far from its seed starts again at th
   // their origin are laid out again from the collar; the faces they cannot resolve far from it go
   // to charts nested in them.
   if (ricci_test::kSanitized) return;  // 10 s in Release
-  const DrawRun d = default_job(7);
-  const UniformizeResult& r = d.r;
-  const UniformizeOptions o;
-  REQUIRE(d.v.topology.genus() == 12);
-  CHECK(r.intrinsic.doubled);
-  CHECK(r.intrinsic.fallback.empty());
-  REQUIRE(r.has_atlas);
-  CHECK(r.atlas.max_resolved_error <= o.atlas.limit);  // measured 9.9e-10, but for 8 needles
-  CHECK(r.atlas.max_transition_error <= o.atlas.max_transition_error);
-  CHECK(r.atlas.flipped_faces == 0);
+  const DrawRun d = atlas_on_double(7, 12);
+  check_atlas_faces(d.r.atlas);  // measured 9.9e-10, but for 8 needles
 }
 
 TEST_CASE("layout: a development by coarse frames far out in the disk keeps each face's isometry exact") {
@@ -326,17 +324,10 @@ TEST_CASE("layout: a development by coarse frames far out in the disk keeps each
   // the atlas failed and the job fell back to circle packing. As SU(1,1) maps (entries e^4),
   // renormalised after each product, every face is within 1e-9 in its chart.
   if (ricci_test::kSanitized) return;  // 3 s in Release
-  const DrawRun d = default_job(13);
-  const UniformizeResult& r = d.r;
-  const UniformizeOptions o;
-  REQUIRE(d.v.topology.genus() == 5);
-  CHECK(r.intrinsic.doubled);
-  CHECK(r.intrinsic.fallback.empty());
-  REQUIRE(r.has_atlas);
-  CHECK(r.atlas.unresolvable_faces == 0);
-  CHECK(r.atlas.max_edge_length_error <= o.atlas.limit);
-  CHECK(r.atlas.max_transition_error <= o.atlas.max_transition_error);
-  CHECK(r.atlas.flipped_faces == 0);
+  const DrawRun d = atlas_on_double(13, 5);
+  CHECK(d.r.atlas.unresolvable_faces == 0);
+  CHECK(d.r.atlas.max_edge_length_error <= AtlasOptions{}.limit);
+  check_atlas_faces(d.r.atlas);
 }
 
 TEST_CASE("uniformize: a free boundary (an explicit K̄ per boundary vertex) is solved on the double too") {
