@@ -218,12 +218,13 @@ struct AtlasBuild {
     }
   }
 
-  /// Fit points: each collar vertex once, with its parent and its own position (x), and the
-  /// shortest collar edge at it — with frames, the shortest side of the coarse faces at it: both
-  /// charts put every point of a coarse face by that face's one isometry, so their rounding moves
-  /// the coarse face rigidly, at its own scale, however short the fine edges inside it.
-  void collar_points(const std::vector<Index>& ring, const std::vector<double>& x, std::vector<double>& parent_pts,
-                     std::vector<double>& own_pts, std::vector<double>& scale) const {
+  /// Fit points: each collar vertex once (`verts`), with its parent and its own position (x), and
+  /// the shortest collar edge at it — with frames, the shortest side of the coarse faces at it:
+  /// both charts put every point of a coarse face by that face's one isometry, so their rounding
+  /// moves the coarse face rigidly, at its own scale, however short the fine edges inside it.
+  void collar_points(const std::vector<Index>& ring, const std::vector<double>& x, std::vector<Index>& verts,
+                     std::vector<double>& parent_pts, std::vector<double>& own_pts, std::vector<double>& scale) const {
+    verts.clear();
     parent_pts.clear();
     own_pts.clear();
     scale.clear();
@@ -238,6 +239,7 @@ struct AtlasBuild {
                : std::min(l[t.corner_edge[3 * f + (cc + 1) % 3]], l[t.corner_edge[3 * f + (cc + 2) % 3]]);
         if (index_of[v] == kInvalid) {
           index_of[v] = static_cast<Index>(scale.size());
+          verts.push_back(v);
           const Cx p = corner(f, cc);
           parent_pts.insert(parent_pts.end(), {p.real(), p.imag()});
           own_pts.insert(own_pts.end(), {x[2 * v], x[2 * v + 1]});
@@ -252,23 +254,13 @@ struct AtlasBuild {
   /// How far rounding can move the chart's own collar points, relative to their scale (the largest
   /// over the collar): their coordinates' rounding and, with frames in H, the drift of the maps
   /// that placed them (`drift` per vertex; empty otherwise). Points as collar_points() lists them.
-  double collar_floor(const std::vector<Index>& ring, const std::vector<double>& drift,
+  double collar_floor(const std::vector<Index>& verts, const std::vector<double>& drift,
                       const std::vector<double>& own_pts, const std::vector<double>& scale) const {
-    std::vector<double> moved;
-    if (!drift.empty()) {  // in collar_points()'s order: each vertex at its first corner
-      std::vector<std::uint8_t> seen(static_cast<std::size_t>(t.num_vertices), 0);
-      for (Index f : ring)
-        for (int cc = 0; cc < 3; ++cc) {
-          const Index v = t.corner_vertex[3 * f + cc];
-          if (seen[v]) continue;
-          seen[v] = 1;
-          moved.push_back(drift[static_cast<std::size_t>(v)]);
-        }
-    }
     double most = 0;
     for (std::size_t i = 0; i < scale.size(); ++i) {
       const Cx p{own_pts[2 * i], own_pts[2 * i + 1]};
-      most = std::max(most, (rounding_drift(p, p) / 2 + (moved.empty() ? 0.0 : moved[i])) / scale[i]);
+      const double moved = drift.empty() ? 0.0 : drift[static_cast<std::size_t>(verts[i])];
+      most = std::max(most, (rounding_drift(p, p) / 2 + moved) / scale[i]);
     }
     return most;
   }
@@ -351,16 +343,17 @@ struct AtlasBuild {
     // the collar, from the smallest of the group's faces across an edge from it, and leaves the
     // far end to charts nested in it.
     std::vector<double> x, drift, parent_pts, own_pts, scale;
+    std::vector<Index> verts;
     Layout pl;
     bool ok = false;
     for (int attempt = 0;; ++attempt) {
       std::vector<Index> touched;
       pl = Layout{};
-      ok = options.frames ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c,
-                                                                         x, touched, drift, pl)
-                                     : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
-      if (ok) collar_points(ring, x, parent_pts, own_pts, scale);
-      if (attempt > 0 || (ok && collar_floor(ring, drift, own_pts, scale) <= kMargin * options.max_transition_error &&
+      ok = options.frames
+               ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c, x, touched, drift, pl)
+               : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
+      if (ok) collar_points(ring, x, verts, parent_pts, own_pts, scale);
+      if (attempt > 0 || (ok && collar_floor(verts, drift, own_pts, scale) <= kMargin * options.max_transition_error &&
                           collar_reach(own_pts) <= kCollarReach))
         break;
       const Index s = seed_at_collar(group, ring);

@@ -78,7 +78,7 @@ class FrameDevelopment {
   }
   /// The vertices the last run placed, in the order it placed them.
   const std::vector<Index>& touched() const { return touched_; }
-  /// H: the drift bound of each taken face's map (see drift_); empty in E and S.
+  /// H: the drift estimate of each taken face's map (see drift_); empty in E and S.
   const std::vector<double>& drift() const { return drift_; }
   /// The face that placed each touched vertex.
   const std::vector<Index>& placed_by() const { return placed_by_; }
