@@ -172,6 +172,7 @@ std::vector<Input> inputs(const Settings& s) {
   };
   const Size sizes[] = {{"10k", 50, 10, 0, 10000},
                         {"100k", 158, 32, 0, 100000},
+                        {"400k", 316, 32, 1, 400000},
                         {"1M", 500, 25, 2, 1000000},
                         {"2M", 707, 18, 3, 2000000}};
   for (const Size& z : sizes) {

@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <complex>
 #include <cstdint>
@@ -115,61 +116,117 @@ void for_each_incident_edge(const Topology& t, Index v, F&& f) {
   }
 }
 
+
+/// One Gauss–Newton step of vertex v over its incident edges, the other ends held (H: a step that
+/// would leave the unit disk is not taken).
+void sweep_vertex(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x, Index v) {
+  GaussNewton2 gn;
+  double a = 0, b = 0;
+  if (g == Geometry::Hyperbolic) {
+    // In the Poincaré disk: ∂d/∂z is disk_gradient(), the step stays inside the disk.
+    const Cx z = disk_point(x, v);
+    for_each_incident_edge(t, v, [&](Index j, Index e) {
+      const Cx w = disk_point(x, j);
+      const double d = disk_distance(z, w);
+      double gx = 0, gy = 0;
+      if (!(d > 0) || !std::isfinite(d)) return;
+      disk_gradient(z, w, gx, gy);
+      gn.add(1 / (l[e] * l[e]), d - l[e], gx, gy);
+    });
+    if (!gn.step(a, b)) return;
+    const Cx moved = z + Cx(a, b);
+    if (!(std::abs(moved) < 1)) return;
+    x[2 * v] = moved.real();
+    x[2 * v + 1] = moved.imag();
+    return;
+  }
+  if (g == Geometry::Euclidean) {
+    for_each_incident_edge(t, v, [&](Index j, Index e) {
+      const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
+      const double d = std::hypot(dx, dy);
+      if (d > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dx / d, dy / d);
+    });
+    if (!gn.step(a, b)) return;
+    x[2 * v] += a;
+    x[2 * v + 1] += b;
+    return;
+  }
+  const P3 X = point(x, v);
+  P3 e1, e2, u;
+  tangent_basis(X, e1, e2);
+  for_each_incident_edge(t, v, [&](Index j, Index e) {
+    const P3 Y = point(x, j);
+    if (away_from(X, Y, u)) gn.add(1 / (l[e] * l[e]), sphere_distance(X, Y) - l[e], dot(u, e1), dot(u, e2));
+  });
+  if (!gn.step(a, b)) return;
+  const P3 Z = move_on_sphere(X, e1, e2, a, b);
+  for (int d = 0; d < 3; ++d) x[3 * v + d] = Z[d];
+}
+
 }  // namespace
 
-// Each vertex in turn takes one Gauss–Newton step on Σ_j ((d(x, x_j) − l_j)/l_j)² over its
-// incident edges — E in the plane; H in the Poincaré disk; S in its tangent plane, then back
-// onto the sphere.
+SweepOrder sweep_order(const Topology& t, std::span<const Index> only) {
+  const Index n = only.empty() ? t.num_vertices : static_cast<Index>(only.size());
+  // Greedy colouring in the given order: each vertex takes the smallest colour none of its
+  // neighbours among the swept vertices has taken yet (colour −1: not swept, or not coloured yet).
+  std::vector<int> colour(static_cast<std::size_t>(t.num_vertices), only.empty() ? -1 : -2);
+  if (!only.empty())
+    for (Index v : only) colour[v] = -1;
+  std::vector<Index> count;
+  std::uint64_t used = 0;  // bit c: colour c seen at a neighbour (colours past 63 by a scan)
+  std::vector<std::uint8_t> seen;
+  for (Index i = 0; i < n; ++i) {
+    const Index v = only.empty() ? i : only[i];
+    used = 0;
+    int most = -1;
+    for_each_incident_edge(t, v, [&](Index j, Index) {
+      const int c = colour[j];
+      if (c < 0) return;
+      most = std::max(most, c);
+      if (c < 64) used |= std::uint64_t{1} << c;
+    });
+    int c = 0;
+    if (~used != 0 && most < 64) {
+      c = std::countr_one(used);
+    } else {  // a vertex of very high degree: the colours of its neighbours listed
+      seen.assign(static_cast<std::size_t>(most) + 2, 0);
+      for_each_incident_edge(t, v, [&](Index j, Index) {
+        if (colour[j] >= 0) seen[static_cast<std::size_t>(colour[j])] = 1;
+      });
+      while (seen[static_cast<std::size_t>(c)]) ++c;
+    }
+    colour[v] = c;
+    if (static_cast<std::size_t>(c) >= count.size()) count.resize(static_cast<std::size_t>(c) + 1, 0);
+    ++count[static_cast<std::size_t>(c)];
+  }
+  SweepOrder order;
+  order.class_start.assign(count.size() + 1, 0);
+  for (std::size_t c = 0; c < count.size(); ++c) order.class_start[c + 1] = order.class_start[c] + count[c];
+  order.vertices.resize(static_cast<std::size_t>(n));
+  std::vector<Index> fill(order.class_start.begin(), order.class_start.end() - 1);
+  for (Index i = 0; i < n; ++i) {
+    const Index v = only.empty() ? i : only[i];
+    order.vertices[static_cast<std::size_t>(fill[static_cast<std::size_t>(colour[v])]++)] = v;
+  }
+  return order;
+}
+
+// Each vertex takes one Gauss–Newton step on Σ_j ((d(x, x_j) − l_j)/l_j)² over its incident
+// edges — E in the plane; H in the Poincaré disk; S in its tangent plane, then back onto the
+// sphere — class by class of sweep_order(): no two vertices of a class share an edge, so a
+// class's steps read only positions no other step of it writes, and run in parallel with the
+// same result on any number of threads.
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps, std::span<const Index> only) {
-  const Index nv = only.empty() ? t.num_vertices : static_cast<Index>(only.size());
-  const bool sphere = g == Geometry::Spherical;
-  for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (Index i = 0; i < nv; ++i) {
-      const Index v = only.empty() ? i : only[i];
-      GaussNewton2 gn;
-      double a = 0, b = 0;
-      if (g == Geometry::Hyperbolic) {
-        // In the Poincaré disk: ∂d/∂z is disk_gradient(), the step stays inside the disk.
-        const Cx z = disk_point(x, v);
-        for_each_incident_edge(t, v, [&](Index j, Index e) {
-          const Cx w = disk_point(x, j);
-          const double d = disk_distance(z, w);
-          double gx = 0, gy = 0;
-          if (!(d > 0) || !std::isfinite(d)) return;
-          disk_gradient(z, w, gx, gy);
-          gn.add(1 / (l[e] * l[e]), d - l[e], gx, gy);
-        });
-        if (!gn.step(a, b)) continue;
-        const Cx moved = z + Cx(a, b);
-        if (!(std::abs(moved) < 1)) continue;
-        x[2 * v] = moved.real();
-        x[2 * v + 1] = moved.imag();
-        continue;
-      }
-      if (!sphere) {
-        for_each_incident_edge(t, v, [&](Index j, Index e) {
-          const double dx = x[2 * v] - x[2 * j], dy = x[2 * v + 1] - x[2 * j + 1];
-          const double d = std::hypot(dx, dy);
-          if (d > 0) gn.add(1 / (l[e] * l[e]), d - l[e], dx / d, dy / d);
-        });
-        if (!gn.step(a, b)) continue;
-        x[2 * v] += a;
-        x[2 * v + 1] += b;
-        continue;
-      }
-      const P3 X = point(x, v);
-      P3 e1, e2, u;
-      tangent_basis(X, e1, e2);
-      for_each_incident_edge(t, v, [&](Index j, Index e) {
-        const P3 Y = point(x, j);
-        if (away_from(X, Y, u)) gn.add(1 / (l[e] * l[e]), sphere_distance(X, Y) - l[e], dot(u, e1), dot(u, e2));
-      });
-      if (!gn.step(a, b)) continue;
-      const P3 Z = move_on_sphere(X, e1, e2, a, b);
-      for (int d = 0; d < 3; ++d) x[3 * v + d] = Z[d];
+  if (sweeps <= 0) return;
+  const SweepOrder order = sweep_order(t, only);
+  const std::size_t classes = order.class_start.size() - 1;
+  for (int sweep = 0; sweep < sweeps; ++sweep)
+    for (std::size_t c = 0; c < classes; ++c) {
+      const Index a = order.class_start[c], b = order.class_start[c + 1];
+#pragma omp parallel for schedule(static) if (b - a > 4096)
+      for (Index i = a; i < b; ++i) sweep_vertex(t, g, l, x, order.vertices[static_cast<std::size_t>(i)]);
     }
-  }
 }
 
 // Two unknowns per vertex (E: dx, dy; S: the coordinates of the move in the vertex's tangent

@@ -16,7 +16,8 @@
 //   reduce only by a factor close to 1 each) goes in one or two steps. A step is kept only when
 //   it lowers the largest relative error.
 //
-// Both are deterministic and single-threaded (the factorization may use the BLAS's threads).
+// Both are deterministic; the sweeps run each colour class of vertices in parallel, the global
+// steps' factorization may use the BLAS's threads.
 #pragma once
 
 #include <span>
@@ -27,8 +28,19 @@
 
 namespace ricci::detail {
 
-/// `sweeps` Gauss–Seidel sweeps over the vertices in index order, or over `only` in its order
-/// when it is not empty (H: a vertex whose step would leave the unit disk stays).
+/// The order of a sweep: the vertices (all, or `only` when it is not empty) coloured greedily in
+/// their order so that no two of one colour share an edge; class c is
+/// vertices[class_start[c] .. class_start[c + 1]), the classes in colour order, each in the
+/// given order.
+struct SweepOrder {
+  std::vector<Index> vertices;
+  std::vector<Index> class_start;
+};
+SweepOrder sweep_order(const Topology& t, std::span<const Index> only = {});
+
+/// `sweeps` Gauss–Seidel sweeps over the vertices (all, or `only` when it is not empty), colour
+/// class after colour class of sweep_order(), each class in parallel: deterministic, the same on
+/// any number of threads (H: a vertex whose step would leave the unit disk stays).
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps, std::span<const Index> only = {});
 

@@ -323,9 +323,10 @@ TEST_CASE("atlas: a refined result (common subdivision) lays the input's faces o
   CHECK(checked >= 3 * F * 9 / 10);
   CHECK(carried <= 1e-9);
   CHECK(std::count_if(charts_used.begin(), charts_used.end(), [](Index n) { return n > 0; }) >= 2);
-  // chart_to_chart: there and back is the identity; a chart that does not exist gives NaN.
+  // chart_to_chart: there and back is the identity (to the rounding of chart 1's translation, a
+  // point of the root's coordinates); a chart that does not exist gives NaN.
   const Cx z{0.01, -0.02};
   const Cx back = chart_to_chart(r.atlas, r.geometry, 1, 0, chart_to_chart(r.atlas, r.geometry, 0, 1, z));
-  CHECK(std::abs(back - z) <= 1e-15);
+  CHECK(std::abs(back - z) <= 1e-15 * std::max(1.0, std::abs(r.atlas.charts[1].translation_to_root)));
   CHECK(std::isnan(chart_to_chart(r.atlas, r.geometry, 0, r.atlas.num_charts(), z).real()));
 }

@@ -7,6 +7,8 @@
 // geometries; a consistent layout is left as it is.
 #include <doctest/doctest.h>
 
+#include <omp.h>
+
 #include <cmath>
 #include <complex>
 #include <random>
@@ -156,6 +158,61 @@ TEST_CASE("layout polish: Gauss–Seidel sweeps remove short-range noise in E, H
         for (Index v = 0; v < c.topo.num_vertices; ++v) CHECK(std::hypot(x[2 * v], x[2 * v + 1]) < 1);
     });
   }
+}
+
+TEST_CASE("layout polish: a sweep's colour classes share no edge, cover each vertex once, and give the same result on 1 and 3 threads") {
+  // A disk large enough that each colour class is swept in parallel (classes of over 4096).
+  const Mesh m = ricci_shapes::disk(200);
+  const TopologyResult tr = build_topology(m.faces, static_cast<Index>(m.positions.size() / 3));
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  const Index nv = t.num_vertices;
+  std::vector<Index> odd;  // a subset in a scrambled order
+  for (Index v = nv - 1; v >= 0; v -= 3) odd.push_back(v);
+  for (const std::vector<Index>& only : {std::vector<Index>{}, odd}) {
+    const detail::SweepOrder order = detail::sweep_order(t, only);
+    const std::size_t classes = order.class_start.size() - 1;
+    if (only.empty()) CHECK(classes >= 3);  // a triangulation needs three at least
+    CHECK(classes <= 12);
+    REQUIRE(order.vertices.size() == (only.empty() ? static_cast<std::size_t>(nv) : only.size()));
+    std::vector<int> colour(static_cast<std::size_t>(nv), -1);
+    for (std::size_t c = 0; c < classes; ++c)
+      for (Index i = order.class_start[c]; i < order.class_start[c + 1]; ++i) {
+        const Index v = order.vertices[static_cast<std::size_t>(i)];
+        CHECK(colour[v] == -1);  // once
+        colour[v] = static_cast<int>(c);
+      }
+    for (Index v : only) CHECK(colour[v] >= 0);
+    Index clashes = 0;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const int a = colour[t.edge_vertices[2 * e]], b = colour[t.edge_vertices[2 * e + 1]];
+      clashes += a >= 0 && a == b ? 1 : 0;
+    }
+    CHECK(clashes == 0);
+  }
+  // Plane positions of the disk, noisy against their own lengths; 1 and 3 threads agree bit for bit.
+  std::vector<double> exact, l;
+  for (Index v = 0; v < nv; ++v) {
+    exact.push_back(m.positions[3 * v]);
+    exact.push_back(m.positions[3 * v + 1]);
+  }
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    l.push_back(std::hypot(exact[2 * a] - exact[2 * b], exact[2 * a + 1] - exact[2 * b + 1]));
+  }
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1e-7, 1e-7);
+  std::vector<double> start = exact;
+  for (double& x : start) x += u(rng) / 200;
+  const int saved = omp_get_max_threads();
+  std::vector<double> one = start, three = start;
+  omp_set_num_threads(1);
+  detail::polish_by_sweeps(t, Geometry::Euclidean, l, one, 3);
+  omp_set_num_threads(3);
+  detail::polish_by_sweeps(t, Geometry::Euclidean, l, three, 3);
+  omp_set_num_threads(saved);
+  CHECK(one == three);
+  CHECK(one != start);
 }
 
 TEST_CASE("layout polish: sweeps over a subset move only it and remove a local defect there") {

@@ -176,11 +176,16 @@ struct LayoutOptions {
   /// halved its error), each over the vertices within two edges of an edge whose error (above its
   /// rounding floor, or in all) is above a quarter of the largest, until such a round lowers the
   /// largest error above the floor by less than a quarter or raises the largest error, then over
-  /// every vertex; this is the most in all (Layout::polish_sweeps: how many ran). 0: none.
+  /// every vertex; this is the most in all (Layout::polish_sweeps: how many ran). The vertices of
+  /// one sweep are taken colour class by colour class (no two of a class share an edge), each
+  /// class in parallel: the same result on any number of threads. A vertex of an edge whose
+  /// coordinates' rounding floor is above 1e-6 of its length is not swept (its length is no
+  /// information there; the atlas gives such faces charts of their own). 0: none.
   int polish_sweeps = 30;
   /// E, H and S: then, while still above refine_above, up to this many
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
-  /// factorization reused by every step; a step is kept only when it lowers the max error). The sweeps reduce
+  /// factorization reused by every step; a step is kept only when it lowers the max error, and
+  /// the steps only when they lower the max error above the rounding floor). The sweeps reduce
   /// short-range error; these remove the long-range drift that the propagation accumulates over
   /// hundreds of faces. In E, a propagation that misses its metric by more than 1e-8 (needle
   /// triangles placed from short bases grow an error geometrically along a chain) is first
