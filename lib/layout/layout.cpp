@@ -1336,6 +1336,9 @@ class Propagation {
     const auto nv = static_cast<std::size_t>(t.num_vertices), nf = static_cast<std::size_t>(t.num_faces);
     placed_.resize(nv);
     taken_.resize(nf);
+    places_.resize(nf);
+    restart_.resize(nf);
+    order_.reserve(nf);
     depth_.resize(nf);
     reached_.resize(nf);
     via_.resize(nf);
@@ -1351,13 +1354,15 @@ class Propagation {
 
   /// Develops every face reachable from the seed into P; false with `out` naming the vertex when
   /// a position leaves double range. out.depth: the most faces between the seed and a face.
+  ///
+  /// Two passes: order() takes the faces bucket by bucket as above and decides, without any
+  /// geometry, which face places which vertex; then the buckets are developed one after the
+  /// other, each bucket's faces in parallel. A face's development reads only its parent's frame
+  /// and vertices placed by earlier buckets (every entering cost is at least 1, so a parent lies
+  /// in an earlier bucket than its children), and writes only its own frame and the vertex it
+  /// places: the result is the sequential one, on any number of threads.
   bool run(Positions& P, Layout& out) {
     const Topology& t = t_;
-    std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
-    std::fill(taken_.begin(), taken_.end(), std::uint8_t{0});
-    std::fill(reached_.begin(), reached_.end(), kInf);
-    out.unresolved_vertices = 0;
-    for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
     // Double-double positions while the faces are developed (the seed's as placed, low parts 0);
     // P keeps the rounded ones.
     low_.assign(P.x.size(), 0.0);
@@ -1374,9 +1379,52 @@ class Propagation {
       side_[seed_] = std::abs(d) > 0 ? d / std::abs(d) : Cx(1, 0);
       if (g_ == Geometry::Hyperbolic) origin_[seed_] = Point::at(P, a);
     }
+    order(out);
+    out.unresolved_vertices = 0;
+    const auto levels = static_cast<std::int64_t>(level_start_.size()) - 1;
+    for (std::int64_t k = 0; k < levels; ++k) {
+      const std::int64_t a = level_start_[k], b = level_start_[k + 1];
+      std::int64_t failed = b;  // the first face (in the order) whose vertex left double range
+      Index unresolved = 0;
+#pragma omp parallel for schedule(static) reduction(min : failed) reduction(+ : unresolved) if (b - a > kParallelLevel)
+      for (std::int64_t i = a; i < b; ++i) {
+        if (i + static_cast<std::int64_t>(kAhead) < b) prefetch_develop(P, order_[i + kAhead]);
+        const Index f = order_[i];
+        if (via_[f] == kInvalid) continue;
+        const int r = develop(P, f);
+        if (r < 0) failed = std::min(failed, i);
+        else unresolved += r;
+      }
+      out.unresolved_vertices += unresolved;
+      if (failed < b) return fail(out, via_[order_[failed]]);
+      // H frames beyond the disk's resolution (with keep_going only) restart at corner 0's
+      // stored position, read once the bucket has placed its vertices.
+      for (std::int64_t i = a; i < b; ++i) {
+        const Index f = order_[i];
+        if (!restart_[f]) continue;
+        origin_[f] = Point::at(P, t.corner_vertex[3 * f]);
+        side_[f] = Cx(1, 0);
+      }
+    }
+    return true;
+  }
+
+  /// The first pass of run(): the faces in Dial's order (order_, a bucket per level_start_
+  /// range), each face's parent corner (via_) and depth, and whether it places the vertex of
+  /// that corner (places_: the first face in the order to reach it).
+  void order(Layout& out) {
+    const Topology& t = t_;
+    std::fill(placed_.begin(), placed_.end(), std::uint8_t{0});
+    std::fill(taken_.begin(), taken_.end(), std::uint8_t{0});
+    std::fill(reached_.begin(), reached_.end(), kInf);
+    for (int k = 0; k < 3; ++k) placed_[t.corner_vertex[3 * seed_ + k]] = 1;
+    order_.clear();
+    level_start_.assign(1, 0);
     depth_[seed_] = 0;
     reached_[seed_] = 0;
     via_[seed_] = kInvalid;
+    places_[seed_] = 0;
+    restart_[seed_] = 0;
     out.depth = 0;
     const std::size_t ring = buckets_.size();
     for (auto& b : buckets_) b.clear();
@@ -1386,12 +1434,18 @@ class Propagation {
       std::vector<std::pair<double, Index>>& bucket = buckets_[current % ring];
       for (std::size_t i = 0; i < bucket.size(); ++i) {
         if (i + 2 * kAhead < bucket.size()) prefetch_face(bucket[i + 2 * kAhead].second);
-        if (i + kAhead < bucket.size()) prefetch_around(P, bucket[i + kAhead].second);
+        if (i + kAhead < bucket.size()) prefetch_around(bucket[i + kAhead].second);
         const auto [cost, f] = bucket[i];
         if (taken_[f] || cost > reached_[f]) continue;
         taken_[f] = 1;
+        order_.push_back(f);
         out.depth = std::max(out.depth, depth_[f]);
-        if (via_[f] != kInvalid && !develop(P, f, out)) return false;
+        if (via_[f] != kInvalid) {
+          std::uint8_t& placed = placed_[t.corner_vertex[via_[f]]];
+          places_[f] = placed ? 0 : 1;
+          placed = 1;
+        }
+        restart_[f] = 0;
         for (int k = 0; k < 3; ++k) {
           const Index o = t.opposite[3 * f + k];
           if (o == kInvalid) continue;
@@ -1407,22 +1461,24 @@ class Propagation {
       }
       pending -= bucket.size();
       bucket.clear();
+      if (static_cast<std::int64_t>(order_.size()) > level_start_.back())
+        level_start_.push_back(static_cast<std::int64_t>(order_.size()));
     }
-    return true;
   }
 
-  // The development is bound by the latency of its scattered reads (a face's neighbours, their
-  // vertices and lengths lie anywhere in the arrays): the faces kAhead and 2·kAhead places ahead
-  // in the bucket are fetched in two steps, first their own corners, then what those index.
+  // Both passes are bound by the latency of their scattered reads (a face's neighbours, their
+  // vertices and lengths lie anywhere in the arrays): the order fetches the faces kAhead and
+  // 2·kAhead places ahead in the bucket in two steps, first their own corners, then what those
+  // index; the development fetches what the face kAhead places ahead reads.
   static constexpr std::size_t kAhead = 8;
+  // Buckets of at most this many faces are developed on one thread.
+  static constexpr std::int64_t kParallelLevel = 512;
   void prefetch_face(Index f) const {
     __builtin_prefetch(&t_.opposite[3 * f]);
     __builtin_prefetch(&t_.corner_vertex[3 * f]);
-    __builtin_prefetch(&t_.corner_edge[3 * f]);
     __builtin_prefetch(&via_[f]);
-    if (g_ != Geometry::Spherical) __builtin_prefetch(&costs_.turns[3 * f]);
   }
-  void prefetch_around(const Positions& P, Index f) const {
+  void prefetch_around(Index f) const {
     for (int k = 0; k < 3; ++k) {
       const Index o = t_.opposite[3 * f + k];
       if (o != kInvalid) {
@@ -1430,14 +1486,27 @@ class Propagation {
         __builtin_prefetch(&taken_[corner_face(o)]);
         __builtin_prefetch(&reached_[corner_face(o)]);
       }
-      const Index v = t_.corner_vertex[3 * f + k];
-      __builtin_prefetch(&placed_[v]);
-      __builtin_prefetch(&P.x[static_cast<std::size_t>(P.dims) * v]);
-      __builtin_prefetch(&low_[static_cast<std::size_t>(P.dims) * v]);
-      __builtin_prefetch(&l_[t_.corner_edge[3 * f + k]]);
     }
     const Index o = via_[f];
-    if (o != kInvalid && g_ != Geometry::Spherical) __builtin_prefetch(&side_[corner_face(t_.opposite[o])]);
+    if (o != kInvalid) __builtin_prefetch(&placed_[t_.corner_vertex[o]]);
+  }
+  void prefetch_develop(const Positions& P, Index f) const {
+    const Index o = via_[f];
+    if (o == kInvalid) return;
+    const Index pf = corner_face(t_.opposite[o]);
+    if (g_ != Geometry::Spherical) {
+      __builtin_prefetch(&costs_.turns[3 * f]);
+      __builtin_prefetch(&costs_.turns[3 * pf]);
+      __builtin_prefetch(&side_[pf]);
+    }
+    if (g_ == Geometry::Hyperbolic) __builtin_prefetch(&origin_[pf]);
+    for (int k = 0; k < 3; ++k) {
+      const Index v = t_.corner_vertex[3 * f + k];
+      __builtin_prefetch(&P.x[static_cast<std::size_t>(P.dims) * v]);
+      __builtin_prefetch(&low_[static_cast<std::size_t>(P.dims) * v]);
+      if (g_ == Geometry::Hyperbolic) __builtin_prefetch(&half_tanh_[t_.corner_edge[3 * f + k]]);
+      else __builtin_prefetch(&l_[t_.corner_edge[3 * f + k]]);
+    }
   }
 
   /// H, after run(): moves the positions by the disk map m, in double-double (P keeps the rounded
@@ -1481,26 +1550,28 @@ class Propagation {
   /// it, where that edge runs from corner k + 1 at vertex a to k + 2 at b): places the vertex of o
   /// (E: from b along b → a turned by the angle at b; H: develop_frame(); S: from both ends'
   /// positions) and sets side_[f] from the direction of b → a at b, f's side j + 1 → j + 2.
-  bool develop(Positions& P, Index f, Layout& out) {
+  int develop(Positions& P, Index f) {
     const Index o = via_[f];
-    if (g_ == Geometry::Spherical) return placed_[t_.corner_vertex[o]] || accept(P, o, P.place_corner(t_, l_, o), out);
-    if (g_ == Geometry::Hyperbolic) return develop_frame(P, f, out);
+    if (g_ == Geometry::Spherical) return places_[f] ? accept(P, o, P.place_corner(t_, l_, o)) : 0;
+    if (g_ == Geometry::Hyperbolic) return develop_frame(P, f);
     const Index po = t_.opposite[o], pf = corner_face(po);
     const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
     const Index b = t_.corner_vertex[prev_corner(po)];
     const Cx at_b = -side_at(pf, (k + 1) % 3);
-    if (!placed_[t_.corner_vertex[o]]) {
+    int unresolved = 0;
+    if (places_[f]) {
       const Cx step = at_b * turn(next_corner(o)) * l_[t_.corner_edge[prev_corner(o)]];
       const double offset[2] = {step.real(), step.imag()};
       P.set_offset(t_.corner_vertex[o], b, offset);
-      if (!accept(P, o, t_.corner_vertex[o], out)) return false;
+      unresolved = accept(P, o, t_.corner_vertex[o]);
+      if (unresolved < 0) return unresolved;
     }
     // side_at(f, c) = at_b: undo its turns.
     Cx w = at_b;
     if (c != 0) w = c == 1 ? -at_b * turn(3 * f + 1) : -at_b * std::conj(turn(3 * f));
     const double n = std::abs(w);
     side_[f] = n > 0 && std::isfinite(n) ? w / n : Cx(1, 0);
-    return true;
+    return unresolved;
   }
   /// H: a point of the disk in double-double (x = xh + xl, y = yh + yl).
   struct Point {
@@ -1560,7 +1631,7 @@ class Propagation {
   /// another branch of the development never turns this one (positions measured from the
   /// stored ends would feed their errors back, growing by about sinh of the edge length per face
   /// along a chain).
-  bool develop_frame(Positions& P, Index f, Layout& out) {
+  int develop_frame(Positions& P, Index f) {
     const Index o = via_[f];
     const Index po = t_.opposite[o], pf = corner_face(po);
     const int k = static_cast<int>(po % 3), j = static_cast<int>(o % 3), c = (j + 1) % 3;
@@ -1568,11 +1639,13 @@ class Propagation {
     const Cx at_b = from_b * turn(3 * pf + (k + 2) % 3);  // b → a
     const Index v = t_.corner_vertex[o];
     Cx r;
-    if (!placed_[v]) {
+    int unresolved = 0;
+    if (places_[f]) {
       const Point q = step(b, at_b * turn(next_corner(o)) * half_tanh_[t_.corner_edge[prev_corner(o)]], &r);
       if (q.inside()) q.store(P, v);
       else P.x[2 * v] = kNaN;
-      if (!accept(P, o, v, out)) return false;
+      unresolved = accept(P, o, v);
+      if (unresolved < 0) return unresolved;
     }
     // f's frame from b, its corner c with side c → c + 1 = b → a.
     Point p0 = b;
@@ -1588,27 +1661,27 @@ class Propagation {
     const double n = std::abs(w);
     if (!p0.inside() || !(n > 0) || !std::isfinite(n)) {
       // Beyond the disk's resolution (only with keep_going, the vertices there put aside): the
-      // frame restarts at corner 0's stored position, so nothing non-finite spreads.
-      p0 = Point::at(P, t_.corner_vertex[3 * f]);
-      w = Cx(1, 0);
-    } else {
-      w /= n;
+      // frame restarts at corner 0's stored position (run(), once the bucket is placed), so
+      // nothing non-finite spreads.
+      restart_[f] = 1;
+      return unresolved;
     }
     origin_[f] = p0;
-    side_[f] = w;
-    return true;
+    side_[f] = w / n;
+    return unresolved;
   }
-  /// Marks vertex v of corner o placed and checks it: a position outside double range fails the
-  /// propagation, or (keep_going) is put on the end of the edge it was placed from and counted.
-  bool accept(Positions& P, Index o, Index v, Layout& out) {
-    placed_[v] = 1;
-    if (P.finite(v)) return true;
-    if (keep_going_) {
-      // At the first end of the edge it was placed from: finite, and its faces measure as missed.
-      P.copy(v, t_.corner_vertex[next_corner(o)]);
-      ++out.unresolved_vertices;
-      return true;
-    }
+  /// Checks vertex v, just placed from corner o: 0 when its position is inside double range;
+  /// otherwise −1 (the propagation fails, fail()), or with keep_going 1: it is put on the first
+  /// end of the edge it was placed from (finite, and its faces measure as missed) and counted.
+  int accept(Positions& P, Index o, Index v) {
+    if (P.finite(v)) return 0;
+    if (!keep_going_) return -1;
+    P.copy(v, t_.corner_vertex[next_corner(o)]);
+    return 1;
+  }
+  /// The failure of the vertex of corner o: out names it; false.
+  bool fail(Layout& out, Index o) {
+    const Index v = t_.corner_vertex[o];
     out.status = Status::NumericalFailure;
     out.element = Element::Vertex;
     out.element_index = v;
@@ -1628,10 +1701,14 @@ class Propagation {
   std::vector<Point> origin_;      // H: each taken face's corner 0, as its frame places it
   std::vector<double> half_tanh_;  // H: tanh(l/2) per edge
   std::vector<std::uint8_t> placed_, taken_;
+  std::vector<std::uint8_t> places_;   // the face places the vertex of its corner via_[f]
+  std::vector<std::uint8_t> restart_;  // H: the face's frame restarts at corner 0's stored position
   std::vector<Index> depth_, via_;  // via_[f]: the corner of f that the face before it placed
   std::vector<double> reached_;
   std::vector<double> low_;  // the low parts of the positions during run()
   std::vector<std::vector<std::pair<double, Index>>> buckets_;
+  std::vector<Index> order_;                // the faces in the order taken
+  std::vector<std::int64_t> level_start_;  // bucket k is order_[level_start_[k] .. level_start_[k + 1])
 };
 
 // ---- refining the propagation's layout -------------------------------------------------------

@@ -17,6 +17,7 @@
 #include <random>
 #include <string>
 
+#include "model_geometry.h"
 #include "ricci/cut.h"
 #include "ricci/flow.h"
 #include "ricci/io.h"
@@ -27,6 +28,7 @@
 #include "support.h"
 
 using namespace ricci;
+namespace model = ricci::model;
 namespace fs = std::filesystem;
 
 namespace {
@@ -727,6 +729,55 @@ TEST_CASE("layout: refinement only above refine_above, the same on 1 and 2 threa
   CHECK(why.find("refine_above") != std::string::npos);
   bad.refine_above = std::numeric_limits<double>::quiet_NaN();
   CHECK_FALSE(bad.is_valid(nullptr));
+}
+
+TEST_CASE("layout: one propagation gives the same positions on 1 and 3 threads in E, H and S") {
+  // Large enough that the propagation's buckets (breadth-first levels here) hold more than the
+  // 512 faces above which each is developed in parallel: a disk of 153k faces (E; H: the same
+  // disk shrunk to radius 0.8 in the Poincaré disk) and an icosphere of 328k faces (S).
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    CAPTURE(static_cast<int>(g));
+    const Mesh m = g == Geometry::Spherical ? ricci_shapes::icosphere(7) : ricci_shapes::disk(160);
+    const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+    REQUIRE(tr.status == Status::Ok);
+    const Topology& t = tr.topology;
+    std::vector<double> l;
+    for (Index e = 0; e < t.num_edges; ++e) {
+      const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+      const double* p = &m.positions[3 * static_cast<std::size_t>(a)];
+      const double* q = &m.positions[3 * static_cast<std::size_t>(b)];
+      if (g == Geometry::Euclidean) {
+        l.push_back(std::hypot(p[0] - q[0], p[1] - q[1]));
+      } else if (g == Geometry::Hyperbolic) {
+        l.push_back(model::disk_distance({0.8 * p[0], 0.8 * p[1]}, {0.8 * q[0], 0.8 * q[1]}));
+      } else {
+        const double np = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        const double nq = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        l.push_back(model::sphere_distance({p[0] / np, p[1] / np, p[2] / np}, {q[0] / nq, q[1] / nq, q[2] / nq}));
+      }
+    }
+    REQUIRE(t.num_faces > 80000);
+    LayoutOptions bare;
+    bare.patches = 0;
+    bare.polish_sweeps = 0;
+    bare.polish_steps = 0;
+    const int saved = omp_get_max_threads();
+    omp_set_num_threads(1);
+    const Layout one = g == Geometry::Spherical ? layout_sphere(t, l, bare) : layout_disk(t, g, l, bare);
+    omp_set_num_threads(3);
+    const Layout three = g == Geometry::Spherical ? layout_sphere(t, l, bare) : layout_disk(t, g, l, bare);
+    omp_set_num_threads(saved);
+    REQUIRE(one.status == Status::Ok);
+    REQUIRE(three.status == Status::Ok);
+    CHECK(one.positions == three.positions);
+    CHECK(one.depth == three.depth);
+    CHECK(one.max_edge_length_error <= 1e-9);
+    // Levels of over 450 faces on average; they grow with the distance from the seed, the largest
+    // about twice the average on the disk and π/2 times on the sphere.
+    CHECK(t.num_faces > 450 * (one.depth + 1));
+    MESSAGE("depth " << one.depth << " over " << t.num_faces << " faces, max edge-length error "
+                     << one.max_edge_length_error);
+  }
 }
 
 TEST_CASE("layout: bad input gives a status naming the element, never NaN") {
