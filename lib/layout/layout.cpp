@@ -59,12 +59,6 @@ constexpr double kLocalGain = 0.75;
 // With the automatic patch count, at most this many local sweeps (rounds of 1, 2, 4) run before
 // the patches are tried (refine_layout()).
 constexpr int kSweepsBeforePatches = 7;
-// The sweeps leave alone every vertex of an edge whose coordinates' rounding floor (relative to
-// its length) is above this, the layout's own limit (UniformizeOptions::max_layout_error): its
-// measured length is next to no information (a strip's far end, shrunk below what doubles
-// resolve; layout_atlas() lays such faces out in charts of their own), and steps taken on it
-// would move the resolved vertices next to it.
-constexpr double kSweepFloorLimit = 1e-6;
 
 std::string num(double x) {
   char buf[64];
@@ -1720,9 +1714,8 @@ class Propagation {
 /// the max error is undone and ends the sweeps. Each round sweeps only the vertices near its
 /// large errors (kSweepShare, kSweepRings) until one of them lowers the largest error above the
 /// floor by less than a quarter or raises the largest error (undone) (kLocalGain); the rounds
-/// after it sweep every vertex, unless `local_only` (then the sweeps end there). A vertex of an
-/// edge whose rounding floor is above kSweepFloorLimit is never swept. `now` and `edge_errors`
-/// describe the positions on return. Returns the sweeps kept.
+/// after it sweep every vertex, unless `local_only` (then the sweeps end there). `now` and
+/// `edge_errors` describe the positions on return. Returns the sweeps kept.
 int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, double refine_above, int budget,
                     bool local_only, Positions& P, Layout& now, EdgeErrors& edge_errors) {
   std::vector<double>& x = P.x;
@@ -1731,17 +1724,6 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
   std::vector<double> kept;
   std::vector<Index> all;
   auto coarse = [&] { return !(now.max_error_above_rounding <= refine_above); };
-  // Vertices of edges below resolution (kSweepFloorLimit) stay where they are.
-  std::vector<std::uint8_t> frozen;
-  for (Index e = 0; e < t.num_edges; ++e)
-    if (!(edge_errors.drift[e] <= kSweepFloorLimit)) {
-      if (frozen.empty()) frozen.assign(static_cast<std::size_t>(t.num_vertices), 0);
-      frozen[t.edge_vertices[2 * e]] = frozen[t.edge_vertices[2 * e + 1]] = 1;
-    }
-  auto unfrozen = [&](std::vector<Index> v) {
-    if (!frozen.empty()) std::erase_if(v, [&](Index i) { return frozen[i] != 0; });
-    return v;
-  };
   for (int round = 1; done < budget && (coarse() || halving) && (local || !local_only); round *= 2) {
     const int n = std::min(round, budget - done);
     const Layout before = now;
@@ -1749,11 +1731,10 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
     if (!local && all.empty()) {
       all.resize(static_cast<std::size_t>(t.num_vertices));
       std::iota(all.begin(), all.end(), Index{0});
-      all = unfrozen(std::move(all));
     }
     const std::vector<Index> near =
-        local ? unfrozen(vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding,
-                                              kSweepShare * now.max_edge_length_error, kSweepRings))
+        local ? vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding,
+                                     kSweepShare * now.max_edge_length_error, kSweepRings)
               : std::vector<Index>{};
     const std::vector<Index>& only = local ? near : all;
     if (only.empty()) break;

@@ -178,9 +178,7 @@ struct LayoutOptions {
   /// largest error above the floor by less than a quarter or raises the largest error, then over
   /// every vertex; this is the most in all (Layout::polish_sweeps: how many ran). The vertices of
   /// one sweep are taken colour class by colour class (no two of a class share an edge), each
-  /// class in parallel: the same result on any number of threads. A vertex of an edge whose
-  /// coordinates' rounding floor is above 1e-6 of its length is not swept (its length is no
-  /// information there; the atlas gives such faces charts of their own). 0: none.
+  /// class in parallel: the same result on any number of threads. 0: none.
   int polish_sweeps = 30;
   /// E, H and S: then, while still above refine_above, up to this many
   /// Gauss–Newton steps on all positions at once (min Σ ((d_ij − l_ij)/l_ij)², one sparse Cholesky
