@@ -165,10 +165,13 @@ void sweep_vertex(const Topology& t, Geometry g, std::span<const double> l, std:
 
 }  // namespace
 
+// Colour classes of at most this many vertices are swept on one thread.
+constexpr Index kParallelClass = 4096;
+
 SweepOrder sweep_order(const Topology& t, std::span<const Index> only) {
   const Index n = only.empty() ? t.num_vertices : static_cast<Index>(only.size());
   // Greedy colouring in the given order: each vertex takes the smallest colour none of its
-  // neighbours among the swept vertices has taken yet (colour −1: not swept, or not coloured yet).
+  // neighbours among the swept vertices has taken yet (colour −2: not swept; −1: not yet coloured).
   std::vector<int> colour(static_cast<std::size_t>(t.num_vertices), only.empty() ? -1 : -2);
   if (!only.empty())
     for (Index v : only) colour[v] = -1;
@@ -224,7 +227,7 @@ void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, 
   for (int sweep = 0; sweep < sweeps; ++sweep)
     for (std::size_t c = 0; c < classes; ++c) {
       const Index a = order.class_start[c], b = order.class_start[c + 1];
-#pragma omp parallel for schedule(static) if (b - a > 4096)
+#pragma omp parallel for schedule(static) if (b - a > kParallelClass)
       for (Index i = a; i < b; ++i) sweep_vertex(t, g, l, x, order.vertices[static_cast<std::size_t>(i)]);
     }
 }
