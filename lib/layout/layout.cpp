@@ -1391,8 +1391,9 @@ class Propagation {
       }
       out.unresolved_vertices += unresolved;
       if (failed < b) return fail(out, via_[order_[failed]]);
-      // H frames beyond the disk's resolution (with keep_going only) restart at corner 0's
-      // stored position, read once the bucket has placed its vertices.
+      // H frames beyond the disk's resolution restart at corner 0's stored position, read once
+      // the bucket has placed its vertices.
+      if (g_ != Geometry::Hyperbolic) continue;
       for (std::int64_t i = a; i < b; ++i) {
         const Index f = order_[i];
         if (!restart_[f]) continue;
@@ -1723,6 +1724,7 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
   int done = 0;
   std::vector<double> kept;
   std::vector<Index> all;
+  detail::SweepOrder all_order;  // the colour classes of `all`, made with it
   auto coarse = [&] { return !(now.max_error_above_rounding <= refine_above); };
   for (int round = 1; done < budget && (coarse() || halving) && (local || !local_only); round *= 2) {
     const int n = std::min(round, budget - done);
@@ -1731,6 +1733,7 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
     if (!local && all.empty()) {
       all.resize(static_cast<std::size_t>(t.num_vertices));
       std::iota(all.begin(), all.end(), Index{0});
+      all_order = detail::sweep_order(t, all);
     }
     const std::vector<Index> near =
         local ? vertices_near_errors(t, edge_errors, kSweepShare * now.max_error_above_rounding,
@@ -1738,7 +1741,8 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
               : std::vector<Index>{};
     const std::vector<Index>& only = local ? near : all;
     if (only.empty()) break;
-    detail::polish_by_sweeps(t, g, l, x, n, only);
+    if (local) detail::polish_by_sweeps(t, g, l, x, n, only);
+    else detail::polish_by_sweeps(t, g, l, x, n, all_order);
     remeasure_edges(t, g, l, P, only, edge_errors, now);
     if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
       x.swap(kept);

@@ -221,8 +221,11 @@ SweepOrder sweep_order(const Topology& t, std::span<const Index> only) {
 // same result on any number of threads.
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps, std::span<const Index> only) {
-  if (sweeps <= 0) return;
-  const SweepOrder order = sweep_order(t, only);
+  if (sweeps > 0) polish_by_sweeps(t, g, l, x, sweeps, sweep_order(t, only));
+}
+
+void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
+                      int sweeps, const SweepOrder& order) {
   const std::size_t classes = order.class_start.size() - 1;
   for (int sweep = 0; sweep < sweeps; ++sweep)
     for (std::size_t c = 0; c < classes; ++c) {

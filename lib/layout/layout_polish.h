@@ -43,6 +43,10 @@ SweepOrder sweep_order(const Topology& t, std::span<const Index> only = {});
 /// any number of threads (H: a vertex whose step would leave the unit disk stays).
 void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
                       int sweeps, std::span<const Index> only = {});
+/// The same over an order made before by sweep_order() (rounds over the same vertices colour them
+/// once).
+void polish_by_sweeps(const Topology& t, Geometry g, std::span<const double> l, std::vector<double>& x,
+                      int sweeps, const SweepOrder& order);
 
 /// What polish_globally() did.
 struct GlobalPolish {
