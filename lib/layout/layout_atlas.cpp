@@ -49,6 +49,19 @@ struct AtlasBuild {
   /// group's smallest face, near its origin) and no further chart resolves it better, so it starts
   /// no group of its own (see LayoutAtlas::unresolvable_faces); a deferred() face is not settled.
   std::vector<std::uint8_t> settled;
+  /// #F: the face was missed, beyond rounding, by the chart made for its group although that
+  /// chart was not seeded at it. A development from a seed elsewhere reaches such a face along
+  /// two branches that close around the vertices between them, each turning the far branch by
+  /// its angle-sum residual (H: times sinh of its distance): a large group's chart can miss a face
+  /// where its branches meet although the lengths close. Once per face, it is not settled but
+  /// starts a group of that chart, whose own chart is made from that group's smallest face; a
+  /// face missed again there is settled (unresolvable, or lengths that are not one metric).
+  std::vector<std::uint8_t> retried;
+  bool retry(Index f, Index seed) {
+    if (f == seed || retried[f] || rounding_only(f)) return false;
+    retried[f] = 1;
+    return true;
+  }
   /// #F, with coarse frames: the rounding of the face's own coarse face, relative to the face's
   /// shortest edge — 2^-53 × the coarse face's longest side / that edge. Every chart places the
   /// face's corners by that face's one isometry, so even the chart made for it resolves the face
@@ -404,13 +417,13 @@ struct AtlasBuild {
           face_floor[f] = std::max(face_floor[f], moved / l[t.corner_edge[3 * f + cc]]);
         }
       if (!unresolved(f)) ++resolved;
-      else if (!deferred(f) || f == ch.seed_face) settled[f] = 1;
+      else if ((!deferred(f) || f == ch.seed_face) && !retry(f, ch.seed_face)) settled[f] = 1;
     }
     // A face its own chart misses by more than a collar may and by more than kFrameAllowance times
     // the chart's floor there: not rounding, the lengths do not close. (A miss within that floor,
     // which no nested chart would resolve kNestGain times better, leaves the face unresolvable.)
     for (Index f : group)
-      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && !(deferred(f) && !settled[f]) &&
+      if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && settled[f] &&
           !(face_error[f] <= kFrameAllowance * face_floor[f]))
         return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
@@ -514,6 +527,7 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   out.charts.push_back(root);
   AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
                std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1),
+               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0),
                std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0), {}};
   if (options.frames && options.frames->face_frame.size() == static_cast<std::size_t>(nf)) {
     const FaceFrames& fr = *options.frames;

@@ -1144,14 +1144,18 @@ UniformizeResult uniformize_with_fallbacks(const Mesh& mesh, const Topology& top
                            "), and then failed at " + r.message;
     p.flow.notes.insert(p.flow.notes.begin(), p.intrinsic.fallback + "; the paper's circle packing was solved instead");
     r = std::move(p);
-  } else if (r.status != Status::Ok && r.intrinsic.doubled && r.intrinsic.refined) {
-    // Solved on the double, whose straight input triangles fold: where a stage after the flow
-    // fails on that common subdivision (the straighten stage's own limits with hundreds of folds,
-    // as on the surface itself), circle packing instead, as before the double.
+  } else if (r.status != Status::Ok && r.intrinsic.refined && (r.intrinsic.doubled || r.flow.status == Status::Ok)) {
+    // Solved with flips (on the surface, or on its double) where the straight input triangles
+    // fold: where a stage after the flow fails on that common subdivision — the straighten stage's
+    // own limits with hundreds of folds, or slivers of it that no chart resolves (each placed by
+    // its coarse face's isometry: a closed genus-12 surface stretched 66:1 whose 2344 faces fold
+    // at 691 vertices, slivers missed by 4e-5 in the charts made for them) — circle packing, on
+    // the input's own triangles, instead.
     UniformizeOptions packing = options;
     packing.metric.scheme = Scheme::CirclePacking;
     UniformizeResult p = uniformize_unit(mesh, topology, packing, target);
-    p.intrinsic.fallback = "vertex scaling with intrinsic flips, solved on the surface's double (" +
+    p.intrinsic.fallback = std::string("vertex scaling with intrinsic flips, solved on the surface") +
+                           (r.intrinsic.doubled ? "'s double (" : " (") +
                            std::to_string(r.intrinsic.inconsistent_vertices) +
                            " vertices where its straight input triangles fold), failed at " + r.message;
     p.flow.notes.insert(p.flow.notes.begin(), p.intrinsic.fallback + "; the paper's circle packing was solved instead");
@@ -1753,6 +1757,8 @@ bool cut_and_lay_out(LayoutRun& run) {
                                : "") +
                           (r.atlas.status != Status::NotRun && r.atlas.status != Status::Ok
                                ? "; an atlas of charts failed too: " + r.atlas.message
+                           : r.atlas.status == Status::Ok
+                               ? "; an atlas misses the limit too: " + r.atlas.message
                                : ""));
   }
 
