@@ -516,6 +516,8 @@ bool flow_on_double(const Mesh& mesh, const Topology& topology, const FlowOption
       g.K[v] /= 2;
       g.K_target[v] /= 2;
     }
+    // A vertex that holds its u (a fixed boundary) has no curvature condition, as in the flow.
+    if (!d.target.fixed_u.empty() && d.target.fixed_u[v]) continue;
     g.max_curvature_error = std::max(g.max_curvature_error, std::abs(g.K[v] - g.K_target[v]));
   }
   g.l.assign(static_cast<std::size_t>(topology.num_edges), 0.0);
