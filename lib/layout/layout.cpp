@@ -2241,7 +2241,11 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
     switch (g) {
       case Geometry::Euclidean: d = std::hypot(A[1] - B[1], A[2] - B[2]); break;
       case Geometry::Hyperbolic: {
-        const double q = (A[1] - B[1]) * (A[1] - B[1]) + (A[2] - B[2]) * (A[2] - B[2]) - (A[0] - B[0]) * (A[0] - B[0]);
+        // The time coordinate's difference from the spatial parts (t² = 1 + x² + y²; as
+        // model::hyperboloid_dz()): the rounded t's own difference would dominate it for close
+        // points.
+        const double dt = ((A[1] - B[1]) * (A[1] + B[1]) + (A[2] - B[2]) * (A[2] + B[2])) / (A[0] + B[0]);
+        const double q = (A[1] - B[1]) * (A[1] - B[1]) + (A[2] - B[2]) * (A[2] - B[2]) - dt * dt;
         d = 2 * std::asinh(std::sqrt(std::max(q, 0.0)) / 2);
         break;
       }

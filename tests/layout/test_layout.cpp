@@ -937,3 +937,24 @@ TEST_CASE("layout: a face flat to the rounding of its lengths is laid out flat, 
   CHECK(bad.status == Status::TriangleInequality);
   CHECK(bad.element == Element::Face);
 }
+
+TEST_CASE("model geometry: the hyperbolic distance of close points comes from their spatial parts, not their rounded time coordinates") {
+  // Two corners of a sliver of a common subdivision (random sweep draw 34), in their coarse
+  // face's model frame near the pole: 1.2e-12 apart, their stored time coordinates one unit in
+  // the last place apart while the true difference is about 2.6e-20. The distance from the
+  // stored difference was 1.6e-8 of itself off (the reference: the same spatial parts with exact
+  // time coordinates; their Poincaré projections with the stored ones, as the layout places them,
+  // are within 2.1e-12 of it; the old formula gave 1.2285104951624855e-12).
+  const model::P3 p{2.173182196825596e-08, 6.7497698878464093e-09, 1.0000000000000004};
+  const model::P3 q{2.1730648744650293e-08, 6.7494054918295069e-09, 1.0000000000000002};
+  const double reference = 1.2285105152289828e-12;  // these doubles' spatial parts, exact time coordinates (50 digits)
+  const double d = model::distance(Geometry::Hyperbolic, p, q);
+  CHECK(std::abs(d - reference) / reference < 1e-14);
+  auto disk = [](const model::P3& x) { return std::complex<double>(x[0], x[1]) / (1 + x[2]); };
+  const double projected = model::disk_distance(disk(p), disk(q));
+  CHECK(std::abs(d - projected) / projected < 1e-11);
+  // Far from the pole and far apart the two agree with the Lorentz product too.
+  const model::P3 a = model::polar(Geometry::Hyperbolic, 3.0, 0.4), b = model::polar(Geometry::Hyperbolic, 2.5, 1.9);
+  const double cosh_d = -model::lorentz(a, b);
+  CHECK(model::distance(Geometry::Hyperbolic, a, b) == doctest::Approx(std::acosh(cosh_d)).epsilon(1e-13));
+}

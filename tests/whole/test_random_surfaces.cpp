@@ -290,14 +290,16 @@ TEST_CASE("atlas: faces a chart around them would resolve 4 times better get one
   // the double. Nested charts were made only for faces a chart around them would resolve 64 times
   // better, and a chart's floor counted its coordinates alone: 24 needles were left above the
   // atlas limit. With nested charts at 4 times and the floor counting the drift of the SU(1,1)
-  // maps that placed each face, 8 are (measured; tools/SWEEP-random-surfaces.md), every other
-  // face within the limit.
+  // maps that placed each face, 8 were, every other face within the limit. Since the lengths of
+  // the common subdivision's slivers are measured from the spatial parts of their model points
+  // (model::hyperboloid_dz(); they had been up to 1.6e-8 of themselves off), 10 are, at up to
+  // 4.0e-9, within their coarse face's rounding (measured; tools/SWEEP-random-surfaces.md).
   if (ricci_test::kSanitized) return;  // 0.8 s in Release
   const DrawRun d = atlas_on_double(6, 1);
   const LayoutAtlas& a = d.r.atlas;
   MESSAGE(a.num_charts() << " charts, " << a.frame_rounding_faces.size() << " needles at up to "
                          << a.max_edge_length_error << ", other faces to " << a.max_resolved_error);
-  CHECK(a.frame_rounding_faces.size() <= 8);
+  CHECK(a.frame_rounding_faces.size() <= 10);
   check_atlas_faces(a);
 }
 
@@ -348,6 +350,18 @@ TEST_CASE("uniformize: a closed surface whose common subdivision no chart resolv
   CHECK(r.flow.max_curvature_error < 1e-12);
   CHECK(r.layout.max_edge_length_error < 1e-9);
   CHECK(r.layout.flipped_faces == 0);
+}
+
+TEST_CASE("atlas: a layout the gate excuses at near-coincident vertices gets charts that resolve them") {
+  // tools/random_surface_sweep's draw 98 (genus 10, 4 loops, 5738 faces, stretched 8:1), solved on
+  // the double: its one chart missed near-coincident vertices' edges by 1.1e-6, within those
+  // coordinates' rounding, and the gate excused it (no atlas was tried). Charts around them now
+  // resolve every face (measured 8.7e-10 in 9 charts).
+  if (ricci_test::kSanitized) return;  // 1.7 s in Release
+  const DrawRun d = atlas_on_double(98, 10);
+  check_atlas_faces(d.r.atlas);
+  CHECK(d.r.atlas.frame_rounding_faces.empty());
+  CHECK(d.r.layout_excused.edges == 0);
 }
 
 TEST_CASE("layout: a development by coarse frames far out in the disk keeps each face's isometry exact") {
