@@ -2240,15 +2240,11 @@ RefinedMetric refined_edge_lengths(const CutResult& cut, const Topology& input, 
     double d = 0;
     switch (g) {
       case Geometry::Euclidean: d = std::hypot(A[1] - B[1], A[2] - B[2]); break;
-      case Geometry::Hyperbolic: {
-        // The time coordinate's difference from the spatial parts (t² = 1 + x² + y²; as
-        // model::hyperboloid_dz()): the rounded t's own difference would dominate it for close
-        // points.
-        const double dt = ((A[1] - B[1]) * (A[1] + B[1]) + (A[2] - B[2]) * (A[2] + B[2])) / (A[0] + B[0]);
-        const double q = (A[1] - B[1]) * (A[1] - B[1]) + (A[2] - B[2]) * (A[2] - B[2]) - dt * dt;
-        d = 2 * std::asinh(std::sqrt(std::max(q, 0.0)) / 2);
+      case Geometry::Hyperbolic:
+        // These frames put the time coordinate first; the model's distance takes it last (and
+        // the time difference from the spatial parts, accurate for close points).
+        d = model::distance(g, {A[1], A[2], A[0]}, {B[1], B[2], B[0]});
         break;
-      }
       default: d = sphere_distance(A, B); break;
     }
     if (!(d > 0) || !std::isfinite(d))
