@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <utility>
@@ -98,6 +99,21 @@ class Subdivider {
   std::vector<std::uint8_t> used_side_;
   std::vector<std::vector<std::uint8_t>> used_chord_;
   std::vector<Index> piece_;
+  // The current face's rounding: one unit in the last place of its points' coordinates in its
+  // model triangle, as a length (ε × its longest side l; in H ε sinh l, the hyperboloid's
+  // coordinates growing with the distance from the pole); per output face, that of its face.
+  double rounding_ = 0;
+  std::vector<double> face_rounding_;
+
+  /// The distance of two points of the current face's cycle. Two distinct points that coincide in
+  /// double (crossings of two input edges from one vertex whose parameters on a side are equal in
+  /// double, a crossing rounded onto a corner) are apart by less than the face's rounding; they get
+  /// 8 times that rounding instead of 0, which no metric takes: their faces are needles within their
+  /// coarse face's rounding.
+  double apart(Index a, Index b) const {
+    const double d = distance(g_, cycle_pos_[a], cycle_pos_[b]);
+    return d > 0 ? d : 8 * rounding_;
+  }
 
   bool fail(Status s, std::string m) {
     r_.status = s;
@@ -180,6 +196,8 @@ class Subdivider {
                    detail::angle_from_lengths(g_, l_[t_.corner_edge[c0_]], l_[t_.corner_edge[c0_ + 1]],
                                               l_[t_.corner_edge[c0_ + 2]]));
     for (Index k = 0; k < 3; ++k) r_.frames.frame_lengths.push_back(l_[t_.corner_edge[c0_ + k]]);
+    const double longest = std::max({l_[t_.corner_edge[c0_]], l_[t_.corner_edge[c0_ + 1]], l_[t_.corner_edge[c0_ + 2]]});
+    rounding_ = std::numeric_limits<double>::epsilon() * (g_ == Geometry::Hyperbolic ? std::sinh(longest) : longest);
     cycle_id_.clear();
     cycle_pos_.clear();
     for (Index k = 0; k < 3; ++k) {
@@ -230,7 +248,7 @@ class Subdivider {
       if (from == kInvalid || to == kInvalid || from == to)
         return fail(Status::NumericalFailure, "input edge " + std::to_string(rc.input_edge) + " has a piece in current face " +
                                                   std::to_string(f_) + " that does not join two points of its boundary");
-      piece_length_[rc.piece] = distance(g_, cycle_pos_[from], cycle_pos_[to]);
+      piece_length_[rc.piece] = apart(from, to);
       partners_[from].push_back({to, static_cast<Index>(chords_.size())});
       partners_[to].push_back({from, static_cast<Index>(chords_.size())});
       chords_.push_back({from, to, rc.input_edge, true});
@@ -293,9 +311,8 @@ class Subdivider {
       r_.frames.face_frame.push_back(f_);
       for (const Index q : {a, b, c})
         r_.frames.corner_model.insert(r_.frames.corner_model.end(), cycle_pos_[q].begin(), cycle_pos_[q].end());
-      face_sides_.insert(face_sides_.end(), {distance(g_, cycle_pos_[b], cycle_pos_[c]),
-                                             distance(g_, cycle_pos_[c], cycle_pos_[a]),
-                                             distance(g_, cycle_pos_[a], cycle_pos_[b])});
+      face_sides_.insert(face_sides_.end(), {apart(b, c), apart(c, a), apart(a, b)});
+      face_rounding_.push_back(rounding_);
       face_input_.push_back(tag);
     }
     return true;
@@ -325,6 +342,31 @@ class Subdivider {
     return true;
   }
 
+  /// Slivers whose lengths (each edge measured in the face of the two that rounds less) miss the
+  /// triangle inequality, or meet it with less than their current face's rounding r to spare, by
+  /// no more than 16 r — a piece between two input edges from one vertex that rounding does not
+  /// separate — get their longest side shortened to the sum of the others less r (a change far
+  /// below that side's own length; a side shorter than r first becomes r, as no measurement
+  /// resolves it). A longest side shortened in one face is checked again in its other (a few
+  /// passes). A larger miss stays, for the metric's checks to name.
+  void settle_slivers() {
+    const Topology& s = r_.topology;
+    for (int pass = 0; pass < 16; ++pass) {
+      bool changed = false;
+      for (Index f = 0; f < s.num_faces; ++f) {
+        Index e[3] = {s.corner_edge[3 * f], s.corner_edge[3 * f + 1], s.corner_edge[3 * f + 2]};
+        std::sort(e, e + 3, [&](Index a, Index b) { return r_.l[a] < r_.l[b]; });
+        const double r = face_rounding_[f];
+        const double miss = r_.l[e[2]] - r_.l[e[1]] - r_.l[e[0]];
+        if (!(miss > -r && miss <= 16 * r)) continue;
+        r_.l[e[0]] = std::max(r_.l[e[0]], r);
+        r_.l[e[2]] = std::min(r_.l[e[2]], r_.l[e[1]] + r_.l[e[0]] - r);
+        changed = true;
+      }
+      if (!changed) break;
+    }
+  }
+
   /// 3D positions (input vertices as they are, crossings along their input edge's segment), the
   /// subdivision's topology and its lengths.
   bool finish() {
@@ -350,11 +392,17 @@ class Subdivider {
     if (tr.status != Status::Ok)
       return fail(Status::NumericalFailure, "the common subdivision is not a manifold triangulation: " + tr.message);
     r_.topology = std::move(tr.topology);
+    // An edge between two current faces (a step along a current edge) is measured in both, each
+    // to its own rounding (the hyperboloid's coordinates grow with the distance from the face's
+    // pole): it takes the measurement of the face that rounds less.
     r_.l.assign(static_cast<std::size_t>(r_.topology.num_edges), 0.0);
-    for (Index c = 0; c < r_.topology.num_corners(); ++c) {
-      const Index e = r_.topology.corner_edge[c];
-      if (r_.topology.edge_corners[2 * e] == c) r_.l[e] = face_sides_[c];
+    for (Index e = 0; e < r_.topology.num_edges; ++e) {
+      Index c = r_.topology.edge_corners[2 * e];
+      const Index o = r_.topology.edge_corners[2 * e + 1];
+      if (o != kInvalid && face_rounding_[corner_face(o)] < face_rounding_[corner_face(c)]) c = o;
+      r_.l[e] = face_sides_[c];
     }
+    settle_slivers();
     r_.face_input = std::move(face_input_);
     r_.frames.frame_opposite = t_.opposite;
     r_.status = Status::Ok;

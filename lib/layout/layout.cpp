@@ -2330,8 +2330,12 @@ LayoutAlignment align_layouts(Geometry g, std::span<const double> a, std::span<c
     auto map = [&](Cx w) { return from_origin(ca, rot * to_origin(cb, w)); };
     // As e^{iψ}(z − z0)/(1 − z̄0 z): z0 is the preimage of 0, the angle from the derivative's phase.
     const Cx z0 = from_origin(cb, std::conj(rot) * to_origin(ca, Cx(0, 0)));
-    const Cx h = map(Cx(0, 0));  // = e^{iψ}(−z0)
-    const double psi = std::abs(z0) > 1e-300 ? std::arg(-h / z0) : std::arg(map(Cx(0.5, 0)) / 0.5);
+    // e^{iψ} from the map at a point w half a unit from z0: map(w) (1 − z̄0 w)/(w − z0). (At the
+    // origin, −map(0)/z0, it is the ratio of two numbers as small as z0, each off by the rounding
+    // of the points: a chart and its parent both holding the collar at their origins — z0 of
+    // 1e-16 — gave an angle 4.3° off.)
+    const Cx w = std::abs(z0) > 0 ? -0.5 * z0 / std::abs(z0) : Cx(0.5, 0);
+    const double psi = std::arg(map(w) * (1.0 - std::conj(z0) * w) / (w - z0));
     r.angle = psi;
     r.translation[0] = z0.real();
     r.translation[1] = z0.imag();

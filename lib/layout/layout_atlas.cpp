@@ -62,8 +62,21 @@ struct AtlasBuild {
     retried[f] = 1;
     return true;
   }
+  /// #F: the face's floor when it was last deferred() into a nested group (+∞: never). A nested
+  /// chart is laid out again from a face across from its collar when its seed is far from it, so
+  /// it need not lie around the faces it was made for: a face deferred again at the same floor
+  /// would start the same group in a chart of the same seed, nesting without end. A face is
+  /// deferred again only where its floor fell kNestGain times since; otherwise it is settled
+  /// (unresolvable).
+  std::vector<double> deferred_at;
+  bool defer(Index f) {
+    if (!deferred(f) || !(face_floor[f] * kNestGain <= deferred_at[f])) return false;
+    deferred_at[f] = face_floor[f];
+    return true;
+  }
   /// #F, with coarse frames: the rounding of the face's own coarse face, relative to the face's
-  /// shortest edge — 2^-53 × the coarse face's longest side / that edge. Every chart places the
+  /// shortest edge — 2^-53 × the coarse face's longest side l / that edge (in H 2^-53 sinh l: its
+  /// model triangle's coordinates grow with the distance from the pole). Every chart places the
   /// face's corners by that face's one isometry, so even the chart made for it resolves the face
   /// only to about that (a needle of the common subdivision, an edge 1e-11 of its coarse face:
   /// about 1e-5); an error within it there is rounding, not lengths that are not one metric.
@@ -133,6 +146,19 @@ struct AtlasBuild {
   bool near_limit(Index f) const {
     return unresolved(f) || !(face_floor[f] <= std::max(kMargin * options.limit, kFrameAllowance * best_floor(f)));
   }
+  /// A face of a chart whose corners can hold a collar there: not near_limit(), or, with frames,
+  /// a needle within its coarse face's rounding (rounding_only()) placed to kMargin × limit of its
+  /// coarse face's shortest side — the scale the collar is fitted and measured at with frames
+  /// (collar_points()), where a region of needles has no other faces.
+  bool collar_ok(Index f) const {
+    if (!near_limit(f) || (any_resolved_collar && !unresolved(f))) return true;
+    if (frame_floor.empty() || !rounding_only(f)) return false;
+    const FaceFrames& fr = *options.frames;
+    const std::size_t cf = 3 * static_cast<std::size_t>(fr.face_frame[f]);
+    const double coarse = std::min({fr.frame_lengths[cf], fr.frame_lengths[cf + 1], fr.frame_lengths[cf + 2]});
+    const double own = std::min({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+    return face_floor[f] * own <= kMargin * options.limit * coarse && face_error[f] * own <= kMargin * options.limit * coarse;
+  }
 
   /// Groups of chart k's faces for new charts: each unresolved face with the faces near the limit
   /// connected to it across edges (in face order).
@@ -158,6 +184,97 @@ struct AtlasBuild {
     return groups;
   }
 
+  /// A group of chart k (unresolved_groups()) in pieces that each reach at most kGroupReach from
+  /// their first face, made from the group's rim inwards. A chart holds its collar only near its
+  /// origin (kCollarReach) and the collar runs round the whole group, so a long group — a strip of
+  /// needles between two input edges that rounding does not separate, running across many coarse
+  /// faces — leaves the collar where the chart cannot fit it even laid out from it (make_chart()
+  /// then reports it too_long). Distances
+  /// run along the faces (a step counts the longest edge of the face it leaves) from the faces next
+  /// to chart k's good ones; pieces start at the nearest face not yet taken and take the faces
+  /// within reach of it, so each lies next to the rim or to pieces made before it, whose charts
+  /// then hold its collar (collar_and_parent(); chart_groups() tries a piece again once they do).
+  static constexpr double kGroupReach = 2;
+  /// `local`: scratch, #F entries of kInvalid (sized on first use, left so).
+  std::vector<std::vector<Index>> split_by_reach(const std::vector<Index>& group, Index k,
+                                                 std::vector<Index>& local) const {
+    const std::size_t n = group.size();
+    if (local.empty()) local.assign(static_cast<std::size_t>(t.num_faces), kInvalid);
+    for (std::size_t i = 0; i < n; ++i) local[group[i]] = static_cast<Index>(i);
+    auto longest = [&](Index f) {
+      return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+    };
+    // Distances from the rim (Dijkstra; a component with no rim starts from its first face).
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    std::vector<double> dist(n, kInf);
+    std::vector<std::pair<double, Index>> heap;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) {
+        const Index o = t.opposite[3 * group[i] + c];
+        if (o != kInvalid && local[corner_face(o)] == kInvalid && out.face_chart[corner_face(o)] == k &&
+            collar_ok(corner_face(o)) && dist[i] > 0) {
+          dist[i] = 0;
+          heap.push_back({0.0, static_cast<Index>(i)});
+        }
+      }
+    if (heap.empty()) {
+      dist[0] = 0;
+      heap.push_back({0.0, 0});
+    }
+    auto later = [](const std::pair<double, Index>& a, const std::pair<double, Index>& b) { return a > b; };
+    std::make_heap(heap.begin(), heap.end(), later);
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end(), later);
+      const auto [d, i] = heap.back();
+      heap.pop_back();
+      if (d > dist[i]) continue;
+      const double step = d + longest(group[i]);
+      for (int c = 0; c < 3; ++c) {
+        const Index o = t.opposite[3 * group[i] + c];
+        if (o == kInvalid) continue;
+        const Index j = local[corner_face(o)];
+        if (j == kInvalid || !(step < dist[j])) continue;
+        dist[j] = step;
+        heap.push_back({step, j});
+        std::push_heap(heap.begin(), heap.end(), later);
+      }
+    }
+    std::vector<Index> order(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<Index>(i);
+    std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return dist[a] < dist[b]; });
+    // Pieces, nearest first.
+    std::vector<std::vector<Index>> pieces;
+    std::vector<std::uint8_t> taken(n, 0);
+    std::vector<double> reach(n, 0.0);
+    for (const Index s0 : order) {
+      if (taken[s0]) continue;
+      std::vector<Index> piece{s0};
+      taken[s0] = 1;
+      reach[s0] = 0;
+      for (std::size_t h = 0; h < piece.size(); ++h) {
+        const Index i = piece[h];
+        const double step = reach[i] + longest(group[i]);
+        if (h > 0 && step > kGroupReach) continue;
+        for (int c = 0; c < 3; ++c) {
+          const Index o = t.opposite[3 * group[i] + c];
+          if (o == kInvalid) continue;
+          const Index j = local[corner_face(o)];
+          if (j == kInvalid || taken[j]) continue;
+          taken[j] = 1;
+          reach[j] = step;
+          piece.push_back(j);
+        }
+      }
+      std::vector<Index> faces(piece.size());
+      for (std::size_t h = 0; h < piece.size(); ++h) faces[h] = group[piece[h]];
+      // A piece of faces near the limit only (none unresolved and unsettled) needs no chart.
+      if (std::any_of(faces.begin(), faces.end(), [&](Index f) { return unresolved(f) && !settled[f]; }))
+        pieces.push_back(std::move(faces));
+    }
+    for (const Index f : group) local[f] = kInvalid;
+    return pieces;
+  }
+
   /// The collar: faces of chart k resolved there, within collar_rings rings of the group.
   std::vector<Index> collar(const std::vector<Index>& group, Index k, Index label) {
     std::vector<Index> ring = group, faces;
@@ -168,7 +285,7 @@ struct AtlasBuild {
           const Index o = t.opposite[3 * f + c];
           if (o == kInvalid) continue;
           const Index nb = corner_face(o);
-          if (owner[nb] == label || out.face_chart[nb] != k || near_limit(nb)) continue;
+          if (owner[nb] == label || out.face_chart[nb] != k || !collar_ok(nb)) continue;
           owner[nb] = label;
           next.push_back(nb);
         }
@@ -310,6 +427,70 @@ struct AtlasBuild {
     return best;
   }
 
+  /// Set by make_chart() when no chart had a collar for the group (it made none).
+  bool no_collar = false;
+  /// Set by make_chart() (it made no chart) when the group's collar lies beyond kCollarReach of
+  /// the chart even laid out from the collar, while `splittable` (H, a group not split before).
+  bool too_long = false, splittable = false;
+  /// Collars may take any resolved face, near the limit or not (chart_groups()' last round).
+  bool any_resolved_collar = false;
+  /// The groups of chart k, each made a chart of; a group too long for one chart is cut into
+  /// pieces (split_by_reach()), made charts of in turn; a group no chart has a collar for is tried
+  /// again after the others (its neighbours may have moved into their own charts by then), until
+  /// a round makes no chart; then once more with collars of any resolved faces (whose positions
+  /// may hold only to the limit: the transition check still bounds the fit). Faces of a group
+  /// still without a collar stay where they are, unresolvable. False when make_chart() failed.
+  bool chart_groups(Index k) {
+    struct Group {
+      std::vector<Index> faces;
+      bool piece = false;
+    };
+    std::vector<Group> pending;
+    for (std::vector<Index>& faces : unresolved_groups(k)) pending.push_back({std::move(faces), false});
+    std::vector<Index> slot;  // split_by_reach()'s scratch
+    int stage = 0;  // 0: as made; 1: the groups left taken whole again; 2: collars of any resolved faces
+    while (!pending.empty()) {
+      std::vector<Group> later;
+      std::size_t made = 0;
+      for (std::size_t i = 0; i < pending.size(); ++i) {
+        no_collar = too_long = false;
+        splittable = g == Geometry::Hyperbolic && !pending[i].piece;
+        if (!make_chart(pending[i].faces, k)) {
+          any_resolved_collar = false;
+          return false;
+        }
+        if (too_long) {
+          for (std::vector<Index>& faces : split_by_reach(pending[i].faces, k, slot))
+            pending.push_back({std::move(faces), true});
+        } else if (no_collar) {
+          later.push_back(std::move(pending[i]));
+        } else {
+          ++made;
+        }
+      }
+      if (made > 0) {
+        pending = std::move(later);
+      } else if (stage == 0 && std::any_of(later.begin(), later.end(), [](const Group& q) { return q.piece; })) {
+        // Pieces no chart has a collar for (their neighbours near the limit needed no chart of
+        // their own): the groups left, whole, not cut again.
+        stage = 1;
+        pending.clear();
+        for (std::vector<Index>& faces : unresolved_groups(k)) pending.push_back({std::move(faces), true});
+      } else if (stage < 2) {
+        stage = 2;
+        any_resolved_collar = true;
+        pending = std::move(later);
+      } else {
+        for (const Group& group : later)
+          for (Index f : group.faces)
+            if (unresolved(f)) settled[f] = 1;
+        break;
+      }
+    }
+    any_resolved_collar = false;
+    return true;
+  }
+
   /// Makes a chart of `group` (faces of chart k): lays it out with its collar, fits the
   /// transition, moves the group's faces into it.
   bool make_chart(const std::vector<Index>& group, Index home) {
@@ -329,11 +510,10 @@ struct AtlasBuild {
     Index parent = home;
     const std::vector<Index> ring = collar_and_parent(group, home, c, parent);
     if (ring.empty()) {
-      // No chart resolves the faces around the group: they stay where they are, unresolvable.
-      for (Index f : group) {
-        owner[f] = -1;
-        if (unresolved(f)) settled[f] = 1;
-      }
+      // No chart resolves the faces around the group (yet: a piece of a long group whose
+      // neighbouring pieces have no chart so far); the caller tries again after the others.
+      for (Index f : group) owner[f] = -1;
+      no_collar = true;
       return true;
     }
     const Index k = parent;
@@ -366,15 +546,21 @@ struct AtlasBuild {
                ? detail::propagate_faces_by_frames(t, g, *options.frames, ch.seed_face, owner, c, x, touched, drift, pl)
                : detail::propagate_faces(t, g, l, ch.seed_face, owner, c, x, touched, pl);
       if (ok) collar_points(ring, x, verts, parent_pts, own_pts, scale);
-      if (attempt > 0 || (ok && collar_floor(verts, drift, own_pts, scale) <= kMargin * options.max_transition_error &&
-                          collar_reach(own_pts) <= kCollarReach))
+      const bool near = ok && collar_reach(own_pts) <= kCollarReach;
+      if (attempt > 0 || (near && collar_floor(verts, drift, own_pts, scale) <= kMargin * options.max_transition_error)) {
+        too_long = ok && !near && splittable;
         break;
+      }
       const Index s = seed_at_collar(group, ring);
-      if (s == kInvalid || s == ch.seed_face) break;
+      if (s == kInvalid || s == ch.seed_face) {
+        too_long = ok && !near && splittable;
+        break;
+      }
       ch.seed_face = s;
     }
     for (Index f : group) owner[f] = -1;
     for (Index f : ring) owner[f] = -1;
+    if (too_long) return true;
     if (!ok) return fail(pl.element, pl.element_index, pl.message);
     const LayoutAlignment fit = align_layouts(g, parent_pts, own_pts);
     if (fit.status != Status::Ok)
@@ -394,15 +580,26 @@ struct AtlasBuild {
       const double d = planar_distance(g, {parent_pts[2 * i], parent_pts[2 * i + 1]}, to_parent({own_pts[2 * i], own_pts[2 * i + 1]}));
       ch.transition_error = std::max(ch.transition_error, d / scale[i]);
     }
-    if (!(ch.transition_error <= options.max_transition_error))
+    if (!(ch.transition_error <= options.max_transition_error) && any_resolved_collar) {
+      no_collar = true;  // a collar near the limit that does not hold the fit: none after all
+      return true;
+    }
+    if (!(ch.transition_error <= options.max_transition_error)) {
       return fail(Element::Face, ch.seed_face,
                   "the chart around face " + std::to_string(ch.seed_face) + " misses chart " + std::to_string(k) +
                       " on their common collar by " + sci(ch.transition_error) + " of an edge's length (limit " +
                       sci(options.max_transition_error) + "): the lengths are not one metric there");
+    }
     compose_to_root(ch);
-    // The group's faces move into the new chart.
+    // The group's faces move into the new chart; a face settled before (unresolvable in the chart
+    // made for it, and pulled into this group as a neighbour near the limit) only where this
+    // chart places it better.
     Index resolved = 0;
     for (Index f : group) {
+      const Index old_chart = out.face_chart[f];
+      const double old_error = face_error[f], old_floor = face_floor[f];
+      double old_corners[6];
+      std::copy_n(&out.corner_positions[6 * static_cast<std::size_t>(f)], 6, old_corners);
       out.face_chart[f] = c;
       for (int cc = 0; cc < 3; ++cc) {
         const Index v = t.corner_vertex[3 * f + cc];
@@ -416,20 +613,28 @@ struct AtlasBuild {
           const double moved = drift[t.corner_vertex[3 * f + (cc + 1) % 3]] + drift[t.corner_vertex[3 * f + (cc + 2) % 3]];
           face_floor[f] = std::max(face_floor[f], moved / l[t.corner_edge[3 * f + cc]]);
         }
+      if (settled[f] && !(face_error[f] < old_error)) {
+        out.face_chart[f] = old_chart;
+        std::copy_n(old_corners, 6, &out.corner_positions[6 * static_cast<std::size_t>(f)]);
+        face_error[f] = old_error;
+        face_floor[f] = old_floor;
+        continue;
+      }
       if (!unresolved(f)) ++resolved;
-      else if ((!deferred(f) || f == ch.seed_face) && !retry(f, ch.seed_face)) settled[f] = 1;
+      else if ((f == ch.seed_face || !defer(f)) && !retry(f, ch.seed_face)) settled[f] = 1;
     }
     // A face its own chart misses by more than a collar may and by more than kFrameAllowance times
     // the chart's floor there: not rounding, the lengths do not close. (A miss within that floor,
     // which no nested chart would resolve kNestGain times better, leaves the face unresolvable.)
     for (Index f : group)
       if (!(face_error[f] <= options.max_transition_error) && !rounding_only(f) && settled[f] &&
-          !(face_error[f] <= kFrameAllowance * face_floor[f]))
+          !(face_error[f] <= kFrameAllowance * face_floor[f])) {
         return fail(Element::Face, f, "face " + std::to_string(f) + " misses its lengths by " + sci(face_error[f]) +
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
                                           " made for it (" + std::to_string(resolved) + " of its group's " +
                                           std::to_string(group.size()) + " faces resolved; limit " +
                                           sci(options.max_transition_error) + "): the lengths are not one metric there");
+      }
     out.charts.push_back(ch);
     return true;
   }
@@ -487,7 +692,7 @@ bool AtlasOptions::is_valid(std::string* why) const {
   std::string w;
   if (!(std::isfinite(limit) && limit > 0)) w = "limit must be a finite number > 0";
   else if (collar_rings < 1 || collar_rings > 16) w = "collar_rings must be in 1..16";
-  else if (max_depth < 1 || max_depth > 64) w = "max_depth must be in 1..64";
+  else if (max_depth < 1 || max_depth > 65536) w = "max_depth must be in 1..65536";
   else if (!(std::isfinite(max_transition_error) && max_transition_error > 0))
     w = "max_transition_error must be a finite number > 0";
   if (why != nullptr) *why = w;
@@ -528,13 +733,15 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
                std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1),
                std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0),
-               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0), {}};
+               std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0),
+               std::vector<double>(static_cast<std::size_t>(nf), std::numeric_limits<double>::infinity()), {}};
   if (options.frames && options.frames->face_frame.size() == static_cast<std::size_t>(nf)) {
     const FaceFrames& fr = *options.frames;
     b.frame_floor.assign(static_cast<std::size_t>(nf), 0.0);
     for (Index f = 0; f < nf; ++f) {
       const std::size_t cf = 3 * static_cast<std::size_t>(fr.face_frame[f]);
-      const double coarse = std::max({fr.frame_lengths[cf], fr.frame_lengths[cf + 1], fr.frame_lengths[cf + 2]});
+      const double longest = std::max({fr.frame_lengths[cf], fr.frame_lengths[cf + 1], fr.frame_lengths[cf + 2]});
+      const double coarse = g == Geometry::Hyperbolic ? std::sinh(longest) : longest;
       const double own = std::min({l[disk.corner_edge[3 * f]], l[disk.corner_edge[3 * f + 1]], l[disk.corner_edge[3 * f + 2]]});
       b.frame_floor[f] = own > 0 ? 0x1p-53 * coarse / own : std::numeric_limits<double>::infinity();
     }
@@ -542,13 +749,12 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
 #pragma omp parallel for schedule(static)
   for (Index f = 0; f < nf; ++f) b.measure_face(f, b.face_error[f], b.face_floor[f]);
   for (Index k = 0; k < out.num_charts(); ++k) {
-    for (const std::vector<Index>& group : b.unresolved_groups(k))
-      if (!b.make_chart(group, k)) {
-        out.charts.clear();
-        out.face_chart.clear();
-        out.corner_positions.clear();
-        return out;
-      }
+    if (!b.chart_groups(k)) {
+      out.charts.clear();
+      out.face_chart.clear();
+      out.corner_positions.clear();
+      return out;
+    }
   }
   b.summarise();
   out.status = Status::Ok;

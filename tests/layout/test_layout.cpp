@@ -491,6 +491,18 @@ TEST_CASE("layout: alignment recovers known isometries") {
     CHECK(std::abs(r.translation[0] - z0.real()) < 1e-12);
     CHECK(std::abs(r.translation[1] - z0.imag()) < 1e-12);
     CHECK(std::abs(std::remainder(r.angle - std::arg(rot), 2 * kPi)) < 1e-12);
+    // A rotation about the origin: the fitted z0 is rounding (1e-17), and the angle is still the
+    // rotation's (it was taken as arg(−M(0)/z0), a ratio of two roundings: an atlas's chart and
+    // its parent both holding their collar at the origin were fitted 4.3° apart).
+    for (Index v = 0; v < n; ++v) {
+      const Cx w = rot * Cx(a[2 * v], a[2 * v + 1]);
+      b[2 * v] = w.real();
+      b[2 * v + 1] = w.imag();
+    }
+    r = align_layouts(Geometry::Hyperbolic, b, a);
+    REQUIRE(r.status == Status::Ok);
+    CHECK(std::hypot(r.translation[0], r.translation[1]) < 1e-15);
+    CHECK(std::abs(std::remainder(r.angle - std::arg(rot), 2 * kPi)) < 1e-13);
     // S
     std::vector<double> p(3 * n), q(3 * n);
     for (Index v = 0; v < n; ++v) {

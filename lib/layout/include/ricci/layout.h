@@ -356,7 +356,8 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // more than AtlasOptions::limit starts a group, which takes every face connected to it across
 // edges that misses the limit too or whose coordinates resolve it to less than 1e-2 × the limit
 // (so that the collar below lies where the parent is good to well below the limit; with coarse
-// frames, a needle resolved to within 64 times its coarse face's rounding counts as resolved);
+// frames, a needle resolved to within 64 times its coarse face's rounding counts as resolved, and
+// as collar where that places it to 1e-2 × the limit of its coarse face's shortest side);
 // each group becomes a new chart, laid out by propagation from its smallest face (least longest
 // edge; placed as layout_disk()'s seed: corner 0 at the origin, corner 1 along +x) together with
 // a collar of the parent's resolved faces around it (collar_rings rings across edges). The parent
@@ -373,13 +374,19 @@ Layout measure_layout(const Topology& disk, Geometry g, std::span<const double> 
 // then go to nested charts. A chart whose own collar points its coordinates and maps do not
 // resolve to 1e-2 of max_transition_error (seeded at the smallest face of a long thin group, far
 // from the collar) is laid out again from the smallest group face across an edge from the
-// collar. A face the new chart misses only by its floor where the face lies, 4 times above what a
-// chart around it gives, starts a nested group, whose chart is seeded at the smallest such face;
-// one that no chart would resolve that much better stays unresolvable. A group no chart has a
-// collar for stays where it is (its faces unresolvable). A face its own chart misses by more than
-// max_transition_error and by more than 64 times its floor there, a transition map that misses its
-// collar by more than max_transition_error, or charts nested deeper than max_depth end the atlas
-// with NumericalFailure naming the face.
+// collar; in H, where that chart still holds its collar more than 4 units from its origin (a long
+// strip of needles, the collar running all along it), the group is cut instead into pieces
+// reaching about 2 units each, made from the group's rim inwards, each a chart of its own whose
+// collar lies in the charts made before it. A face the new chart misses only by its floor where
+// the face lies, 4 times above what a chart around it gives, starts a nested group, whose chart is
+// seeded at the smallest such face — again only where its floor has fallen 4 times since; one
+// that no chart would resolve that much better stays unresolvable. A group no chart has a collar
+// for is tried again after the others; pieces still without one are taken whole again, and last
+// any resolved face may be collar (the transition check still applies, a miss then meaning no
+// collar); a group still without a collar stays where it is (its faces unresolvable). A face its
+// own chart misses by more than max_transition_error and by more than 64 times its floor there, a
+// transition map that misses its collar by more than max_transition_error, or charts nested
+// deeper than max_depth end the atlas with NumericalFailure naming the face.
 //
 // The charts are consistent: a face's three edges always fit one chart, so what ties the charts to
 // one metric is the collar, whose vertices both charts place; transition_error is the largest
@@ -399,8 +406,9 @@ struct AtlasOptions {
   /// Rings of the parent's faces around a new chart's group, laid out with it to fit the
   /// transition map.
   int collar_rings = 2;
-  /// Charts nest at most this deep (the root: 0).
-  int max_depth = 16;
+  /// Charts nest at most this deep (the root: 0). A strip cut into pieces nests a chart per piece
+  /// along it.
+  int max_depth = 4096;
   /// A chart whose transition_error exceeds this ends the atlas (NumericalFailure): its collar
   /// does not lie where its parent's does, so the two charts are not layouts of one metric
   /// (each face always fits its own chart; only the collars tie the charts together).
@@ -410,7 +418,7 @@ struct AtlasOptions {
   std::shared_ptr<const FaceFrames> frames;
 
   /// True when limit and max_transition_error are finite and > 0, collar_rings in 1..16 and
-  /// max_depth in 1..64; otherwise false, with the reason in *why (when why is not null).
+  /// max_depth in 1..65536; otherwise false, with the reason in *why (when why is not null).
   bool is_valid(std::string* why) const;
 };
 
