@@ -31,7 +31,7 @@ bool all_finite(const std::vector<double>& x) {
 constexpr int kDraws = ricci_test::kSanitized ? 6 : 24;
 
 // tools/random_surface_sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1), validated
-// as the CLI does (ears split).
+// with every ear split, as the sweep does.
 ValidateResult sweep_seed_44() {
   const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
   ValidateOptions vo;
@@ -42,7 +42,7 @@ ValidateResult sweep_seed_44() {
 }
 
 // tools/random_surface_sweep's draw `seed` (its face count drawn from the seed, 1000 to 50000
-// log-uniform, as the sweep does), validated as the CLI does.
+// log-uniform, as the sweep does), validated as the sweep does (every ear split).
 ValidateResult sweep_draw(std::uint64_t seed, ricci_shapes::RandomSurface* surface = nullptr) {
   std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
   const double t = ricci_shapes::unit_double(size_rng);
