@@ -1642,6 +1642,102 @@ LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
 
 // Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
 // gate: a layout that does not reproduce the metric is no result.
+/// The accuracy gate on cut_and_lay_out()'s layout, the development through the faces where the
+/// frames' misses it, and the atlas of charts where one chart does not resolve every face. False
+/// when the layout fails (r.status set).
+bool gate_layout(LayoutRun& run) {
+  const Topology& topology = run.topology;
+  const UniformizeOptions& options = run.options;
+  const std::span<const double> metric_l = run.metric_l;
+  UniformizeResult& r = run.r;
+  StageClock& stage_done = run.stage_done;
+  const bool sphere = run.sphere;
+  auto fail = [&](Status s, const std::string& stage, const std::string& message) { return run.fail(s, stage, message); };
+  // A layout that does not reproduce the metric is no result, except where coordinates cannot
+  // resolve an edge and the surface there is negligible: edges above the limit pass when each is
+  // within kRoundingAllowance times its own rounding floor and their faces cover at most the
+  // limit's fraction of the input's 3D area. That excuses the short
+  // edges at near-coincident vertices (and the tiny faces the common subdivision makes there), whose
+  // length one layout's coordinates resolve only to about ε·l/s, but not a region that the
+  // conformal factor shrinks below what coordinates resolve (a long strip's far end), which is
+  // large in 3D. The sphere's positions are Möbius-centred, not isometric: no excuse there.
+  auto excuse = [&](const Layout& layout) {
+    if (!(layout.max_edge_length_error > options.max_layout_error && std::isfinite(layout.max_edge_length_error) &&
+          !sphere))
+      return false;
+    const std::vector<double> area = cut_face_areas(r.cut);
+    const LayoutMisses m = layout_misses(r.disk, r.geometry, r.disk_lengths, layout.positions, area, options.max_layout_error);
+    if (!(m.worst_unexplained <= 0 && m.area_fraction <= options.max_layout_error)) return false;
+    r.layout_excused = m;
+    return true;
+  };
+  auto misses = [&](const Layout& layout) {
+    return layout.max_edge_length_error > options.max_layout_error || !std::isfinite(layout.max_edge_length_error);
+  };
+  bool excused = excuse(r.layout);
+  // The coarse frames carry whatever their triangulation's angle sums miss (a solve that converged
+  // only to its curvature resolution at near-coincident vertices): where their layout fails the
+  // gate, the development through the faces themselves is tried and kept when it passes.
+  if (r.layout.by_frames && !excused && misses(r.layout)) {
+    LayoutOptions lo = run.layout_options;
+    lo.frames = nullptr;
+    Layout faces = sphere ? layout_sphere(topology, metric_l, lo) : layout_disk(r.disk, r.geometry, r.disk_lengths, lo);
+    if (faces.status == Status::Ok && (!misses(faces) || excuse(faces))) {
+      excused = misses(faces);
+      r.layout = std::move(faces);
+      stage_done("layout", "through the faces: " + r.layout.brief_report());
+    }
+  }
+  // Faces the root chart's coordinates cannot resolve get charts of their own: where the layout
+  // misses the limit; where it passes but flips a face (the metric is converged, so each triangle
+  // has positive area and a flipped face is one the coordinates cannot resolve: a sliver far out
+  // in the disk); and where it passes but some face misses the charts' own limit
+  // (AtlasOptions::limit, 1e-9: a chart's coordinates should resolve every face it holds). In the
+  // last two cases the atlas is kept only when it flips no more faces and, for the last, is more
+  // accurate than the one chart. A layout the gate excuses (misses within its coordinates'
+  // rounding at near-coincident vertices) gets charts too, kept when they pass the limit: a chart
+  // around those vertices resolves them (random draw 31: 1.1e-6 excused, 40 charts within 9.8e-10
+  // but for 2 needles); otherwise the excused layout stays.
+  const bool flips_only = !misses(r.layout) && r.layout.flipped_faces > 0;
+  const bool coarse = !misses(r.layout) && !(r.layout.max_edge_length_error <= options.atlas.limit);
+  if (options.use_atlas && !sphere && (misses(r.layout) || flips_only || coarse)) {
+    // New charts are developed by the coarse frames whenever there are any, also where the root
+    // chart is the development through the faces: developed from their lengths, a chart of
+    // needles is ill-conditioned (random draw 112: a collar missed by 27.5 of an edge; with frames,
+    // 24 charts within 9.9e-10 but for 16 needles; draw 75's atlas, one chart at 6.2e-7 before,
+    // 9 charts within 9.7e-10).
+    AtlasOptions ao = options.atlas;
+    ao.frames = run.layout_frames;
+    r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, ao);
+    const bool better = misses(r.layout) || (r.atlas.flipped_faces <= r.layout.flipped_faces &&
+                                             (flips_only ? r.atlas.flipped_faces == 0
+                                                         : r.atlas.max_edge_length_error < r.layout.max_edge_length_error));
+    const bool needles_excused = needles_excused_in(r.atlas, options.max_layout_error);
+    r.has_atlas = r.atlas.status == Status::Ok &&
+                  (r.atlas.max_edge_length_error <= options.max_layout_error || needles_excused) && better;
+    if (r.has_atlas) r.layout_excused = LayoutMisses{};  // the charts resolve what the gate excused
+    stage_done("atlas", r.atlas.message + (!misses(r.layout) && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
+  }
+  if (!excused && !r.has_atlas && misses(r.layout)) {
+    r.layout.status = Status::NumericalFailure;
+    return fail(Status::NumericalFailure, "layout",
+                      "the layout reproduces the metric only to a relative edge-length error of " +
+                          sci(r.layout.max_edge_length_error) + " (edge " + std::to_string(r.layout.worst_edge) +
+                          ", limit " + sci(options.max_layout_error) + "); double-precision coordinates resolve " +
+                          sci(r.layout.rounding_floor) + " here" +
+                          (r.layout.rounding_floor > options.max_layout_error
+                               ? ": the metric's conformal factor spans too many orders of magnitude for one chart"
+                               : "") +
+                          (r.atlas.status != Status::NotRun && r.atlas.status != Status::Ok
+                               ? "; an atlas of charts failed too: " + r.atlas.message
+                           : r.atlas.status == Status::Ok
+                               ? "; an atlas misses the limit too: " + r.atlas.message
+                               : ""));
+  }
+
+  return true;
+}
+
 bool cut_and_lay_out(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
@@ -1724,89 +1820,7 @@ bool cut_and_lay_out(LayoutRun& run) {
     stage_done("layout", r.layout.brief_report());
   }
 
-  // ---- the accuracy gate: a layout that does not reproduce the metric is no result ----
-  // Except where coordinates cannot resolve an edge and the surface there is negligible: edges
-  // above the limit pass when each is within kRoundingAllowance times its own rounding floor and
-  // their faces cover at most the limit's fraction of the input's 3D area. That excuses the short
-  // edges at near-coincident vertices (and the tiny faces the common subdivision makes there), whose
-  // length one layout's coordinates resolve only to about ε·l/s, but not a region that the
-  // conformal factor shrinks below what coordinates resolve (a long strip's far end), which is
-  // large in 3D. The sphere's positions are Möbius-centred, not isometric: no excuse there.
-  auto excuse = [&](const Layout& layout) {
-    if (!(layout.max_edge_length_error > options.max_layout_error && std::isfinite(layout.max_edge_length_error) &&
-          !sphere))
-      return false;
-    const std::vector<double> area = cut_face_areas(r.cut);
-    const LayoutMisses m = layout_misses(r.disk, r.geometry, r.disk_lengths, layout.positions, area, options.max_layout_error);
-    if (!(m.worst_unexplained <= 0 && m.area_fraction <= options.max_layout_error)) return false;
-    r.layout_excused = m;
-    return true;
-  };
-  auto misses = [&](const Layout& layout) {
-    return layout.max_edge_length_error > options.max_layout_error || !std::isfinite(layout.max_edge_length_error);
-  };
-  bool excused = excuse(r.layout);
-  // The coarse frames carry whatever their triangulation's angle sums miss (a solve that converged
-  // only to its curvature resolution at near-coincident vertices): where their layout fails the
-  // gate, the development through the faces themselves is tried and kept when it passes.
-  if (r.layout.by_frames && !excused && misses(r.layout)) {
-    LayoutOptions lo = run.layout_options;
-    lo.frames = nullptr;
-    Layout faces = sphere ? layout_sphere(topology, metric_l, lo) : layout_disk(r.disk, r.geometry, r.disk_lengths, lo);
-    if (faces.status == Status::Ok && (!misses(faces) || excuse(faces))) {
-      excused = misses(faces);
-      r.layout = std::move(faces);
-      stage_done("layout", "through the faces: " + r.layout.brief_report());
-    }
-  }
-  // Faces the root chart's coordinates cannot resolve get charts of their own: where the layout
-  // misses the limit; where it passes but flips a face (the metric is converged, so each triangle
-  // has positive area and a flipped face is one the coordinates cannot resolve: a sliver far out
-  // in the disk); and where it passes but some face misses the charts' own limit
-  // (AtlasOptions::limit, 1e-9: a chart's coordinates should resolve every face it holds). In the
-  // last two cases the atlas is kept only when it flips no more faces and, for the last, is more
-  // accurate than the one chart. A layout the gate excuses (misses within its coordinates'
-  // rounding at near-coincident vertices) gets charts too, kept when they pass the limit: a chart
-  // around those vertices resolves them (random draw 31: 1.1e-6 excused, 40 charts within 9.8e-10
-  // but for 2 needles); otherwise the excused layout stays.
-  const bool flips_only = !misses(r.layout) && r.layout.flipped_faces > 0;
-  const bool coarse = !misses(r.layout) && !(r.layout.max_edge_length_error <= options.atlas.limit);
-  if (options.use_atlas && !sphere && (misses(r.layout) || flips_only || coarse)) {
-    // New charts are developed by the coarse frames whenever there are any, also where the root
-    // chart is the development through the faces: developed from their lengths, a chart of
-    // needles is ill-conditioned (random draw 112: a collar missed by 27.5 of an edge; with frames,
-    // 24 charts within 9.9e-10 but for 16 needles; draw 75's atlas, one chart at 6.2e-7 before,
-    // 9 charts within 9.7e-10).
-    AtlasOptions ao = options.atlas;
-    ao.frames = run.layout_frames;
-    r.atlas = layout_atlas(r.disk, r.geometry, r.disk_lengths, r.layout.positions, ao);
-    const bool better = misses(r.layout) || (r.atlas.flipped_faces <= r.layout.flipped_faces &&
-                                             (flips_only ? r.atlas.flipped_faces == 0
-                                                         : r.atlas.max_edge_length_error < r.layout.max_edge_length_error));
-    const bool needles_excused = needles_excused_in(r.atlas, options.max_layout_error);
-    r.has_atlas = r.atlas.status == Status::Ok &&
-                  (r.atlas.max_edge_length_error <= options.max_layout_error || needles_excused) && better;
-    if (r.has_atlas) r.layout_excused = LayoutMisses{};  // the charts resolve what the gate excused
-    stage_done("atlas", r.atlas.message + (!misses(r.layout) && !r.has_atlas ? " (not kept: the one chart is used)" : ""));
-  }
-  if (!excused && !r.has_atlas && misses(r.layout)) {
-    r.layout.status = Status::NumericalFailure;
-    return fail(Status::NumericalFailure, "layout",
-                      "the layout reproduces the metric only to a relative edge-length error of " +
-                          sci(r.layout.max_edge_length_error) + " (edge " + std::to_string(r.layout.worst_edge) +
-                          ", limit " + sci(options.max_layout_error) + "); double-precision coordinates resolve " +
-                          sci(r.layout.rounding_floor) + " here" +
-                          (r.layout.rounding_floor > options.max_layout_error
-                               ? ": the metric's conformal factor spans too many orders of magnitude for one chart"
-                               : "") +
-                          (r.atlas.status != Status::NotRun && r.atlas.status != Status::Ok
-                               ? "; an atlas of charts failed too: " + r.atlas.message
-                           : r.atlas.status == Status::Ok
-                               ? "; an atlas misses the limit too: " + r.atlas.message
-                               : ""));
-  }
-
-  return true;
+  return gate_layout(run);
 }
 
 bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
