@@ -1769,6 +1769,18 @@ bool cut_and_lay_out(LayoutRun& run) {
   const bool compact = closed_h || (!cones.empty() && compact_cut.status == Status::Ok) ||
                        (bordered_h && compact_cut.status == Status::Ok);
 
+  // The disk's layout, by the surface's coarse frames carried onto it when there are any.
+  auto lay_out_disk = [&]() {
+    if (run.surface_frames != nullptr) {
+      run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
+      if (run.layout_frames) lengths_from_frames(r.cut, r.disk, *run.layout_frames, r.geometry, r.disk_lengths);
+    }
+    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
+    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
+    stage_done("layout", r.layout.brief_report());
+    return true;
+  };
+
   // ---- cut and layout ----
   if (sphere) {
     if (run.surface_frames != nullptr) run.layout_frames = std::make_shared<const FaceFrames>(*run.surface_frames);
@@ -1790,13 +1802,7 @@ bool cut_and_lay_out(LayoutRun& run) {
     r.disk_lengths = disk_edge_lengths(r.cut, r.cut_metric.surface, r.cut_metric.l, r.disk);
     stage_done("cut", "compact domain: " + std::to_string(r.cut.num_sides()) + " sides, " +
                           std::to_string(r.cut.num_generators()) + " side pairings");
-    if (run.surface_frames != nullptr) {
-      run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
-      if (run.layout_frames) lengths_from_frames(r.cut, r.disk, *run.layout_frames, r.geometry, r.disk_lengths);
-    }
-    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
-    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
-    stage_done("layout", r.layout.brief_report());
+    if (!lay_out_disk()) return false;
   } else {
     r.has_cut = true;
     CutResult* beside = run.cut_beside != nullptr ? run.cut_beside->take(mesh, topology) : nullptr;
@@ -1811,13 +1817,7 @@ bool cut_and_lay_out(LayoutRun& run) {
       run.known_central = run.cut_beside->central;
       run.known_farthest = run.cut_beside->farthest;
     }
-    if (run.surface_frames != nullptr) {
-      run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
-      if (run.layout_frames) lengths_from_frames(r.cut, r.disk, *run.layout_frames, r.geometry, r.disk_lengths);
-    }
-    r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
-    if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
-    stage_done("layout", r.layout.brief_report());
+    if (!lay_out_disk()) return false;
   }
 
   return gate_layout(run);
