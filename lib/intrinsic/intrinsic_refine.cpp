@@ -112,7 +112,7 @@ class Subdivider {
   /// coarse face's rounding.
   double apart(Index a, Index b) const {
     const double d = distance(g_, cycle_pos_[a], cycle_pos_[b]);
-    return d > 0 ? d : 8 * rounding_;
+    return d > 0 || std::isnan(d) ? d : 8 * rounding_;  // NaN stays, for the checks to name
   }
 
   bool fail(Status s, std::string m) {
