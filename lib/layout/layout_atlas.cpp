@@ -90,8 +90,7 @@ struct AtlasBuild {
   /// else 2^-53 × its longest edge / its shortest (the face laid out at a chart's origin).
   double best_floor(Index f) const {
     if (!frame_floor.empty()) return frame_floor[f];
-    const double a = l[t.corner_edge[3 * f]], b = l[t.corner_edge[3 * f + 1]], c = l[t.corner_edge[3 * f + 2]];
-    return 0x1p-53 * std::max({a, b, c}) / std::min({a, b, c});
+    return 0x1p-53 * longest(f) / shortest(f);
   }
   /// A face left unresolved in the chart made for its group, but only by that chart's floor
   /// where it lies (within kFrameAllowance of face_floor) while a chart around it would resolve
@@ -117,6 +116,14 @@ struct AtlasBuild {
   }
 
   /// The face's max relative edge error in its chart's coordinates, and its rounding floor.
+  /// The longest and the shortest edge of face f.
+  double longest(Index f) const {
+    return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+  }
+  double shortest(Index f) const {
+    return std::min({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+  }
+
   void measure_face(Index f, double& err, double& floor) const {
     err = floor = 0;
     for (int c = 0; c < 3; ++c) {
@@ -156,7 +163,7 @@ struct AtlasBuild {
     const FaceFrames& fr = *options.frames;
     const std::size_t cf = 3 * static_cast<std::size_t>(fr.face_frame[f]);
     const double coarse = std::min({fr.frame_lengths[cf], fr.frame_lengths[cf + 1], fr.frame_lengths[cf + 2]});
-    const double own = std::min({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+    const double own = shortest(f);
     return face_floor[f] * own <= kMargin * options.limit * coarse && face_error[f] * own <= kMargin * options.limit * coarse;
   }
 
@@ -201,9 +208,6 @@ struct AtlasBuild {
     const std::size_t n = group.size();
     if (local.empty()) local.assign(static_cast<std::size_t>(t.num_faces), kInvalid);
     for (std::size_t i = 0; i < n; ++i) local[group[i]] = static_cast<Index>(i);
-    auto longest = [&](Index f) {
-      return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
-    };
     // Distances from the rim (Dijkstra; a component with no rim starts from its first face).
     constexpr double kInf = std::numeric_limits<double>::infinity();
     std::vector<double> dist(n, kInf);
@@ -418,7 +422,7 @@ struct AtlasBuild {
         at = o != kInvalid && std::binary_search(ring.begin(), ring.end(), corner_face(o));
       }
       if (!at) continue;
-      const double len = std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
+      const double len = longest(f);
       if (best == kInvalid || len < best_len) {
         best = f;
         best_len = len;
@@ -499,9 +503,6 @@ struct AtlasBuild {
     // The smallest face (least longest edge) is the new origin; in a group of a chart made for a
     // group before, the smallest of its unresolved faces not settled (the deferred() faces it is
     // made for, not the faces near them that chart resolves).
-    auto longest = [&](Index f) {
-      return std::max({l[t.corner_edge[3 * f]], l[t.corner_edge[3 * f + 1]], l[t.corner_edge[3 * f + 2]]});
-    };
     const bool nested = home != 0;
     ch.seed_face = group[0];
     for (Index f : group)

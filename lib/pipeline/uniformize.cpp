@@ -2,7 +2,6 @@
 #include "ricci/uniformize.h"
 
 #include "crowding.h"
-#include "model_geometry.h"
 
 #include <algorithm>
 #include <chrono>
@@ -1472,32 +1471,6 @@ std::shared_ptr<const FaceFrames> disk_frames(const CutResult& cut, const Topolo
   return out;
 }
 
-// The disk's lengths of the edges at vertices the cut added, measured between the frames' model
-// points (disk_frames()) instead of in frames rebuilt from the refined face's lengths: the layout
-// places those vertices at the model points, and in a sliver of a common subdivision the angles
-// its lengths give are known only to ε over its small angle (an edge of 5.4e-9 in a face of 0.16
-// measured 4.2e-14 apart, 7.8e-6 of itself). A distance of 0 (points that coincide in double)
-// keeps the refined length.
-void lengths_from_frames(const CutResult& cut, const Topology& disk, const FaceFrames& frames, Geometry g,
-                         std::vector<double>& lengths) {
-  const Index nin = cut.num_input_vertices;
-  if (frames.corner_model.size() != 9 * static_cast<std::size_t>(disk.num_faces) ||
-      cut.surface_faces.size() != 3 * static_cast<std::size_t>(disk.num_faces) ||
-      lengths.size() != static_cast<std::size_t>(disk.num_edges))
-    return;
-  auto model = [&](Index c) {
-    const double* m = &frames.corner_model[3 * static_cast<std::size_t>(c)];
-    return model::P3{m[0], m[1], m[2]};
-  };
-#pragma omp parallel for schedule(static) if (disk.num_edges >= 65536)
-  for (Index e = 0; e < disk.num_edges; ++e) {
-    const Index c = disk.edge_corners[2 * e], a = next_corner(c), b = prev_corner(c);
-    if (cut.surface_faces[a] < nin && cut.surface_faces[b] < nin) continue;
-    const double d = model::distance(g, model(a), model(b));
-    if (d > 0 && std::isfinite(d)) lengths[e] = d;
-  }
-}
-
 struct LayoutRun {
   const Mesh& mesh;
   const Topology& topology;
@@ -1640,8 +1613,6 @@ LayoutOptions start_layout(LayoutRun& run, const Topology& faces) {
   return lo;
 }
 
-// Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
-// gate: a layout that does not reproduce the metric is no result.
 /// The accuracy gate on cut_and_lay_out()'s layout, the development through the faces where the
 /// frames' misses it, and the atlas of charts where one chart does not resolve every face. False
 /// when the layout fails (r.status set).
@@ -1696,7 +1667,7 @@ bool gate_layout(LayoutRun& run) {
   // last two cases the atlas is kept only when it flips no more faces and, for the last, is more
   // accurate than the one chart. A layout the gate excuses (misses within its coordinates'
   // rounding at near-coincident vertices) gets charts too, kept when they pass the limit: a chart
-  // around those vertices resolves them (random draw 31: 1.1e-6 excused, 40 charts within 9.8e-10
+  // around those vertices resolves them (random draw 31: 1.1e-6 excused, 21 charts within 9.8e-10
   // but for 2 needles); otherwise the excused layout stays.
   const bool flips_only = !misses(r.layout) && r.layout.flipped_faces > 0;
   const bool coarse = !misses(r.layout) && !(r.layout.max_edge_length_error <= options.atlas.limit);
@@ -1738,6 +1709,8 @@ bool gate_layout(LayoutRun& run) {
   return true;
 }
 
+// Cut (the compact domain, or a cut disk, or none for a sphere) and layout, then the accuracy
+// gate: a layout that does not reproduce the metric is no result.
 bool cut_and_lay_out(LayoutRun& run) {
   const Mesh& mesh = run.mesh;
   const Topology& topology = run.topology;
@@ -1771,10 +1744,7 @@ bool cut_and_lay_out(LayoutRun& run) {
 
   // The disk's layout, by the surface's coarse frames carried onto it when there are any.
   auto lay_out_disk = [&]() {
-    if (run.surface_frames != nullptr) {
-      run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
-      if (run.layout_frames) lengths_from_frames(r.cut, r.disk, *run.layout_frames, r.geometry, r.disk_lengths);
-    }
+    if (run.surface_frames != nullptr) run.layout_frames = disk_frames(r.cut, topology, *run.surface_frames, r.geometry);
     r.layout = layout_disk(r.disk, r.geometry, r.disk_lengths, start_layout(run, r.disk));
     if (r.layout.status != Status::Ok) return fail(r.layout.status, "layout", r.layout.message);
     stage_done("layout", r.layout.brief_report());
