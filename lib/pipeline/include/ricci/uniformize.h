@@ -26,7 +26,7 @@
 //   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
 //                   farthest from the layout's seed), aligned to the layout itself by the fitted
 //                   isometry (align_layouts()): seed_independence_error. Laid out on a second
-//                   thread beside the layout and the stages after it; reported after the angles
+//                   thread beside the stages after the layout; reported after the angles
 //   polygon         closed genus ≥ 2 in H: the compact domain's side pairings (fit_domain_pairings()),
 //                   canonical generators as words in them (canonical_generators(): moves on the
 //                   domain's word, no cut of the mesh) and their geodesic 4g-gon (geodesic_polygon(),
@@ -208,7 +208,8 @@ struct UniformizeOptions {
   LayoutOptions layout;
   /// Extra seed faces whose layouts are compared with the layout itself: the face farthest from
   /// its seed (in steps across edges), then faces spread over the surface (F/2; or 0 … F−1
-  /// evenly). They are laid out on a second thread, beside the layout and the stages after it,
+  /// evenly). They are laid out on a second thread, beside the stages after the layout (polygon,
+  /// deck, angles; started once the layout has passed its accuracy gate),
   /// when two threads are available (FlowOptions::threads 0 or ≥ 2). A check compares positions,
   /// not the edge lengths at the seam where a propagation's front closes (what the refinement
   /// after it mends), so its layouts are refined only above 1e-8: one propagation within 1e-8 of
