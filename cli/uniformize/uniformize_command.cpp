@@ -1501,8 +1501,8 @@ CLI::App* add_uniformize_command(CLI::App& app, UniformizeCommandOptions& o) {
       ->check(number_validator(true, true));
   cmd->add_option("--seed-checks", o.seed_checks,
                   "Layouts from this many other seed faces (the first: the face farthest from the layout's own "
-                  "seed) are aligned to the layout (seed_independence_error), on a second thread beside the stages after "
-                  "the layout. Default: 1.")
+                  "seed) are aligned to the layout (seed_independence_error), once the layout has passed its gate (beside "
+                  "the canonical polygon's stages on a closed hyperbolic surface). Default: 1.")
       ->check(number_validator(false, true));
   cmd->add_option("--cover-depth", o.cover_depth,
                   "Closed genus >= 1: word length of the cover tiling written (cover.svg, cover.obj): in the "

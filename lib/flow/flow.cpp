@@ -110,8 +110,9 @@ using Clock = std::chrono::steady_clock;
 using detail::kParallelMin;
 constexpr double kPi = std::numbers::pi;
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-// Smoothing chord steps (FlowSolver::smooth_step()): each must take the residual's sum to at most
-// this fraction of itself.
+// Smoothing chord steps (FlowSolver::smooth_step()): taken while the step changes some u by more
+// than kSmoothAbove, each at most kSmoothGain of the one before.
+constexpr double kSmoothAbove = 1e-13;
 constexpr double kSmoothGain = 0.5;
 
 constexpr double kArmijo = 1e-4;
@@ -290,8 +291,7 @@ class FlowSolver {
   bool chord_possible() const;
   /// max |K̄ − K| at the rounding level of the angle sums (kPolishUlps ulps of the largest).
   double curvature_rounding() const;
-  double residual_sum(std::span<const double> K, std::span<const double> target);
-  double residual_sum_rounding() const;
+  double step_size();
   // Curvature resolution (see the design notes).
   void update_resolution();
   void resolution_at_u();
@@ -466,11 +466,10 @@ class FlowSolver {
   // Polishing (FlowOptions::polish_steps): a step is kept only when it lowers the maximal error.
   bool polishing_ = false;
   int polish_tried_ = 0, polished_ = 0;
-  // Smoothing (smooth_step()): chord steps after the polishing, kept when they halve the residual's
-  // sum without raising its maximum above the rounding level.
+  // Smoothing (smooth_step()): chord steps after the polishing while they still move u.
   bool smoothing_ = false, smoothing_over_ = false;
   int smoothed_ = 0;
-  double sum_before_smoothing_ = 0;
+  double smooth_first_ = 0, smooth_last_ = 0;  // the largest |δu| of the first and last smoothing steps
   // Chord steps (chord_step()): the last factor reused for a new right-hand side. factor_current_:
   // the factor is of the current pattern's Newton matrix at the last Newton point, unshifted.
   bool chord_ = false, factor_current_ = false;
@@ -1405,6 +1404,14 @@ bool FlowSolver::line_search() {
   // if it lowers the maximal curvature error, and only a few halvings are tried.
   const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
   const double min_step = chord_ ? 1 : rounding_level ? 1.0 / 16 : kMinStep;
+  if (smoothing_) {
+    // A smoothing step only where it still changes u by more than kSmoothAbove, and by at most
+    // kSmoothGain of the last one (beyond that it only moves u by the curvatures' rounding).
+    const double size = step_size();
+    if (!(size > kSmoothAbove) || !(smoothed_ == 0 || size <= kSmoothGain * smooth_last_)) return false;
+    if (smoothed_ == 0) smooth_first_ = size;
+    smooth_last_ = size;
+  }
   // E and H: the energy slope f(s) = (K(u + sδ) − K̄)·δ at s = 0 and its derivative δᵀ(∂K/∂u)δ
   // there, for the one-evaluation estimate of the energy change (see below).
   auto energy_slope = [&](const std::vector<double>& K) {
@@ -1434,10 +1441,8 @@ bool FlowSolver::line_search() {
     // Ranked by the judged error (the plain one unless some vertex resolves less than the tolerance).
     const double trial_judged = resolution ? judged_error(trial_.K, trial_target) : trial_error;
     if (smoothing_) {
-      // Ranked by the residual's sum alone; the energy change is below its rounding here.
-      const double before = std::abs(residual_sum(cur_.K, K_target_)), after = std::abs(residual_sum(trial_.K, trial_target));
-      if (std::isfinite(trial_error) && after <= kSmoothGain * before &&
-          trial_judged <= std::max(judged_, curvature_rounding())) {
+      // Below the rounding level of the energy and the max error: kept when the max error stays there.
+      if (std::isfinite(trial_error) && trial_judged <= std::max(judged_, curvature_rounding())) {
         accept(t, 0);
         return true;
       }
@@ -1724,46 +1729,35 @@ bool FlowSolver::chord_step(double bound) {
   return kept;
 }
 
-// Smoothing. A layout closes up to the metric's curvature summed over the regions its loops
-// enclose, so the residual's smooth part costs what its maximum does not show: at max |K̄ − K| of
-// a few ulps, a residual whose mean is a tenth of that (the last chord steps contract the smooth
-// modes no faster than the rest) adds up over 2·10⁵ vertices to 1.6e-10 of holonomy, and one
-// propagation of genus2-400k then misses its metric by 2.0e-9 where its front closes (2.4e-11
-// with the sum removed). So after the polishing, chord steps — a solve and one evaluation each —
-// go on while the sum of K − K̄ over the condition vertices is above its rounding,
-// residual_sum_rounding() (each vertex's curvature carries about an ulp of its angle sum, at
-// random: √n of them), each kept only when it takes that sum to at most kSmoothGain of itself and
-// leaves the maximum within the rounding level; at most FlowOptions::smooth_steps of them. Only
-// with polishing (FlowOptions::polish_steps > 0), whose callers lay the metric out.
-double FlowSolver::residual_sum(std::span<const double> K, std::span<const double> target) {
-  return sum_(t_.num_vertices, [&](std::int64_t v) { return vc_.condition[v] ? K[v] - target[v] : 0.0; });
-}
-
-double FlowSolver::residual_sum_rounding() const {
-  double largest_target = 0;
-  Index n = 0;
-  for (Index v = 0; v < t_.num_vertices; ++v)
-    if (vc_.condition[v]) {
-      largest_target = std::max(largest_target, std::abs(K_target_[v]));
-      ++n;
-    }
-  return kEps * (4 * kPi + largest_target) * std::sqrt(static_cast<double>(n));
+// Smoothing. A layout closes up to the curvature its loops enclose, so what matters after the
+// polishing is the residual's smooth part, which its maximum does not show: at max |K̄ − K| of a
+// few ulps it can still add up over large regions. The chord step from there changes u by δ =
+// H⁻¹(K̄ − K), which the smooth part amplifies (the small eigenvalues of H), and the lengths by
+// about δ of themselves; so chord steps — a solve and one evaluation each — go on while the
+// largest |δ| is above kSmoothAbove (after the gauge's mean is removed: E's global scale changes
+// no angle), each kept when max |K̄ − K| stays within the rounding level and at most
+// FlowOptions::smooth_steps of them, a step that is not at most kSmoothGain of the last ending
+// them (rounding). genus2-400k (H): after the polish a residual summing to 1.6e-10 over 2·10⁵
+// vertices, one propagation off by 2.0e-9 where its front closes; after one such step 1.1e-11.
+// torus-2M (E): one propagation 8.6e-9 → 3.8e-11. Only with polishing (FlowOptions::polish_steps
+// > 0), whose callers lay the metric out.
+double FlowSolver::step_size() {
+  double largest = 0;
+  for (Index v = 0; v < t_.num_vertices; ++v) largest = std::max(largest, std::abs(step_[v]));
+  return largest;
 }
 
 bool FlowSolver::smooth_step() {
   if (options_.polish_steps <= 0 || smoothing_over_ || smoothed_ >= options_.smooth_steps || !chord_possible() ||
       iteration_ >= options_.max_iterations)
     return false;
-  const double sum = std::abs(residual_sum(cur_.K, K_target_));
-  if (!(sum > residual_sum_rounding())) return false;
-  if (smoothed_ == 0) sum_before_smoothing_ = sum;
   ++iteration_;
   smoothing_ = true;
   const bool kept = chord_step(std::numeric_limits<double>::infinity());
   smoothing_ = false;
   if (!kept) {
     --iteration_;
-    smoothing_over_ = true;  // the first step that does not halve the sum ends the smoothing
+    smoothing_over_ = true;  // the first step not taken ends the smoothing
     return false;
   }
   ++smoothed_;
@@ -1941,9 +1935,10 @@ void FlowSolver::run() {
                            " after the tolerance was met: max |K̄ − K| " + format_double("%.3g", error_before_polish_) +
                            " → " + format_double("%.3g", error_));
       if (smoothed_ > 0)
-        r_.notes.push_back("smoothed by " + std::to_string(smoothed_) +
-                           " chord step(s): the sum of K − K̄ " + format_double("%.3g", sum_before_smoothing_) + " → " +
-                           format_double("%.3g", std::abs(residual_sum(cur_.K, K_target_))));
+        r_.notes.push_back("smoothed by " + std::to_string(smoothed_) + " chord step" + (smoothed_ == 1 ? "" : "s") +
+                           " after the polishing (the residual's smooth part, which layouts integrate): the largest "
+                           "change of u " + format_double("%.3g", smooth_first_) +
+                           (smoothed_ > 1 ? " → " + format_double("%.3g", smooth_last_) : std::string()));
       return;
     }
     if (!std::isfinite(error_)) {

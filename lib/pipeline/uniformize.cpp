@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #if defined(__GLIBC__)
@@ -1417,6 +1418,7 @@ namespace {
 // The stages from `cut` on (layout_stages()), sharing the inputs and the result. Each step returns
 // false once a stage failed (r.status, failed_stage and message set).
 struct SeedCheck;
+struct AnglesBeside;
 
 // The frames of a cut disk (its faces are the cut's surface faces, slot by slot) from those of
 // the surface it was cut from (`surface`, whose faces `topology` holds): each disk face lies in the
@@ -1484,6 +1486,7 @@ struct LayoutRun {
   bool closed_h = false;   // closed genus >= 2 in H: the compact domain and a canonical polygon
   std::vector<Index> cones;  // interior vertices with target K̄ ≠ 0
   SeedCheck* seed_check = nullptr;  // started once the layout passed its gate (options.seed_checks > 0)
+  AnglesBeside* angles = nullptr;   // the angle distortion, made beside a cut that runs on one thread
   CutBeside* cut_beside = nullptr;  // a cut of (mesh, topology) made beside the flow, or null
   // When the disk is that cut's: its central face and the face farthest from it (CutBeside).
   Index known_central = kInvalid, known_farthest = kInvalid;
@@ -1550,11 +1553,12 @@ std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count, In
 // rotation), so only an isometry separates two correct ones; E's unit box is undone by its scale.
 // The first check starts at the face farthest from the layout's seed, where the two propagations
 // share the least (the longest paths, laid out in opposite directions); further checks start at
-// faces spread over the surface. With two threads available the checks run on a second thread,
-// started once the layout has passed its gate (cut_and_lay_out()) and joined after the angles
-// (finish_seed_check()), so they overlap the polygon, deck and angle stages; not the layout
-// itself, whose parallel loops then have both cores (beside it, the check had made the H layout
-// of a 410k-face genus-2 surface 0.16 → 0.37 s).
+// faces spread over the surface. They start once the layout has passed its gate
+// (cut_and_lay_out()), not beside the layout, whose parallel loops then have both cores (beside
+// it, the check had made the H layout of a 410k-face genus-2 surface 0.16 → 0.37 s). Before a
+// canonical polygon (closed H), with two threads available, they run on a second thread beside
+// the polygon and deck stages (serial) and are joined after the angles (finish_seed_check());
+// otherwise they run right away on all threads (nothing serial follows to hide them behind).
 // The check's layouts are refined only above kCheckRefineAbove (UniformizeOptions::seed_checks).
 constexpr double kCheckRefineAbove = 1e-8;
 struct SeedCheck {
@@ -1563,6 +1567,7 @@ struct SeedCheck {
   std::exception_ptr error;
   double seconds = 0;     // the checks' own wall time
   bool beside = false;    // laid out on a second thread
+  std::function<void()> later;  // not beside: the layouts, made when the check is finished
   std::jthread worker;    // last: joined before the layouts it writes are destroyed
 };
 
@@ -1591,16 +1596,39 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
     }
     sc.seconds = since(t0);
   };
-  sc.beside = second_thread(run.options);
+  sc.beside = second_thread(run.options) && run.closed_h && run.cones.empty();
   if (sc.beside) {
-    // One thread of its own: the layout's parallel loops keep both cores' teams to themselves.
+    // One thread of its own, beside the serial polygon and deck stages.
     sc.worker = std::jthread([work] {
       omp_set_num_threads(1);
       work();
     });
   } else {
-    work();
+    sc.later = work;  // on all threads, in finish_seed_check() (its own stage)
   }
+}
+
+// The angle distortion (angle_distortion(): the mesh's angles against the metric's, nothing
+// laid out) on a second thread beside a cut made after the flow, which runs on one thread
+// (cut_compact(), or cut_surface() where it was not made beside the flow), instead of after the
+// layout: genus2-400k's 0.08 s, torus-2M's 0.16 s off the job. Joined at the angles stage.
+struct AnglesBeside {
+  AngleDistortion result;
+  std::exception_ptr error;
+  std::jthread worker;  // last: joined before `result` is destroyed
+};
+
+void start_angles_beside(LayoutRun& run) {
+  if (run.angles == nullptr || run.angles->worker.joinable() || !second_thread(run.options)) return;
+  AnglesBeside& a = *run.angles;
+  a.worker = std::jthread([&a, &run] {
+    omp_set_num_threads(1);
+    try {
+      a.result = angle_distortion(run.mesh, run.topology, run.r.geometry, run.metric_l);
+    } catch (...) {
+      a.error = std::current_exception();
+    }
+  });
 }
 
 // The options of the layout itself: its seed made explicit (the default central face), so that
@@ -1741,7 +1769,10 @@ bool cut_and_lay_out(LayoutRun& run) {
   // With cones every surface but a sphere and a disk takes the compact domain, whose cut passes
   // through them.
   CutResult compact_cut;
-  if (closed_h || bordered_h || !cones.empty()) compact_cut = cut_compact(mesh, topology, metric_l, -1, cones);
+  if (closed_h || bordered_h || !cones.empty()) {
+    start_angles_beside(run);
+    compact_cut = cut_compact(mesh, topology, metric_l, -1, cones);
+  }
   const bool compact = closed_h || (!cones.empty() && compact_cut.status == Status::Ok) ||
                        (bordered_h && compact_cut.status == Status::Ok);
 
@@ -1779,6 +1810,7 @@ bool cut_and_lay_out(LayoutRun& run) {
   } else {
     r.has_cut = true;
     CutResult* beside = run.cut_beside != nullptr ? run.cut_beside->take(mesh, topology) : nullptr;
+    if (beside == nullptr) start_angles_beside(run);
     DiskBuild d = build_disk(mesh, topology, r.geometry, metric_l, options.cut, beside);
     r.cut = std::move(d.cut);
     r.cut_metric = std::move(d.metric);
@@ -1803,6 +1835,7 @@ bool cut_and_lay_out(LayoutRun& run) {
 bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
   UniformizeResult& r = run.r;
   if (sc.worker.joinable()) sc.worker.join();
+  if (sc.later) sc.later();
   if (sc.error) std::rethrow_exception(sc.error);
   // The layout's own positions, back in its isometric frame (E's unit box is a translation and a
   // uniform scale).
@@ -1868,7 +1901,7 @@ bool finish_seed_check(LayoutRun& run, SeedCheck& sc) {
                                            : " on the " + std::to_string(r.seed_check_vertices) + " of " +
                                                  std::to_string(r.disk.num_vertices) + " vertices both resolve") +
                                    ", laid out in " +
-                                   sci(sc.seconds) + " s" + (sc.beside ? " beside the stages after the layout" : ""));
+                                   sci(sc.seconds) + " s" + (sc.beside ? " beside the polygon and deck stages" : ""));
   return true;
 }
 
@@ -2187,6 +2220,8 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   run.cones = cone_vertices(topology, r.target.K);
   SeedCheck seed_check;  // on a second thread until finish_seed_check() (joined on every return)
   if (options.seed_checks > 0) run.seed_check = &seed_check;
+  AnglesBeside angles;  // on a second thread until joined below (and on every return)
+  run.angles = &angles;
   if (!cut_and_lay_out(run)) return;
 
   // ---- the canonical polygon and the deck transformations (closed genus >= 1) ----
@@ -2212,7 +2247,13 @@ void layout_stages(const Mesh& mesh, const Topology& topology, const UniformizeO
   }
 
   // ---- angle distortion ----
-  r.angles = angle_distortion(mesh, topology, r.geometry, metric_l);
+  if (angles.worker.joinable()) {
+    angles.worker.join();
+    if (angles.error) std::rethrow_exception(angles.error);
+    r.angles = std::move(angles.result);
+  } else {
+    r.angles = angle_distortion(mesh, topology, r.geometry, metric_l);
+  }
   stage_done("angles", "mean |log ratio| " + sci(r.angles.mean_abs_log) + ", max " + sci(r.angles.max_abs_log));
   if (run.seed_check != nullptr && !finish_seed_check(run, seed_check)) return;
 

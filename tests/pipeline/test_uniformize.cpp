@@ -615,7 +615,7 @@ TEST_CASE("uniformize: a metric that is not flat fails the edge gate, and withou
   const UniformizeResult one = lay_out_metric(lr.validated.mesh, t, Geometry::Euclidean, l, o);
   REQUIRE(one.status == Status::Ok);
   CHECK(one.seed_independence_error > 1e-4);
-  // The check on a second thread, beside the stages after the layout: the same numbers.
+  // On two threads (the check's layouts on both): the same numbers.
   o.flow.threads = 2;
   const UniformizeResult two = lay_out_metric(lr.validated.mesh, t, Geometry::Euclidean, l, o);
   REQUIRE(two.status == Status::Ok);

@@ -200,12 +200,12 @@ struct FlowOptions {
   /// solve's symbolic analysis, are counted in `iterations` and `history`, and a note reports them.
   int polish_steps = 0;
   /// Newton with polishing (polish_steps > 0): after it, up to this many chord steps (the last
-  /// factor, a solve and one evaluation each) while the sum of K − K̄ over the condition vertices
-  /// exceeds its rounding, ε (4π + max |K̄|) √n, each kept only when it at least halves that sum
-  /// and leaves max |K̄ − K| within the rounding level. A layout closes up to the curvature its
-  /// loops enclose: at a max error of a few ulps the smooth part of the residual can still add up
-  /// (genus2-400k: a sum of 1.6e-10, one propagation off by 2.0e-9 where its front closes; one
-  /// such step: 3.8e-14 and 1.1e-11). Counted in `iterations` and `history`; a note reports them.
+  /// factor, a solve and one evaluation each) while the step still changes some u by more than
+  /// 1e-13 (after the gauge's mean), each at most half the one before and kept when max |K̄ − K|
+  /// stays within the rounding level. A layout closes up to the curvature its loops enclose, and
+  /// at a max error of a few ulps the residual's smooth part can still add up over large regions
+  /// (genus2-400k: a residual summing to 1.6e-10, one propagation off by 2.0e-9 where its front
+  /// closes; after one such step 1.1e-11). Counted in `iterations` and `history`; a note reports them.
   int smooth_steps = 3;
   /// Newton: reuse the last factor for chord steps where they reach what a new factor would for
   /// less (FlowResult::chord_steps); off: every step factorizes anew.

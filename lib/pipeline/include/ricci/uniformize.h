@@ -10,7 +10,8 @@
 //                   check_target() before any iteration
 //   flow            solve_flow() (Newton by default) to FlowOptions::tolerance, then (polish) up
 //                   to two more Newton steps kept only when they lower max |K̄ − K|
-//                   (FlowOptions::polish_steps, within the same solve). The default scheme is
+//                   (FlowOptions::polish_steps, within the same solve) and up to three chord
+//                   steps for the residual's smooth part (FlowOptions::smooth_steps). The default scheme is
 //                   vertex scaling with intrinsic Delaunay flips (below)
 //   straighten      flips only: the solution carried back to the input (below)
 //   cut             closed genus ≥ 2 in H: cut_compact(), a compact fundamental domain; otherwise
@@ -25,8 +26,10 @@
 //                   LayoutOptions::keep_unresolved, for the charts to lay out)
 //   seed_check      the layout again from `seed_checks` other seed faces (the first: the face
 //                   farthest from the layout's seed), aligned to the layout itself by the fitted
-//                   isometry (align_layouts()): seed_independence_error. Laid out on a second
-//                   thread beside the stages after the layout; reported after the angles
+//                   isometry (align_layouts()): seed_independence_error. Laid out once the
+//                   layout has passed its gate: before a canonical polygon (closed H) on a second
+//                   thread beside the polygon and deck stages, otherwise on all threads after the
+//                   angles; reported after the angles
 //   polygon         closed genus ≥ 2 in H: the compact domain's side pairings (fit_domain_pairings()),
 //                   canonical generators as words in them (canonical_generators(): moves on the
 //                   domain's word, no cut of the mesh) and their geodesic 4g-gon (geodesic_polygon(),
@@ -39,7 +42,9 @@
 //                   mesh-path polygon lies beyond double range and only its view is missing
 //                   (has_deck, not has_polygon); when no canonical generators exist at all, the
 //                   pairings alone (fit_domain_pairings())
-//   angles          corner angles of the input against those of the metric (angle_distortion)
+//   angles          corner angles of the input against those of the metric (angle_distortion);
+//                   on a second thread beside a cut that runs on one thread (the compact domain,
+//                   or cut_surface() after the flow), joined here
 //
 // Vertex scaling with intrinsic Delaunay flips (the default: Scheme::Yamabe with
 // intrinsic_flips). The mesh's metric is flipped to its intrinsic Delaunay triangulation
@@ -208,9 +213,10 @@ struct UniformizeOptions {
   LayoutOptions layout;
   /// Extra seed faces whose layouts are compared with the layout itself: the face farthest from
   /// its seed (in steps across edges), then faces spread over the surface (F/2; or 0 … F−1
-  /// evenly). They are laid out on a second thread, beside the stages after the layout (polygon,
-  /// deck, angles; started once the layout has passed its accuracy gate),
-  /// when two threads are available (FlowOptions::threads 0 or ≥ 2). A check compares positions,
+  /// evenly). They are laid out once the layout has passed its accuracy gate: on a second thread
+  /// beside the polygon and deck stages of a closed hyperbolic surface when two threads are
+  /// available (FlowOptions::threads 0 or ≥ 2), otherwise on all threads after the angle
+  /// distortion (the layout's own loops keep both cores). A check compares positions,
   /// not the edge lengths at the seam where a propagation's front closes (what the refinement
   /// after it mends), so its layouts are refined only above 1e-8: one propagation within 1e-8 of
   /// its metric places every vertex within about 1e-10 of a refined layout (tools/BENCHMARK-perf-notes.md).
