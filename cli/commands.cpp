@@ -317,23 +317,6 @@ std::optional<ricci::Repair> mollification_repair(const ricci::Mollification& m)
   return rep;
 }
 
-std::vector<ricci::Index> infeasible_ears(const ricci::Topology& topo, const ricci::Target& target) {
-  std::vector<ricci::Index> out;
-  if (target.K.size() != static_cast<std::size_t>(topo.num_vertices)) return out;
-  // As in flow.h: Circle and LoopTotals targets derive boundary K̄ from the loop totals.
-  const bool derived = target.boundary == ricci::BoundaryMode::Circle || target.boundary == ricci::BoundaryMode::LoopTotals;
-  if (derived && target.loop_total.size() != static_cast<std::size_t>(topo.num_boundary_loops())) return out;
-  for (ricci::Index i = 0; i < topo.num_boundary_loops(); ++i) {
-    for (ricci::Index j = topo.boundary_offsets[i]; j < topo.boundary_offsets[i + 1]; ++j) {
-      const ricci::Index v = topo.boundary_vertices[j];
-      if (topo.valence(v) != 1 || (!target.fixed_u.empty() && target.fixed_u[v] != 0)) continue;
-      if (derived ? target.loop_total[i] <= 0 : target.K[v] <= 0) out.push_back(v);
-    }
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::BoundaryMode mode,
                                const TargetSpec& target_spec, const BoundarySpec& boundary_spec,
                                const std::string& target_text, const std::string& boundary_text) {
@@ -341,7 +324,7 @@ EarSplit split_infeasible_ears(ricci::ValidateResult& validated, ricci::Boundary
   if (validated.topology.is_closed() || ricci::find_ears(validated.topology).empty()) return out;
   const TargetBuild tb = build_target(validated.topology, mode, target_spec, boundary_spec, target_text, boundary_text);
   if (tb.status != Status::Ok) return out;
-  const std::vector<ricci::Index> ears = infeasible_ears(validated.topology, tb.target);
+  const std::vector<ricci::Index> ears = ricci::infeasible_ears(validated.topology, tb.target);
   const std::size_t before = validated.repairs.size();
   std::string why;
   out.status = ricci::split_ears(validated, ears, &why);

@@ -73,14 +73,9 @@ TargetBuild build_target(const ricci::Topology& topo, ricci::BoundaryMode mode, 
                          const BoundarySpec& boundary_spec, const std::string& target_text,
                          const std::string& boundary_text);
 
-/// The ears (ricci::find_ears) that `target` makes infeasible: ears without a fixed u whose target
-/// curvature is ≤ 0 — for Circle and LoopTotals targets, whose boundary values are spread from the
-/// loop total, those on a loop with a total ≤ 0 (the inner loops of a circle domain); otherwise
-/// those with K̄ ≤ 0 (a geodesic boundary). These are exactly the ears check_target() rejects.
-std::vector<ricci::Index> infeasible_ears(const ricci::Topology& topo, const ricci::Target& target);
-
 /// The default of `flow` and `uniformize` (off with --no-split-ears): builds the target for `mode`
-/// on the validated mesh and splits (ricci::split_ears) the ears it makes infeasible, updating
+/// on the validated mesh and splits (ricci::split_ears) the ears it makes infeasible
+/// (ricci::infeasible_ears), updating
 /// `validated` in place (mesh, topology, vertex maps, repairs). The target must then be built
 /// again on the new topology; the boundary, χ and every vertex index are unchanged. Returns the
 /// repair when something was split. A target that cannot be built splits nothing (building it

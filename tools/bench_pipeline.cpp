@@ -875,7 +875,8 @@ int main(int argc, char** argv) {
          "the cotangent Laplacian (one vertex pinned) with the flow's own solver and pattern (CHOLMOD supernodal "
          "LLᵀ; AMD, or METIS where AMD's factor costs more than 6000 flops per unknown and METIS's fewer); *flow s* is the whole Newton solve to the tolerance (setup and symbolic "
          "analysis included, from the call to the first iterate below 1e-10), *+ polish* the steps `uniformize()` "
-         "adds after it (kept only when they lower the error; the stage table's *flow* has both); *flow/ref* and "
+         "adds after it (polishing steps kept only when they lower the error, then chord steps for the residual's "
+         "smooth part while they still move u by more than 1e-13; the stage table's *flow* has both); *flow/ref* and "
          "*it/ref* are the solve and one mean Newton iteration (kernels + assembly + factorization + solve + line "
          "search; the full steps, chord steps — the last factor reused, counted as *k chord* — left out) over ref. "
          "Each input runs in its own process; peaks are VmHWM per stage.\n\n";

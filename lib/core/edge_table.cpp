@@ -124,7 +124,7 @@ std::int64_t count_inconsistent_edges(std::span<const Index> faces, const EdgeTa
   return n;
 }
 
-TriangleShape triangle_shape(const double* p, const double* q, const double* r) {
+TriangleShape triangle_shape(const double* p, const double* q, const double* r, bool with_angles) {
   TriangleShape s;
   double u[3], v[3], w[3];  // u = q - p, v = r - p, w = r - q
   double scale = 0;
@@ -150,6 +150,7 @@ TriangleShape triangle_shape(const double* p, const double* q, const double* r) 
   const double twice_area = cross_norm(u, v);
   const double longest2 = std::max({dot(u, u), dot(v, v), dot(w, w)});
   s.area_ratio = twice_area / longest2;
+  if (!with_angles) return s;
   // Angles: at p between u and v; at q between -u and w; at r between -v and -w.
   // |a × b| is the same 2·area for every pair, so only the dot products differ.
   s.angles[0] = std::atan2(twice_area, dot(u, v));

@@ -65,7 +65,8 @@ struct TriangleShape {
   double area_ratio = 0;    ///< 2·area / (longest edge)², in [0, √3/2]; 0 when all points coincide
   double angles[3] = {0, 0, 0};  ///< interior angles at p, q, r (atan2 of |cross| and dot)
 };
-TriangleShape triangle_shape(const double* p, const double* q, const double* r);
+/// Without `with_angles` the angles stay 0 (what is_degenerate() reads costs no arctangent).
+TriangleShape triangle_shape(const double* p, const double* q, const double* r, bool with_angles = true);
 
 /// A triangle is degenerate when 2·area ≤ tolerance · longest², or it is not finite.
 inline bool is_degenerate(const TriangleShape& s, double tolerance) {

@@ -200,6 +200,24 @@ BoundaryMode natural_boundary_mode(const Topology& t, Geometry geometry) {
   return geometry == Geometry::Euclidean ? BoundaryMode::Circle : BoundaryMode::Geodesic;
 }
 
+std::vector<Index> infeasible_ears(const Topology& t, const Target& target) {
+  std::vector<Index> out;
+  if (target.K.size() != static_cast<std::size_t>(t.num_vertices)) return out;
+  // As in flow.h: Circle and LoopTotals targets derive boundary K̄ from the loop totals.
+  const bool derived = target.boundary == BoundaryMode::Circle || target.boundary == BoundaryMode::LoopTotals;
+  if (derived && target.loop_total.size() != static_cast<std::size_t>(t.num_boundary_loops())) return out;
+  const bool held = target.fixed_u.size() == static_cast<std::size_t>(t.num_vertices);
+  for (Index i = 0; i < t.num_boundary_loops(); ++i) {
+    for (Index j = t.boundary_offsets[i]; j < t.boundary_offsets[i + 1]; ++j) {
+      const Index v = t.boundary_vertices[j];
+      if (t.valence(v) != 1 || (held && target.fixed_u[v] != 0)) continue;
+      if (derived ? target.loop_total[i] <= 0 : target.K[v] <= 0) out.push_back(v);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Target files.
 

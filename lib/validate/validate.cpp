@@ -48,9 +48,10 @@ ValidateResult fail(Status status, Element element, std::int64_t index, std::str
 
 const double* position(const Mesh& m, Index v) { return &m.positions[3 * static_cast<std::size_t>(v)]; }
 
+// The face's area ratio (no angles: the zero-area check reads nothing else).
 detail::TriangleShape shape_of(const Mesh& m, std::span<const Index> faces, Index f) {
   return detail::triangle_shape(position(m, faces[3 * f]), position(m, faces[3 * f + 1]),
-                                position(m, faces[3 * f + 2]));
+                                position(m, faces[3 * f + 2]), false);
 }
 
 // Signed volume enclosed by the faces (with the given flips) after capping every boundary loop

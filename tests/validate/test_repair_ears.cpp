@@ -152,6 +152,40 @@ TEST_CASE("repair ears: without the split an inner-loop ear makes the circle tar
   CHECK(check.message.find("single triangle") != std::string::npos);
 }
 
+TEST_CASE("repair ears: infeasible_ears lists exactly the ears a target's check rejects") {
+  Index ear = kInvalid;
+  const Mesh m = annulus_with_ear(&ear);
+  const ValidateResult v = validate_mesh(m);
+  REQUIRE(v.status == Status::Ok);
+  const Topology& t = v.topology;
+  const Target circle = circle_target(t, outer_vertex(m));
+  // Circle: the ear lies on the inner loop (total −2π); on the outer loop (+2π) it would be feasible.
+  CHECK(infeasible_ears(t, circle) == std::vector<Index>{ear});
+  Target swapped = circle;
+  for (double& total : swapped.loop_total) total = -total;
+  CHECK(infeasible_ears(t, swapped).empty());
+  // Free boundary: K̄ per vertex, the ear's own value decides.
+  Target free = uniform_target(t, BoundaryMode::Free);
+  free.K[ear] = 0.5;
+  CHECK(infeasible_ears(t, free).empty());
+  free.K[ear] = 0;
+  CHECK(infeasible_ears(t, free) == std::vector<Index>{ear});
+  // A held u asks no curvature; targets of the wrong size list nothing.
+  free.fixed_u.assign(static_cast<std::size_t>(t.num_vertices), 0);
+  free.fixed_u[ear] = 1;
+  CHECK(infeasible_ears(t, free).empty());
+  Target short_target = circle;
+  short_target.K.pop_back();
+  CHECK(infeasible_ears(t, short_target).empty());
+  // What the check says agrees: infeasible with the ear, feasible once it is split.
+  const InitialMetric im = initial_metric(v.mesh, t);
+  REQUIRE(im.status == Status::Ok);
+  CHECK(check_target(t, im.structure, circle).status == Status::InfeasibleTarget);
+  ValidateResult split = v;
+  REQUIRE(split_ears(split, infeasible_ears(t, circle)) == Status::Ok);
+  CHECK(infeasible_ears(split.topology, circle_target(split.topology, outer_vertex(split.mesh))).empty());
+}
+
 TEST_CASE("repair ears: the split keeps χ, loops, orientation and input vertices, and the flow then converges") {
   Index ear = kInvalid;
   const Mesh m = annulus_with_ear(&ear);

@@ -65,6 +65,14 @@ Geometry natural_geometry(const Topology& topology);
 /// The natural boundary mode for the geometry: none (closed), Circle in E, Geodesic in H.
 BoundaryMode natural_boundary_mode(const Topology& topology, Geometry geometry);
 
+/// The ears (boundary vertices in a single triangle, validate.h find_ears()) that `target` makes
+/// infeasible: ears without a fixed u whose target curvature is ≤ 0 — for Circle and LoopTotals
+/// targets, whose boundary values are spread from the loop total, those on a loop with a total
+/// ≤ 0 (the inner loops of a circle domain); otherwise those with K̄ ≤ 0 (a geodesic boundary).
+/// An ear's angle is one triangle's, so its curvature is positive: these are exactly the ears
+/// check_target() rejects, and split_ears() mends them. Sorted; empty when the sizes do not match.
+std::vector<Index> infeasible_ears(const Topology& topology, const Target& target);
+
 struct TargetFileResult {
   Status status = Status::NotRun;  ///< Ok, FileNotFound, FileUnreadable, FileTooLarge, ParseError, IndexOutOfRange
   std::string message = "not run";
