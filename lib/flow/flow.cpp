@@ -1385,6 +1385,14 @@ bool FlowSolver::compute_direction() {
 }
 
 bool FlowSolver::line_search() {
+  if (smoothing_) {
+    // A smoothing step only where it still changes u by more than kSmoothAbove, and by at most
+    // kSmoothGain of the last one (beyond that it only moves u by the curvatures' rounding).
+    const double size = step_size();
+    if (!(size > kSmoothAbove) || !(smoothed_ == 0 || size <= kSmoothGain * smooth_last_)) return false;
+    if (smoothed_ == 0) smooth_first_ = size;
+    smooth_last_ = size;
+  }
   const Index nv = t_.num_vertices;
   const Index n = pattern_.num_unknowns;
   const bool spherical = residual_merit_;
@@ -1404,14 +1412,6 @@ bool FlowSolver::line_search() {
   // if it lowers the maximal curvature error, and only a few halvings are tried.
   const bool rounding_level = spherical ? merit0 <= noise : std::abs(slope_) <= noise;
   const double min_step = chord_ ? 1 : rounding_level ? 1.0 / 16 : kMinStep;
-  if (smoothing_) {
-    // A smoothing step only where it still changes u by more than kSmoothAbove, and by at most
-    // kSmoothGain of the last one (beyond that it only moves u by the curvatures' rounding).
-    const double size = step_size();
-    if (!(size > kSmoothAbove) || !(smoothed_ == 0 || size <= kSmoothGain * smooth_last_)) return false;
-    if (smoothed_ == 0) smooth_first_ = size;
-    smooth_last_ = size;
-  }
   // E and H: the energy slope f(s) = (K(u + sδ) − K̄)·δ at s = 0 and its derivative δᵀ(∂K/∂u)δ
   // there, for the one-evaluation estimate of the energy change (see below).
   auto energy_slope = [&](const std::vector<double>& K) {
@@ -1739,7 +1739,7 @@ bool FlowSolver::chord_step(double bound) {
 // FlowOptions::smooth_steps of them, a step that is not at most kSmoothGain of the last ending
 // them (rounding). genus2-400k (H): after the polish a residual summing to 1.6e-10 over 2·10⁵
 // vertices, one propagation off by 2.0e-9 where its front closes; after one such step 1.1e-11.
-// torus-2M (E): one propagation 8.6e-9 → 3.8e-11. Only with polishing (FlowOptions::polish_steps
+// torus-2M (E), two steps: one propagation 8.6e-9 → 6.3e-11. Only with polishing (FlowOptions::polish_steps
 // > 0), whose callers lay the metric out.
 double FlowSolver::step_size() {
   double largest = 0;

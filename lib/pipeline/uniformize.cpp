@@ -132,8 +132,8 @@ struct DiskBuild {
 };
 
 // True when the run has a second thread for work beside its own (FlowOptions::threads 0 or ≥ 2,
-// at most available_threads()): the cut beside the flow, the seed check beside the stages after
-// the layout.
+// at most available_threads()): the cut beside the flow, the angle distortion beside a cut made
+// after it, the seed check beside the canonical polygon's stages.
 bool second_thread(const UniformizeOptions& options) {
   const int t = options.flow.threads;
   return (t > 0 ? std::min(t, available_threads()) : available_threads()) >= 2;
@@ -1610,8 +1610,9 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
 
 // The angle distortion (angle_distortion(): the mesh's angles against the metric's, nothing
 // laid out) on a second thread beside a cut made after the flow, which runs on one thread
-// (cut_compact(), or cut_surface() where it was not made beside the flow), instead of after the
-// layout: genus2-400k's 0.08 s, torus-2M's 0.16 s off the job. Joined at the angles stage.
+// (cut_compact(), or cut_surface() where it was not made beside the flow; for a disk, whose cut
+// is nothing, that means beside its layout), instead of after the layout: genus2-400k's 0.08 s,
+// torus-2M's 0.16 s off the job. Joined at the angles stage.
 struct AnglesBeside {
   AngleDistortion result;
   std::exception_ptr error;
