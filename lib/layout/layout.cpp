@@ -1708,13 +1708,25 @@ class Propagation {
 
 // ---- refining the propagation's layout -------------------------------------------------------
 
+/// A refinement's result is kept only when neither its max error nor its max error above the
+/// edges' rounding floors rose. Where coordinates cannot resolve some edges (a region that the
+/// conformal factor shrinks below what doubles hold far from the origin), the max error is their
+/// rounding: lowering it by bending the faces the coordinates do resolve is no gain (random draw
+/// 73, a circle domain spanning 1e21: patches developed from the needles' own lengths lowered it
+/// from 6.6e18 to 2.1e15 while the error above rounding rose from 0.04 to 2e15, and the atlas's
+/// charts then missed their collars by 5.4e3 of an edge).
+bool not_worse(const Layout& after, const Layout& before) {
+  return after.max_edge_length_error <= before.max_edge_length_error &&
+         after.max_error_above_rounding <= before.max_error_above_rounding;
+}
+
 /// Gauss–Seidel sweeps (detail::polish_by_sweeps) in rounds of 1, 2, 4, … (at most `budget` in
 /// all), measured after each round, while the layout is above `refine_above` over its floors;
 /// once started, they go on below it while a round still halves the error above the floor
-/// (cheap, and a layout nearer its floor gives the deck group more digits). A round that raises
-/// the max error is undone and ends the sweeps. Each round sweeps only the vertices near its
+/// (cheap, and a layout nearer its floor gives the deck group more digits). A round that is not
+/// not_worse() is undone and ends the sweeps. Each round sweeps only the vertices near its
 /// large errors (kSweepShare, kSweepRings) until one of them lowers the largest error above the
-/// floor by less than a quarter or raises the largest error (undone) (kLocalGain); the rounds
+/// floor by less than a quarter or is undone (kLocalGain); the rounds
 /// after it sweep every vertex, unless `local_only` (then the sweeps end there). `now` and
 /// `edge_errors` describe the positions on return. Returns the sweeps kept.
 int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, double refine_above, int budget,
@@ -1744,7 +1756,7 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
     if (local) detail::polish_by_sweeps(t, g, l, x, n, only);
     else detail::polish_by_sweeps(t, g, l, x, n, all_order);
     remeasure_edges(t, g, l, P, only, edge_errors, now);
-    if (!(now.max_edge_length_error <= before.max_edge_length_error)) {
+    if (!not_worse(now, before)) {
       x.swap(kept);
       now = before;
       if (!local) break;
@@ -1760,7 +1772,7 @@ int sweep_in_rounds(const Topology& t, Geometry g, std::span<const double> l, do
 }
 
 /// Divide and conquer (lay_out_patches(), lay_out_sphere_patches()) from the positions of P with
-/// `count` patches, kept when not less accurate than `now` (then `now`, `edge_errors` and the
+/// `count` patches, kept when not_worse() than `now` (then `now`, `edge_errors` and the
 /// patch figures of `out` describe it). True when kept.
 bool refine_by_patches(const Topology& t, Geometry g, std::span<const double> l, Index seed, int count, Positions& P,
                        Layout& now, EdgeErrors& edge_errors, Layout& out) {
@@ -1771,8 +1783,7 @@ bool refine_by_patches(const Topology& t, Geometry g, std::span<const double> l,
   const bool laid = g == Geometry::Spherical ? lay_out_sphere_patches(t, l, seed, count, x, trial)
                                              : lay_out_patches(t, g, l, seed, count, x, trial);
   if (laid) measure_edges(t, g, l, P, after, &after_edges);
-  if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) &&
-      after.max_edge_length_error <= now.max_edge_length_error) {
+  if (trial.patches > 0 && std::isfinite(after.max_edge_length_error) && not_worse(after, now)) {
     out.patches = trial.patches;
     out.patch_fit_iterations = trial.patch_fit_iterations;
     out.patch_seam_error = trial.patch_seam_error;
@@ -1789,9 +1800,9 @@ bool refine_by_patches(const Topology& t, Geometry g, std::span<const double> l,
 /// `edge_errors`, kept up to date until the sweeps end): with the automatic patch count, first
 /// the sweeps near the largest errors (at most kSweepsBeforePatches; sweep_in_rounds()); then,
 /// still above it, the divide and conquer (E, H, S; automatic patch count, or always with an
-/// explicit count ≥ 2; kept when not less accurate; refine_by_patches()); in E, the layout from
+/// explicit count ≥ 2; kept when not_worse(); refine_by_patches()); in E, the layout from
 /// the triangles' shapes where the error is above kShapeLayoutAbove (needle triangles placed from
-/// short bases can grow an error geometrically along a chain), kept when closer; the Gauss–Seidel
+/// short bases can grow an error geometrically along a chain), kept when closer and not_worse(); the Gauss–Seidel
 /// sweeps (E, H, S; sweep_in_rounds()); global Gauss–Newton steps (E, H, S; layout_polish.h).
 /// A layout that one propagation makes accurate (most meshes up to ~10⁵ faces) is left as it
 /// is. E then goes back to its rigid frame (seed corner 0 at the origin, corner 1 on +x) when
@@ -1824,7 +1835,7 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
       Layout shaped;
       EdgeErrors shaped_edges;
       measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
-      if (shaped.max_edge_length_error < now.max_edge_length_error) {
+      if (shaped.max_edge_length_error < now.max_edge_length_error && not_worse(shaped, now)) {
         x.swap(trial);
         out.shape_solve = true;
         now = shaped;

@@ -7,12 +7,14 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <cmath>
 #include <string>
 #include <vector>
 
+#include "ricci/flow.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
@@ -53,6 +55,24 @@ ValidateResult sweep_draw(std::uint64_t seed, ricci_shapes::RandomSurface* surfa
   ValidateResult v = validate_mesh(s.mesh, vo);
   REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
   if (surface != nullptr) *surface = std::move(s);
+  return v;
+}
+
+// The draw as the sweep and the CLI validate it now: only the ears the default target makes
+// infeasible split (infeasible_ears()).
+ValidateResult sweep_draw_as_cli(std::uint64_t seed) {
+  std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
+  const double t = ricci_shapes::unit_double(size_rng);
+  const auto target = static_cast<Index>(std::lround(1000 * std::pow(50.0, t)));
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, target);
+  ValidateResult v = validate_mesh(s.mesh);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  if (!v.topology.is_closed()) {
+    const BoundaryMode mode = natural_boundary_mode(v.topology, natural_geometry(v.topology));
+    const std::vector<Index> ears = infeasible_ears(v.topology, uniform_target(v.topology, mode));
+    std::string why;
+    if (!ears.empty()) REQUIRE_MESSAGE(split_ears(v, ears, &why) == Status::Ok, why);
+  }
   return v;
 }
 
@@ -653,6 +673,39 @@ TEST_CASE("uniformize: a circle domain whose triangles lean over its boundary ma
   // random draw 73 with a fixed boundary).
   CHECK(fixed.intrinsic.doubled);
   CHECK(fixed.flow.max_curvature_error < 1e-11);
+}
+
+// tools/random_surface_sweep's draw 73: a genus-0 surface of 1734 faces with 5 boundary loops,
+// stretched 77:1, whose circle domain (solved once its leaning boundary edges are split) spans
+// about 1e21 in scale. One chart's coordinates cannot resolve it, and its max edge error is their
+// rounding far out; the layout's refinement (patches, sweeps, the shape solve) may not lower that
+// number by bending the faces the coordinates do resolve (patches developed from the needles' own
+// lengths had lowered it from 6.6e18 to 2.1e15 while the error above rounding rose from 0.04 to
+// 2e15: the atlas's first chart then missed its collar by 5.4e3 of an edge and the run stopped).
+TEST_CASE("uniformize: a layout's refinement never trades the faces its coordinates resolve for the rounding of those they cannot") {
+  const ValidateResult v = sweep_draw_as_cli(73);
+  REQUIRE(v.topology.genus() == 0);
+  REQUIRE(v.topology.num_boundary_loops() == 5);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.brief_report() << "; " << r.atlas.message);
+  CHECK(r.layout.by_frames);
+  CHECK(r.layout.rounding_floor > 1e6);  // one chart cannot hold it
+  REQUIRE(r.has_atlas);
+  CHECK(r.atlas.flipped_faces == 0);
+  CHECK(r.atlas.unresolvable_faces * 20 < r.disk.num_faces);
+  CHECK(r.atlas.max_transition_error <= o.atlas.max_transition_error);
+  // The same layout without any refinement: the refined one is above rounding by no more.
+  UniformizeOptions raw = o;
+  raw.layout.refine_above = std::numeric_limits<double>::max();
+  const UniformizeResult u = uniformize(v.mesh, v.topology, raw);
+  REQUIRE_MESSAGE(u.status == Status::Ok, u.message);
+  CHECK(u.layout.patches == 0);
+  CHECK(u.layout.polish_sweeps == 0);
+  CHECK(r.layout.max_error_above_rounding <= u.layout.max_error_above_rounding);
+  CHECK(r.layout.max_edge_length_error <= u.layout.max_edge_length_error);
 }
 
 // tools/random_surface_sweep's seed 21: a closed genus-9 surface of 1770 faces, stretched 17:1,

@@ -201,7 +201,8 @@ struct LayoutOptions {
   /// and only when the layout is still above refine_above after up to 7 sweeps near its largest
   /// errors (the first rounds of polish_sweeps, counted there; where the propagation misses only
   /// along a few seams they reach it for a fraction of the patches' cost). The result is kept only
-  /// when not less accurate than the positions it starts from. k ≥ 2 always tries them, on the
+  /// when neither its max error nor its max error above rounding (Layout::max_error_above_rounding)
+  /// exceeds that of the positions it starts from. k ≥ 2 always tries them, on the
   /// propagation itself. At most 256.
   int patches = -1;
   /// A vertex whose position leaves the range of double precision (E: not finite; H: at or
@@ -272,7 +273,8 @@ struct Layout {
   /// H with normalize: normalising disk maps applied (until the frame moves < 1e-6): to the
   /// propagation's double-double positions, or by frames the development run again in the map.
   int propagation_passes = 0;
-  /// Gauss–Seidel sweeps kept (LayoutOptions::polish_sweeps; a round that raises the max error is undone).
+  /// Gauss–Seidel sweeps kept (LayoutOptions::polish_sweeps; a round that raises the max error, or the
+  /// max error above rounding, is undone).
   int polish_sweeps = 0;
   /// E, H and S: global Gauss–Newton steps kept (LayoutOptions::polish_steps).
   int polish_steps = 0;
