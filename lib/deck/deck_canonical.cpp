@@ -841,8 +841,10 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   out.working.residual_max = pairing_residual;
   out.working.relation_error = r.relation_error;
   out.working_frame = generator_from(C, "frame");
-  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error))
+  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error)) {
+    out.beyond_quad = true;
     return bad(Status::NumericalFailure, "canonical generators: the relation is not finite.");
+  }
   out.moves = best->moves;
   out.handle_moves = best->handle_moves;
   r.status = Status::Ok;
@@ -1272,6 +1274,7 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
   // 113 bits resolve in the disk.
   auto in_disk = [](const CQ& q) { return !detail::qisnan(q.norm()) && q.norm() < 1; };
   auto beyond = [&](const std::string& what) {
+    out.beyond_quad = true;
     return bad(Status::NumericalFailure, "the geodesic polygon's " + what + " lies beyond what 113 bits resolve in the disk.");
   };
   for (std::size_t k = 0; k < n; ++k)

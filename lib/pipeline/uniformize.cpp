@@ -1941,9 +1941,10 @@ GeodesicPolygon geodesic_in_frame_of(const DeckResult& deck) {
 // the polygon is a fundamental domain (simple, angle sum 2π) and the relation holds to 1e-12.
 // Otherwise polygon_note says why and the caller tries the mesh path (Fallback), unless the
 // domain's pairings themselves failed (PairingsFailed: the mesh path needs the same pairings) or
-// the polygon is simple and misses 1e-12 only by what quad generators resolve at its reach
-// (BeyondQuad: the domain's pairings stand as the deck group; the mesh path's generators are
-// products of the same quad pairings, and its view needs a reach double coordinates resolve).
+// quad cannot hold the polygon: it is simple and misses 1e-12 only by what quad generators
+// resolve at its reach, or its generators or corners lie beyond quad's range (BeyondQuad: the
+// domain's pairings stand as the deck group; the mesh path's generators are products of the same
+// quad pairings, and its view needs a reach double coordinates resolve).
 enum class GeodesicOutcome { Done, Fallback, PairingsFailed, BeyondQuad };
 
 GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_failure) {
@@ -1953,27 +1954,40 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
     pairings_failure = std::move(dd);
     return GeodesicOutcome::PairingsFailed;
   }
+  // The domain's pairings stand as the deck group, and no mesh path is tried.
+  auto keep_pairings = [&](const std::string& note) {
+    r.polygon_note = note + "; the deck group is given by the compact domain's side pairings";
+    take_domain(r, dd);
+    r.deck = DeckResult{};
+    run.stage_done("polygon", r.polygon_note);
+    run.stage_done("deck", pairings_line(r));
+    return GeodesicOutcome::BeyondQuad;
+  };
   CanonicalGenerators cg = canonical_generators(r.cut, dd.side_maps, dd.fitted_side_maps);
+  if (cg.status != Status::Ok && cg.beyond_quad)
+    return keep_pairings("no canonical polygon: the canonical generators found reach beyond quad (113-bit) range (" +
+                         cg.message + ")");
   if (cg.status != Status::Ok) {
     r.polygon_note = "no geodesic polygon (" + cg.message + ")";
     return GeodesicOutcome::Fallback;
   }
   GeodesicPolygon gp = geodesic_polygon(cg);
   const bool fundamental = gp.status == Status::Ok && gp.fundamental;
+  // Generators that quad resolves only so far: the mesh path's polygon is a canonical cut laid
+  // out in double, which resolves less; on the random surfaces of tools/SWEEP-random-surfaces.md
+  // that failed here (draws 9, 21, 126, 150, 154), it never gave a view, and it cost 1.8–60 s, up
+  // to 200 times the flow (its cuts of a common subdivision of 487k faces).
+  if (gp.status != Status::Ok && gp.beyond_quad)
+    return keep_pairings("no canonical polygon: " + gp.message.substr(0, gp.message.size() - 1) +
+                         " (generators in quad (113-bit) arithmetic)");
   if (gp.status == Status::Ok && gp.at_quad_floor) {
-    char buf[520];
+    char buf[420];
     std::snprintf(buf, sizeof buf,
                   "no canonical polygon: the geodesic %d-gon of the canonical generators found is simple but reaches "
                   "%.1f from its centre, where generators in quad (113-bit) arithmetic resolve the relation only to "
-                  "about %.2g (it holds to %.2g, above 1e-12); the deck group is given by the compact domain's side "
-                  "pairings",
+                  "about %.2g (it holds to %.2g, above 1e-12)",
                   static_cast<int>(gp.vertices.size()), gp.reach, gp.relation_floor, gp.deck.relation_error);
-    r.polygon_note = buf;
-    take_domain(r, dd);
-    r.deck = DeckResult{};
-    run.stage_done("polygon", r.polygon_note);
-    run.stage_done("deck", pairings_line(r));
-    return GeodesicOutcome::BeyondQuad;
+    return keep_pairings(buf);
   }
   if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
     r.polygon_note = "no geodesic polygon: " + gp.message;

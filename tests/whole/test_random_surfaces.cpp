@@ -708,6 +708,39 @@ TEST_CASE("uniformize: a layout's refinement never trades the faces its coordina
   CHECK(r.layout.max_edge_length_error <= u.layout.max_edge_length_error);
 }
 
+// The same draw's canonical generators (a surface stretched 17:1) give a geodesic 36-gon with a
+// corner beyond what 113 bits resolve in the disk. A canonical cut of the mesh laid out in double
+// (the mesh path) resolves less: on the five such draws of tools/SWEEP-random-surfaces.md it gave
+// no view and cost 1.8–60 s, up to 200 times the flow. The domain's pairings stand instead, with
+// no base vertex tried, and the note says why.
+TEST_CASE("uniformize: canonical generators beyond quad's range leave the domain's pairings, with no mesh path") {
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(21, 1736);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  const ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  REQUIRE(v.topology.genus() == 9);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  MESSAGE(r.polygon_note);
+  CHECK(r.candidates.empty());
+  CHECK_FALSE(r.has_polygon);
+  CHECK_FALSE(r.has_geodesic_polygon);
+  CHECK(r.polygon_note.find("113 bits") != std::string::npos);
+  CHECK(r.polygon_note.find("the deck group is given by the compact domain's side pairings") != std::string::npos);
+  CHECK(r.domain_maps.size() >= 18);
+  CHECK(r.domain_adjusted_cycle_error < 1e-20);
+  // Asked for, the mesh path still runs (and finds no view either).
+  o.mesh_polygon = true;
+  o.base_candidates = 1;
+  const UniformizeResult m = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(m.status == Status::Ok, m.message);
+  CHECK(m.candidates.size() == 1);
+  CHECK_FALSE(m.has_polygon);
+}
+
 // tools/random_surface_sweep's seed 21: a closed genus-9 surface of 1770 faces, stretched 17:1,
 // whose compact domain reaches so far into the Poincaré disk that its layout resolves edges only
 // to 2e-7. The fitted pairings miss their vertex cycles by a few 1e-9; the pairings that close

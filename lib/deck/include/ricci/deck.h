@@ -371,6 +371,10 @@ struct CanonicalGenerators {
   /// 4e-4 against 1e-14 here), so geodesic_polygon(CanonicalGenerators) starts from these.
   DeckResult working;
   DeckGenerator working_frame;
+  /// NumericalFailure because the words' relation is not finite in quad: the generators found
+  /// reach beyond binary128's range (uniformize() then keeps the domain's pairings and tries no
+  /// mesh-path polygon, whose view in double resolves less).
+  bool beyond_quad = false;
 };
 
 /// See the block comment above. `domain` is a closed cut of genus ≥ 2 whose sides are all
@@ -413,6 +417,10 @@ struct GeodesicPolygon {
   /// generators can verify at this reach, not an inconsistent group (canonical_generators() then
   /// tries no second round; the pipeline keeps the domain's pairings and says why).
   bool at_quad_floor = false;
+  /// NumericalFailure because a corner or the centre lies on the unit circle in quad: the polygon
+  /// reaches beyond what 113 bits resolve in the disk (uniformize() then keeps the domain's
+  /// pairings and tries no mesh-path polygon, whose view in double resolves less).
+  bool beyond_quad = false;
   /// Hyperbolic distance between corner 0 and where the walk around the 4g sides ends (quad).
   double closure_error = 0;
   /// No two non-adjacent sides meet and adjacent sides meet only at their corner.
