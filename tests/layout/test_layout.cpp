@@ -970,3 +970,56 @@ TEST_CASE("model geometry: the hyperbolic distance of close points comes from th
   const double cosh_d = -model::lorentz(a, b);
   CHECK(model::distance(Geometry::Hyperbolic, a, b) == doctest::Approx(std::acosh(cosh_d)).epsilon(1e-13));
 }
+
+// A layout whose every edge is within kRoundingAllowance times its rounding floor is reproduced
+// as well as its coordinates allow: the refinement does not run on it, whatever refine_above > 0
+// asks (its steps would only bend what rounding put there), while refine_above = 0 still refines
+// down to the floor itself.
+TEST_CASE("layout: no refinement where every edge is within kRoundingAllowance times its rounding floor") {
+  const Mesh m = ricci_shapes::disk(12);
+  const TopologyResult tr = build_topology(m.faces, m.num_vertices());
+  REQUIRE(tr.status == Status::Ok);
+  const Topology& t = tr.topology;
+  const Mesh& vm = m;
+  std::vector<double> l(static_cast<std::size_t>(t.num_edges));
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
+    l[e] = std::hypot(vm.positions[3 * a] - vm.positions[3 * b], vm.positions[3 * a + 1] - vm.positions[3 * b + 1],
+                      vm.positions[3 * a + 2] - vm.positions[3 * b + 2]);
+  }
+  LayoutOptions none;
+  none.unit_box = false;
+  none.normalize = false;
+  none.refine_above = std::numeric_limits<double>::max();
+  // A flat metric these coordinates hold: the lengths of a first layout's edges.
+  const Layout first = layout_disk(t, Geometry::Euclidean, l, none);
+  REQUIRE(first.status == Status::Ok);
+  for (Index e = 0; e < t.num_edges; ++e) {
+    const Index a = t.edge_vertices[2 * e], c = t.edge_vertices[2 * e + 1];
+    l[e] = std::hypot(first.positions[2 * a] - first.positions[2 * c], first.positions[2 * a + 1] - first.positions[2 * c + 1]);
+  }
+  const Layout b = layout_disk(t, Geometry::Euclidean, l, none);
+  REQUIRE(b.status == Status::Ok);
+  // Every edge within the allowance (layout_misses() measures err − kRoundingAllowance·floor), but
+  // some above 1e-17 over its floor: the threshold below would start a refinement otherwise.
+  const LayoutMisses within =
+      layout_misses(t, Geometry::Euclidean, l, b.positions, std::vector<double>(static_cast<std::size_t>(t.num_faces), 1.0), 0.0);
+  REQUIRE(within.worst_unexplained <= 0);
+  REQUIRE(b.max_error_above_rounding > 1e-17);
+  MESSAGE("disk(12): propagation " << b.max_edge_length_error << ", floor " << b.rounding_floor << ", above it "
+                                   << b.max_error_above_rounding);
+  LayoutOptions tiny = none;
+  tiny.refine_above = 1e-17;
+  const Layout r = layout_disk(t, Geometry::Euclidean, l, tiny);
+  REQUIRE(r.status == Status::Ok);
+  CHECK(r.polish_sweeps == 0);
+  CHECK(r.polish_steps == 0);
+  CHECK(r.patches == 0);
+  CHECK_FALSE(r.shape_solve);
+  CHECK(r.positions == b.positions);
+  LayoutOptions floor_itself = none;
+  floor_itself.refine_above = 0;
+  const Layout z = layout_disk(t, Geometry::Euclidean, l, floor_itself);
+  REQUIRE(z.status == Status::Ok);
+  CHECK((z.polish_sweeps > 0 || z.max_error_above_rounding <= 0));
+}
