@@ -163,10 +163,6 @@ struct Positions {
   /// The low parts of the coordinates while a propagation keeps them in double-double (x the
   /// high parts, x = fl(x + lo)); null: plain doubles.
   double* lo = nullptr;
-  /// H by coarse frames: each edge's share of its development's drift (the maps' rounding along
-  /// their chains, FrameDevelopment::drift()) over its length, which its rounding drift is taken
-  /// to be at least (measure_edges()); empty otherwise.
-  std::span<const double> edge_floor{};
 
   Cx z(Index v) const { return {x[2 * v], x[2 * v + 1]}; }
   void set(Index v, Cx w) {
@@ -399,8 +395,7 @@ void reduce_edges(Index ne, At&& at, Layout& o) {
 std::pair<double, double> edge_error(const Topology& t, Geometry g, std::span<const double> l, const Positions& P,
                                      Index e) {
   const Index a = t.edge_vertices[2 * e], b = t.edge_vertices[2 * e + 1];
-  const double drift = rounding_drift(g, P, a, b) / l[e];
-  return {std::abs(P.distance(a, b) - l[e]) / l[e], P.edge_floor.empty() ? drift : std::max(drift, P.edge_floor[e])};
+  return {std::abs(P.distance(a, b) - l[e]) / l[e], rounding_drift(g, P, a, b) / l[e]};
 }
 
 /// Max relative edge-length error, worst edge and rounding floor of positions P (see Layout);
@@ -1839,9 +1834,7 @@ void refine_layout(const Topology& t, Geometry g, std::span<const double> l, std
     if (detail::develop_by_shapes(t, l, theta, s0, s1, trial)) {
       Layout shaped;
       EdgeErrors shaped_edges;
-      Positions shaped_at{g, out.dims, trial};
-      shaped_at.edge_floor = P.edge_floor;
-      measure_edges(t, g, l, shaped_at, shaped, &shaped_edges);
+      measure_edges(t, g, l, Positions{g, out.dims, trial}, shaped, &shaped_edges);
       if (shaped.max_edge_length_error < now.max_edge_length_error && not_worse(shaped, now)) {
         x.swap(trial);
         out.shape_solve = true;
@@ -1953,7 +1946,7 @@ bool propagate(const Topology& t, Geometry g, std::span<const double> l, std::sp
 /// The development by coarse frames (options.frames; layout_frames.cpp), H repeated in the final
 /// frame as propagate() does: the seed's coarse face takes the normalising map, composed.
 bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>& area, Index seed,
-                       const LayoutOptions& options, Positions& P, Layout& out, std::vector<double>& drift) {
+                       const LayoutOptions& options, Positions& P, Layout& out) {
   const std::string why = detail::check_frames(t, *options.frames);
   if (!why.empty()) {
     out.status = Status::InvalidArgument;
@@ -1975,27 +1968,7 @@ bool develop_by_frames(const Topology& t, Geometry g, const std::vector<double>&
     }
   }
   out.unplaced_vertices = dev.unplaced();
-  // H: each vertex's drift, that of the map of the face that placed it.
-  drift.clear();
-  if (!dev.drift().empty()) {
-    drift.assign(static_cast<std::size_t>(t.num_vertices), 0.0);
-    for (std::size_t i = 0; i < dev.touched().size(); ++i)
-      drift[static_cast<std::size_t>(dev.touched()[i])] = dev.drift()[static_cast<std::size_t>(dev.placed_by()[i])];
-  }
   return true;
-}
-
-/// The largest error of an edge beyond kRoundingAllowance times its rounding floor (an edge that
-/// rounding cannot place, floor ∞, counts 0; a NaN error counts +∞).
-double beyond_rounding(const EdgeErrors& E) {
-  const auto ne = static_cast<Index>(E.err.size());
-  double most = 0;
-#pragma omp parallel for schedule(static) reduction(max : most)
-  for (Index e = 0; e < ne; ++e) {
-    const double x = std::isinf(E.drift[e]) ? 0.0 : E.err[e] - kRoundingAllowance * E.drift[e];
-    most = std::max(most, std::isnan(x) ? kInf : x);
-  }
-  return most;
 }
 
 /// Validation, the seed, one propagation or development by frames, the refinement where it is
@@ -2015,21 +1988,9 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   if (g == Geometry::Spherical)
     for (Index v = 0; v < nv; ++v) x[3 * v + 2] = 1;
   Positions P{g, out.dims, x};
-  std::vector<double> edge_drift;
   if (options.frames) {
-    std::vector<double> drift;
-    if (!develop_by_frames(t, g, area, seed, options, P, out, drift)) return out;
+    if (!develop_by_frames(t, g, area, seed, options, P, out)) return out;
     out.by_frames = true;
-    // H: the development's maps drift from exact isometries far out (ε·e^r a product, along their
-    // chains); an edge's error within that is rounding too (random draw 154: an edge of 7e-5 at
-    // |z| = 0.9875 missed by 9.6 times its coordinates' rounding, which started 3 s of patches
-    // and sweeps on 487k faces, all undone).
-    if (!drift.empty()) {
-      edge_drift.resize(static_cast<std::size_t>(t.num_edges));
-      for (Index e = 0; e < t.num_edges; ++e)
-        edge_drift[e] = (drift[t.edge_vertices[2 * e]] + drift[t.edge_vertices[2 * e + 1]]) / l[e];
-      P.edge_floor = edge_drift;
-    }
   } else if (!propagate(t, g, l, theta, area, seed, options, P, out)) {
     return out;
   }
@@ -2037,15 +1998,8 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   EdgeErrors edge_errors;
   measure_edges(t, g, l, P, now, &edge_errors);
   // Vertices put aside (keep_unresolved) are no positions to refine: the refinement's global
-  // steps would trade the resolved faces for them. Nor, by default, is a layout whose every edge
-  // is within kRoundingAllowance times its rounding floor (plus refine_above): each is reproduced
-  // as well as its coordinates allow, and the steps only bend the others (random draw 154, a
-  // common subdivision of 487k faces: 3 s of patches and sweeps, all undone). Explicit patches
-  // and refine_above = 0 (down to the floor itself) still refine.
-  const bool within_rounding = options.refine_above > 0 && options.patches < 2 &&
-                               !(beyond_rounding(edge_errors) > options.refine_above);
-  if (out.unresolved_vertices == 0 && !within_rounding)
-    refine_layout(t, g, l, theta, seed, options, P, now, edge_errors, out);
+  // steps would trade the resolved faces for them.
+  if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, edge_errors, out);
   finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
   out.status = Status::Ok;
