@@ -708,18 +708,25 @@ TEST_CASE("uniformize: a layout's refinement never trades the faces its coordina
   CHECK(r.layout.max_edge_length_error <= u.layout.max_edge_length_error);
 }
 
+// tools/random_surface_sweep's seed 21 (a closed genus-9 surface of 1770 faces, stretched 17:1),
+// validated with every ear split.
+ValidateResult sweep_seed_21() {
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(21, 1736);
+  ValidateOptions vo;
+  vo.split_ears = true;
+  ValidateResult v = validate_mesh(s.mesh, vo);
+  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  REQUIRE(v.topology.genus() == 9);
+  return v;
+}
+
 // The same draw's canonical generators (a surface stretched 17:1) give a geodesic 36-gon with a
 // corner beyond what 113 bits resolve in the disk. A canonical cut of the mesh laid out in double
 // (the mesh path) resolves less: on the five such draws of tools/SWEEP-random-surfaces.md it gave
 // no view and cost 1.8–60 s, up to 200 times the flow. The domain's pairings stand instead, with
 // no base vertex tried, and the note says why.
 TEST_CASE("uniformize: canonical generators beyond quad's range leave the domain's pairings, with no mesh path") {
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(21, 1736);
-  ValidateOptions vo;
-  vo.split_ears = true;
-  const ValidateResult v = validate_mesh(s.mesh, vo);
-  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
-  REQUIRE(v.topology.genus() == 9);
+  const ValidateResult v = sweep_seed_21();
   UniformizeOptions o;
   o.seed_checks = 0;
   const UniformizeResult r = uniformize(v.mesh, v.topology, o);
@@ -747,12 +754,7 @@ TEST_CASE("uniformize: canonical generators beyond quad's range leave the domain
 // them exactly must move the domain's side points by about that much, not by the amplification
 // of a parameter change far out in the disk (2e-5 when the change was taken at the origin).
 TEST_CASE("deck: pairings closing the vertex cycles of a far-reaching genus-9 domain move its sides about as far as the cycles miss") {
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(21, 1736);
-  ValidateOptions vo;
-  vo.split_ears = true;
-  const ValidateResult v = validate_mesh(s.mesh, vo);
-  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
-  REQUIRE(v.topology.genus() == 9);
+  const ValidateResult v = sweep_seed_21();
   UniformizeOptions o;
   o.seed_checks = 0;
   o.base_candidates = 1;
