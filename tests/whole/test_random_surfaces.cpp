@@ -32,16 +32,19 @@ bool all_finite(const std::vector<double>& x) {
 // The sanitizer build runs fewer draws (the same code paths, less time).
 constexpr int kDraws = ricci_test::kSanitized ? 6 : 24;
 
-// tools/random_surface_sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1), validated
-// with every ear split, as the sweep does.
-ValidateResult sweep_seed_44() {
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(44, 1292);
+// random_surface(seed, faces) validated with every ear split.
+ValidateResult with_ears_split(std::uint64_t seed, Index faces) {
+  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, faces);
   ValidateOptions vo;
   vo.split_ears = true;
   ValidateResult v = validate_mesh(s.mesh, vo);
   REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
   return v;
 }
+
+// tools/random_surface_sweep's seed 44 (genus 0, 2 loops, 1292 faces, stretched 11:1), validated
+// with every ear split, as the sweep does.
+ValidateResult sweep_seed_44() { return with_ears_split(44, 1292); }
 
 // tools/random_surface_sweep's draw `seed` (its face count drawn from the seed, 1000 to 50000
 // log-uniform, as the sweep does), validated as the sweep does (every ear split).
@@ -711,11 +714,7 @@ TEST_CASE("uniformize: a layout's refinement never trades the faces its coordina
 // tools/random_surface_sweep's seed 21 (a closed genus-9 surface of 1770 faces, stretched 17:1),
 // validated with every ear split.
 ValidateResult sweep_seed_21() {
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(21, 1736);
-  ValidateOptions vo;
-  vo.split_ears = true;
-  ValidateResult v = validate_mesh(s.mesh, vo);
-  REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+  ValidateResult v = with_ears_split(21, 1736);
   REQUIRE(v.topology.genus() == 9);
   return v;
 }
