@@ -82,11 +82,7 @@ int main(int argc, char** argv) {
   double total = 0;
   for (int i = 0; i < a.count; ++i) {
     const std::uint64_t seed = a.first + static_cast<std::uint64_t>(i);
-    // The face count from the seed, log-uniform.
-    std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
-    const double t = ricci_shapes::unit_double(size_rng);
-    const auto target = static_cast<ricci::Index>(
-        std::lround(static_cast<double>(a.min_faces) * std::pow(static_cast<double>(a.max_faces) / static_cast<double>(a.min_faces), t)));
+    const ricci::Index target = ricci_shapes::random_surface_faces(seed, a.min_faces, a.max_faces);
     const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, target);
     if (!a.write_dir.empty()) {
       const std::string path = a.write_dir + "/random-" + std::to_string(seed) + ".obj";
@@ -96,18 +92,7 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
-    // As the CLI: the ears the default target makes infeasible split (ricci::infeasible_ears()).
-    ricci::ValidateResult v = ricci::validate_mesh(s.mesh);
-    if (v.status == ricci::Status::Ok && !v.topology.is_closed()) {
-      const ricci::BoundaryMode mode = ricci::natural_boundary_mode(v.topology, ricci::natural_geometry(v.topology));
-      const std::vector<ricci::Index> ears = ricci::infeasible_ears(v.topology, ricci::uniform_target(v.topology, mode));
-      std::string why;
-      const ricci::Status split = ears.empty() ? ricci::Status::Ok : ricci::split_ears(v, ears, &why);
-      if (split != ricci::Status::Ok) {
-        v.status = split;
-        v.message = "splitting ears: " + why;
-      }
-    }
+    const ricci::ValidateResult v = ricci_shapes::validate_as_cli(s.mesh);
     std::string result, iters = "–", curv = "–", lay = "–", flipped = "–", rel = "–", secs = "–";
     if (v.status != ricci::Status::Ok) {
       result = std::string(ricci::status_name(v.status)) + " (validate)";

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "ricci/flow.h"
 #include "shapes.h"
 
 namespace ricci_shapes {
@@ -395,6 +396,27 @@ RandomSurface random_surface(std::uint64_t seed, Index target_faces) {
                 s.aspect, s.jitter, base.c_str());
   s.description = buf;
   return s;
+}
+
+Index random_surface_faces(std::uint64_t seed, Index min_faces, Index max_faces) {
+  std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
+  const double t = unit_double(size_rng);
+  return static_cast<Index>(std::lround(static_cast<double>(min_faces) *
+                                        std::pow(static_cast<double>(max_faces) / static_cast<double>(min_faces), t)));
+}
+
+ricci::ValidateResult validate_as_cli(const Mesh& mesh) {
+  ricci::ValidateResult v = ricci::validate_mesh(mesh);
+  if (v.status != ricci::Status::Ok || v.topology.is_closed()) return v;
+  const ricci::BoundaryMode mode = ricci::natural_boundary_mode(v.topology, ricci::natural_geometry(v.topology));
+  const std::vector<Index> ears = ricci::infeasible_ears(v.topology, ricci::uniform_target(v.topology, mode));
+  std::string why;
+  const ricci::Status split = ears.empty() ? ricci::Status::Ok : ricci::split_ears(v, ears, &why);
+  if (split != ricci::Status::Ok) {
+    v.status = split;
+    v.message = "splitting ears: " + why;
+  }
+  return v;
 }
 
 }  // namespace ricci_shapes

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "ricci/mesh.h"
+#include "ricci/validate.h"
 #include "shapes.h"
 
 namespace ricci_shapes {
@@ -117,5 +118,14 @@ struct RandomSurface {
 /// triangles); the holes are the stars of random vertices whose closed stars are disjoint.
 /// Deterministic for (seed, target_faces). Precondition: 500 ≤ target_faces ≤ 200000.
 RandomSurface random_surface(std::uint64_t seed, Index target_faces);
+
+/// The face count tools/random_surface_sweep draws for `seed`: log-uniform in [min_faces,
+/// max_faces], from a generator of its own (seed ^ 0x5eed5eed).
+Index random_surface_faces(std::uint64_t seed, Index min_faces, Index max_faces);
+
+/// validate_mesh() of `mesh`, then, as `ricci uniformize` does by default, the ears that the
+/// uniform target of the natural boundary mode makes infeasible split (ricci::infeasible_ears(),
+/// ricci::split_ears()); a failed split sets status and message ("splitting ears: …").
+ricci::ValidateResult validate_as_cli(const Mesh& mesh);
 
 }  // namespace ricci_shapes

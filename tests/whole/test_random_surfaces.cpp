@@ -14,7 +14,6 @@
 #include <string>
 #include <vector>
 
-#include "ricci/flow.h"
 #include "ricci/uniformize.h"
 #include "ricci/validate.h"
 #include "shapes.h"
@@ -47,12 +46,10 @@ ValidateResult with_ears_split(std::uint64_t seed, Index faces) {
 ValidateResult sweep_seed_44() { return with_ears_split(44, 1292); }
 
 // tools/random_surface_sweep's draw `seed` (its face count drawn from the seed, 1000 to 50000
-// log-uniform, as the sweep does), validated as the sweep does (every ear split).
+// log-uniform, as the sweep does), validated with every ear split (the sweep now splits only
+// those the default target makes infeasible: sweep_draw_as_cli()).
 ValidateResult sweep_draw(std::uint64_t seed, ricci_shapes::RandomSurface* surface = nullptr) {
-  std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
-  const double t = ricci_shapes::unit_double(size_rng);
-  const auto target = static_cast<Index>(std::lround(1000 * std::pow(50.0, t)));
-  ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, target);
+  ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, ricci_shapes::random_surface_faces(seed, 1000, 50000));
   ValidateOptions vo;
   vo.split_ears = true;
   ValidateResult v = validate_mesh(s.mesh, vo);
@@ -64,18 +61,9 @@ ValidateResult sweep_draw(std::uint64_t seed, ricci_shapes::RandomSurface* surfa
 // The draw as the sweep and the CLI validate it now: only the ears the default target makes
 // infeasible split (infeasible_ears()).
 ValidateResult sweep_draw_as_cli(std::uint64_t seed) {
-  std::mt19937_64 size_rng(seed ^ 0x5eed5eedULL);
-  const double t = ricci_shapes::unit_double(size_rng);
-  const auto target = static_cast<Index>(std::lround(1000 * std::pow(50.0, t)));
-  const ricci_shapes::RandomSurface s = ricci_shapes::random_surface(seed, target);
-  ValidateResult v = validate_mesh(s.mesh);
+  const ValidateResult v =
+      ricci_shapes::validate_as_cli(ricci_shapes::random_surface(seed, ricci_shapes::random_surface_faces(seed, 1000, 50000)).mesh);
   REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
-  if (!v.topology.is_closed()) {
-    const BoundaryMode mode = natural_boundary_mode(v.topology, natural_geometry(v.topology));
-    const std::vector<Index> ears = infeasible_ears(v.topology, uniform_target(v.topology, mode));
-    std::string why;
-    if (!ears.empty()) REQUIRE_MESSAGE(split_ears(v, ears, &why) == Status::Ok, why);
-  }
   return v;
 }
 
