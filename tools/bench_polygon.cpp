@@ -8,6 +8,7 @@
 // fallback costs one cut) and prints a Markdown table: faces, genus, flow and polygon seconds,
 // their ratio, which polygon was made (geodesic, mesh, or none) and its figures. --mesh-path
 // adds a column with the polygon stage of mesh_polygon (8 base candidates) on inputs up to genus 5.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -80,7 +81,10 @@ int main(int argc, char** argv) {
     o.base_candidates = 1;
     const ricci::UniformizeResult r = ricci::uniformize(v.mesh, v.topology, o);
     const double flow = stage_seconds(r, "flow"), polygon = stage_seconds(r, "polygon");
-    const char* kind = r.has_polygon ? "mesh" : (r.has_geodesic_polygon ? "geodesic" : "none");
+    const bool wide = std::any_of(r.deck.generators.begin(), r.deck.generators.end(), [](const ricci::DeckGenerator& G) {
+      return std::abs(G.map_low2.a) + std::abs(G.map_low2.b) + std::abs(G.map_low3.a) + std::abs(G.map_low3.b) > 0;
+    });
+    const char* kind = r.has_polygon ? "mesh" : (r.has_geodesic_polygon ? (wide ? "geodesic, quad-double" : "geodesic") : "none");
     char row[512];
     std::snprintf(row, sizeof row, "| %s | %lld | %lld | %.3f | %.3f | %.2f | %s | %.1f | %.1f | %.1e | %s |", in.name.c_str(),
                   static_cast<long long>(v.topology.num_faces), static_cast<long long>(v.topology.genus()), flow, polygon,
@@ -111,7 +115,8 @@ int main(int argc, char** argv) {
       << "` (Release, 2 cores). Default options with `seed_checks = 0` and `base_candidates = 1` (a fallback to the "
          "mesh path costs one cut). polygon: `geodesic` (the default: canonical generators from the compact "
          "domain's word, their geodesic 4g-gon), `mesh` (the mesh path, as fallback), `none` (the deck group is "
-         "given by the domain's pairings only). perimeter and reach (largest distance of a corner from the "
+         "given by the domain's pairings only); `quad-double`: quad could not resolve the polygon's relation at its reach, so the pairings "
+         "were closed again and the same words evaluated in quad-double (about 212 bits). perimeter and reach (largest distance of a corner from the "
          "centre) are the geodesic polygon's. Timings vary by about ±15 % run to run on this machine.\n\n"
       << table.str();
   }

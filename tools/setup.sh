@@ -18,6 +18,7 @@ packages=(
   libeigen3-dev           # Eigen: dense and sparse linear algebra
   libceres-dev            # Ceres Solver: least-squares fits (deck transformations)
   libsuitesparse-dev      # SuiteSparse/CHOLMOD: sparse Cholesky for Newton's method
+  libqd-dev               # QD: quad-double arithmetic (canonical polygons beyond quad)
   doctest-dev             # doctest: the test framework
   libcli11-dev            # CLI11: command-line parsing
   nlohmann-json3-dev      # nlohmann-json: JSON reports

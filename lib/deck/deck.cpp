@@ -526,8 +526,9 @@ struct Letter {
   bool inverse = false;
 };
 
-MoebiusQ letter_map(const std::vector<MoebiusQ>& P, Letter l) {
-  if (l.k < 0) return MoebiusQ();
+template <class T>
+detail::BasicMoebius<T> letter_map(const std::vector<detail::BasicMoebius<T>>& P, Letter l) {
+  if (l.k < 0) return detail::BasicMoebius<T>();
   return l.inverse ? P[static_cast<std::size_t>(l.k)].inverse() : P[static_cast<std::size_t>(l.k)];
 }
 
@@ -553,19 +554,23 @@ void Cycle::set_frames(const std::vector<MoebiusQ>& P) {
 }
 
 /// The product of a cycle's letters conjugated to its vertex, formed in its frames (as
-/// detail::product_at(): each factor moves a point near the origin to near the origin).
-MoebiusQ cycle_product(const std::vector<MoebiusQ>& P, const Cycle& c) {
-  MoebiusQ M;
-  for (std::size_t i = 0; i < c.word.size(); ++i) M = M * (c.frames[i] * letter_map(P, c.word[i]) * c.frames_inv[i + 1]);
+/// detail::product_at(): each factor moves a point near the origin to near the origin), in quad or
+/// quad-double (the quad frames taken exactly).
+template <class T>
+detail::BasicMoebius<T> cycle_product(const std::vector<detail::BasicMoebius<T>>& P, const Cycle& c) {
+  detail::BasicMoebius<T> M;
+  for (std::size_t i = 0; i < c.word.size(); ++i)
+    M = M * (detail::from_quad<T>(c.frames[i]) * letter_map(P, c.word[i]) * detail::from_quad<T>(c.frames_inv[i + 1]));
   return M;
 }
 
 /// The product of a cycle conjugated to the origin (cycle_product()); it is ±I exactly when
 /// (Im a, Re b, Im b) of ±M, the sign making Re a positive, vanishes (det = 1). Writes those
 /// three numbers.
-void cycle_residual(const std::vector<MoebiusQ>& P, const Cycle& c, double* out) {
-  const MoebiusQ M = cycle_product(P, c);
-  const quad s = M.a.re < 0 ? -1 : 1;
+template <class T>
+void cycle_residual(const std::vector<detail::BasicMoebius<T>>& P, const Cycle& c, double* out) {
+  const detail::BasicMoebius<T> M = cycle_product(P, c);
+  const T s = M.a.re < 0 ? -1 : 1;
   out[0] = static_cast<double>(s * M.a.im);
   out[1] = static_cast<double>(s * M.b.re);
   out[2] = static_cast<double>(s * M.b.im);
@@ -593,14 +598,19 @@ double cycle_rounding(const std::vector<MoebiusQ>& P, const std::vector<Cycle>& 
 /// disk map taking pairing k's side centre to the origin: ξ_k moves the side's points by about
 /// |ξ_k| whatever their distance from the origin (E(ξ) alone moves a point at distance r by about
 /// |ξ|·cosh r, so a minimum-norm ξ would let the sides far out in the disk move the most).
-MoebiusQ perturbed_pairing(const MoebiusQ& X, const quad* xi, const MoebiusQ& C) {
-  const MoebiusQ E = MoebiusQ(CQ{1, xi[0]}, CQ{xi[1], xi[2]}).normalized();
+template <class T>
+detail::BasicMoebius<T> perturbed_pairing(const detail::BasicMoebius<T>& X, const T* xi, const MoebiusQ& CQuad) {
+  using M = detail::BasicMoebius<T>;
+  using C2 = detail::BasicCQ<T>;
+  const M C = detail::from_quad<T>(CQuad);
+  const M E = M(C2{1, xi[0]}, C2{xi[1], xi[2]}).normalized();
   return (X * (C.inverse() * E * C)).normalized();
 }
 
-std::vector<MoebiusQ> perturbed(const std::vector<MoebiusQ>& X, const std::vector<quad>& xi,
-                                const std::vector<MoebiusQ>& C) {
-  std::vector<MoebiusQ> Y(X.size());
+template <class T>
+std::vector<detail::BasicMoebius<T>> perturbed(const std::vector<detail::BasicMoebius<T>>& X, const std::vector<T>& xi,
+                                               const std::vector<MoebiusQ>& C) {
+  std::vector<detail::BasicMoebius<T>> Y(X.size());
   for (std::size_t k = 0; k < X.size(); ++k) Y[k] = perturbed_pairing(X[k], &xi[3 * k], C[k]);
   return Y;
 }
@@ -650,25 +660,29 @@ Eigen::SparseMatrix<double> cycle_jacobian(const std::vector<MoebiusQ>& X, const
   return J;
 }
 
-/// Moves the fitted pairings X to nearby ones whose vertex cycles are exactly ±I (to quad
-/// rounding): Gauss–Newton on the cycle equations over Y_k = X_k · E(ξ_k), each step the
-/// minimum-norm solution of the linearised equations (cycle_jacobian() at ξ = 0, exact to double's
-/// rounding; the correction is of the size of the fit residuals, so each step gains about as many
-/// digits as that Jacobian has). Returns the largest cycle residual left.
-double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycles,
+/// Moves the fitted pairings X to nearby ones whose vertex cycles are exactly ±I (to the rounding
+/// of T: quad, or quad-double from pairings closed in quad): Gauss–Newton on the cycle equations
+/// over Y_k = X_k · E(ξ_k), each step the minimum-norm solution of the linearised equations
+/// (cycle_jacobian() at ξ = 0, exact to double's rounding; the correction is of the size of the
+/// residuals, so each step gains about as many digits as that Jacobian has). Returns the largest
+/// cycle residual left.
+template <class T>
+double adjust_pairings(std::vector<detail::BasicMoebius<T>>& X, const std::vector<Cycle>& cycles,
                        const std::vector<MoebiusQ>& C) {
   const Eigen::Index m = static_cast<Eigen::Index>(X.size()), nr = 3 * static_cast<Eigen::Index>(cycles.size());
   if (m == 0 || nr == 0) return 0;
-  auto residual = [&](const std::vector<MoebiusQ>& Y, Eigen::VectorXd& r) {
+  auto residual = [&](const std::vector<detail::BasicMoebius<T>>& Y, Eigen::VectorXd& r) {
     r.resize(nr);
     for (std::size_t c = 0; c < cycles.size(); ++c) cycle_residual(Y, cycles[c], r.data() + 3 * c);
   };
-  std::vector<quad> xi(static_cast<std::size_t>(3 * m), 0);
+  std::vector<T> xi(static_cast<std::size_t>(3 * m), 0);
   // The minimum-norm step J^T (J J^T)^-1 (−r): J J^T is sparse (cycles sharing a pairing) and
   // singular where the cycle equations are dependent (their product is the identity as a word),
   // so it is factored with a shift of 1e-15 of its largest entry, which leaves the step in J's row
   // space and changes it by that relative amount (the next step removes it).
-  const Eigen::SparseMatrix<double> J = cycle_jacobian(X, cycles, C);
+  std::vector<MoebiusQ> XQ;
+  for (const detail::BasicMoebius<T>& M : X) XQ.push_back(detail::to_quad(M));
+  const Eigen::SparseMatrix<double> J = cycle_jacobian(XQ, cycles, C);
   Eigen::SparseMatrix<double> A = J * J.transpose();
   double largest = 0;
   for (Eigen::Index i = 0; i < A.rows(); ++i) largest = std::max(largest, A.coeff(i, i));
@@ -677,7 +691,7 @@ double adjust_pairings(std::vector<MoebiusQ>& X, const std::vector<Cycle>& cycle
   A += (1e-15 * largest) * shift;
   const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> llt(A);
   Eigen::VectorXd r;
-  std::vector<quad> best = xi;
+  std::vector<T> best = xi;
   residual(X, r);
   double best_err = r.lpNorm<Eigen::Infinity>();
   // Not factorable (a non-finite Jacobian): the pairings stay as fitted, judged by their cycles.
@@ -737,9 +751,9 @@ namespace {
 class DomainDeckRun {
  public:
   DomainDeckRun(const CutResult* canonical, const CutResult& domain, std::span<const double> dpos,
-                const DeckOptions& options, const Topology* surface)
+                const DeckOptions& options, const Topology* surface, const DomainDeck* given = nullptr)
       : canonical_in_(canonical), domain_(domain), in_(domain.surface_faces), dpos_(dpos), options_(options),
-        surface_(surface) {}
+        surface_(surface), given_(given) {}
 
   DomainDeck run() {
     t_start_ = std::chrono::steady_clock::now();
@@ -767,6 +781,7 @@ class DomainDeckRun {
   std::span<const double> dpos_;
   const DeckOptions& options_;
   const Topology* surface_;  // the input surface's topology, when the caller has it
+  const DomainDeck* given_;  // pairings already fitted (widen_domain_pairings()): not fitted again
   std::chrono::steady_clock::time_point t_start_;
   DomainDeck out_;
   DeckResult& r_ = out_.deck;
@@ -837,6 +852,7 @@ class DomainDeckRun {
         pairs.push_back({dz(domain_.side_vertices[b0 + i]), dz(domain_.side_vertices[bp + n - 1 - i])});
       sides.push_back(s);
     }
+    if (given_ != nullptr) return take_given();
     // The pairings are fitted independently (each its own Ceres problem), in parallel; the results
     // are taken in side order, so the first failure named is the one a serial loop would name.
     const auto m = static_cast<std::int64_t>(sides.size());
@@ -867,6 +883,18 @@ class DomainDeckRun {
       X_[k] = detail::quad_map(G);
       out_.side_maps[k] = std::move(G);
     }
+    return true;
+  }
+
+  /// The pairings of given_ instead of fits: its side maps (adjusted or not) stand as X_; its maps
+  /// as fitted, when it kept them, are what adjust_to_cycles() measures the adjustment from.
+  bool take_given() {
+    const DomainDeck& g = *given_;
+    if (g.status != Status::Ok || g.side_maps.size() != X_.size() ||
+        (!g.fitted_side_maps.empty() && g.fitted_side_maps.size() != X_.size()))
+      return fail(Status::InvalidArgument, "the given pairings are not one per generator of the domain.");
+    out_.side_maps = g.side_maps;
+    for (std::size_t k = 0; k < X_.size(); ++k) X_[k] = detail::quad_map(g.side_maps[k]);
     return true;
   }
 
@@ -962,11 +990,19 @@ class DomainDeckRun {
     out_.adjusted_cycle_error = out_.cycle_error;
     if (!options_.adjust_pairings || cycles_.empty()) return true;
     out_.fitted_side_maps = out_.side_maps;
+    if (given_ != nullptr && !given_->fitted_side_maps.empty()) {
+      out_.fitted_side_maps = given_->fitted_side_maps;
+      for (std::size_t k = 0; k < X_.size(); ++k) fitted_[k] = detail::quad_map(given_->fitted_side_maps[k]);
+      out_.cycle_error = given_->cycle_error;
+    }
     // Each pairing's side centre: its middle fitted point.
     std::vector<MoebiusQ> centres(X_.size());
     for (std::size_t k = 0; k < X_.size(); ++k)
       if (!side_pairs_[k].empty()) centres[k] = MoebiusQ::to_origin(CQ(side_pairs_[k][side_pairs_[k].size() / 2].z));
-    out_.adjusted_cycle_error = adjust_pairings(X_, cycles_, centres);
+    // Given pairings closed in quad already (widen_domain_pairings()): not closed again there; the
+    // quad figures stay theirs.
+    const bool closed_before = given_ != nullptr && !given_->fitted_side_maps.empty();
+    out_.adjusted_cycle_error = closed_before ? given_->adjusted_cycle_error : adjust_pairings(X_, cycles_, centres);
     // The adjusted maps replace the fitted ones; their residuals on the domain's sides.
     for (std::size_t k = 0; k < X_.size(); ++k) {
       DeckGenerator& G = out_.side_maps[k];
@@ -986,7 +1022,7 @@ class DomainDeckRun {
     }
     // Closed to quad precision: within 1e14 ε (the cycles near the origin) or within 64 times
     // what the pairings' rounded entries leave (domains reaching far into the disk).
-    out_.cycle_rounding = cycle_rounding(X_, cycles_);
+    out_.cycle_rounding = closed_before ? given_->cycle_rounding : cycle_rounding(X_, cycles_);
     const double closed = std::max(1e14 * detail::kQuadEpsilon, 64 * out_.cycle_rounding);
     if (!(out_.pairing_adjustment <= options_.max_pairing_adjustment) || !(out_.adjusted_cycle_error < closed)) {
       char buf[360];
@@ -997,6 +1033,15 @@ class DomainDeckRun {
                     out_.cycle_error, out_.adjusted_cycle_error, out_.cycle_rounding, out_.pairing_adjustment,
                     options_.max_pairing_adjustment);
       return fail(Status::NumericalFailure, buf);
+    }
+    if (options_.wide_pairings) {
+      std::vector<detail::MoebiusW> XW;
+      for (const MoebiusQ& M : X_) XW.push_back(detail::to_wide(M));
+      out_.wide_cycle_error = adjust_pairings(XW, cycles_, centres);
+      if (!std::isfinite(out_.wide_cycle_error))
+        return fail(Status::NumericalFailure, "the side pairings closed in quad-double are not finite.");
+      for (std::size_t k = 0; k < X_.size(); ++k) detail::set_wide_map(out_.side_maps[k], XW[k]);
+      out_.wide = true;
     }
     return true;
   }
@@ -1312,6 +1357,16 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
 DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> dpos, const DeckOptions& options,
                                const Topology* surface) {
   return DomainDeckRun(nullptr, domain, dpos, options, surface).run();
+}
+
+DomainDeck widen_domain_pairings(const CutResult& domain, std::span<const double> dpos, const DomainDeck& pairings,
+                                 const DeckOptions& options, const Topology* surface) {
+  DeckOptions wide = options;
+  wide.wide_pairings = true;
+  wide.adjust_pairings = true;
+  DomainDeck out = DomainDeckRun(nullptr, domain, dpos, wide, surface, &pairings).run();
+  if (out.status == Status::Ok) out.fitted_relation_error = pairings.fitted_relation_error;
+  return out;
 }
 
 }  // namespace ricci

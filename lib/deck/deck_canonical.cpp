@@ -9,7 +9,9 @@
 // so the cost does not grow with the mesh or, beyond the word's length, with the genus. The
 // moves and substitutions are made in quad; the many that are only tried and measured (Schema::
 // light(), reduce_generators()) and the search for where a frame goes (displacement_frame(),
-// centre_polygon()) run in double-double (moebius_quad.h), a fraction of the cost.
+// centre_polygon()) run in double-double (moebius_quad.h), a fraction of the cost. Pairings
+// closed in quad-double (DeckOptions::wide_pairings) get the words the quad search chose
+// evaluated there (evaluate_canonical_words()), and their polygon formed there too.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -559,17 +561,20 @@ bool add_commutator(Schema<quad>& s) {
   return s.commutator_blocks(nullptr, nullptr) > blocks;
 }
 
-MoebiusQ displacement_frame(const std::vector<MoebiusQ>& Y, int max_steps, int* steps);
+template <class Q>
+detail::BasicMoebius<Q> displacement_frame(const std::vector<detail::BasicMoebius<Q>>& Y, int max_steps, int* steps);
 int reduce_generators(std::vector<detail::MoebiusQ>& gens, std::vector<Word>& words, detail::MoebiusQ& C);
 
 
 
 
-DeckGenerator generator_from(const detail::MoebiusQ& M, const std::string& name) {
+/// A generator from a map in quad or quad-double (detail::set_map()).
+template <class Q>
+DeckGenerator generator_from(const detail::BasicMoebius<Q>& M, const std::string& name) {
   DeckGenerator G;
   G.name = name;
   G.geometry = Geometry::Hyperbolic;
-  detail::set_quad_map(G, M);
+  detail::set_map(G, M);
   return G;
 }
 
@@ -682,7 +687,8 @@ NormalForm normal_form(Schema<quad> s, Index genus, bool recentre_moves, bool on
 namespace {
 
 /// Generators a1 b1 … of genus g as a DeckResult (names, maps; nothing else set).
-DeckResult trial_deck(Index g, const std::vector<detail::MoebiusQ>& gens) {
+template <class Q>
+DeckResult trial_deck(Index g, const std::vector<detail::BasicMoebius<Q>>& gens) {
   DeckResult d;
   d.geometry = Geometry::Hyperbolic;
   d.genus = g;
@@ -691,7 +697,9 @@ DeckResult trial_deck(Index g, const std::vector<detail::MoebiusQ>& gens) {
   return d;
 }
 
-GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical);
+template <class Q>
+GeodesicPolygon polygon_from(std::vector<detail::BasicMoebius<Q>> gens, const detail::BasicMoebius<Q>& prior,
+                             const DeckResult& canonical);
 
 /// The normal form of the schema's word with the shortest geodesic polygon, or none (last_error
 /// then says why the last run failed). Runs in two rounds, each two runs in parallel with sizes
@@ -726,7 +734,10 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
         const GeodesicPolygon gp = polygon_from(run.nf.work, run.nf.frame, trial_deck(g, run.nf.work));
         run.relation =
             gp.status == Status::Ok ? gp.deck.relation_error : detail::canonical_relator(run.nf.work).distance_to_identity();
-        const bool fundamental = gp.status == Status::Ok && gp.fundamental && run.relation <= 1e-12;
+        // A polygon at quad's floor is scored as a fundamental one: the pipeline evaluates its words
+        // again in quad-double (evaluate_canonical_words()), where the shortest verifies best.
+        const bool fundamental =
+            gp.status == Status::Ok && gp.fundamental && (run.relation <= 1e-12 || gp.at_quad_floor);
         run.score = fundamental ? gp.perimeter : std::numeric_limits<double>::infinity();
         run.at_floor = gp.status == Status::Ok && gp.at_quad_floor;
         if (fundamental || run.nf.handle_moves == 0) break;
@@ -760,6 +771,109 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
 }
 
 }  // namespace
+
+namespace {
+
+/// The rest of canonical_generators() (and evaluate_canonical_words()) once the words are known:
+/// out's deck (the generators in the pairings' frame), words, working generators (C G C^-1) and
+/// relations. `gens`, `work`: the search's own quad products of the words, when they stand;
+/// otherwise (null) the words are evaluated in side_maps, in quad-double when every one carries it.
+CanonicalGenerators generators_of_words(CanonicalGenerators& out, Index g, std::span<const DeckGenerator> side_maps,
+                                        std::span<const DeckGenerator> fitted_maps, const std::vector<Word>& words,
+                                        const MoebiusQ& C, const std::vector<MoebiusQ>* gens,
+                                        const std::vector<MoebiusQ>* work,
+                                        std::chrono::steady_clock::time_point t_start) {
+  DeckResult& r = out.deck;
+  r.geometry = Geometry::Hyperbolic;
+  r.genus = g;
+  double pairing_residual = 0;
+  for (const DeckGenerator& d : side_maps) pairing_residual = std::max(pairing_residual, d.residual_max);
+  // Without the search's products: the words evaluated in the pairings (in quad-double when every
+  // one carries it), in the pairings' and the working frame.
+  const bool wide = gens == nullptr && std::all_of(side_maps.begin(), side_maps.end(), [](const DeckGenerator& d) {
+                      return detail::has_wide_map(d);
+                    });
+  std::vector<detail::MoebiusW> wide_gens, wide_work;
+  std::vector<MoebiusQ> quad_gens, quad_work;
+  if (gens == nullptr) {
+    std::vector<detail::MoebiusW> PW;
+    std::vector<MoebiusQ> PQ;
+    for (const DeckGenerator& d : side_maps) {
+      if (wide) PW.push_back(detail::wide_map(d));
+      else PQ.push_back(quad_map(d));
+    }
+    const detail::MoebiusW CW = detail::to_wide(C), CW_inv = CW.inverse();
+    for (const Word& w : words) {
+      if (wide) {
+        detail::MoebiusW M;
+        for (int x : w) M = M * (x > 0 ? PW[static_cast<std::size_t>(x - 1)] : PW[static_cast<std::size_t>(-x - 1)].inverse());
+        wide_gens.push_back(M.normalized());
+        wide_work.push_back((CW * M * CW_inv).normalized());
+      } else {
+        MoebiusQ M;
+        for (int x : w) M = M * (x > 0 ? PQ[static_cast<std::size_t>(x - 1)] : PQ[static_cast<std::size_t>(-x - 1)].inverse());
+        quad_gens.push_back(M.normalized());
+        quad_work.push_back((C * M * C.inverse()).normalized());
+      }
+    }
+    gens = &quad_gens;
+    work = &quad_work;
+  }
+  std::vector<std::string> names;
+  for (const DeckGenerator& d : side_maps) names.push_back(d.name);
+  for (std::size_t k = 0; k < words.size(); ++k) {
+    const std::string name = std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1);
+    r.generators.push_back(wide ? generator_from(wide_gens[k], name) : generator_from((*gens)[k], name));
+    r.generators.back().residual_max = pairing_residual;
+    out.words.push_back(word_text(words[k], names));
+    out.word_lengths.push_back(static_cast<Index>(words[k].size()));
+  }
+  out.word_letters = words;
+  r.residual_max = pairing_residual;
+  r.relator = wide ? detail::canonical_relator(wide_gens).to_double() : detail::canonical_relator(*gens).to_double();
+  // At the working frame's origin, where the generators move points least (geodesic_polygon()
+  // measures it again at its corner 0); the fitted pairings' words conjugated there too.
+  r.relation_error = wide ? detail::canonical_relator(wide_work).distance_to_identity()
+                          : detail::canonical_relator(*work).distance_to_identity();
+  out.fitted_relation_error = r.relation_error;
+  if (!fitted_maps.empty()) {
+    std::vector<MoebiusQ> F, fg;
+    for (const DeckGenerator& d : fitted_maps) F.push_back(quad_map(d));
+    for (const Word& w : words) {
+      MoebiusQ M;
+      for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
+      fg.push_back((C * M * C.inverse()).normalized());
+    }
+    out.fitted_relation_error = detail::canonical_relator(fg).distance_to_identity();
+  }
+  out.working = wide ? trial_deck(g, wide_work) : trial_deck(g, *work);
+  for (DeckGenerator& G : out.working.generators) G.residual_max = pairing_residual;
+  out.working.residual_max = pairing_residual;
+  out.working.relation_error = r.relation_error;
+  out.working_frame = generator_from(C, "frame");
+  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error)) {
+    out.beyond_quad = true;
+    out.status = r.status = Status::NumericalFailure;
+    out.message = r.message = "canonical generators: the relation is not finite.";
+    r.generators.clear();
+    return out;
+  }
+  r.status = Status::Ok;
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  char buf[240];
+  std::snprintf(buf, sizeof buf,
+                "%d canonical generators from %d side pairings (%d cut-and-paste moves on the word, %d handle "
+                "substitutions); relation error %.3g",
+                static_cast<int>(2 * g), static_cast<int>(side_maps.size()), static_cast<int>(out.moves),
+                static_cast<int>(out.handle_moves), r.relation_error);
+  r.message = buf;
+  out.status = Status::Ok;
+  out.message = buf;
+  return out;
+}
+
+}  // namespace
+
 
 CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
                                          std::span<const DeckGenerator> fitted_maps) {
@@ -808,56 +922,33 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
   std::optional<NormalForm> best = best_normal_form(s, g, last_error);
   if (!best) return bad(Status::NumericalFailure, last_error);
 
-  DeckResult& r = out.deck;
-  r.geometry = Geometry::Hyperbolic;
-  r.genus = g;
-  double pairing_residual = 0;
-  for (const DeckGenerator& d : side_maps) pairing_residual = std::max(pairing_residual, d.residual_max);
-  for (std::size_t k = 0; k < best->gens.size(); ++k) {
-    r.generators.push_back(generator_from(best->gens[k], std::string(k % 2 == 0 ? "a" : "b") + std::to_string(k / 2 + 1)));
-    r.generators.back().residual_max = pairing_residual;
-    out.words.push_back(word_text(best->words[k], names));
-    out.word_lengths.push_back(static_cast<Index>(best->words[k].size()));
-  }
-  r.residual_max = pairing_residual;
-  r.relator = detail::canonical_relator(best->gens).to_double();
-  // At the working frame's origin, where the generators move points least (geodesic_polygon()
-  // measures it again at its corner 0); the fitted pairings' words conjugated there too.
-  const MoebiusQ& C = best->frame;
-  r.relation_error = detail::canonical_relator(best->work).distance_to_identity();
-  out.fitted_relation_error = r.relation_error;
-  if (!fitted_maps.empty()) {
-    std::vector<MoebiusQ> F, fg;
-    for (const DeckGenerator& d : fitted_maps) F.push_back(quad_map(d));
-    for (const Word& w : best->words) {
-      MoebiusQ M;
-      for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
-      fg.push_back((C * M * C.inverse()).normalized());
-    }
-    out.fitted_relation_error = detail::canonical_relator(fg).distance_to_identity();
-  }
-  out.working = trial_deck(g, best->work);
-  for (DeckGenerator& G : out.working.generators) G.residual_max = pairing_residual;
-  out.working.residual_max = pairing_residual;
-  out.working.relation_error = r.relation_error;
-  out.working_frame = generator_from(C, "frame");
-  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error)) {
-    out.beyond_quad = true;
-    return bad(Status::NumericalFailure, "canonical generators: the relation is not finite.");
-  }
   out.moves = best->moves;
   out.handle_moves = best->handle_moves;
-  r.status = Status::Ok;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  char buf[240];
-  std::snprintf(buf, sizeof buf,
-                "%d canonical generators from %d side pairings (%d cut-and-paste moves on the word, %d handle "
-                "substitutions); relation error %.3g",
-                static_cast<int>(2 * g), static_cast<int>(letters), best->moves, best->handle_moves, r.relation_error);
-  r.message = buf;
-  out.status = Status::Ok;
-  out.message = buf;
-  return out;
+  // Pairings given in quad-double (DeckOptions::wide_pairings): the words the search chose (in
+  // quad) are evaluated again from them there; otherwise the search's own quad products stand.
+  const bool wide = std::all_of(side_maps.begin(), side_maps.end(), [](const DeckGenerator& d) { return detail::has_wide_map(d); });
+  return generators_of_words(out, g, side_maps, fitted_maps, best->words, best->frame, wide ? nullptr : &best->gens,
+                             wide ? nullptr : &best->work, t_start);
+}
+
+CanonicalGenerators evaluate_canonical_words(const CanonicalGenerators& found, std::span<const DeckGenerator> side_maps,
+                                             std::span<const DeckGenerator> fitted_maps) {
+  const auto t_start = std::chrono::steady_clock::now();
+  CanonicalGenerators out;
+  const std::size_t n2 = found.word_letters.size();
+  bool valid = (found.status == Status::Ok || found.beyond_quad) && n2 >= 4 && n2 % 2 == 0 &&
+               (fitted_maps.empty() || fitted_maps.size() == side_maps.size());
+  for (const std::vector<int>& w : found.word_letters)
+    for (int x : w) valid = valid && x != 0 && static_cast<std::size_t>(std::abs(x)) <= side_maps.size();
+  if (!valid) {
+    out.status = out.deck.status = Status::InvalidArgument;
+    out.message = out.deck.message = "canonical words: expected found canonical generators whose words name the given side pairings.";
+    return out;
+  }
+  out.moves = found.moves;
+  out.handle_moves = found.handle_moves;
+  return generators_of_words(out, static_cast<Index>(n2 / 2), side_maps, fitted_maps, found.word_letters,
+                             quad_map(found.working_frame).normalized(), nullptr, nullptr, t_start);
 }
 
 namespace {
@@ -980,13 +1071,14 @@ int minimise_displacement(std::vector<detail::BasicMoebius<T>>& Y, detail::Basic
 /// where the minimum lies is read: the frame is an exact map in quad, normalised there) and
 /// returned as the move T (the identity when no step was taken); −1 in *steps when D is not
 /// finite. The callers conjugate their own quad maps by T once.
-MoebiusQ displacement_frame(const std::vector<MoebiusQ>& Y, int max_steps, int* steps) {
+template <class Q>
+detail::BasicMoebius<Q> displacement_frame(const std::vector<detail::BasicMoebius<Q>>& Y, int max_steps, int* steps) {
   std::vector<detail::BasicMoebius<DD>> Yd;
-  for (const MoebiusQ& M : Y) Yd.push_back(detail::to_dd(M));
+  for (const detail::BasicMoebius<Q>& M : Y) Yd.push_back(detail::to_dd(M));
   detail::BasicMoebius<DD> F;
   *steps = minimise_displacement(Yd, F, max_steps);
-  if (*steps <= 0) return MoebiusQ();
-  return detail::to_quad(F).normalized();
+  if (*steps <= 0) return detail::BasicMoebius<Q>();
+  return detail::from_dd<Q>(F).normalized();
 }
 
 /// The polygon's corner maps: corner j is W[j](p), W[0] = identity, with deck.h's convention
@@ -1223,17 +1315,38 @@ bool segments_meet(cplx p, cplx q, cplx r, cplx s) {
 
 }  // namespace
 
+namespace {
+
+/// Whether generators were stored in quad-double (detail::set_wide_map()): then their polygon is
+/// formed in quad-double too.
+bool wide_generators(const DeckResult& d) {
+  return std::any_of(d.generators.begin(), d.generators.end(), [](const DeckGenerator& G) { return detail::has_wide_map(G); });
+}
+
+template <class Q>
+std::vector<detail::BasicMoebius<Q>> maps_of(const DeckResult& d) {
+  std::vector<detail::BasicMoebius<Q>> gens;
+  for (const DeckGenerator& G : d.generators) {
+    if constexpr (std::is_same_v<Q, quad>) gens.push_back(quad_map(G).normalized());
+    else gens.push_back(detail::wide_map(G).normalized());
+  }
+  return gens;
+}
+
+}  // namespace
+
 GeodesicPolygon geodesic_polygon(const DeckResult& canonical) {
-  std::vector<MoebiusQ> gens;
-  for (const DeckGenerator& G : canonical.generators) gens.push_back(quad_map(G).normalized());
-  return polygon_from(std::move(gens), MoebiusQ(), canonical);
+  if (wide_generators(canonical))
+    return polygon_from(maps_of<detail::Wide>(canonical), detail::MoebiusW(), canonical);
+  return polygon_from(maps_of<quad>(canonical), MoebiusQ(), canonical);
 }
 
 GeodesicPolygon geodesic_polygon(const CanonicalGenerators& cg) {
   if (cg.status != Status::Ok || cg.working.generators.size() != cg.deck.generators.size()) return geodesic_polygon(cg.deck);
-  std::vector<MoebiusQ> gens;
-  for (const DeckGenerator& G : cg.working.generators) gens.push_back(quad_map(G).normalized());
-  return polygon_from(std::move(gens), quad_map(cg.working_frame).normalized(), cg.deck);
+  const MoebiusQ prior = quad_map(cg.working_frame).normalized();
+  if (wide_generators(cg.working))
+    return polygon_from(maps_of<detail::Wide>(cg.working), detail::to_wide(prior), cg.deck);
+  return polygon_from(maps_of<quad>(cg.working), prior, cg.deck);
 }
 
 namespace {
@@ -1242,7 +1355,11 @@ namespace {
 /// (gens = prior G prior^-1 for canonical's G): the polygon's frame is reported from the
 /// generators' frame, its generators are conjugated from `gens` (a short move), and canonical
 /// gives their names and residuals.
-GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::MoebiusQ& prior, const DeckResult& canonical) {
+template <class Q>
+GeodesicPolygon polygon_from(std::vector<detail::BasicMoebius<Q>> gens, const detail::BasicMoebius<Q>& prior,
+                             const DeckResult& canonical) {
+  using MQ = detail::BasicMoebius<Q>;
+  using CT = detail::BasicCQ<Q>;
   const auto t_start = std::chrono::steady_clock::now();
   GeodesicPolygon out;
   auto bad = [&](Status st, const std::string& m) {
@@ -1255,50 +1372,51 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
   if (canonical.geometry != Geometry::Hyperbolic || n2 < 4 || n2 % 2 != 0 || gens.size() != n2)
     return bad(Status::InvalidArgument, "the geodesic polygon needs 2g >= 4 hyperbolic generators a1 b1 ...");
   const std::size_t g = n2 / 2;
-  const std::vector<MoebiusQ> W = corner_maps(gens);
+  const std::vector<MQ> W = corner_maps(gens);
   const std::size_t n = 4 * g;
-  std::vector<MoebiusQ> Y;  // side k: W_k^-1 W_{k+1}
+  std::vector<MQ> Y;  // side k: W_k^-1 W_{k+1}
   for (std::size_t k = 0; k < n; ++k) Y.push_back((W[k].inverse() * W[k + 1]).normalized());
 
   // p minimising the perimeter, at the origin of the frame F.
   int steps = 0;
-  const MoebiusQ F = displacement_frame(Y, 200, &steps);
+  const MQ F = displacement_frame(Y, 200, &steps);
   if (steps < 0) return bad(Status::NumericalFailure, "the geodesic polygon's perimeter is not finite.");
   out.newton_steps = steps;
 
   // Corners with p at the origin of F, then the frame centred on them.
-  std::vector<CQ> corners;
-  for (std::size_t k = 0; k < n; ++k) corners.push_back((F * W[k] * F.inverse()).apply(CQ{0, 0}));
-  const CQ end = (F * W[n] * F.inverse()).apply(CQ{0, 0});
-  // A corner (or, below, the centre) on the unit circle in quad: the polygon reaches beyond what
-  // 113 bits resolve in the disk.
-  auto in_disk = [](const CQ& q) { return !detail::qisnan(q.norm()) && q.norm() < 1; };
+  std::vector<CT> corners;
+  for (std::size_t k = 0; k < n; ++k) corners.push_back((F * W[k] * F.inverse()).apply(CT{0, 0}));
+  const CT end = (F * W[n] * F.inverse()).apply(CT{0, 0});
+  // A corner (or, below, the centre) on the unit circle in Q: the polygon reaches beyond what
+  // its bits (113 in quad, 212 in quad-double) resolve in the disk.
+  auto in_disk = [](const CT& q) { return !detail::qisnan(q.norm()) && q.norm() < 1; };
   auto beyond = [&](const std::string& what) {
     out.beyond_quad = true;
-    return bad(Status::NumericalFailure, "the geodesic polygon's " + what + " lies beyond what 113 bits resolve in the disk.");
+    return bad(Status::NumericalFailure, "the geodesic polygon's " + what + " lies beyond what " +
+                                             std::to_string(detail::bits_of<Q>()) + " bits resolve in the disk.");
   };
   for (std::size_t k = 0; k < n; ++k)
     if (!in_disk(corners[k])) return beyond("corner " + std::to_string(k));
   if (!in_disk(end)) return beyond("closing corner");
-  out.closure_error = detail::hyperbolic_distance_q(end, CQ{0, 0});
+  out.closure_error = detail::hyperbolic_distance_q(end, CT{0, 0});
   // The centre: the corners' centre of mass on the hyperboloid (symmetric polygons keep their
   // centre exactly).
-  detail::HyperboloidSum mass;
-  for (const CQ& q : corners) mass.add(q, 1);
-  CQ c;
+  detail::BasicHyperboloidSum<Q> mass;
+  for (const CT& q : corners) mass.add(q, 1);
+  CT c;
   if (!mass.point(c)) return bad(Status::NumericalFailure, "the geodesic polygon's corners have no centre.");
   if (!in_disk(c)) return beyond("centre");
-  const MoebiusQ C = MoebiusQ::to_origin(c);
-  const MoebiusQ frame = (C * F).normalized();
+  const MQ C = MQ::to_origin(c);
+  const MQ frame = (C * F).normalized();
   out.frame = (frame * prior).normalized().to_double();
-  std::vector<CQ> v;
-  for (const CQ& q : corners) v.push_back(C.apply(q));
+  std::vector<CT> v;
+  for (const CT& q : corners) v.push_back(C.apply(q));
   for (std::size_t k = 0; k < n; ++k)
     if (!in_disk(v[k])) return beyond("corner " + std::to_string(k));
-  for (const CQ& q : v) out.vertices.push_back(q.to_double());
+  for (const CT& q : v) out.vertices.push_back(q.to_double());
 
   // Generators in the polygon's frame; the relation at corner 0.
-  std::vector<MoebiusQ> gp;
+  std::vector<MQ> gp;
   out.deck = canonical;
   out.deck.generators.clear();
   for (std::size_t i = 0; i < n2; ++i) {
@@ -1317,13 +1435,13 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
 
   // Sides, angles, reach, simplicity.
   for (std::size_t k = 0; k < n; ++k) {
-    const CQ& a = v[k];
-    const CQ& b = v[(k + 1) % n];
+    const CT& a = v[k];
+    const CT& b = v[(k + 1) % n];
     out.side_lengths.push_back(detail::hyperbolic_distance_q(a, b));
     out.perimeter += out.side_lengths.back();
-    out.reach = std::max(out.reach, detail::hyperbolic_distance_q(a, CQ{0, 0}));
-    const MoebiusQ T = MoebiusQ::to_origin(a);
-    const cplx next = T.apply(v[(k + 1) % n]).to_double(), prev = T.apply(v[(k + n - 1) % n]).to_double();
+    out.reach = std::max(out.reach, detail::hyperbolic_distance_q(a, CT{0, 0}));
+    const MQ Ta = MQ::to_origin(a);
+    const cplx next = Ta.apply(v[(k + 1) % n]).to_double(), prev = Ta.apply(v[(k + n - 1) % n]).to_double();
     double angle = std::arg(prev / next);
     if (angle <= 0) angle += 2 * M_PI;
     out.angles.push_back(angle);
@@ -1344,7 +1462,7 @@ GeodesicPolygon polygon_from(std::vector<detail::MoebiusQ> gens, const detail::M
       !std::isfinite(out.closure_error))
     return bad(Status::NumericalFailure, "the geodesic polygon has a value that is not finite.");
   out.angle_tolerance = std::max(1e-9, out.deck.relation_error * std::exp(out.reach));
-  out.relation_floor = detail::kQuadEpsilon * std::exp(2 * out.reach);
+  out.relation_floor = detail::epsilon_of<Q>() * std::exp(2 * out.reach);
   out.at_quad_floor = out.simple && out.deck.relation_error > 1e-12 && out.deck.relation_error <= 16 * out.relation_floor;
   out.fundamental = out.simple && std::abs(out.angle_sum - 2 * M_PI) <= out.angle_tolerance;
   out.word.clear();

@@ -7,7 +7,10 @@
 #include <cfloat>
 #include <cmath>
 #include <complex>
+#include <type_traits>
 #include <vector>
+
+#include <qd/qd_real.h>
 
 #include "double_double.h"
 #include "ricci/deck.h"
@@ -77,6 +80,38 @@ inline bool operator>=(DoubleDouble x, DoubleDouble y) { return y <= x; }
 inline bool operator==(DoubleDouble x, DoubleDouble y) { return x.h == y.h && x.l == y.l; }
 inline bool operator!=(DoubleDouble x, DoubleDouble y) { return !(x == y); }
 
+/// A quad-double (QD's qd_real: four doubles, about 212 bits, double's exponent range), for what
+/// quad cannot resolve: the side pairings closed on their vertex cycles, the canonical generators
+/// evaluated from their words and their geodesic polygon, where the polygon reaches so far that
+/// 113 bits leave the relation above 1e-12 (a row of 20 holes: reach 28, quad floor 3e-10). About
+/// three times quad's cost per operation; used only on that retry (uniformize()).
+struct Wide {
+  qd_real v;
+  Wide() : v(0.0) {}
+  Wide(double x) : v(x) {}  // NOLINT: implicit, as for a built-in floating type
+  Wide(int x) : v(static_cast<double>(x)) {}  // NOLINT
+  explicit Wide(const qd_real& x) : v(x) {}
+  explicit operator double() const { return v.x[0] + v.x[1]; }
+};
+inline Wide operator+(const Wide& x, const Wide& y) { return Wide(x.v + y.v); }
+inline Wide operator-(const Wide& x) { return Wide(-x.v); }
+inline Wide operator-(const Wide& x, const Wide& y) { return Wide(x.v - y.v); }
+inline Wide operator*(const Wide& x, const Wide& y) { return Wide(x.v * y.v); }
+inline Wide operator/(const Wide& x, const Wide& y) { return Wide(x.v / y.v); }
+inline Wide& operator+=(Wide& x, const Wide& y) { return x = x + y; }
+inline Wide& operator-=(Wide& x, const Wide& y) { return x = x - y; }
+inline Wide& operator*=(Wide& x, const Wide& y) { return x = x * y; }
+inline Wide& operator/=(Wide& x, const Wide& y) { return x = x / y; }
+inline bool operator<(const Wide& x, const Wide& y) { return x.v < y.v; }
+inline bool operator>(const Wide& x, const Wide& y) { return x.v > y.v; }
+inline bool operator<=(const Wide& x, const Wide& y) { return x.v <= y.v; }
+inline bool operator>=(const Wide& x, const Wide& y) { return x.v >= y.v; }
+inline bool operator==(const Wide& x, const Wide& y) { return x.v == y.v; }
+inline bool operator!=(const Wide& x, const Wide& y) { return !(x == y); }
+inline bool qisnan(const Wide& x) { return x.v.isnan(); }
+/// 2^-209: QD's quad-double resolves its values to about this (a few bits below 4 × 53).
+inline constexpr double kWideEpsilon = 1.5407439555097887e-63;
+
 /// NaN (or an overflow, whose low part is then NaN).
 inline bool qisnan(DoubleDouble x) { return std::isnan(x.h + x.l); }
 inline bool qisnan(quad x) { return __builtin_isnan(x); }
@@ -87,6 +122,16 @@ inline DoubleDouble to_dd(quad x) {
   return {h, static_cast<double>(x - h), 0};
 }
 inline quad to_quad(DoubleDouble x) { return quad(x.h) + quad(x.l); }
+/// A quad value as a quad-double (exactly: 113 bits in three doubles), and back (rounded).
+inline Wide to_wide(quad x) {
+  const double h = static_cast<double>(x);
+  const quad r1 = x - quad(h);
+  const double m = static_cast<double>(r1);
+  const double l = static_cast<double>(r1 - quad(m));
+  return Wide(qd_real(h, m, l, 0.0));
+}
+inline quad to_quad(const Wide& x) { return quad(x.v.x[0]) + quad(x.v.x[1]) + quad(x.v.x[2]) + quad(x.v.x[3]); }
+inline DoubleDouble to_dd(const Wide& x) { return {x.v.x[0], x.v.x[1], 0}; }
 
 /// Square root of x ≥ 0: Newton's iteration from the double root (each step doubles the correct
 /// digits: 53 → 106 → 113+).
@@ -172,6 +217,56 @@ inline BasicMoebius<DoubleDouble> to_dd(const MoebiusQ& m) {
 inline CQ to_quad(const BasicCQ<DoubleDouble>& z) { return {to_quad(z.re), to_quad(z.im)}; }
 inline MoebiusQ to_quad(const BasicMoebius<DoubleDouble>& m) { return {to_quad(m.a), to_quad(m.b)}; }
 
+using CW = BasicCQ<Wide>;
+using MoebiusW = BasicMoebius<Wide>;
+
+/// Points and maps between quad and quad-double (exactly that way, rounded the other), and
+/// quad-double rounded to double-double.
+inline CW to_wide(const CQ& z) { return {to_wide(z.re), to_wide(z.im)}; }
+inline MoebiusW to_wide(const MoebiusQ& m) { return {to_wide(m.a), to_wide(m.b)}; }
+inline CQ to_quad(const CW& z) { return {to_quad(z.re), to_quad(z.im)}; }
+inline MoebiusQ to_quad(const MoebiusW& m) { return {to_quad(m.a), to_quad(m.b)}; }
+inline const MoebiusQ& to_quad(const MoebiusQ& m) { return m; }
+inline BasicMoebius<DoubleDouble> to_dd(const MoebiusW& m) {
+  using C = BasicCQ<DoubleDouble>;
+  return {C{to_dd(m.a.re), to_dd(m.a.im)}, C{to_dd(m.b.re), to_dd(m.b.im)}};
+}
+inline Wide to_wide(DoubleDouble x) { return Wide(qd_real(x.h, x.l, 0.0, 0.0)); }
+inline MoebiusW to_wide(const BasicMoebius<DoubleDouble>& m) {
+  return {CW{to_wide(m.a.re), to_wide(m.a.im)}, CW{to_wide(m.b.re), to_wide(m.b.im)}};
+}
+
+/// A quad map or point in the arithmetic T (quad: itself; quad-double: exactly), and a
+/// double-double one (exactly); the rounding unit of T and its bits.
+template <class T>
+BasicMoebius<T> from_quad(const MoebiusQ& m) {
+  if constexpr (std::is_same_v<T, quad>) return m;
+  else return to_wide(m);
+}
+template <class T>
+BasicCQ<T> from_quad(const CQ& z) {
+  if constexpr (std::is_same_v<T, quad>) return z;
+  else return to_wide(z);
+}
+template <class T>
+BasicMoebius<T> from_dd(const BasicMoebius<DoubleDouble>& m) {
+  if constexpr (std::is_same_v<T, quad>) return to_quad(m);
+  else return to_wide(m);
+}
+template <class T>
+BasicCQ<T> from_dd(const BasicCQ<DoubleDouble>& z) {
+  if constexpr (std::is_same_v<T, quad>) return to_quad(z);
+  else return {to_wide(z.re), to_wide(z.im)};
+}
+template <class T>
+constexpr double epsilon_of() {
+  return std::is_same_v<T, quad> ? kQuadEpsilon : kWideEpsilon;
+}
+template <class T>
+constexpr int bits_of() {
+  return std::is_same_v<T, quad> ? 113 : 212;
+}
+
 /// Hyperbolic distance between two points of the disk given in quad (∞ outside the disk).
 template <class T>
 double hyperbolic_distance_q(BasicCQ<T> z, BasicCQ<T> w) {
@@ -208,20 +303,58 @@ struct BasicHyperboloidSum {
 };
 using HyperboloidSum = BasicHyperboloidSum<quad>;
 
-/// A generator's map to quad precision: map + map_low, entry by entry.
+/// A generator's map to quad precision: map + map_low (+ map_low2 when it was stored in
+/// quad-double), entry by entry.
 inline MoebiusQ quad_map(const DeckGenerator& g) {
-  return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a), CQ(g.map.b) + CQ(g.map_low.b));
+  return MoebiusQ(CQ(g.map.a) + CQ(g.map_low.a) + CQ(g.map_low2.a), CQ(g.map.b) + CQ(g.map_low.b) + CQ(g.map_low2.b));
 }
 
-/// Stores M into g: map rounded entry by entry, map_low what that rounding left out, and the
-/// figures read from the map (theta, z0, translation_length).
-inline void set_quad_map(DeckGenerator& g, const MoebiusQ& M) {
-  g.map = M.to_double();
-  g.map_low = MoebiusQ(M.a - CQ(g.map.a), M.b - CQ(g.map.b)).to_double();
+/// Whether g carries a map stored in quad-double (set_wide_map()).
+inline bool has_wide_map(const DeckGenerator& g) {
+  return g.map_low2.a != std::complex<double>(0, 0) || g.map_low2.b != std::complex<double>(0, 0) ||
+         g.map_low3.a != std::complex<double>(0, 0) || g.map_low3.b != std::complex<double>(0, 0);
+}
+
+/// A generator's map in quad-double: its four parts, entry by entry (exact).
+inline MoebiusW wide_map(const DeckGenerator& g) {
+  auto entry = [](double p0, double p1, double p2, double p3) { return Wide(qd_real(p0, p1, p2, p3)); };
+  const Moebius* part[4] = {&g.map, &g.map_low, &g.map_low2, &g.map_low3};
+  auto at = [&](int k, int which) {  // which: a.re, a.im, b.re, b.im
+    const Moebius& m = *part[k];
+    return which == 0 ? m.a.real() : which == 1 ? m.a.imag() : which == 2 ? m.b.real() : m.b.imag();
+  };
+  Wide e[4];
+  for (int w = 0; w < 4; ++w) e[w] = entry(at(0, w), at(1, w), at(2, w), at(3, w));
+  return {CW{e[0], e[1]}, CW{e[2], e[3]}};
+}
+
+/// The figures read from g's double map (theta, z0, translation_length).
+inline void set_map_figures(DeckGenerator& g) {
   g.theta = g.map.theta();
   g.z0 = g.map.z0();
   g.translation_length = g.map.translation_length();
 }
+
+/// Stores M into g: map rounded entry by entry, map_low what that rounding left out (map_low2
+/// and map_low3 zero), and the figures read from the map.
+inline void set_quad_map(DeckGenerator& g, const MoebiusQ& M) {
+  g.map = M.to_double();
+  g.map_low = MoebiusQ(M.a - CQ(g.map.a), M.b - CQ(g.map.b)).to_double();
+  g.map_low2 = g.map_low3 = Moebius{{0, 0}, {0, 0}};
+  set_map_figures(g);
+}
+
+/// Stores a quad-double M into g: its four parts in map, map_low, map_low2, map_low3.
+inline void set_wide_map(DeckGenerator& g, const MoebiusW& M) {
+  Moebius* part[4] = {&g.map, &g.map_low, &g.map_low2, &g.map_low3};
+  for (int k = 0; k < 4; ++k)
+    *part[k] = Moebius{{M.a.re.v.x[k], M.a.im.v.x[k]}, {M.b.re.v.x[k], M.b.im.v.x[k]}};
+  set_map_figures(g);
+}
+
+/// Stores M (quad or quad-double) into g (set_quad_map(), set_wide_map()).
+inline void set_map(DeckGenerator& g, const MoebiusQ& M) { set_quad_map(g, M); }
+inline void set_map(DeckGenerator& g, const MoebiusW& M) { set_wide_map(g, M); }
 
 /// The frames C_i = to_origin(p_i) at the images p_n = at, p_{i-1} = M_i(p_i) of `at` along the
 /// product M_1 ⋯ M_n of `maps`, with C_0 = C_n = to_origin(at) (product_at()).

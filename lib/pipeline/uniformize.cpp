@@ -1939,13 +1939,71 @@ GeodesicPolygon geodesic_in_frame_of(const DeckResult& deck) {
 // Closed genus >= 2 in H, the default: canonical generators from the compact domain's side
 // pairings (canonical_generators()) and their geodesic 4g-gon (geodesic_polygon()), kept when
 // the polygon is a fundamental domain (simple, angle sum 2π) and the relation holds to 1e-12.
-// Otherwise polygon_note says why and the caller tries the mesh path (Fallback), unless the
-// domain's pairings themselves failed (PairingsFailed: the mesh path needs the same pairings) or
-// quad cannot hold the polygon: it is simple and misses 1e-12 only by what quad generators
-// resolve at its reach, or its generators or corners lie beyond quad's range (BeyondQuad: the
-// domain's pairings stand as the deck group; the mesh path's generators are products of the same
-// quad pairings, and its view needs a reach double coordinates resolve).
+// Where quad cannot hold the polygon — it is simple and misses 1e-12 only by what quad generators
+// resolve at its reach, or its generators or corners lie beyond quad's range — the same runs
+// again with the pairings closed in quad-double (DeckOptions::wide_pairings: about 212 bits), the
+// words the search chose evaluated and the polygon formed there. Otherwise polygon_note says why
+// and the caller tries the mesh path (Fallback), unless the domain's pairings themselves failed
+// (PairingsFailed: the mesh path needs the same pairings) or quad-double cannot hold the polygon
+// either (BeyondQuad: the domain's pairings stand as the deck group; the mesh path's generators
+// are products of the same pairings, and its view needs a reach double coordinates resolve).
 enum class GeodesicOutcome { Done, Fallback, PairingsFailed, BeyondQuad };
+
+namespace {
+
+// One attempt at the geodesic polygon from fitted pairings: what it gave, and why not when it
+// gave none (`beyond`: the arithmetic's range or floor, not the group, stopped it).
+struct GeodesicAttempt {
+  CanonicalGenerators cg;
+  GeodesicPolygon gp;
+  bool done = false;
+  bool beyond = false;
+  std::string note;
+};
+
+// `found`: canonical generators whose words are evaluated again in dd's pairings (not searched).
+GeodesicAttempt geodesic_attempt(const CutResult& domain, const DomainDeck& dd, int bits,
+                                 const CanonicalGenerators* found = nullptr) {
+  GeodesicAttempt a;
+  const std::string arithmetic = bits > 113 ? "quad-double (" + std::to_string(bits) + "-bit)" : "quad (113-bit)";
+  a.cg = found != nullptr ? evaluate_canonical_words(*found, dd.side_maps, dd.fitted_side_maps)
+                          : canonical_generators(domain, dd.side_maps, dd.fitted_side_maps);
+  if (a.cg.status != Status::Ok) {
+    a.beyond = a.cg.beyond_quad;
+    a.note = a.beyond ? "no canonical polygon: the canonical generators found reach beyond " + arithmetic + " range (" +
+                            a.cg.message + ")"
+                      : "no geodesic polygon (" + a.cg.message + ")";
+    return a;
+  }
+  a.gp = geodesic_polygon(a.cg);
+  const GeodesicPolygon& gp = a.gp;
+  if (gp.status != Status::Ok && gp.beyond_quad) {
+    a.beyond = true;
+    a.note = "no canonical polygon: " + gp.message.substr(0, gp.message.size() - 1) + " (generators in " + arithmetic +
+             " arithmetic)";
+    return a;
+  }
+  if (gp.status == Status::Ok && gp.at_quad_floor) {
+    char buf[420];
+    std::snprintf(buf, sizeof buf,
+                  "no canonical polygon: the geodesic %d-gon of the canonical generators found is simple but reaches "
+                  "%.1f from its centre, where generators in %s arithmetic resolve the relation only to about %.2g "
+                  "(it holds to %.2g, above 1e-12)",
+                  static_cast<int>(gp.vertices.size()), gp.reach, arithmetic.c_str(), gp.relation_floor,
+                  gp.deck.relation_error);
+    a.beyond = true;
+    a.note = buf;
+    return a;
+  }
+  if (gp.status != Status::Ok || !gp.fundamental || !(gp.deck.relation_error <= 1e-12)) {
+    a.note = "no geodesic polygon: " + gp.message;
+    return a;
+  }
+  a.done = true;
+  return a;
+}
+
+}  // namespace
 
 GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_failure) {
   UniformizeResult& r = run.r;
@@ -1954,45 +2012,39 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
     pairings_failure = std::move(dd);
     return GeodesicOutcome::PairingsFailed;
   }
-  // The domain's pairings stand as the deck group, and no mesh path is tried.
-  auto keep_pairings = [&](const std::string& note) {
-    r.polygon_note = note + "; the deck group is given by the compact domain's side pairings";
+  GeodesicAttempt a = geodesic_attempt(r.cut, dd, 113);
+  // Quad's range or floor: the pairings closed in quad-double, the same search, its words and
+  // polygon evaluated there (the mesh path's polygon, a canonical cut laid out in double, resolves
+  // less: on the random surfaces of tools/SWEEP-random-surfaces.md that stopped here it never gave
+  // a view, and it cost up to 200 times the flow).
+  if (!a.done && a.beyond && run.options.deck.adjust_pairings && !dd.wide) {
+    DomainDeck dw = widen_domain_pairings(r.cut, r.layout.positions, dd, run.options.deck, &run.topology);
+    if (dw.status == Status::Ok && dw.wide) {
+      // The words the quad search chose, when it got that far (its polygon is the shortest that
+      // quad could score); else the search again on the closer pairings.
+      const bool words = !a.cg.word_letters.empty();
+      GeodesicAttempt b = geodesic_attempt(r.cut, dw, 212, words ? &a.cg : nullptr);
+      if (b.done || b.beyond) {
+        a = std::move(b);
+        dd = std::move(dw);
+      }
+    }
+  }
+  if (!a.done && a.beyond) {
+    // The domain's pairings stand as the deck group, and no mesh path is tried.
+    r.polygon_note = a.note + "; the deck group is given by the compact domain's side pairings";
     take_domain(r, dd);
     r.deck = DeckResult{};
     run.stage_done("polygon", r.polygon_note);
     run.stage_done("deck", pairings_line(r));
     return GeodesicOutcome::BeyondQuad;
-  };
-  CanonicalGenerators cg = canonical_generators(r.cut, dd.side_maps, dd.fitted_side_maps);
-  if (cg.status != Status::Ok && cg.beyond_quad)
-    return keep_pairings("no canonical polygon: the canonical generators found reach beyond quad (113-bit) range (" +
-                         cg.message + ")");
-  if (cg.status != Status::Ok) {
-    r.polygon_note = "no geodesic polygon (" + cg.message + ")";
+  }
+  if (!a.done) {
+    r.polygon_note = a.note;
     return GeodesicOutcome::Fallback;
   }
-  GeodesicPolygon gp = geodesic_polygon(cg);
-  const bool fundamental = gp.status == Status::Ok && gp.fundamental;
-  // Generators that quad resolves only so far: the mesh path's polygon is a canonical cut laid
-  // out in double, which resolves less; on the random surfaces of tools/SWEEP-random-surfaces.md
-  // that failed here (draws 9, 21, 126, 150, 154), it never gave a view, and it cost 1.8–60 s, up
-  // to 200 times the flow (its cuts of a common subdivision of 487k faces).
-  if (gp.status != Status::Ok && gp.beyond_quad)
-    return keep_pairings("no canonical polygon: " + gp.message.substr(0, gp.message.size() - 1) +
-                         " (generators in quad (113-bit) arithmetic)");
-  if (gp.status == Status::Ok && gp.at_quad_floor) {
-    char buf[420];
-    std::snprintf(buf, sizeof buf,
-                  "no canonical polygon: the geodesic %d-gon of the canonical generators found is simple but reaches "
-                  "%.1f from its centre, where generators in quad (113-bit) arithmetic resolve the relation only to "
-                  "about %.2g (it holds to %.2g, above 1e-12)",
-                  static_cast<int>(gp.vertices.size()), gp.reach, gp.relation_floor, gp.deck.relation_error);
-    return keep_pairings(buf);
-  }
-  if (!fundamental || !(gp.deck.relation_error <= 1e-12)) {
-    r.polygon_note = "no geodesic polygon: " + gp.message;
-    return GeodesicOutcome::Fallback;
-  }
+  CanonicalGenerators& cg = a.cg;
+  GeodesicPolygon& gp = a.gp;
   take_domain(r, dd);
   r.fitted_relation_error = cg.fitted_relation_error;
   r.deck = gp.deck;
@@ -2004,11 +2056,12 @@ GeodesicOutcome geodesic_canonical_polygon(LayoutRun& run, DomainDeck& pairings_
   r.has_geodesic_polygon = true;
   r.has_deck = true;
   r.polygon_note.clear();
-  run.stage_done("polygon", r.geodesic_polygon.message);
+  run.stage_done("polygon", r.geodesic_polygon.message + (dd.wide ? " (in quad-double: quad's floor at its reach)" : ""));
   run.stage_done("deck", "deck: " + std::to_string(r.deck.generators.size()) + " generators from " +
                              std::to_string(r.domain_maps.size()) + " domain pairings (vertex cycles " +
-                             sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) + "), " +
-                             std::to_string(cg.moves) + " moves on the word, relation error " +
+                             sci(r.domain_cycle_error) + ", adjusted by " + sci(r.domain_pairing_adjustment) +
+                             (dd.wide ? ", closed in quad-double to " + sci(dd.wide_cycle_error) : std::string()) +
+                             "), " + std::to_string(cg.moves) + " moves on the word, relation error " +
                              sci(r.deck.relation_error));
   return GeodesicOutcome::Done;
 }

@@ -10,6 +10,7 @@
 #include <complex>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <random>
 #include <set>
 #include <string>
@@ -889,6 +890,114 @@ TEST_CASE("deck: double-double arithmetic is exact to 2^-104 of each result (aga
   CHECK(!(just_above < one));
   CHECK(just_above > one);
   CHECK(ricci::detail::qisnan(DoubleDouble(std::nan(""))));
+}
+
+TEST_CASE("deck: quad-double carries quad exactly, a map's four parts exactly, and rounds far below quad") {
+  // Quad-double (QD's qd_real) is what the pipeline falls back to where quad cannot resolve a
+  // canonical polygon: a quad value must enter it exactly, a stored map must come back bit for bit,
+  // and products must keep ~200 bits, which quad (113) cannot: x·(1 + 2^-150) − x is 0 in quad.
+  using ricci::detail::quad;
+  using ricci::detail::Wide;
+  std::mt19937_64 rng(20261207);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::uniform_int_distribution<int> exponent(-40, 40);
+  for (int k = 0; k < 2000; ++k) {
+    const quad q = quad(std::ldexp(unit(rng), exponent(rng))) * (quad(1) + quad(unit(rng)) * quad(1e-20));
+    CHECK(ricci::detail::to_quad(ricci::detail::to_wide(q)) == q);
+  }
+  const Wide x(std::ldexp(1.0, 10)), tiny(std::ldexp(1.0, -150));
+  const Wide y = x * (Wide(1) + tiny) - x;
+  CHECK(static_cast<double>(y) == std::ldexp(1.0, -140));
+  const quad qx = std::ldexp(1.0, 10);
+  CHECK(qx * (quad(1) + quad(std::ldexp(1.0, -150))) - qx == 0);
+  // Square root to ~2^-200: sqrt(2)² − 2.
+  const Wide r = ricci::detail::qsqrt(Wide(2));
+  CHECK(std::abs(static_cast<double>(r * r - Wide(2))) < 1e-58);
+  // A map's four parts: stored and read back exactly, its quad value the sum of the first three.
+  ricci::detail::MoebiusW M(ricci::detail::CW{ricci::detail::qsqrt(Wide(2)), Wide(1) / Wide(3)},
+                            ricci::detail::CW{Wide(1) / Wide(7), Wide(-1) / Wide(11)});
+  M = M.normalized();
+  DeckGenerator G;
+  ricci::detail::set_wide_map(G, M);
+  CHECK(ricci::detail::has_wide_map(G));
+  const ricci::detail::MoebiusW back = ricci::detail::wide_map(G);
+  CHECK(back.a.re == M.a.re);
+  CHECK(back.a.im == M.a.im);
+  CHECK(back.b.re == M.b.re);
+  CHECK(back.b.im == M.b.im);
+  CHECK(std::abs(static_cast<double>(M.a.norm() - M.b.norm() - Wide(1))) < 1e-58);
+  ricci::detail::set_quad_map(G, ricci::detail::to_quad(M));
+  CHECK_FALSE(ricci::detail::has_wide_map(G));
+}
+
+TEST_CASE("deck: a row of 20 holes, whose canonical polygon quad cannot verify, is verified in quad-double") {
+  // pretzel(20, 4): the canonical generators' geodesic 80-gon reaches ~28–30 from its centre,
+  // where quad generators resolve the relation only to 2^-112·e^(2·reach) ≈ 1e-10. The pairings
+  // closed again in quad-double (widen_domain_pairings(), no second fit) and the same words
+  // evaluated there (evaluate_canonical_words(), no second search) give a fundamental polygon with
+  // the relation far below 1e-12; the words evaluated again in the quad pairings give what the
+  // search gave.
+  const UniformizeResult u = uniformized_pretzel(20);
+  const DomainDeck dd = fit_domain_pairings(u.cut, u.layout.positions);
+  REQUIRE_MESSAGE(dd.status == Status::Ok, dd.message);
+  CHECK_FALSE(dd.wide);
+  const CanonicalGenerators cg = canonical_generators(u.cut, dd.side_maps, dd.fitted_side_maps);
+  REQUIRE_MESSAGE(cg.status == Status::Ok, cg.message);
+  REQUIRE(cg.word_letters.size() == 40);
+  const GeodesicPolygon gq = geodesic_polygon(cg);
+  REQUIRE_MESSAGE(gq.status == Status::Ok, gq.message);
+  MESSAGE("quad: " << gq.message);
+  CHECK(gq.at_quad_floor);
+  CHECK(gq.deck.relation_error > 1e-12);
+  // The words are the generators': each word's product of the same quad pairings, formed in
+  // quad-double, is the search's generator to the search's own rounding. (Formed in quad, a word
+  // whole in the pairings' frame keeps fewer digits than the search's products, kept in a frame
+  // where they move points least: quad-double makes up for that.)
+  const CanonicalGenerators again = evaluate_canonical_words(cg, dd.side_maps, dd.fitted_side_maps);
+  REQUIRE_MESSAGE(again.status == Status::Ok, again.message);
+  CHECK(again.words == cg.words);
+  double worst = 0;
+  for (std::size_t k = 0; k < cg.word_letters.size(); ++k) {
+    ricci::detail::MoebiusW M;
+    for (int x : cg.word_letters[k]) {
+      const ricci::detail::MoebiusW P = ricci::detail::to_wide(ricci::detail::quad_map(dd.side_maps[std::abs(x) - 1]));
+      M = M * (x > 0 ? P : P.inverse());
+    }
+    const Moebius y = ricci::detail::to_quad(M.normalized()).to_double();
+    const Moebius& x = cg.deck.generators[k].map;
+    const double size = std::abs(x.a) + std::abs(x.b);
+    worst = std::max(worst, std::min(std::abs(x.a - y.a) + std::abs(x.b - y.b), std::abs(x.a + y.a) + std::abs(x.b + y.b)) / size);
+  }
+  MESSAGE("words formed in quad-double: the search's generators within " << worst << " (relative)");
+  CHECK(worst < 1e-12);
+
+  const DomainDeck dw = widen_domain_pairings(u.cut, u.layout.positions, dd, {}, nullptr);
+  REQUIRE_MESSAGE(dw.status == Status::Ok, dw.message);
+  CHECK(dw.wide);
+  MESSAGE("cycles: fitted " << dd.cycle_error << ", quad " << dd.adjusted_cycle_error << " (rounding " << dd.cycle_rounding
+                            << "), quad-double " << dw.wide_cycle_error);
+  CHECK(dw.cycle_error == dd.cycle_error);
+  CHECK(dw.wide_cycle_error < 1e-10 * dd.cycle_rounding);
+  CHECK(dw.pairing_adjustment <= 2 * dd.pairing_adjustment + 1e-20);
+  for (const DeckGenerator& G : dw.side_maps) CHECK(ricci::detail::has_wide_map(G));
+  const CanonicalGenerators cw = evaluate_canonical_words(cg, dw.side_maps, dw.fitted_side_maps);
+  REQUIRE_MESSAGE(cw.status == Status::Ok, cw.message);
+  CHECK(cw.words == cg.words);
+  const GeodesicPolygon gw = geodesic_polygon(cw);
+  REQUIRE_MESSAGE(gw.status == Status::Ok, gw.message);
+  MESSAGE("quad-double: " << gw.message);
+  CHECK(gw.simple);
+  CHECK(gw.fundamental);
+  CHECK_FALSE(gw.at_quad_floor);
+  CHECK(gw.vertices.size() == 80);
+  CHECK(gw.deck.relation_error < 1e-20);
+  CHECK(ricci::detail::kQuadEpsilon * std::exp(2 * gw.reach) > 1e-12);  // beyond what quad verifies
+  CHECK(std::abs(gw.area - 4 * std::numbers::pi * 19) < 1e-6);
+  // The polygon's generators, read back from their four parts, satisfy the relation there.
+  std::vector<ricci::detail::MoebiusW> gens;
+  for (const DeckGenerator& G : gw.deck.generators) gens.push_back(ricci::detail::wide_map(G));
+  CHECK(ricci::detail::product_at(ricci::detail::canonical_relator_letters(gens),
+                                  ricci::detail::CW(gw.vertices[0])).distance_to_identity() < 1e-20);
 }
 
 TEST_CASE("deck: a pairing's fit ends once its steps are below the rounding of its parameters") {

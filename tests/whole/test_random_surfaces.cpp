@@ -710,10 +710,42 @@ ValidateResult sweep_seed_21() {
 // The same draw's canonical generators (a surface stretched 17:1) give a geodesic 36-gon with a
 // corner beyond what 113 bits resolve in the disk. A canonical cut of the mesh laid out in double
 // (the mesh path) resolves less: on the five such draws of tools/SWEEP-random-surfaces.md it gave
-// no view and cost 1.8–60 s, up to 200 times the flow. The domain's pairings stand instead, with
-// no base vertex tried, and the note says why.
-TEST_CASE("uniformize: canonical generators beyond quad's range leave the domain's pairings, with no mesh path") {
+// no view and cost 1.8–60 s, up to 200 times the flow. The pipeline closes the domain's pairings
+// again in quad-double and evaluates the words the quad search chose there: the polygon is a
+// fundamental domain reaching 35 from its centre, where quad's floor (2^-112·e^(2·reach)) is
+// about 5e-4, and its relation holds to 1e-12; no base vertex is tried.
+TEST_CASE("uniformize: canonical generators beyond quad's range get their geodesic polygon in quad-double, with no mesh path") {
   const ValidateResult v = sweep_seed_21();
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  INFO(r.polygon_note);
+  CHECK(r.candidates.empty());
+  CHECK_FALSE(r.has_polygon);
+  REQUIRE(r.has_geodesic_polygon);
+  const GeodesicPolygon& gp = r.geodesic_polygon;
+  INFO(gp.message);
+  CHECK(gp.simple);
+  CHECK(gp.fundamental);
+  CHECK(std::abs(gp.angle_sum - 2 * std::numbers::pi) <= gp.angle_tolerance);
+  CHECK(gp.vertices.size() == 36);
+  CHECK(r.deck.relation_error <= 1e-12);
+  CHECK(1.925929944387236e-34 * std::exp(2 * gp.reach) > 1e-6);  // what quad would have left
+  CHECK(gp.relation_floor < 1e-20);
+  REQUIRE(r.deck.generators.size() == 18);
+  for (const DeckGenerator& G : r.deck.generators)
+    CHECK(std::abs(G.map_low2.a) + std::abs(G.map_low2.b) + std::abs(G.map_low3.a) + std::abs(G.map_low3.b) > 0);
+  CHECK(r.domain_adjusted_cycle_error < 1e-20);
+}
+
+// tools/random_surface_sweep's draw 150 (closed genus 12, 2344 faces, stretched 66:1): its
+// canonical generators' relation is not finite even in quad-double (the words reach too far).
+// The domain's pairings stand as the deck group, the note names the arithmetic, and no base
+// vertex is tried; asked for, the mesh path still runs (and finds no view either).
+TEST_CASE("uniformize: canonical generators beyond quad-double's range leave the domain's pairings, with no mesh path") {
+  const ValidateResult v = sweep_draw(150);
+  REQUIRE(v.topology.genus() == 12);
   UniformizeOptions o;
   o.seed_checks = 0;
   const UniformizeResult r = uniformize(v.mesh, v.topology, o);
@@ -722,11 +754,10 @@ TEST_CASE("uniformize: canonical generators beyond quad's range leave the domain
   CHECK(r.candidates.empty());
   CHECK_FALSE(r.has_polygon);
   CHECK_FALSE(r.has_geodesic_polygon);
-  CHECK(r.polygon_note.find("113 bits") != std::string::npos);
+  CHECK(r.polygon_note.find("quad-double (212-bit)") != std::string::npos);
   CHECK(r.polygon_note.find("the deck group is given by the compact domain's side pairings") != std::string::npos);
-  CHECK(r.domain_maps.size() >= 18);
+  CHECK(r.domain_maps.size() >= 24);
   CHECK(r.domain_adjusted_cycle_error < 1e-20);
-  // Asked for, the mesh path still runs (and finds no view either).
   o.mesh_polygon = true;
   o.base_candidates = 1;
   const UniformizeResult m = uniformize(v.mesh, v.topology, o);

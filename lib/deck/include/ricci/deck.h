@@ -138,6 +138,13 @@ struct DeckOptions {
   /// hyperbolic distance: the layout is then not consistent with any surface group, and the
   /// adjustment would hide it. ∞ accepts any.
   double max_pairing_adjustment = 1e-6;
+  /// Compact domain (H), with adjust_pairings: after closing the vertex cycles in quad, close them
+  /// again in quad-double (about 212 bits) and keep the pairings so (DeckGenerator::map_low2,
+  /// map_low3; DomainDeck::wide). canonical_generators() and geodesic_polygon() then evaluate the
+  /// generators' words and their polygon in quad-double: the retry of uniformize() for polygons
+  /// that reach beyond what quad resolves (a row of 20 holes reaches 28 from its centre, where
+  /// quad leaves its relation at 5e-11).
+  bool wide_pairings = false;
 
   /// True when max_iterations ≥ 1, the tolerances are finite and ≥ 0, rounds is in 1..10 and
   /// max_pairing_adjustment is > 0 (∞ allowed);
@@ -162,6 +169,12 @@ struct DeckGenerator {
   /// Maps whose axes lie far from the origin have large entries, and products of them (traces of
   /// words) need these digits.
   Moebius map_low{{0, 0}, {0, 0}};
+  /// H: where the map was computed in quad-double (about 212 bits: the pairings, generators and
+  /// geodesic polygon of surfaces whose polygon reaches beyond what quad resolves, see
+  /// uniformize()), its third and fourth parts: map + map_low + map_low2 + map_low3, entry by
+  /// entry. Zero otherwise.
+  Moebius map_low2{{0, 0}, {0, 0}};
+  Moebius map_low3{{0, 0}, {0, 0}};
   double translation_length = 0;    ///< H: its translation length, map.translation_length()
   /// E: z ↦ z + t, least squares over all pairs (the mean of the differences); `rotation` is the
   /// angle of the rigid-motion (Procrustes) fit, ≈ 0 for a flat torus layout.
@@ -296,6 +309,11 @@ struct DomainDeck {
   /// Largest hyperbolic distance between the images of a domain side vertex under a fitted and
   /// under the adjusted pairing (0 when adjust_pairings is off).
   double pairing_adjustment = 0;
+  /// With DeckOptions::wide_pairings: the cycles closed again in quad-double, the side maps stored
+  /// so (map_low2, map_low3), and the largest cycle residual left there (the quad figures above
+  /// stay those of the quad adjustment).
+  bool wide = false;
+  double wide_cycle_error = 0;
   /// The canonical relation evaluated on the same words in the pairings as fitted (deck's
   /// relation_error uses the adjusted pairings; equal when adjust_pairings is off).
   double fitted_relation_error = 0;
@@ -316,6 +334,14 @@ DomainDeck deck_through_domain(const CutResult& canonical, const CutResult& doma
 /// `surface` as for deck_through_domain().
 DomainDeck fit_domain_pairings(const CutResult& domain, std::span<const double> domain_positions,
                                const DeckOptions& options = {}, const Topology* surface = nullptr);
+
+/// fit_domain_pairings()'s result `pairings` (Ok) with its vertex cycles closed again, in quad and
+/// then in quad-double (DeckOptions::wide_pairings; adjust_pairings on), without fitting the
+/// pairings again: side_maps carry the quad-double maps, fitted_side_maps and cycle_error stay
+/// those of the fits. The same domain and positions as for `pairings`.
+DomainDeck widen_domain_pairings(const CutResult& domain, std::span<const double> domain_positions,
+                                 const DomainDeck& pairings, const DeckOptions& options = {},
+                                 const Topology* surface = nullptr);
 
 // ---- Canonical generators and the geodesic canonical polygon (H, closed, genus ≥ 2) ----------
 //
@@ -359,6 +385,9 @@ struct CanonicalGenerators {
   DeckResult deck;
   std::vector<std::string> words;   ///< per generator, its word in the pairings ("x3 x1^-1 x7")
   std::vector<Index> word_lengths;  ///< per generator, the length of that word
+  /// Per generator, the same word as signed 1-based pairing numbers (k: side_maps[k − 1], −k: its
+  /// inverse), in order: what evaluate_canonical_words() evaluates again.
+  std::vector<std::vector<int>> word_letters;
   Index moves = 0;                  ///< cut-and-paste moves on the word
   Index handle_moves = 0;           ///< substitutions made (per handle, and per pair of adjacent handles)
   /// The relation of the same words in `fitted_maps` (at the working frame's origin, below,
@@ -371,9 +400,10 @@ struct CanonicalGenerators {
   /// 4e-4 against 1e-14 here), so geodesic_polygon(CanonicalGenerators) starts from these.
   DeckResult working;
   DeckGenerator working_frame;
-  /// NumericalFailure because the words' relation is not finite in quad: the generators found
-  /// reach beyond binary128's range (uniformize() then keeps the domain's pairings and tries no
-  /// mesh-path polygon, whose view in double resolves less).
+  /// NumericalFailure because the words' relation is not finite in the arithmetic they were
+  /// evaluated in (quad; quad-double when the pairings carry it): the generators found reach
+  /// beyond its range (uniformize() then retries in quad-double, or keeps the domain's pairings
+  /// and tries no mesh-path polygon, whose view in double resolves less).
   bool beyond_quad = false;
 };
 
@@ -385,6 +415,16 @@ struct CanonicalGenerators {
 /// fitted_relation_error.
 CanonicalGenerators canonical_generators(const CutResult& domain, std::span<const DeckGenerator> side_maps,
                                          std::span<const DeckGenerator> fitted_maps = {});
+
+/// The generators of found.word_letters evaluated again in `side_maps` (the same pairings, or
+/// the same closed further: DeckOptions::wide_pairings) — in quad-double when every one carries a
+/// quad-double map, else in quad — and conjugated into found's working frame: deck, working, the
+/// relation and words as canonical_generators() gives them, without repeating its search (moves
+/// and handle_moves are found's). InvalidArgument when found is not Ok or its words name
+/// pairings side_maps lacks (found may also be a NumericalFailure with beyond_quad, whose words
+/// are kept); NumericalFailure (beyond_quad) when the relation is not finite.
+CanonicalGenerators evaluate_canonical_words(const CanonicalGenerators& found, std::span<const DeckGenerator> side_maps,
+                                             std::span<const DeckGenerator> fitted_maps = {});
 
 /// What geodesic_polygon() returns.
 struct GeodesicPolygon {
@@ -398,7 +438,7 @@ struct GeodesicPolygon {
   /// The generators' frame → the polygon's frame.
   Moebius frame;
   /// The generators conjugated into the polygon's frame (names, residuals kept); relation_error
-  /// of Π [A_i^-1, B_i] conjugated to corner 0, in quad.
+  /// of Π [A_i^-1, B_i] conjugated to corner 0, in quad (quad-double for generators that carry it).
   DeckResult deck;
   std::vector<double> side_lengths;  ///< 4g hyperbolic lengths
   std::vector<double> angles;        ///< 4g interior angles, in (0, 2π)
@@ -408,18 +448,23 @@ struct GeodesicPolygon {
   /// Largest hyperbolic distance of a corner from the centre; double coordinates resolve lengths
   /// there to about 2^-52·e^reach.
   double reach = 0;
-  /// What generators in quad resolve of the relation at this reach: 2^-112·e^(2·reach). A
+  /// What the generators' arithmetic resolves of the relation at this reach: ε·e^(2·reach), ε =
+  /// 2^-112 in quad, 2^-209 in quad-double (generators that carry map_low2/map_low3). A
   /// generator carrying a corner to another has entries up to e^reach in the polygon's frame, and
   /// the relator's factors in the corners' frames multiply their rounding by up to e^reach again
-  /// (pretzel(20, 4), reach 27.9: floor 3.3e-10, relation as computed 3.7e-11).
+  /// (pretzel(20, 4), reach 29.7: quad's floor 1.2e-8, relation in quad 6.2e-9; in quad-double
+  /// 7.8e-28).
   double relation_floor = 0;
-  /// Simple, with a relation error above 1e-12 but within 16 × relation_floor: what quad
-  /// generators can verify at this reach, not an inconsistent group (canonical_generators() then
-  /// tries no second round; the pipeline keeps the domain's pairings and says why).
+  /// Simple, with a relation error above 1e-12 but within 16 × relation_floor: what generators in
+  /// this arithmetic can verify at this reach, not an inconsistent group (canonical_generators()
+  /// scores such a polygon by its perimeter and tries no second round; the pipeline evaluates
+  /// the words again in quad-double, and where that is at its floor too keeps the domain's
+  /// pairings and says why).
   bool at_quad_floor = false;
-  /// NumericalFailure because a corner or the centre lies on the unit circle in quad: the polygon
-  /// reaches beyond what 113 bits resolve in the disk (uniformize() then keeps the domain's
-  /// pairings and tries no mesh-path polygon, whose view in double resolves less).
+  /// NumericalFailure because a corner or the centre lies on the unit circle in the generators'
+  /// arithmetic: the polygon reaches beyond what its 113 (quad) or 212 (quad-double) bits resolve
+  /// in the disk (uniformize() then retries in quad-double, or keeps the domain's pairings and
+  /// tries no mesh-path polygon, whose view in double resolves less).
   bool beyond_quad = false;
   /// Hyperbolic distance between corner 0 and where the walk around the 4g sides ends (quad).
   double closure_error = 0;

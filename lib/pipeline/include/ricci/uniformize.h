@@ -34,8 +34,11 @@
 //                   canonical generators as words in them (canonical_generators(): moves on the
 //                   domain's word, no cut of the mesh) and their geodesic 4g-gon (geodesic_polygon(),
 //                   has_geodesic_polygon), kept when it is a fundamental domain with the relation to
-//                   1e-12. With mesh_polygon, or when that fails short of quad's range or floor
-//                   (then the domain's pairings stand): a canonical cut_surface() laid out
+//                   1e-12; where quad cannot resolve it (its range or floor at the polygon's
+//                   reach), the pairings closed again and the same words evaluated in
+//                   quad-double (widen_domain_pairings(), evaluate_canonical_words()). With
+//                   mesh_polygon, or when that fails short of quad-double's range or floor (then
+//                   the domain's pairings stand): a canonical cut_surface() laid out
 //                   through the compact domain's tiles (deck_through_domain()), best of several base
 //                   vertices (below; has_polygon)
 //   deck            the deck generators a1 b1 …: E fit_deck_transformations(); H the products of
@@ -202,8 +205,8 @@ struct UniformizeOptions {
   /// geodesic 4g-gon of canonical generators found from the domain's side pairings alone
   /// (canonical_generators(), geodesic_polygon(): milliseconds at any genus). The default also
   /// falls back to the mesh path when the geodesic polygon is not a fundamental domain, but not
-  /// where quad cannot hold it (its generators or corners beyond quad's range, or its relation
-  /// at quad's floor): the domain's pairings then stand.
+  /// where quad-double cannot hold it (its generators or corners beyond that range, or its
+  /// relation at that floor, after quad's): the domain's pairings then stand.
   bool mesh_polygon = false;
   /// H (closed): base vertices tried for the mesh-path canonical polygon (see the header comment).
   int base_candidates = 8;
