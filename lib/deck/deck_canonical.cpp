@@ -343,6 +343,15 @@ struct Schema {
 /// Relative difference below which two move sizes count as equal (BestMove).
 constexpr double kSizeTie = 1e-9;
 
+/// Entries up to which generators are handled in double-double (centre_polygon(),
+/// reduce_generators()): products of up to nine of them and their squared norms stay in double's
+/// range.
+constexpr double kDoubleDoubleEntries = 1e15;
+/// Entries beyond which a word's product, a generator or a polygon's generators are taken as
+/// beyond every arithmetic here (quad-double has double's range; double reports them): far past
+/// any polygon quad-double verifies (entries e^(r/2) at distance r).
+constexpr double kMaxEntries = 1e30;
+
 /// The smallest of the moves offered; sizes within kSizeTie of the best count as equal and the
 /// first offered of them is kept. A symmetric surface offers many moves of one size, whose
 /// computed sizes differ only by the rounding of the fitted pairings: without the tie the greedy
@@ -774,6 +783,27 @@ std::optional<NormalForm> best_normal_form(const Schema<quad>& s, Index g,
 
 namespace {
 
+/// The product of a word's letters (signed 1-based indices into P), or none when an entry passes
+/// kMaxEntries on the way (beyond what the arithmetic and the reported doubles carry).
+template <class Q>
+std::optional<detail::BasicMoebius<Q>> word_product(const std::vector<detail::BasicMoebius<Q>>& P, const Word& w) {
+  detail::BasicMoebius<Q> M;
+  for (int x : w) {
+    M = M * (x > 0 ? P[static_cast<std::size_t>(x - 1)] : P[static_cast<std::size_t>(-x - 1)].inverse());
+    if (!detail::entries_below(M, kMaxEntries)) return std::nullopt;
+  }
+  return M;
+}
+
+/// canonical_generators()' failure for generators beyond every arithmetic here.
+CanonicalGenerators& beyond(CanonicalGenerators& out) {
+  out.beyond_quad = true;
+  out.status = out.deck.status = Status::NumericalFailure;
+  out.message = out.deck.message = "canonical generators: the relation is not finite.";
+  out.deck.generators.clear();
+  return out;
+}
+
 /// The rest of canonical_generators() (and evaluate_canonical_words()) once the words are known:
 /// out's deck (the generators in the pairings' frame), words, working generators (C G C^-1) and
 /// relations. `gens`, `work`: the search's own quad products of the words, when they stand;
@@ -783,6 +813,7 @@ CanonicalGenerators generators_of_words(CanonicalGenerators& out, Index g, std::
                                         const MoebiusQ& C, const std::vector<MoebiusQ>* gens,
                                         const std::vector<MoebiusQ>* work,
                                         std::chrono::steady_clock::time_point t_start) {
+  out.word_letters = words;
   DeckResult& r = out.deck;
   r.geometry = Geometry::Hyperbolic;
   r.genus = g;
@@ -805,20 +836,23 @@ CanonicalGenerators generators_of_words(CanonicalGenerators& out, Index g, std::
     const detail::MoebiusW CW = detail::to_wide(C), CW_inv = CW.inverse();
     for (const Word& w : words) {
       if (wide) {
-        detail::MoebiusW M;
-        for (int x : w) M = M * (x > 0 ? PW[static_cast<std::size_t>(x - 1)] : PW[static_cast<std::size_t>(-x - 1)].inverse());
-        wide_gens.push_back(M.normalized());
-        wide_work.push_back((CW * M * CW_inv).normalized());
+        const std::optional<detail::MoebiusW> M = word_product(PW, w);
+        if (!M) return beyond(out);
+        wide_gens.push_back(M->normalized());
+        wide_work.push_back((CW * *M * CW_inv).normalized());
       } else {
-        MoebiusQ M;
-        for (int x : w) M = M * (x > 0 ? PQ[static_cast<std::size_t>(x - 1)] : PQ[static_cast<std::size_t>(-x - 1)].inverse());
-        quad_gens.push_back(M.normalized());
-        quad_work.push_back((C * M * C.inverse()).normalized());
+        const std::optional<MoebiusQ> M = word_product(PQ, w);
+        if (!M) return beyond(out);
+        quad_gens.push_back(M->normalized());
+        quad_work.push_back((C * *M * C.inverse()).normalized());
       }
     }
     gens = &quad_gens;
     work = &quad_work;
   }
+  if (!detail::entries_below(*gens, kMaxEntries) || !detail::entries_below(*work, kMaxEntries) ||
+      !detail::entries_below(wide_gens, kMaxEntries) || !detail::entries_below(wide_work, kMaxEntries))
+    return beyond(out);
   std::vector<std::string> names;
   for (const DeckGenerator& d : side_maps) names.push_back(d.name);
   for (std::size_t k = 0; k < words.size(); ++k) {
@@ -828,7 +862,6 @@ CanonicalGenerators generators_of_words(CanonicalGenerators& out, Index g, std::
     out.words.push_back(word_text(words[k], names));
     out.word_lengths.push_back(static_cast<Index>(words[k].size()));
   }
-  out.word_letters = words;
   r.residual_max = pairing_residual;
   r.relator = wide ? detail::canonical_relator(wide_gens).to_double() : detail::canonical_relator(*gens).to_double();
   // At the working frame's origin, where the generators move points least (geodesic_polygon()
@@ -840,24 +873,20 @@ CanonicalGenerators generators_of_words(CanonicalGenerators& out, Index g, std::
     std::vector<MoebiusQ> F, fg;
     for (const DeckGenerator& d : fitted_maps) F.push_back(quad_map(d));
     for (const Word& w : words) {
-      MoebiusQ M;
-      for (int x : w) M = M * (x > 0 ? F[static_cast<std::size_t>(x - 1)] : F[static_cast<std::size_t>(-x - 1)].inverse());
-      fg.push_back((C * M * C.inverse()).normalized());
+      const std::optional<MoebiusQ> M = word_product(F, w);
+      if (!M) break;
+      fg.push_back((C * *M * C.inverse()).normalized());
     }
-    out.fitted_relation_error = detail::canonical_relator(fg).distance_to_identity();
+    out.fitted_relation_error = fg.size() == words.size() && detail::entries_below(fg, kMaxEntries)
+                                    ? detail::canonical_relator(fg).distance_to_identity()
+                                    : std::numeric_limits<double>::infinity();
   }
   out.working = wide ? trial_deck(g, wide_work) : trial_deck(g, *work);
   for (DeckGenerator& G : out.working.generators) G.residual_max = pairing_residual;
   out.working.residual_max = pairing_residual;
   out.working.relation_error = r.relation_error;
   out.working_frame = generator_from(C, "frame");
-  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error)) {
-    out.beyond_quad = true;
-    out.status = r.status = Status::NumericalFailure;
-    out.message = r.message = "canonical generators: the relation is not finite.";
-    r.generators.clear();
-    return out;
-  }
+  if (!std::isfinite(r.relation_error) || !std::isfinite(out.fitted_relation_error)) return beyond(out);
   r.status = Status::Ok;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   char buf[240];
@@ -1073,6 +1102,11 @@ int minimise_displacement(std::vector<detail::BasicMoebius<T>>& Y, detail::Basic
 /// finite. The callers conjugate their own quad maps by T once.
 template <class Q>
 detail::BasicMoebius<Q> displacement_frame(const std::vector<detail::BasicMoebius<Q>>& Y, int max_steps, int* steps) {
+  // Single maps in double-double: entries up to 1e100 keep their squared norms finite.
+  if (!detail::entries_below(Y, 1e100)) {
+    *steps = -1;
+    return detail::BasicMoebius<Q>();
+  }
   std::vector<detail::BasicMoebius<DD>> Yd;
   for (const detail::BasicMoebius<Q>& M : Y) Yd.push_back(detail::to_dd(M));
   detail::BasicMoebius<DD> F;
@@ -1126,6 +1160,9 @@ const std::array<std::array<std::vector<int>, 2>, 4> kHandleMoves = {{
 /// polygon cannot be found.
 bool centre_polygon(std::vector<detail::MoebiusQ>& gens, detail::MoebiusQ& C, detail::CQ& p) {
   // Where the centre lies is found in double-double; the move is then made on gens in quad.
+  // Double-double keeps double's range: entries up to 1e15, so that the products of up to nine
+  // generators the reduction forms, and their squared norms, stay finite.
+  if (!detail::entries_below(gens, kDoubleDoubleEntries)) return false;
   using MD = detail::BasicMoebius<DD>;
   using CD = detail::BasicCQ<DD>;
   std::vector<MD> gd;
@@ -1372,6 +1409,13 @@ GeodesicPolygon polygon_from(std::vector<detail::BasicMoebius<Q>> gens, const de
   if (canonical.geometry != Geometry::Hyperbolic || n2 < 4 || n2 % 2 != 0 || gens.size() != n2)
     return bad(Status::InvalidArgument, "the geodesic polygon needs 2g >= 4 hyperbolic generators a1 b1 ...");
   const std::size_t g = n2 / 2;
+  // Generators beyond kMaxEntries: their corner products would leave quad-double's (double's)
+  // range, and the polygon lies far beyond what either arithmetic verifies.
+  if (!detail::entries_below(gens, kMaxEntries) || !detail::entries_below(prior, kMaxEntries)) {
+    out.beyond_quad = true;
+    return bad(Status::NumericalFailure, "the geodesic polygon's generators lie beyond what " +
+                                             std::to_string(detail::bits_of<Q>()) + " bits resolve in the disk.");
+  }
   const std::vector<MQ> W = corner_maps(gens);
   const std::size_t n = 4 * g;
   std::vector<MQ> Y;  // side k: W_k^-1 W_{k+1}

@@ -198,6 +198,10 @@ struct BasicMoebius {
   Moebius to_double() const { return Moebius{a.to_double(), b.to_double()}; }
   /// Largest entry of M ∓ I, the sign nearer to the identity (PSU(1,1)).
   double distance_to_identity() const {
+    // Entries beyond 1e150: ∞ without forming their squares (beyond double's range, and
+    // quad-double's).
+    for (const T* x : {&a.re, &a.im, &b.re, &b.im})
+      if (!(qabs(*x) < T(1e150))) return INFINITY;
     const T bb = qsqrt(b.norm());
     const T minus = std::max(qsqrt((a - CQ{1, 0}).norm()), bb);
     const T plus = std::max(qsqrt((a + CQ{1, 0}).norm()), bb);
@@ -207,6 +211,23 @@ struct BasicMoebius {
 
 using CQ = BasicCQ<quad>;
 using MoebiusQ = BasicMoebius<quad>;
+
+/// Whether every entry of M is below `bound` in magnitude, compared part by part (no product is
+/// formed, so nothing overflows; NaN is not below). Double-double and quad-double have double's
+/// exponent range: the products and squared norms their code forms stay finite only for maps
+/// whose entries are checked so first.
+template <class T>
+bool entries_below(const BasicMoebius<T>& M, double bound) {
+  for (const T* x : {&M.a.re, &M.a.im, &M.b.re, &M.b.im})
+    if (!(qabs(*x) < T(bound))) return false;
+  return true;
+}
+template <class T>
+bool entries_below(const std::vector<BasicMoebius<T>>& maps, double bound) {
+  for (const BasicMoebius<T>& M : maps)
+    if (!entries_below(M, bound)) return false;
+  return true;
+}
 
 /// A map in quad as a double-double one (each entry rounded to 106 bits).
 inline BasicMoebius<DoubleDouble> to_dd(const MoebiusQ& m) {
