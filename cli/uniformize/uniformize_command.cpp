@@ -426,6 +426,8 @@ Json geodesic_polygon_json(const ricci::GeodesicPolygon& gp, const std::vector<s
          {"closure_error", real(gp.closure_error)},
          {"simple", gp.simple},
          {"relation_error", real(gp.deck.relation_error)},
+         {"relation_floor", real(gp.relation_floor)},
+         {"arithmetic_bits", gp.arithmetic_bits},
          {"seconds", gp.seconds}};
   if (!words.empty()) c["generator_words"] = words;
   return c;

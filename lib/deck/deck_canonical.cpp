@@ -1507,6 +1507,7 @@ GeodesicPolygon polygon_from(std::vector<detail::BasicMoebius<Q>> gens, const de
     return bad(Status::NumericalFailure, "the geodesic polygon has a value that is not finite.");
   out.angle_tolerance = std::max(1e-9, out.deck.relation_error * std::exp(out.reach));
   out.relation_floor = detail::epsilon_of<Q>() * std::exp(2 * out.reach);
+  out.arithmetic_bits = detail::bits_of<Q>();
   out.at_quad_floor = out.simple && out.deck.relation_error > 1e-12 && out.deck.relation_error <= 16 * out.relation_floor;
   out.fundamental = out.simple && std::abs(out.angle_sum - 2 * M_PI) <= out.angle_tolerance;
   out.word.clear();

@@ -146,6 +146,8 @@ TEST_CASE("cli uniformize: the embedded default runs the whole pipeline and writ
   CHECK(j["polygon"]["angle_sum"].get<double>() == doctest::Approx(2 * std::numbers::pi).epsilon(1e-12));
   CHECK(j["polygon"]["area"].get<double>() == doctest::Approx(4 * std::numbers::pi).epsilon(1e-12));
   CHECK(j["polygon"]["closure_error"].get<double>() < 1e-12);
+  CHECK(j["polygon"]["arithmetic_bits"] == 113);  // quad verifies the genus-2 octagon
+  CHECK(j["polygon"]["relation_floor"].get<double>() < 1e-25);
   CHECK(j["polygon"]["generator_words"].size() == 4);
   CHECK(j["domain_cycle_error"].get<double>() < 1e-12);
   CHECK(j["domain_adjusted_cycle_error"].get<double>() < 1e-25);

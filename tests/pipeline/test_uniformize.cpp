@@ -579,6 +579,8 @@ TEST_CASE("uniformize: a row of 20 holes keeps its deck group where its compact 
   CHECK(r.geodesic_polygon.fundamental);
   CHECK(r.geodesic_polygon.vertices.size() == 80);
   CHECK(r.geodesic_polygon.reach > 25);
+  CHECK(r.geodesic_polygon.arithmetic_bits == 212);
+  CHECK(r.geodesic_polygon.relation_floor < 1e-20);
   CHECK(r.deck.relation_error < 1e-20);
   CHECK(r.has_deck);
   CHECK(r.canonical_words.size() == 40);

@@ -455,6 +455,9 @@ struct GeodesicPolygon {
   /// (pretzel(20, 4), reach 29.7: quad's floor 1.2e-8, relation in quad 6.2e-9; in quad-double
   /// 7.8e-28).
   double relation_floor = 0;
+  /// The bits of the arithmetic the polygon and its relation were formed in: 113 (quad), or 212
+  /// (quad-double: generators that carry map_low2/map_low3).
+  int arithmetic_bits = 113;
   /// Simple, with a relation error above 1e-12 but within 16 × relation_floor: what generators in
   /// this arithmetic can verify at this reach, not an inconsistent group (canonical_generators()
   /// scores such a polygon by its perimeter and tries no second round; the pipeline evaluates
