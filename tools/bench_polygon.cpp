@@ -8,7 +8,6 @@
 // fallback costs one cut) and prints a Markdown table: faces, genus, flow and polygon seconds,
 // their ratio, which polygon was made (geodesic, mesh, or none) and its figures. --mesh-path
 // adds a column with the polygon stage of mesh_polygon (8 base candidates) on inputs up to genus 5.
-#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -81,9 +80,7 @@ int main(int argc, char** argv) {
     o.base_candidates = 1;
     const ricci::UniformizeResult r = ricci::uniformize(v.mesh, v.topology, o);
     const double flow = stage_seconds(r, "flow"), polygon = stage_seconds(r, "polygon");
-    const bool wide = std::any_of(r.deck.generators.begin(), r.deck.generators.end(), [](const ricci::DeckGenerator& G) {
-      return std::abs(G.map_low2.a) + std::abs(G.map_low2.b) + std::abs(G.map_low3.a) + std::abs(G.map_low3.b) > 0;
-    });
+    const bool wide = r.has_geodesic_polygon && r.geodesic_polygon.arithmetic_bits > 113;
     const char* kind = r.has_polygon ? "mesh" : (r.has_geodesic_polygon ? (wide ? "geodesic, quad-double" : "geodesic") : "none");
     char row[512];
     std::snprintf(row, sizeof row, "| %s | %lld | %lld | %.3f | %.3f | %.2f | %s | %.1f | %.1f | %.1e | %s |", in.name.c_str(),

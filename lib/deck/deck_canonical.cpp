@@ -923,13 +923,11 @@ CanonicalGenerators canonical_generators(const CutResult& domain, std::span<cons
       (!fitted_maps.empty() && static_cast<Index>(fitted_maps.size()) != letters))
     return bad(Status::InvalidArgument, "canonical generators: expected one side pairing per generator of the cut.");
   Schema<quad> s;
-  std::vector<std::string> names;
   for (Index L = 0; L < letters; ++L) {
     s.element.push_back({static_cast<int>(L) + 1});
     s.map.push_back(quad_map(side_maps[static_cast<std::size_t>(L)]));
-    names.push_back(side_maps[static_cast<std::size_t>(L)].name);
     if (!std::isfinite(static_cast<double>(s.map.back().a.norm() + s.map.back().b.norm())))
-      return bad(Status::InvalidArgument, "canonical generators: side pairing " + names.back() + " is not finite.");
+      return bad(Status::InvalidArgument, "canonical generators: side pairing " + side_maps[static_cast<std::size_t>(L)].name + " is not finite.");
   }
   std::vector<int> seen(static_cast<std::size_t>(letters), 0);
   for (Index j = 0; j < domain.num_sides(); ++j) {
