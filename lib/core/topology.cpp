@@ -293,15 +293,28 @@ bool is_topology_of(const Topology& t, std::span<const Index> faces, Index num_v
 
 CutOpenResult cut_open(const Topology& t, std::span<const char> cut) {
   CutOpenResult r;
+  cut_open(t, cut, r);
+  return r;
+}
+
+void cut_open(const Topology& t, std::span<const char> cut, CutOpenResult& r) {
+  // What the steps below fill by appending or counting starts empty; the rest is assigned whole.
+  r.to_surface.clear();
+  Topology& d = r.topology;
+  d.boundary_offsets.clear();
+  d.boundary_vertices.clear();
+  d.boundary_corners.clear();
+  d.num_components = 0;
   if (cut.size() != static_cast<std::size_t>(t.num_edges)) {
     r.status = Status::InvalidArgument;
     r.message = "cut_open: " + std::to_string(cut.size()) + " cut flags for " + std::to_string(t.num_edges) + " edges";
-    return r;
+    r.faces.clear();
+    d = Topology{};
+    return;
   }
   cut_open_fans(t, cut, r);
   const Index nc = t.num_corners();
   const Index copies = static_cast<Index>(r.to_surface.size());
-  Topology& d = r.topology;
   d.num_vertices = copies;
   d.num_faces = t.num_faces;
   d.corner_vertex = r.faces;
@@ -313,13 +326,12 @@ CutOpenResult cut_open(const Topology& t, std::span<const char> cut) {
     r.status = tr.status;
     r.message = tr.message;
     r.topology = std::move(tr.topology);
-    return r;
+    return;
   }
   trace_boundary_loops(d, r.faces);
   label_components(d);
   r.status = Status::Ok;
   r.message = "ok";
-  return r;
 }
 
 }  // namespace ricci

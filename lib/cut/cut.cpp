@@ -35,6 +35,8 @@
 #include <unordered_map>
 #include <utility>
 
+#include <parallel/algorithm>
+
 namespace ricci {
 
 bool CutOptions::is_valid(std::string* why) const {
@@ -185,14 +187,17 @@ struct Disk {
   bool ok = false;
 };
 
-Disk build_disk(const Surface& S, const std::vector<char>& cut) {
-  CutOpenResult o = cut_open(S.topo, cut);
-  Disk R;
+/// R made again for `cut`, in R's own buffers (the cut's moves rebuild it each time: no fresh pages).
+void build_disk(const Surface& S, const std::vector<char>& cut, Disk& R) {
+  CutOpenResult o;
+  o.faces = std::move(R.faces);
+  o.to_surface = std::move(R.to_surface);
+  o.topology = std::move(R.topo);
+  cut_open(S.topo, cut, o);
   R.faces = std::move(o.faces);
   R.to_surface = std::move(o.to_surface);
   R.ok = o.status == Status::Ok;
   R.topo = std::move(o.topology);
-  return R;
 }
 
 struct Polygon {
@@ -489,10 +494,10 @@ bool refine(Surface& S, const std::vector<Index>& fan_faces, const std::vector<I
 
 /// Hop distance of every vertex of R from R's boundary. Paths pay more near the boundary, so they
 /// keep away from the cut and do not leave one-face-wide corridors for later moves.
-std::vector<Index> boundary_hops(const Disk& R) {
+void boundary_hops(const Disk& R, std::vector<Index>& hops, std::vector<Index>& queue) {
   const Topology& rt = R.topo;
-  std::vector<Index> hops(static_cast<std::size_t>(rt.num_vertices), kInvalid);
-  std::vector<Index> queue;
+  hops.assign(static_cast<std::size_t>(rt.num_vertices), kInvalid);
+  queue.clear();
   for (Index v = 0; v < rt.num_vertices; ++v)
     if (rt.is_boundary_vertex(v)) {
       hops[v] = 0;
@@ -508,7 +513,6 @@ std::vector<Index> boundary_hops(const Disk& R) {
       }
     }
   }
-  return hops;
 }
 
 /// What a search reads of one R vertex, in one place (one cache line): its 3D point (zeros
@@ -518,16 +522,17 @@ struct SearchVertex {
   Index hops;
 };
 
-/// The search vertices of R (rebuilt with R).
-std::vector<SearchVertex> search_vertices(const Surface& S, const Disk& R) {
-  const std::vector<Index> hops = boundary_hops(R);
-  std::vector<SearchVertex> out(hops.size());
+/// The search vertices of R (rebuilt with R) into `out`; `hops`, `queue`: boundary_hops()'s
+/// buffers, kept by the caller like `out`.
+void search_vertices(const Surface& S, const Disk& R, std::vector<SearchVertex>& out, std::vector<Index>& hops,
+                     std::vector<Index>& queue) {
+  boundary_hops(R, hops, queue);
+  out.resize(hops.size());
   for (std::size_t v = 0; v < hops.size(); ++v) {
     SearchVertex& x = out[v];
     for (int d = 0; d < 3; ++d) x.p[d] = S.has_pos ? S.pos[3 * static_cast<std::size_t>(R.to_surface[v]) + d] : 0.0;
     x.hops = hops[v];
   }
-  return out;
 }
 
 /// Buffers of search_path(), kept from one search to the next: a search touches only the nodes
@@ -840,15 +845,16 @@ struct Cutter {
   std::string error;  ///< internal failure
 
   std::vector<SearchVertex> verts;  ///< search_vertices(S, R)
+  std::vector<Index> hops, queue;   ///< search_vertices()'s buffers
   SearchWork work;
 
   bool rebuild() {
-    R = build_disk(S, st.cut);
+    build_disk(S, st.cut, R);
     if (!R.ok) {
       error = "the cut surface is not a manifold";
       return false;
     }
-    verts = search_vertices(S, R);
+    search_vertices(S, R, verts, hops, queue);
     P = read_polygon(S, st, R, outer_hint);
     if (!P.ok) {
       error = P.why;
@@ -1048,7 +1054,8 @@ bool tree_cotree(Surface& S, State& st, Index root, std::span<const double> weig
     if (!interior(e) || in_tree[e]) continue;
     cand.emplace_back(dhat[S.cls(t.edge_vertices[2 * e])] + w(e) + dhat[S.cls(t.edge_vertices[2 * e + 1])], e);
   }
-  std::sort(cand.begin(), cand.end(), [](const std::pair<double, Index>& a, const std::pair<double, Index>& b) {
+  // Edges are distinct, so the order is total and the parallel sort's result is std::sort's.
+  __gnu_parallel::sort(cand.begin(), cand.end(), [](const std::pair<double, Index>& a, const std::pair<double, Index>& b) {
     return a.first > b.first || (a.first == b.first && a.second < b.second);
   });
   UnionFind uf(F);

@@ -18,23 +18,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-struct UnionFind {
-  std::vector<Index> parent;
-  explicit UnionFind(Index n) : parent(static_cast<std::size_t>(n)) { std::iota(parent.begin(), parent.end(), 0); }
-  Index find(Index x) {
-    while (parent[x] != x) {
-      parent[x] = parent[parent[x]];
-      x = parent[x];
-    }
-    return x;
-  }
-  void unite(Index a, Index b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
-
 /// Distance between the centroids of the two faces of interior edge e (corner c opposite it in
 /// one face), the faces unfolded into the plane along e with the given lengths.
 double dual_weight(const Topology& t, std::span<const double> l, Index c) {
@@ -171,30 +154,6 @@ std::vector<char> cut_graph(const Topology& topo, const std::vector<Index>& via,
   return cut;
 }
 
-/// The disk's vertices: corners joined across every edge that is not cut (r.cut_faces,
-/// r.cut_to_surface).
-void join_corners(const Mesh& mesh, const Topology& topo, const std::vector<char>& cut, CutResult& r) {
-  const Index F = topo.num_faces;
-  UnionFind uf(3 * F);
-  for (Index e = 0; e < topo.num_edges; ++e) {
-    if (cut[e]) continue;
-    const Index c1 = topo.edge_corners[2 * e], c2 = topo.edge_corners[2 * e + 1];
-    if (c2 == kInvalid) continue;
-    uf.unite(next_corner(c1), prev_corner(c2));
-    uf.unite(prev_corner(c1), next_corner(c2));
-  }
-  std::vector<Index> id(static_cast<std::size_t>(3 * F), kInvalid);
-  r.cut_faces.resize(static_cast<std::size_t>(3 * F));
-  for (Index c = 0; c < 3 * F; ++c) {
-    const Index root = uf.find(c);
-    if (id[root] == kInvalid) {
-      id[root] = static_cast<Index>(r.cut_to_surface.size());
-      r.cut_to_surface.push_back(mesh.faces[c]);
-    }
-    r.cut_faces[c] = id[root];
-  }
-}
-
 /// The sides: the disk's boundary (dt) split at the cut graph's nodes (degree ≥ 3, boundary edges
 /// counted, and the ends of kept branches, degree 1); which sides lie on the surface's boundary
 /// (their edges have no partner); each other side's partner. Empty string, or what went wrong.
@@ -327,9 +286,11 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
 
   std::vector<Index> degree;
   const std::vector<char> cut = cut_graph(topo, via, keep, degree);
-  join_corners(mesh, topo, cut, r);
-  TopologyResult disk = build_topology(r.cut_faces, r.num_cut_vertices());
+  // The disk: the surface opened along the cut (its connectivity derived from topo's, no sort).
+  CutOpenResult disk = cut_open(topo, cut);
   if (disk.status != Status::Ok) return fail(Status::NumericalFailure, "the cut surface is not a manifold: " + disk.message);
+  r.cut_faces = std::move(disk.faces);
+  r.cut_to_surface = std::move(disk.to_surface);
   const Topology& dt = disk.topology;
   if (dt.num_components != 1 || dt.euler_characteristic() != 1 || dt.num_boundary_loops() != 1)
     return fail(Status::NumericalFailure, "the cut surface is not a disk");

@@ -201,6 +201,9 @@ std::vector<char> tree_cut(const Topology& t, std::mt19937_64& rng, int roots, d
 TEST_CASE("topology: cut_open equals build_topology of the cut faces, bit for bit") {
   using namespace ricci_shapes;
   Index refused = 0, glued = 0, opened = 0;
+  // One result reused by every cut below (the overload that keeps its buffers): whatever it held
+  // before (another surface, more boundary, a refused cut), it ends as the fresh result.
+  CutOpenResult reused;
   for (const auto& s : surfaces()) {
     const Topology t = build_topology(s.mesh.faces, s.mesh.num_vertices()).topology;
     for (std::uint64_t seed = 1; seed <= 6; ++seed) {
@@ -216,6 +219,12 @@ TEST_CASE("topology: cut_open equals build_topology of the cut faces, bit for bi
         for (Index e = 0; e < t.num_edges; ++e) cut[e] = rng() % (seed == 6 ? 2 : 7) == 0;
       }
       const CutOpenResult o = cut_open(t, cut);
+      cut_open(t, cut, reused);
+      CHECK(reused.status == o.status);
+      CHECK(reused.message == o.message);
+      CHECK(reused.faces == o.faces);
+      CHECK(reused.to_surface == o.to_surface);
+      if (o.status == Status::Ok) CHECK(ricci_test::same_topology(reused.topology, o.topology));
       const TopologyResult b = build_topology(o.faces, static_cast<Index>(o.to_surface.size()));
       CHECK(o.status == b.status);
       CHECK(o.message == b.message);
@@ -260,4 +269,10 @@ TEST_CASE("topology: cut_open equals build_topology of the cut faces, bit for bi
   const CutOpenResult bad = cut_open(t, std::vector<char>(3, 0));
   CHECK(bad.status == Status::InvalidArgument);
   CHECK(bad.message.find("3 cut flags") != std::string::npos);
+  cut_open(t, std::vector<char>(3, 0), reused);  // refused: nothing of the last result is left
+  CHECK(reused.status == Status::InvalidArgument);
+  CHECK(reused.faces.empty());
+  CHECK(reused.to_surface.empty());
+  CHECK(reused.topology.num_faces == 0);
+  CHECK(reused.topology.corner_vertex.empty());
 }

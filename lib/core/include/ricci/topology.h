@@ -129,4 +129,9 @@ struct CutOpenResult {
 /// join the same two vertex copies, build_topology() itself decides (it glues or refuses them).
 CutOpenResult cut_open(const Topology& t, std::span<const char> cut);
 
+/// cut_open() into `out`, whose buffers are reused (a caller that cuts the same surface again and
+/// again, as the canonical cut's moves do, gets no fresh pages after the first). The result is
+/// cut_open()'s whatever `out` held before.
+void cut_open(const Topology& t, std::span<const char> cut, CutOpenResult& out);
+
 }  // namespace ricci
