@@ -1978,10 +1978,18 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   Layout out;
   out.geometry = g;
   out.dims = g == Geometry::Spherical ? 3 : 2;
-  std::vector<double> theta, area;
   if (!check_lengths(t, g, l, out)) return out;
-  if (!angles_and_areas(t, g, l, theta, area, out)) return out;
+  // The shapes: the caller's (another layout of these lengths), else computed.
   const Index nv = t.num_vertices, nf = t.num_faces;
+  std::shared_ptr<const LayoutShapes> shapes = options.shapes;
+  if (!shapes || shapes->corner_angles.size() != static_cast<std::size_t>(t.num_corners()) ||
+      shapes->face_areas.size() != static_cast<std::size_t>(nf)) {
+    auto made = std::make_shared<LayoutShapes>();
+    if (!angles_and_areas(t, g, l, made->corner_angles, made->face_areas, out)) return out;
+    shapes = std::move(made);
+  }
+  const std::vector<double>& theta = shapes->corner_angles;
+  const std::vector<double>& area = shapes->face_areas;
   const Index seed = options.seed_face >= 0 ? options.seed_face : central_face_of(t);
   out.seed_face = seed;
   std::vector<double> x(static_cast<std::size_t>(nv) * out.dims, 0.0);
@@ -2002,6 +2010,7 @@ Layout run_layout(const Topology& t, Geometry g, std::span<const double> l, cons
   if (out.unresolved_vertices == 0) refine_layout(t, g, l, theta, seed, options, P, now, edge_errors, out);
   finish_layout(t, g, l, area, seed, options, now, P, out);
   out.positions = std::move(x);
+  out.shapes = std::move(shapes);
   out.status = Status::Ok;
   out.message = "laid out " + std::to_string(nf) + " faces in " + std::string(geometry_name(g)) + " geometry";
   out.seconds = std::chrono::duration<double>(Clock::now() - start).count();

@@ -1562,6 +1562,7 @@ std::vector<Index> check_seed_faces(const Topology& t, Index seed, int count, In
 // The check's layouts are refined only above kCheckRefineAbove (UniformizeOptions::seed_checks).
 constexpr double kCheckRefineAbove = 1e-8;
 struct SeedCheck {
+  std::shared_ptr<const LayoutShapes> shapes;  // the layout's angles and areas: the checks read them
   std::vector<Index> seeds;
   std::vector<Layout> layouts;
   std::exception_ptr error;
@@ -1588,12 +1589,14 @@ void start_seed_check(LayoutRun& run, SeedCheck& sc, const Topology& faces, Inde
         o.refine_above = std::max(o.refine_above, kCheckRefineAbove);
         o.keep_unresolved = run.options.use_atlas && !sphere;
         o.frames = run.layout_frames;
+        o.shapes = sc.shapes;
         sc.layouts[k] = sphere ? layout_sphere(run.topology, run.metric_l, o)
                                : layout_disk(res.disk, res.geometry, res.disk_lengths, o);
       }
     } catch (...) {
       sc.error = std::current_exception();
     }
+    sc.shapes = nullptr;
     sc.seconds = since(t0);
   };
   sc.beside = second_thread(run.options) && run.closed_h && run.cones.empty();
@@ -1827,9 +1830,15 @@ bool cut_and_lay_out(LayoutRun& run) {
   }
 
   if (!gate_layout(run)) return false;
+  // The layout's shapes (corner angles, face areas) go to the seed check, whose layouts of the same
+  // lengths read them instead of computing them again; the result does not keep them.
+  std::shared_ptr<const LayoutShapes> shapes = std::move(r.layout.shapes);
+  r.layout.shapes = nullptr;
   const Index seed = run.layout_options.seed_face;
-  if (run.seed_check != nullptr && run.laid_out != nullptr && seed >= 0 && seed < run.laid_out->num_faces)
+  if (run.seed_check != nullptr && run.laid_out != nullptr && seed >= 0 && seed < run.laid_out->num_faces) {
+    run.seed_check->shapes = std::move(shapes);
     start_seed_check(run, *run.seed_check, *run.laid_out, seed);
+  }
   return true;
 }
 

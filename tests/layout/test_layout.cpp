@@ -84,10 +84,12 @@ Disk cut_disk(const Uniformized& u) {
 }
 
 /// Layout of a uniformized surface from a seed: the sphere directly, everything else cut open.
-Layout lay_out(const Uniformized& u, const Disk* d, Index seed, bool mobius = true) {
+Layout lay_out(const Uniformized& u, const Disk* d, Index seed, bool mobius = true,
+               std::shared_ptr<const LayoutShapes> shapes = nullptr) {
   LayoutOptions o;
   o.seed_face = seed;
   o.sphere_mobius = mobius;
+  o.shapes = std::move(shapes);
   if (d == nullptr) return layout_sphere(u.topo, u.flow.l, o);
   return layout_disk(d->topo, u.geometry, d->l, o);
 }
@@ -168,6 +170,25 @@ TEST_CASE("layout: every fixture lays out with the metric's edge lengths, no fli
       MESSAGE(p.filename().string() << ": double-precision Poincaré coordinates cannot resolve 1e-9 here (floor "
                                     << base.rounding_floor << "); checked against 8× the floor");
     CHECK(base.flipped_faces == 0);
+    // The shapes it read (corner angles, and areas outside E), given to a layout from another seed
+    // of the same lengths, give that layout bit for bit; shapes of another size are not used.
+    REQUIRE(base.shapes != nullptr);
+    CHECK(base.shapes->corner_angles.size() == static_cast<std::size_t>(3 * (dp ? d.topo : u.topo).num_faces));
+    CHECK(base.shapes->face_areas.size() == static_cast<std::size_t>((dp ? d.topo : u.topo).num_faces));
+    const Layout fresh = lay_out(u, dp, 0), read = lay_out(u, dp, 0, true, base.shapes);
+    REQUIRE(read.status == Status::Ok);
+    CHECK(read.positions == fresh.positions);
+    CHECK(read.shapes == base.shapes);
+    auto short_shapes = std::make_shared<LayoutShapes>(*base.shapes);
+    short_shapes->corner_angles.pop_back();
+    const Layout ignored = lay_out(u, dp, 0, true, short_shapes);
+    CHECK(ignored.positions == fresh.positions);
+    CHECK(ignored.shapes != short_shapes);
+    auto bent = std::make_shared<LayoutShapes>(*base.shapes);  // read, not recomputed: it shows
+    for (double& a : bent->corner_angles) a *= 1 + 1e-6;  // E, H: the development turns by them
+    for (std::size_t f = 0; f < bent->face_areas.size(); ++f)  // S: only the centring reads areas
+      bent->face_areas[f] *= 1 + 1e-3 * static_cast<double>(f % 7);
+    CHECK(lay_out(u, dp, 0, true, bent).positions != fresh.positions);
     if (sphere) {
       // Möbius-centred layouts: centred, still unflipped, and seed independent up to a rotation.
       CHECK(base.centre_of_mass < 1e-12);

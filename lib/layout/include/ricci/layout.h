@@ -148,6 +148,13 @@ std::vector<double> disk_edge_lengths(const CutResult& cut, const Topology& surf
 
 // FaceFrames (face_frames.h): where each face lies in a coarser triangulation.
 
+/// The triangles' shapes a layout reads from its lengths (Layout::shapes): every corner's angle
+/// (#F×3, as corner_angles() gives them) and, in H and S, every face's area (#F; zeros in E).
+struct LayoutShapes {
+  std::vector<double> corner_angles;
+  std::vector<double> face_areas;
+};
+
 /// Options of layout_disk() and layout_sphere().
 struct LayoutOptions {
   /// Seed face; -1 picks a central face (see the top of this header).
@@ -217,6 +224,11 @@ struct LayoutOptions {
   /// Null (default): develop the faces. Sizes that do not match the mesh are refused
   /// (InvalidArgument).
   std::shared_ptr<const FaceFrames> frames;
+  /// The shapes of a layout of the same mesh with the same lengths and geometry (Layout::shapes
+  /// of an earlier call): read instead of computed again, as a second layout from another seed
+  /// does (uniformize()'s seed check). The caller vouches that the lengths are the same; shapes
+  /// whose sizes do not match the mesh are not used. Null (default): computed from the lengths.
+  std::shared_ptr<const LayoutShapes> shapes;
 
   /// True when seed_face ≥ -1, refine_above is finite and ≥ 0, polish_sweeps is in 0..10000 and
   /// polish_steps in 0..20; otherwise false, with the reason
@@ -290,6 +302,9 @@ struct Layout {
   int patch_fit_iterations = 0;   ///< Ceres iterations of the joint patch fit
   double patch_seam_error = 0;    ///< largest spread of a shared vertex's copies / its mean edge length
   double seconds = 0;  ///< wall-clock time of layout_disk() / layout_sphere(); 0 on failure and for measure_layout()
+  /// The corner angles and face areas this layout read (LayoutOptions::shapes, for another layout
+  /// of the same lengths); null on failure and for measure_layout().
+  std::shared_ptr<const LayoutShapes> shapes;
 
   /// One line: status, geometry, seed, edge error, flips, time.
   std::string brief_report() const;
