@@ -44,6 +44,7 @@ struct AtlasBuild {
   LayoutAtlas& out;
   std::vector<double> face_error;  ///< #F: max relative edge error of the face in its chart
   std::vector<double> face_floor;  ///< #F: its rounding floor there (rounding_drift() / length)
+  std::span<const double> root_positions;  ///< #V×2: the root layout's (layout_atlas()'s input)
   std::vector<Index> owner;        ///< scratch labels for a chart's propagation (-1 elsewhere)
   /// #F: the face stays unresolved in the chart made for its own group (laid out from that
   /// group's smallest face, near its origin) and no further chart resolves it better, so it starts
@@ -113,6 +114,41 @@ struct AtlasBuild {
     const double ra = std::abs(a), rb = std::abs(b), da = (1 - ra) * (1 + ra), db = (1 - rb) * (1 + rb);
     if (!(da > 0 && db > 0)) return std::numeric_limits<double>::infinity();
     return 2 * u * std::sqrt(2.0) * (ra / da + rb / db);
+  }
+
+  /// Why a chart misses by `miss` (of an edge of length `unit`) near vertex p, as far as the
+  /// lengths tell. They close around each interior vertex v of the disk only to its angle-sum
+  /// residual δ_v (|2π − Σθ|; the target is flat inside the disk: cones lie on its boundary), so
+  /// two developments that pass v on either side differ by a turn δ_v about it: at p, by
+  /// δ_v·sinh(d(p, v)) in H, δ_v·d(p, v) in E. Their sum over the vertices, with distances in the
+  /// root layout, bounds what the residuals can do there. Only on failure (one pass over the faces).
+  std::string miss_reason(double miss, Index p, double unit) const {
+    std::vector<double> theta(static_cast<std::size_t>(t.num_corners()));
+    corner_angles(t, g, l, theta);
+    std::vector<double> sum(static_cast<std::size_t>(t.num_vertices), 0.0);
+    for (Index c = 0; c < t.num_corners(); ++c) sum[t.corner_vertex[c]] += theta[c];
+    auto z = [&](Index v) { return Cx(root_positions[2 * v], root_positions[2 * v + 1]); };
+    double delta = 0, reach = 0;
+    Index at = kInvalid;
+    for (Index v = 0; v < t.num_vertices; ++v) {
+      if (t.valence(v) == 0 || t.is_boundary_vertex(v)) continue;
+      const double r = std::abs(2 * std::numbers::pi - sum[v]);
+      if (r > delta) delta = r, at = v;
+      const double d = planar_distance(g, z(p), z(v));
+      reach += r * (g == Geometry::Hyperbolic ? std::sinh(d) : d);
+    }
+    reach /= unit;
+    if (at == kInvalid) return ": the lengths are not one metric there";
+    const std::string residual = "the lengths close around the disk's vertices only to " + sci(delta) +
+                                 " (the angle sum at vertex " + std::to_string(at) + " misses 2π by that)";
+    if (!std::isfinite(reach))
+      return ": " + residual + "; how far such residuals turn the developments there is beyond the root layout's "
+             "coordinates";
+    if (miss <= reach)
+      return ": " + residual + ", and such residuals turn the developments there apart by up to " + sci(reach) +
+             " of an edge: the lengths are not flat closely enough for this reach";
+    return ": more than the lengths' angle-sum residuals account for there (up to " + sci(delta) + " at vertex " +
+           std::to_string(at) + ", " + sci(reach) + " of an edge at most): the lengths are not one metric there";
   }
 
   /// The face's max relative edge error in its chart's coordinates, and its rounding floor.
@@ -586,10 +622,13 @@ struct AtlasBuild {
       return true;
     }
     if (!(ch.transition_error <= options.max_transition_error)) {
+      double unit = 0;  // the collar's mean edge length
+      for (double s : scale) unit += s / static_cast<double>(scale.size());
       return fail(Element::Face, ch.seed_face,
                   "the chart around face " + std::to_string(ch.seed_face) + " misses chart " + std::to_string(k) +
                       " on their common collar by " + sci(ch.transition_error) + " of an edge's length (limit " +
-                      sci(options.max_transition_error) + "): the lengths are not one metric there");
+                      sci(options.max_transition_error) + ")" +
+                      miss_reason(ch.transition_error, t.corner_vertex[3 * ch.seed_face], unit));
     }
     compose_to_root(ch);
     // The group's faces move into the new chart; a face settled before (unresolvable in the chart
@@ -634,7 +673,8 @@ struct AtlasBuild {
                                           " even in the chart around face " + std::to_string(ch.seed_face) +
                                           " made for it (" + std::to_string(resolved) + " of its group's " +
                                           std::to_string(group.size()) + " faces resolved; limit " +
-                                          sci(options.max_transition_error) + "): the lengths are not one metric there");
+                                          sci(options.max_transition_error) + ")" +
+                                          miss_reason(face_error[f], t.corner_vertex[3 * f], shortest(f)));
       }
     out.charts.push_back(ch);
     return true;
@@ -732,7 +772,8 @@ LayoutAtlas layout_atlas(const Topology& disk, Geometry g, std::span<const doubl
   LayoutChart root;
   out.charts.push_back(root);
   AtlasBuild b{disk, g, l, options, out, std::vector<double>(static_cast<std::size_t>(nf)),
-               std::vector<double>(static_cast<std::size_t>(nf)), std::vector<Index>(static_cast<std::size_t>(nf), -1),
+               std::vector<double>(static_cast<std::size_t>(nf)), positions,
+               std::vector<Index>(static_cast<std::size_t>(nf), -1),
                std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0),
                std::vector<std::uint8_t>(static_cast<std::size_t>(nf), 0),
                std::vector<double>(static_cast<std::size_t>(nf), std::numeric_limits<double>::infinity()), {}};

@@ -216,6 +216,15 @@ TEST_CASE("atlas: lengths that are not one metric are refused naming a face, and
     CHECK(a.element_index >= 0);
     CHECK(a.charts.empty());
     CHECK(a.corner_positions.empty());
+    // It names the lengths' largest angle-sum residual, at a vertex of the lengthened edge's faces.
+    const std::size_t at = a.message.find("at vertex ");
+    REQUIRE(at != std::string::npos);
+    CHECK((a.message.find("angle sum") != std::string::npos || a.message.find("angle-sum") != std::string::npos));
+    const Index named = static_cast<Index>(std::stol(a.message.substr(at + 10)));
+    bool near = false;
+    for (int s = 0; s < 2; ++s)
+      for (int c = 0; c < 3; ++c) near = near || r.disk.corner_vertex[3 * (r.disk.edge_corners[2 * e + s] / 3) + c] == named;
+    CHECK(near);
   }
   std::string why;
   AtlasOptions o;

@@ -364,6 +364,26 @@ TEST_CASE("atlas: a closed genus-12 surface's common subdivision maps in charts 
   check_atlas_faces(d.r.atlas);
 }
 
+TEST_CASE("uniformize: an atlas that fails says how far the lengths' angle-sum residuals reach there") {
+  if (ricci_test::kSanitized) return;  // 1.5 s in Release
+  // Draw 16 (genus 11, 6 loops, 1767 faces, stretched 50:1) as the CLI takes it: vertex scaling
+  // with flips converges only to the curvature resolution of near-coincident vertices, the common
+  // subdivision's layout misses by 3e5 and its atlas misses a collar. The fallback note gives the
+  // largest residual of an angle sum and the miss it can cause there (above the one found), not
+  // just "not one metric".
+  const ValidateResult v = sweep_draw_as_cli(16);
+  UniformizeOptions o;
+  o.seed_checks = 0;
+  const UniformizeResult r = uniformize(v.mesh, v.topology, o);
+  REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+  const std::string& why = r.intrinsic.fallback;
+  MESSAGE(why);
+  CHECK(why.find("an atlas of charts failed too") != std::string::npos);
+  CHECK(why.find("the angle sum at vertex") != std::string::npos);
+  CHECK(why.find("not flat closely enough for this reach") != std::string::npos);
+  CHECK(r.layout.max_edge_length_error < 1e-9);  // circle packing on the input's triangles
+}
+
 TEST_CASE("uniformize: a closed surface whose common subdivision no chart resolves falls back to circle packing") {
   // Draw 150 again, with charts that may not nest (AtlasOptions::max_depth 1): its atlas fails, so
   // the job with flips fails at its layout. As on a bordered surface's double, circle packing on
