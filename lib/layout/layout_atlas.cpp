@@ -128,16 +128,24 @@ struct AtlasBuild {
     std::vector<double> sum(static_cast<std::size_t>(t.num_vertices), 0.0);
     for (Index c = 0; c < t.num_corners(); ++c) sum[t.corner_vertex[c]] += theta[c];
     auto z = [&](Index v) { return Cx(root_positions[2 * v], root_positions[2 * v + 1]); };
+    // No operation here may overflow or meet NaN (the sanitized tests trap them): a residual that
+    // is not finite, or a vertex beyond the root layout's range, leaves the reach unknown (∞).
+    constexpr double kInf = std::numeric_limits<double>::infinity();
     double delta = 0, reach = 0;
     Index at = kInvalid;
     for (Index v = 0; v < t.num_vertices; ++v) {
       if (t.valence(v) == 0 || t.is_boundary_vertex(v)) continue;
       const double r = std::abs(2 * std::numbers::pi - sum[v]);
+      if (!std::isfinite(r)) {
+        reach = kInf;
+        continue;
+      }
       if (r > delta) delta = r, at = v;
+      if (r == 0 || reach == kInf) continue;
       const double d = planar_distance(g, z(p), z(v));
-      reach += r * (g == Geometry::Hyperbolic ? std::sinh(d) : d);
+      reach = std::isfinite(d) && d < 700 ? reach + r * (g == Geometry::Hyperbolic ? std::sinh(d) : d) : kInf;
     }
-    reach /= unit;
+    if (reach < kInf) reach = unit > 1e-200 ? reach / unit : kInf;  // the sum stays below ~1e41
     if (at == kInvalid) return ": the lengths are not one metric there";
     const std::string residual = "the lengths close around the disk's vertices only to " + sci(delta) +
                                  " (the angle sum at vertex " + std::to_string(at) + " misses 2π by that)";
