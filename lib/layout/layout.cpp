@@ -600,6 +600,9 @@ T block_sum(Index n, Add&& add) {
 /// Centre of the hyperboloid centre of mass (Poincaré point) of weighted disk points.
 Cx hyperbolic_centre(const Positions& P, Index nv, const std::vector<double>* w) {
   const Eigen::Vector3d C = block_sum<Eigen::Vector3d>(nv, [&](Eigen::Vector3d& acc, Index v) {
+    // A position rounded onto the unit circle (or beyond) is no point of the plane: it carries no
+    // weight (its hyperboloid point would be infinite).
+    if (!(std::abs(P.z(v)) < 1)) return;
     const V3 X = hyperboloid(P.z(v));
     acc += (w ? (*w)[v] : 1.0) * Eigen::Vector3d(X[0], X[1], X[2]);
   });
