@@ -1833,7 +1833,6 @@ bool cut_and_lay_out(LayoutRun& run) {
   // The layout's shapes (corner angles, face areas) go to the seed check, whose layouts of the same
   // lengths read them instead of computing them again; the result does not keep them.
   std::shared_ptr<const LayoutShapes> shapes = std::move(r.layout.shapes);
-  r.layout.shapes = nullptr;
   const Index seed = run.layout_options.seed_face;
   if (run.seed_check != nullptr && run.laid_out != nullptr && seed >= 0 && seed < run.laid_out->num_faces) {
     run.seed_check->shapes = std::move(shapes);
