@@ -1049,12 +1049,17 @@ double average_copies(Geometry g, const std::vector<PatchCopy>& copies, const Co
       for (const Cx& z : w) mean += z;
       mean /= static_cast<double>(n);
     } else {
+      // A copy mapped onto the unit circle or beyond has no hyperboloid point: the mean is that of
+      // the others (disk_distance() then puts it infinitely far), or that copy when none is inside.
       V3 S{0, 0, 0};
+      bool inside = false;
       for (const Cx& z : w) {
+        if (!(std::abs(z) < 1)) continue;
         const V3 X = hyperboloid(z);
         for (int dd = 0; dd < 3; ++dd) S[dd] += X[dd];
+        inside = true;
       }
-      mean = poincare(S);
+      mean = inside ? poincare(S) : w.front();
     }
     for (const Cx& z : w) {
       const double dist = g == Geometry::Euclidean ? std::abs(z - mean) : disk_distance(z, mean);
