@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs the whole test suite twice: a Release build (with the Python module and
 # its pytest suite), then a build with AddressSanitizer + UndefinedBehaviorSanitizer (Debug
-# assertions and floating-point traps on).
+# assertions on); floating-point traps are on in both.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start="$(date +%s)"
