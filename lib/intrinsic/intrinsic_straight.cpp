@@ -115,7 +115,14 @@ StraightInputMetric straight_input_metric(const IntrinsicTriangulation& tri, std
       ends[2 * static_cast<std::size_t>(k) + 1] = p;
       at(next_corner(oc)) = p;
       at(prev_corner(oc)) = q;
-      at(oc) = turn_and_walk(g, p, q, theta[next_corner(oc)], l[t.corner_edge[prev_corner(oc)]]);
+      // A development that rounding has carried out of reach or left without a direction is
+      // broken (named below), not continued into overflow or NaN.
+      if (!within_reach(p) || !within_reach(q) ||
+          !turn_and_walk(g, p, q, theta[next_corner(oc)], l[t.corner_edge[prev_corner(oc)]], at(oc)) ||
+          !within_reach(at(oc))) {
+        broken[a] = 1;
+        break;
+      }
       face = corner_face(oc);
     }
     const Index last = paths.last_corner[a];

@@ -49,35 +49,58 @@ inline double from_pole(Geometry g, const P3& x) {
 }
 
 // The point at distance r from p, at angle `angle` to the left of the geodesic from p to q
-// (counter-clockwise seen from outside the sphere / from above the plane and the hyperboloid).
-inline P3 turn_and_walk(Geometry g, const P3& p, const P3& q, double angle, double r) {
+// (counter-clockwise seen from outside the sphere / from above the plane and the hyperboloid),
+// into `out`. False (out untouched) where rounding leaves no direction from p to q: p and q equal
+// in double, or, far out on the hyperboloid, a tangent or a point whose Lorentz norm cancelled to
+// zero or below. Precondition: finite p and q (in H, below kModelReach from the pole).
+inline bool turn_and_walk(Geometry g, const P3& p, const P3& q, double angle, double r, P3& out) {
   const double c = std::cos(angle), s = std::sin(angle);
   switch (g) {
     case Geometry::Euclidean: {
       P3 d = sub(q, p);
-      d = mul(d, 1 / std::hypot(d[0], d[1]));
-      return {p[0] + r * (c * d[0] - s * d[1]), p[1] + r * (s * d[0] + c * d[1]), 0};
+      const double n = std::hypot(d[0], d[1]);
+      if (!(n > 0)) return false;
+      d = mul(d, 1 / n);
+      out = {p[0] + r * (c * d[0] - s * d[1]), p[1] + r * (s * d[0] + c * d[1]), 0};
+      return true;
     }
     case Geometry::Spherical: {
       P3 n = cross(p, q);                       // normal of the great circle through p and q
-      n = mul(n, 1 / std::sqrt(dot(n, n)));
+      const double nn = dot(n, n);
+      if (!(nn > 0)) return false;
+      n = mul(n, 1 / std::sqrt(nn));
       const P3 t = cross(n, p);                 // unit tangent at p towards q
       const P3 left = cross(p, t);              // unit tangent at p, 90° to the left of t
       P3 x = add(mul(p, std::cos(r)), mul(add(mul(t, c), mul(left, s)), std::sin(r)));
-      return mul(x, 1 / std::sqrt(dot(x, x)));
+      const double xx = dot(x, x);
+      if (!(xx > 0)) return false;
+      out = mul(x, 1 / std::sqrt(xx));
+      return true;
     }
     case Geometry::Hyperbolic: {
       P3 t = add(q, mul(p, lorentz(p, q)));     // q's component tangent at p
-      t = mul(t, 1 / std::sqrt(lorentz(t, t)));
+      const double tt = lorentz(t, t);
+      if (!(tt > 0)) return false;
+      t = mul(t, 1 / std::sqrt(tt));
       P3 left = cross(p, t);                    // J (p × t): Lorentz-orthogonal to p and t
       left[2] = -left[2];
       P3 x = add(mul(p, std::cosh(r)), mul(add(mul(t, c), mul(left, s)), std::sinh(r)));
-      return mul(x, 1 / std::sqrt(-lorentz(x, x)));
+      const double xx = -lorentz(x, x);
+      if (!(xx > 0)) return false;
+      out = mul(x, 1 / std::sqrt(xx));
+      return true;
     }
   }
-  return {};
+  return false;
 }
 
+// How far from the pole a development may carry points: beyond it (H: the hyperboloid's z
+// coordinate; E: a coordinate's magnitude) products of coordinates could overflow, and doubles
+// there resolve no distance anyway (z = 2^500 resolves hyperbolic distance to about 2^-53 × 2^500).
+inline constexpr double kModelReach = 0x1p500;
+inline bool within_reach(const P3& x) {
+  return std::abs(x[0]) < kModelReach && std::abs(x[1]) < kModelReach && std::abs(x[2]) < kModelReach;
+}
 
 // H: z_p − z_q of two hyperboloid points from their spatial parts, (|p|² − |q|²)/(z_p + z_q)
 // with z² = 1 + x² + y²: exact to the rounding of the result however close the points are. The

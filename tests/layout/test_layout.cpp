@@ -991,3 +991,41 @@ TEST_CASE("model geometry: the hyperbolic distance of close points comes from th
   const double cosh_d = -model::lorentz(a, b);
   CHECK(model::distance(Geometry::Hyperbolic, a, b) == doctest::Approx(std::acosh(cosh_d)).epsilon(1e-13));
 }
+
+TEST_CASE("model geometry: a development step that rounding leaves without a direction says so, never NaN") {
+  // A regular step in each geometry: at distance r from p, at the angle asked from the way to q.
+  for (Geometry g : {Geometry::Euclidean, Geometry::Hyperbolic, Geometry::Spherical}) {
+    CAPTURE(geometry_name(g));
+    const model::P3 p = model::polar(g, 0.3, 0.2), q = model::polar(g, 0.7, 1.1);
+    model::P3 x{};
+    REQUIRE(model::turn_and_walk(g, p, q, 0.9, 0.25, x));
+    CHECK(model::distance(g, p, x) == doctest::Approx(0.25).epsilon(1e-13));
+    // p and q equal: no direction; the output is left as it was.
+    model::P3 kept{7, 7, 7};
+    CHECK_FALSE(model::turn_and_walk(g, p, p, 0.9, 0.25, kept));
+    CHECK(kept == model::P3{7, 7, 7});
+  }
+  // Far out on the hyperboloid (30–40 from the pole) two points a hair apart: the tangent's
+  // Lorentz norm cancels to zero or below for most pairs (it was a square root of a negative
+  // number, straightening an input edge on random draw 32 of the sweep); the others give a finite
+  // point on the hyperboloid.
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> uniform(0, 1);
+  int refused = 0;
+  for (int i = 0; i < 500; ++i) {
+    const double r = 30 + 10 * uniform(rng), phi = 6.28 * uniform(rng);
+    const model::P3 p = model::polar(Geometry::Hyperbolic, r, phi);
+    const model::P3 q =
+        model::polar(Geometry::Hyperbolic, r + std::pow(10.0, -12 * uniform(rng)), phi + std::pow(10.0, -16 * uniform(rng)));
+    model::P3 x{7, 7, 7};
+    if (!model::turn_and_walk(Geometry::Hyperbolic, p, q, 1.0, 0.5, x)) {
+      ++refused;
+      CHECK(x == model::P3{7, 7, 7});
+      continue;
+    }
+    CHECK((std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]) && x[2] >= 1));
+  }
+  CHECK(refused > 0);
+  CHECK(model::within_reach(model::polar(Geometry::Hyperbolic, 300, 0.5)));
+  CHECK_FALSE(model::within_reach(model::polar(Geometry::Hyperbolic, 400, 0.5)));
+}
