@@ -8,6 +8,10 @@
 //   build/tools/random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md]
 //                                    [--write DIR]
 //
+// Floating-point traps are on (glibc: invalid operations, division by zero, overflow), as in the
+// test suite: a draw whose run computes a NaN or an infinity stops the sweep there (SIGFPE)
+// instead of passing as a row.
+//
 // --write DIR also writes each draw as DIR/random-SEED.obj (as generated, before validation), so
 // a draw can be run through `ricci uniformize` with its progress lines.
 // Each draw's face count is log-uniform in [min, max] (defaults 1000 and 50000), drawn from its
@@ -19,6 +23,7 @@
 // double after the solve on the surface stopped ("N chords split": on the double of the surface
 // with its chords split, UniformizeOptions::split_chords); "ok (circle packing)": the fallback. Failures
 // are listed after the table with their messages.
+#include <cfenv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -70,6 +75,9 @@ bool parse(int argc, char** argv, Args& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+#if defined(__GLIBC__)
+  feenableexcept(FE_INVALID | FE_DIVBYZERO | FE_OVERFLOW);
+#endif
   Args a;
   if (!parse(argc, argv, a)) {
     std::fprintf(stderr, "usage: random_surface_sweep [--count N] [--first SEED] [--min-faces F] [--max-faces F] [--out FILE.md] [--write DIR]\n");
@@ -145,7 +153,7 @@ int main(int argc, char** argv) {
   std::ostringstream doc;
   doc << "# The default job on seeded random surfaces\n\n"
       << "`build/tools/random_surface_sweep --count " << a.count << " --first " << a.first << " --min-faces " << a.min_faces
-      << " --max-faces " << a.max_faces << "` (Release, 2 cores): `random_surface()` of tools/stress_shapes.h — "
+      << " --max-faces " << a.max_faces << "` (Release, 2 cores, floating-point traps on): `random_surface()` of tools/stress_shapes.h — "
       << "genus 0–12, 0–8 boundary loops, random flips and splits, jitter, stretched up to 100:1 along x — then "
       << "`uniformize()` with its defaults (the ears its default target makes infeasible split, as the CLI does). " << sci(total) << " s of uniformize() in all.\n\n"
       << "How the runs ended:\n\n";
