@@ -507,8 +507,9 @@ Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, Intr
       const DelaunayReport report = make_delaunay(tri, u, suspects);
       flips_refused_ = std::max(flips_refused_, report.refused);
       if (!report.complete) return Validity::FlipLimit;
-      vertex_scaling_structure(tri, s);
       flipped = true;
+      // A chord the flips made beyond double range: no length there is a finite number.
+      if (!vertex_scaling_structure(tri, s)) return Validity::BadLength;
     }
   }
   return evaluate(flipped ? tri.topology : t_, flipped ? s : s_, u, m);

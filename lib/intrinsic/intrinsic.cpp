@@ -216,14 +216,27 @@ IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& t
   return r;
 }
 
-void vertex_scaling_structure(const IntrinsicTriangulation& tri, ConformalStructure& structure) {
+bool vertex_scaling_structure(const IntrinsicTriangulation& tri, ConformalStructure& structure) {
   structure.geometry = tri.geometry;
   structure.scheme = Scheme::Yamabe;
   structure.epsilon = 0;
   const Index ne = tri.topology.num_edges;
   structure.eta.resize(static_cast<std::size_t>(ne));
-#pragma omp parallel for schedule(static) if (ne >= kParallelMin)
-  for (Index e = 0; e < ne; ++e) structure.eta[e] = 0.5 * std::exp(2 * tri.log_chord_of(e));
+  // e^709 is about 8e307: beyond it η = e^{2 log B}/2 leaves double range (Ptolemy flips at a
+  // far line-search trial can make such chords); it is then +∞, not an overflow.
+  constexpr double kMaxTwiceLogChord = 709;
+  int beyond = 0;
+#pragma omp parallel for schedule(static) if (ne >= kParallelMin) reduction(max : beyond)
+  for (Index e = 0; e < ne; ++e) {
+    const double x = 2 * tri.log_chord_of(e);
+    if (x <= kMaxTwiceLogChord) {
+      structure.eta[e] = 0.5 * std::exp(x);
+    } else {
+      structure.eta[e] = std::numeric_limits<double>::infinity();
+      beyond = 1;
+    }
+  }
+  return beyond == 0;
 }
 
 FlipCheck can_flip(const IntrinsicTriangulation& tri, Index e) {

@@ -529,3 +529,24 @@ TEST_CASE("intrinsic: the ordering carried over flips keeps the factor near a fr
     });
   }
 }
+
+TEST_CASE("intrinsic: a chord beyond double range gives η = +∞ and says so, without an overflow") {
+  // Far line-search trials can flip edges to chords whose η = B²/2 leaves double range (random
+  // sweep draw 168, on its double): the structure marks them +∞ and returns false, which the flow
+  // takes for a trial with no finite length (the floating-point traps of the tests stop an
+  // overflowing exp()).
+  const Case c = cases()[1];
+  IntrinsicTriangulation tri = intrinsic(c, true);
+  ConformalStructure s;
+  REQUIRE(vertex_scaling_structure(tri, s));
+  for (double eta : s.eta) CHECK((std::isfinite(eta) && eta > 0));
+  const Index e = tri.topology.num_edges / 2;
+  tri.log_chord[e] = static_cast<std::int64_t>(356.0 / kLogChordUnit);  // B = e^356: η ≈ e^712 / 2
+  CHECK_FALSE(vertex_scaling_structure(tri, s));
+  CHECK(std::isinf(s.eta[e]));
+  for (Index k = 0; k < tri.topology.num_edges; ++k)
+    if (k != e) CHECK(std::isfinite(s.eta[k]));
+  tri.log_chord[e] = static_cast<std::int64_t>(354.0 / kLogChordUnit);  // η ≈ e^708 / 2: still finite
+  CHECK(vertex_scaling_structure(tri, s));
+  CHECK(std::isfinite(s.eta[e]));
+}

@@ -112,8 +112,9 @@ IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& t
                                              double mollify_margin = kMollifyMargin);
 
 /// ConformalStructure of the Yamabe scheme (metric.h) for the current triangulation: η_e = B_e²/2.
-/// Overwrites `structure` (its eta is resized to #E).
-void vertex_scaling_structure(const IntrinsicTriangulation& triangulation, ConformalStructure& structure);
+/// Overwrites `structure` (its eta is resized to #E). False when some chord is beyond double range
+/// (B_e² > e^709: its η is then +∞).
+bool vertex_scaling_structure(const IntrinsicTriangulation& triangulation, ConformalStructure& structure);
 
 /// Why an edge cannot be flipped (FlipCheck::Ok when it can).
 enum class FlipCheck : int { Ok = 0, Boundary, SameFace };
