@@ -790,6 +790,7 @@ class DomainDeckRun {
   std::vector<MoebiusQ> fitted_;              // the same as fitted, before any adjustment
   std::vector<std::vector<Pair>> side_pairs_;  // per pairing: the vertex pairs it was fitted on
   std::unordered_map<std::uint64_t, std::pair<Index, int>> boundary_;  // directed edge → (pairing, orientation)
+  std::vector<std::uint8_t> on_side_;  // per cut vertex: on some side (only edges between two such are looked up)
   std::vector<Cycle> cycles_;
   // The canonical disk, its breadth-first tiles and positions.
   const Topology* T_ = nullptr;  // the canonical disk's connectivity: the cut's, or built_disk_
@@ -900,16 +901,25 @@ class DomainDeckRun {
 
   /// 2. Directed boundary edges of the domain → (pairing, orientation).
   void index_boundary() {
+    on_side_.assign(static_cast<std::size_t>(domain_.num_cut_vertices()), 0);
     for (Index s = 0; s < domain_.num_sides(); ++s)
-      for (Index i = domain_.side_offsets[s]; i + 1 < domain_.side_offsets[s + 1]; ++i)
-        boundary_[dkey(domain_.side_vertices[i], domain_.side_vertices[i + 1])] = {domain_.side_generator[s],
-                                                                                   domain_.side_orientation[s]};
+      for (Index i = domain_.side_offsets[s]; i + 1 < domain_.side_offsets[s + 1]; ++i) {
+        const Index a = domain_.side_vertices[i], b = domain_.side_vertices[i + 1];
+        boundary_[dkey(a, b)] = {domain_.side_generator[s], domain_.side_orientation[s]};
+        for (Index x : {a, b})
+          if (x >= 0 && x < static_cast<Index>(on_side_.size())) on_side_[x] = 1;
+      }
   }
   /// The letter crossed over the edge opposite corner k of input face O (none when the domain does
   /// not cut it): X^-1 when the face lies on side x, X on side x^-1.
   Letter crossing(Index O, int k) const {
     const Index c = 3 * O + k;
-    const auto it = boundary_.find(dkey(domain_.cut_faces[next_corner(c)], domain_.cut_faces[prev_corner(c)]));
+    const Index a = domain_.cut_faces[next_corner(c)], b = domain_.cut_faces[prev_corner(c)];
+    // An edge with an end off every side is no side's (most edges: no hashing for them).
+    if (a >= 0 && a < static_cast<Index>(on_side_.size()) && b >= 0 && b < static_cast<Index>(on_side_.size()) &&
+        (!on_side_[a] || !on_side_[b]))
+      return Letter{};
+    const auto it = boundary_.find(dkey(a, b));
     if (it == boundary_.end()) return Letter{};
     return Letter{it->second.first, it->second.second == 1};
   }
