@@ -346,7 +346,9 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
 /// Each edge's relative length error |d − l|/l and its rounding drift over l (measure_edges()).
 struct EdgeErrors {
   std::vector<double> err, drift;
-  double above(Index e) const { return err[e] - drift[e]; }
+  /// The error above the floor; 0 where rounding cannot place the edge's ends (drift ∞), as in
+  /// reduce_edges() (∞ − ∞ would raise FE_INVALID).
+  double above(Index e) const { return std::isinf(drift[e]) ? 0.0 : err[e] - drift[e]; }
 };
 
 /// The figures of Layout (max error, worst edge, rounding floor, max error above it) over the
@@ -442,8 +444,11 @@ std::vector<Index> vertices_near_errors(const Topology& t, const EdgeErrors& E, 
                                         int rings) {
   const Index ne = t.num_edges, nv = t.num_vertices;
   std::vector<std::uint8_t> mark(static_cast<std::size_t>(nv), 0);
+  // x above t, a NaN on either side counting as above (tested first: an ordered comparison with
+  // a NaN raises FE_INVALID).
+  auto exceeds = [](double x, double limit) { return std::isnan(x) || std::isnan(limit) || x > limit; };
   for (Index e = 0; e < ne; ++e)
-    if (!(E.above(e) <= tau) || !(E.err[e] <= tau_err))
+    if (exceeds(E.above(e), tau) || exceeds(E.err[e], tau_err))
       mark[t.edge_vertices[2 * e]] = mark[t.edge_vertices[2 * e + 1]] = 1;
   for (int r = 1; r <= rings; ++r) {
     const auto level = static_cast<std::uint8_t>(r);
@@ -894,7 +899,8 @@ void start_patch_map(Geometry g, const Positions& L, std::vector<double>& x, std
   }
   // Vertices at or beyond the unit circle (kept aside unplaced, LayoutOptions::keep_unresolved)
   // have no point on the hyperboloid: the fit takes the others, and is the identity without any.
-  auto placed = [&](Index v) { return std::norm(X.z(v)) < 1 && std::norm(L.z(v)) < 1; };
+  // |z| as hyperboloid() takes it (|z|² can round below 1 where |z| rounds to 1).
+  auto placed = [&](Index v) { return std::abs(X.z(v)) < 1 && std::abs(L.z(v)) < 1; };
   V3 CA{0, 0, 0}, CB{0, 0, 0};
   for (Index v : touched) {
     if (!placed(v)) continue;

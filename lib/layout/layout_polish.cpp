@@ -59,6 +59,10 @@ bool away_from(const P3& X, const P3& Y, P3& u) {
 void disk_gradient(Cx z, Cx w, double& gx, double& gy) {
   const Cx t = model::disk_to_origin(z, w);
   const double n = std::abs(t), az = std::abs(z);
+  if (!(az < 1)) {  // z rounded onto the circle: no finite gradient (|z|² may still be below 1)
+    gx = gy = 0;
+    return;
+  }
   const double lambda = 2 / ((1 - az) * (1 + az));
   gx = n > 0 ? -lambda * t.real() / n : 0;
   gy = n > 0 ? -lambda * t.imag() / n : 0;
@@ -125,8 +129,12 @@ void sweep_vertex(const Topology& t, Geometry g, std::span<const double> l, std:
   if (g == Geometry::Hyperbolic) {
     // In the Poincaré disk: ∂d/∂z is disk_gradient(), the step stays inside the disk.
     const Cx z = disk_point(x, v);
+    // Only points inside the disk as |z| rounds (disk_gradient()'s conformal factor; |z|² can
+    // round below 1 where |z| rounds to 1): a vertex kept on the circle is not swept.
+    if (!(std::abs(z) < 1)) return;
     for_each_incident_edge(t, v, [&](Index j, Index e) {
       const Cx w = disk_point(x, j);
+      if (!(std::abs(w) < 1)) return;
       const double d = disk_distance(z, w);
       double gx = 0, gy = 0;
       if (!(d > 0) || !std::isfinite(d)) return;

@@ -384,6 +384,32 @@ TEST_CASE("uniformize: an atlas that fails says how far the lengths' angle-sum r
   CHECK(r.layout.max_edge_length_error < 1e-9);  // circle packing on the input's triangles
 }
 
+TEST_CASE("uniformize: sweep draws that raised floating-point exceptions map, under the tests' traps") {
+  if (ricci_test::kSanitized) return;  // 2.5 s in Release
+  // Each stopped the sweep under traps (a NaN or an infinity computed on the way, then read as a
+  // failed check): draw 32 straightening an input edge far out on its double's hyperboloid (the
+  // square root of a tangent's cancelled Lorentz norm), draw 1247 of the small sweep (500–3000
+  // faces) the layout's refinement at a vertex kept on the unit circle (∞ − ∞ in its edges'
+  // errors above rounding, a division by 1 − |z| in its sweeps and patch maps). Draw 168 (a
+  // line-search trial whose flips made a chord beyond double range, 5 s) is the unit test of
+  // vertex_scaling_structure() in tests/intrinsic/test_intrinsic.cpp.
+  {
+    const ValidateResult v = sweep_draw_as_cli(32);
+    const UniformizeResult r = uniformize(v.mesh, v.topology, UniformizeOptions{});
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.intrinsic.fallback.find("could not be developed along its path") != std::string::npos);
+  }
+  {
+    const ValidateResult v =
+        ricci_shapes::validate_as_cli(ricci_shapes::random_surface(1247, ricci_shapes::random_surface_faces(1247, 500, 3000)).mesh);
+    REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
+    const UniformizeResult r = uniformize(v.mesh, v.topology, UniformizeOptions{});
+    REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
+    CHECK(r.has_atlas);
+    CHECK(all_finite(r.atlas.corner_positions));
+  }
+}
+
 TEST_CASE("uniformize: a closed surface whose common subdivision no chart resolves falls back to circle packing") {
   // Draw 150 again, with charts that may not nest (AtlasOptions::max_depth 1): its atlas fails, so
   // the job with flips fails at its layout. As on a bordered surface's double, circle packing on
