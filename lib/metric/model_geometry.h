@@ -94,9 +94,9 @@ inline bool turn_and_walk(Geometry g, const P3& p, const P3& q, double angle, do
   return false;
 }
 
-// How far from the pole a development may carry points: beyond it (H: the hyperboloid's z
-// coordinate; E: a coordinate's magnitude) products of coordinates could overflow, and doubles
-// there resolve no distance anyway (z = 2^500 resolves hyperbolic distance to about 2^-53 × 2^500).
+// How far from the pole a development may carry points (every coordinate's magnitude; in H about
+// e^346, a hyperbolic distance of 347): beyond it products of two coordinates (Lorentz products,
+// norms) could overflow.
 inline constexpr double kModelReach = 0x1p500;
 inline bool within_reach(const P3& x) {
   return std::abs(x[0]) < kModelReach && std::abs(x[1]) < kModelReach && std::abs(x[2]) < kModelReach;
