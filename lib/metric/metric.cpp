@@ -224,11 +224,13 @@ InitialMetric initial_metric(const Mesh& mesh, const Topology& t, const InitialM
     else if (g == Geometry::Hyperbolic) scale = euclidean_area_scale(t, r.l0, 2 * kPi * std::max(1.0, -chi));
     else scale = unit_power_of_two(longest);
   }
-  // Vertex scaling on the sphere needs every edge below π, not the euclidean area: where the
+  // Every scheme on the sphere needs every edge below π, not the euclidean area: where the
   // area-4π scale puts an edge past π (a mesh whose extent is dominated by a few long edges, e.g. a
-  // vertex far out), the lengths are scaled so that the longest is 0.9 π instead, and the flow
-  // (with flips, the intrinsic triangulation's own scaling) does the rest.
-  if (g == Geometry::Spherical && options.scheme == Scheme::Yamabe && options.length_scale == 0) {
+  // vertex far out, or a long thin surface: random genus-0 draws stretched 30–60:1), the lengths
+  // are scaled so that the longest is 0.9 π instead, and the flow (with flips, the intrinsic
+  // triangulation's own scaling) does the rest. Circle packing, the fallback where vertex scaling
+  // fails, was refused there before ("longer than π after scaling"), hiding the first failure.
+  if (g == Geometry::Spherical && options.length_scale == 0) {
     if (longest > 0 && !(longest * scale < kPi)) scale = 0.9 * kPi / longest;
   }
   r.length_scale = scale;

@@ -94,7 +94,7 @@ struct InitialMetricOptions {
   Scheme scheme = Scheme::CirclePacking;    ///< conformal scheme
   /// Uniform scale applied to the 3D edge lengths before they are read; 0 picks the default: in E
   /// unit_power_of_two() of the longest edge (1, the input's unit, unless that edge is shorter
-  /// than 2^-100 or longer than 2^100); in S the scale making the total area 4π (vertex scaling: lowered where that
+  /// than 2^-100 or longer than 2^100); in S the scale making the total area 4π (every scheme: lowered where that
   /// puts an edge past π, so that the longest is 0.9 π); in H the scale making the total
   /// euclidean area equal the hyperbolic area 2π|χ| (1 when χ ≥ 0).
   double length_scale = 0;
