@@ -344,11 +344,14 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
 }
 
 /// Each edge's relative length error |d − l|/l and its rounding drift over l (measure_edges()).
+/// An edge's error above its rounding drift; 0 where rounding cannot place the edge's ends
+/// (drift ∞: at or beyond the circle), which have no error above rounding (and ∞ − ∞ would raise
+/// FE_INVALID).
+double error_above_drift(double err, double drift) { return std::isinf(drift) ? 0.0 : err - drift; }
+
 struct EdgeErrors {
   std::vector<double> err, drift;
-  /// The error above the floor; 0 where rounding cannot place the edge's ends (drift ∞), as in
-  /// reduce_edges() (∞ − ∞ would raise FE_INVALID).
-  double above(Index e) const { return std::isinf(drift[e]) ? 0.0 : err[e] - drift[e]; }
+  double above(Index e) const { return error_above_drift(err[e], drift[e]); }
 };
 
 /// The figures of Layout (max error, worst edge, rounding floor, max error above it) over the
@@ -367,9 +370,7 @@ void reduce_edges(Index ne, At&& at, Layout& o) {
     for (Index e = 0; e < ne; ++e) {
       const auto [err, drift] = at(e);
       my_floor = std::max(my_floor, drift);
-      // An edge whose ends rounding cannot place (drift ∞: at or beyond the circle) has no
-      // error above rounding (and ∞ − ∞ would raise FE_INVALID).
-      const double excess = std::isinf(drift) ? 0.0 : err - drift;
+      const double excess = error_above_drift(err, drift);
       if (rank(excess) > rank(my_above)) my_above = excess;
       if (rank(err) > rank(my_worst)) {
         my_worst = err;

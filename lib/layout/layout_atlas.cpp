@@ -124,9 +124,9 @@ struct AtlasBuild {
   /// root layout, bounds what the residuals can do there. Only on failure (one pass over the faces).
   std::string miss_reason(double miss, Index p, double unit) const {
     std::vector<double> theta(static_cast<std::size_t>(t.num_corners()));
+    std::vector<double> K(static_cast<std::size_t>(t.num_vertices));
     corner_angles(t, g, l, theta);
-    std::vector<double> sum(static_cast<std::size_t>(t.num_vertices), 0.0);
-    for (Index c = 0; c < t.num_corners(); ++c) sum[t.corner_vertex[c]] += theta[c];
+    vertex_curvature(t, theta, K);  // 2π − Σθ at interior vertices
     auto z = [&](Index v) { return Cx(root_positions[2 * v], root_positions[2 * v + 1]); };
     // No operation here may overflow or meet NaN (the sanitized tests trap them): a residual that
     // is not finite, or a vertex beyond the root layout's range, leaves the reach unknown (∞).
@@ -135,7 +135,7 @@ struct AtlasBuild {
     Index at = kInvalid;
     for (Index v = 0; v < t.num_vertices; ++v) {
       if (t.valence(v) == 0 || t.is_boundary_vertex(v)) continue;
-      const double r = std::abs(2 * std::numbers::pi - sum[v]);
+      const double r = std::abs(K[v]);
       if (!std::isfinite(r)) {
         reach = kInf;
         continue;

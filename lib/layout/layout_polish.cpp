@@ -129,12 +129,8 @@ void sweep_vertex(const Topology& t, Geometry g, std::span<const double> l, std:
   if (g == Geometry::Hyperbolic) {
     // In the Poincaré disk: ∂d/∂z is disk_gradient(), the step stays inside the disk.
     const Cx z = disk_point(x, v);
-    // Only points inside the disk as |z| rounds (disk_gradient()'s conformal factor; |z|² can
-    // round below 1 where |z| rounds to 1): a vertex kept on the circle is not swept.
-    if (!(std::abs(z) < 1)) return;
     for_each_incident_edge(t, v, [&](Index j, Index e) {
       const Cx w = disk_point(x, j);
-      if (!(std::abs(w) < 1)) return;
       const double d = disk_distance(z, w);
       double gx = 0, gy = 0;
       if (!(d > 0) || !std::isfinite(d)) return;
