@@ -15,6 +15,7 @@
 #include <malloc.h>
 #endif
 #include <numbers>
+#include <numeric>
 #include <omp.h>
 #include <optional>
 #include <queue>
@@ -147,6 +148,68 @@ std::vector<Index> cone_vertices(const Topology& topology, std::span<const doubl
   return cones;
 }
 
+// A cut's surface (CutResult::surface_faces, surface_face_to_input, surface_positions) is the
+// input's faces and positions with a few faces rewritten and the refined vertices' faces and
+// positions appended. Held beside the flow as that difference: what the cut holds there is then
+// its disk's faces and their vertices' origins (14 bytes per face) and the refinement's part.
+struct SurfaceDiff {
+  bool held = false;
+  std::vector<Index> rewritten;       // input faces the cut rewrote, then their three vertices each
+  std::vector<Index> appended_faces;  // surface_faces beyond the input's
+  std::vector<Index> appended_origin; // surface_face_to_input beyond the input's faces
+  std::vector<double> appended_positions;
+};
+
+// Moves the cut's surface into `diff` when it has that form (else leaves the cut as it is).
+void compact_surface(const Mesh& mesh, const Topology& t, CutResult& c, SurfaceDiff& diff) {
+  const std::size_t F = static_cast<std::size_t>(t.num_faces);
+  if (c.surface_faces.size() < 3 * F || c.surface_face_to_input.size() < F ||
+      c.surface_faces.size() != 3 * c.surface_face_to_input.size() ||
+      c.surface_positions.size() < mesh.positions.size() ||
+      !std::equal(mesh.positions.begin(), mesh.positions.end(), c.surface_positions.begin()))
+    return;
+  for (std::size_t f = 0; f < F; ++f)
+    if (c.surface_face_to_input[f] != static_cast<Index>(f)) return;
+  std::vector<Index> rewritten_faces, rewritten_corners;
+  for (std::size_t f = 0; f < F; ++f)
+    if (c.surface_faces[3 * f] != mesh.faces[3 * f] || c.surface_faces[3 * f + 1] != mesh.faces[3 * f + 1] ||
+        c.surface_faces[3 * f + 2] != mesh.faces[3 * f + 2]) {
+      rewritten_faces.push_back(static_cast<Index>(f));
+      rewritten_corners.insert(rewritten_corners.end(), c.surface_faces.begin() + 3 * f, c.surface_faces.begin() + 3 * f + 3);
+    }
+  diff.rewritten = std::move(rewritten_faces);
+  diff.rewritten.insert(diff.rewritten.end(), rewritten_corners.begin(), rewritten_corners.end());
+  diff.appended_faces.assign(c.surface_faces.begin() + 3 * F, c.surface_faces.end());
+  diff.appended_origin.assign(c.surface_face_to_input.begin() + F, c.surface_face_to_input.end());
+  diff.appended_positions.assign(c.surface_positions.begin() + mesh.positions.size(), c.surface_positions.end());
+  for (std::vector<Index>* v : {&c.surface_faces, &c.surface_face_to_input}) std::vector<Index>().swap(*v);
+  std::vector<double>().swap(c.surface_positions);
+  diff.held = true;
+}
+
+// The cut's surface again from the input and `diff` (compact_surface()).
+void expand_surface(const Mesh& mesh, const Topology& t, SurfaceDiff& diff, CutResult& c) {
+  const std::size_t F = static_cast<std::size_t>(t.num_faces), k = diff.rewritten.size() / 4;
+  c.surface_faces = mesh.faces;
+  for (std::size_t i = 0; i < k; ++i)
+    for (std::size_t j = 0; j < 3; ++j)
+      c.surface_faces[3 * static_cast<std::size_t>(diff.rewritten[i]) + j] = diff.rewritten[k + 3 * i + j];
+  c.surface_faces.insert(c.surface_faces.end(), diff.appended_faces.begin(), diff.appended_faces.end());
+  c.surface_face_to_input.resize(F);
+  std::iota(c.surface_face_to_input.begin(), c.surface_face_to_input.end(), Index{0});
+  c.surface_face_to_input.insert(c.surface_face_to_input.end(), diff.appended_origin.begin(), diff.appended_origin.end());
+  c.surface_positions = mesh.positions;
+  c.surface_positions.insert(c.surface_positions.end(), diff.appended_positions.begin(), diff.appended_positions.end());
+  diff = SurfaceDiff{};
+}
+
+// Inputs this large are cut after the flow (UniformizeOptions::cut_beside_flow). Beside it, on two
+// threads of one core (the machine of tools/BENCHMARK-pipeline.md), the cut of a 2M-face torus
+// took 1.5-3x its time alone and outlasted the flow's analysis, and its working memory met the
+// factor (peak 2380 → 2616 MB); the jobs of a 1M- and a 2M-face torus ranged from 6.6 s faster
+// to 6.7 s slower against the cut after the flow.
+constexpr Index kCutBesideMaxFaces = 500000;
+
 // A cut of (mesh, topology) made beside the flow (cut_beside_flow()): cut_surface() reads the
 // connectivity and the 3D positions, not the metric, so on a second core it overlaps the flow's
 // factorizations (which leave that core idle) and the cut stage only waits for it.
@@ -157,12 +220,17 @@ struct CutBeside {
   // The disk's central face (the layout's default seed) and the face farthest from it (the first
   // seed check's), found there too (kInvalid: not found).
   Index central = kInvalid, farthest = kInvalid;
+  // The cut's surface held as its difference from the input (compact_surface()): take() builds
+  // it again.
+  SurfaceDiff diff;
   std::jthread worker;           // last: joined before `cut` is destroyed
 
   // The cut, once the worker is done, when it was made of exactly this mesh and topology; else null.
   CutResult* take(const Mesh& m, const Topology& t) {
     if (worker.joinable()) worker.join();
-    return mesh == &m && topology == &t && cut ? &*cut : nullptr;
+    if (mesh != &m || topology != &t || !cut) return nullptr;
+    if (diff.held) expand_surface(m, t, diff, *cut);
+    return &*cut;
   }
 };
 
@@ -899,10 +967,6 @@ MetricStages metric_stages(const Mesh& mesh, const Topology& topology, const Uni
 
 namespace {
 
-// Inputs this large are cut after the flow (UniformizeOptions::cut_beside_flow): the memory the
-// cut's result holds during the flow would raise the run's peak.
-constexpr Index kCutBesideMaxFaces = 500000;
-
 // Starts cut_surface() of (mesh, topology) beside the flow (CutBeside) when the layout will take
 // exactly that cut: the option on, fewer than kCutBesideMaxFaces faces, two threads available,
 // valid options, a connected surface that is not a sphere and not one of those the compact domain
@@ -931,17 +995,18 @@ void cut_beside_flow(const Mesh& mesh, const Topology& topology, const Uniformiz
     try {
       out.cut = cut_surface(*out.mesh, *out.topology, options.cut);
       // The two connectivities are not held beside the flow, where memory peaks: a surface the
-      // cut did not refine is the input's, which refined_edge_lengths() takes then, and the disk's
-      // is built again from its faces (take_disk_topology()) at a small part of the cut's cost.
+      // cut did not refine is the input's, which refined_edge_lengths() takes then (one it refined
+      // is built again there), and the disk's is built again from its faces
+      // (take_disk_topology()), each at a small part of the cut's cost.
       CutResult& c = *out.cut;
-      if (c.status == Status::Ok && c.num_refined_vertices() == 0 &&
-          is_topology_of(*out.topology, c.surface_faces, c.num_input_vertices))
-        c.surface_topology = Topology{};
+      c.surface_topology = Topology{};
       if (c.status == Status::Ok && is_topology_of(c.disk_topology, c.cut_faces, c.num_cut_vertices())) {
         out.central = central_face(c.disk_topology);
         if (out.central != kInvalid) out.farthest = farthest_face(c.disk_topology, out.central);
       }
       c.disk_topology = Topology{};
+      // Nor a second copy of the input's faces and positions (SurfaceDiff).
+      if (c.status == Status::Ok) compact_surface(*out.mesh, *out.topology, c, out.diff);
       for (std::vector<Index>* v : {&c.surface_faces, &c.surface_face_to_input, &c.refined_vertex_face,
                                     &c.refined_vertex_corners, &c.cut_faces, &c.cut_to_surface})
         v->shrink_to_fit();

@@ -736,7 +736,8 @@ TEST_CASE("uniformize: where the canonical cut outgrows its bound, the mesh path
 // With two threads the cut of a surface laid out through cut_surface() (genus 1; genus 0 with
 // several loops) is made beside the flow, on a thread of its own; with one, or with
 // cut_beside_flow off, it follows the flow. The cut, the disk and the layout must be the same bit
-// for bit either way.
+// for bit either way: also the cut's surface, which the worker drops as a copy of the input's
+// where the cut added no vertex (as on these two) and the cut stage copies back.
 TEST_CASE("uniformize: a cut made beside the flow is the cut made after it") {
   struct Case {
     const char* name;
@@ -764,7 +765,13 @@ TEST_CASE("uniformize: a cut made beside the flow is the cut made after it") {
     CHECK(cut_line[0].find("beside the flow") == std::string::npos);
     CHECK(cut_line[1].find("beside the flow") != std::string::npos);
     CHECK(cut_line[2].find("beside the flow") == std::string::npos);
+    CHECK(r[0].cut.num_refined_vertices() == 0);
+    CHECK(r[0].cut.surface_faces == c.mesh.faces);
     for (int run = 1; run < 3; ++run) {
+      CHECK(r[0].cut.surface_faces == r[run].cut.surface_faces);
+      CHECK(r[0].cut.surface_face_to_input == r[run].cut.surface_face_to_input);
+      CHECK(r[0].cut.surface_positions == r[run].cut.surface_positions);
+      CHECK(r[0].cut.refined_vertex_bary == r[run].cut.refined_vertex_bary);
       CHECK(r[0].cut.cut_faces == r[run].cut.cut_faces);
       CHECK(r[0].cut.cut_to_surface == r[run].cut.cut_to_surface);
       CHECK(r[0].cut.side_vertices == r[run].cut.side_vertices);

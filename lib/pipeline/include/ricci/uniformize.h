@@ -230,8 +230,9 @@ struct UniformizeOptions {
   /// Cut beside the flow: where the layout takes cut_surface()'s disk of the input's own faces
   /// (genus 1 in E, genus 0 with several loops), that cut, which reads no metric, is made on a
   /// second thread while the flow runs, when two threads are available and the input has fewer
-  /// than 500000 faces: the cut's time comes off the job; what its result holds during the flow
-  /// (about 70 bytes per face) would raise the peak memory of larger inputs, which are cut after
+  /// than 500000 faces: the cut's time comes off the job. What its result holds during the flow
+  /// is the disk's faces and their vertices' origins (14 bytes per face) and what the cut added;
+  /// larger inputs, whose cut can outlast the flow's analysis and meet its factor, are cut after
   /// the flow. false: always after the flow.
   bool cut_beside_flow = true;
   /// The layout must reproduce the metric to this relative edge-length error, else the run fails
