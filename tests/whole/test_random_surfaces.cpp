@@ -413,7 +413,9 @@ TEST_CASE("uniformize: sweep draws that raised floating-point exceptions map, un
 TEST_CASE("uniformize: a long thin genus-0 surface whose vertex-scaling solve stops maps to the sphere by circle packing") {
   if (ricci_test::kSanitized) return;  // 0.4 s in Release
   // Draw 1375 of the small sweep (500–3000 faces): an icosphere stretched 54:1, 480 faces. Vertex
-  // scaling with flips stops at its iteration limit; the circle-packing fallback's lengths, at
+  // scaling with flips stalls (46 steps, the last 8 cut below 1/1024 of the Newton step, max
+  // |K̄ − K| 0.721 → 0.717; before the stall rule it ran to its limit of 60, 0.714); the
+  // circle-packing fallback's lengths, at
   // the area-4π scale, put an edge past π and were refused ("longer than π after scaling"); they
   // are now scaled as vertex scaling's are (the longest 0.9π), and it converges.
   const ValidateResult v =
@@ -424,7 +426,7 @@ TEST_CASE("uniformize: a long thin genus-0 surface whose vertex-scaling solve st
   const UniformizeResult r = uniformize(v.mesh, v.topology, UniformizeOptions{});
   REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
   CHECK(r.geometry == Geometry::Spherical);
-  CHECK(!r.intrinsic.fallback.empty());
+  CHECK(r.intrinsic.fallback.find("Newton stalled") != std::string::npos);
   CHECK(r.metric.length_scale > 0);
   CHECK(r.flow.max_curvature_error < 1e-12);
   CHECK(r.layout.max_edge_length_error < 1e-9);
