@@ -205,9 +205,8 @@ void expand_surface(const Mesh& mesh, const Topology& t, SurfaceDiff& diff, CutR
 
 // Inputs this large are cut after the flow (UniformizeOptions::cut_beside_flow). Beside it, on two
 // threads of one core (the machine of tools/BENCHMARK-pipeline.md), the cut of a 2M-face torus
-// took 1.5-3x its time alone and outlasted the flow's analysis, and its working memory met the
-// factor (peak 2380 → 2616 MB); the jobs of a 1M- and a 2M-face torus ranged from 6.6 s faster
-// to 6.7 s slower against the cut after the flow.
+// took 2-3x its time alone and outlasted the flow's analysis, and its working memory met the
+// factor: the peak 2380 → 2616 MB, the job from 3.3 s slower to 6.6 s faster in alternated runs.
 constexpr Index kCutBesideMaxFaces = 500000;
 
 // A cut of (mesh, topology) made beside the flow (cut_beside_flow()): cut_surface() reads the
