@@ -343,12 +343,12 @@ double rounding_drift(Geometry g, const Positions& P, Index a, Index b) {
   return detail::rounding_drift_planar(g, P.z(a), P.z(b));
 }
 
-/// Each edge's relative length error |d − l|/l and its rounding drift over l (measure_edges()).
 /// An edge's error above its rounding drift; 0 where rounding cannot place the edge's ends
 /// (drift ∞: at or beyond the circle), which have no error above rounding (and ∞ − ∞ would raise
 /// FE_INVALID).
 double error_above_drift(double err, double drift) { return std::isinf(drift) ? 0.0 : err - drift; }
 
+/// Each edge's relative length error |d − l|/l and its rounding drift over l (measure_edges()).
 struct EdgeErrors {
   std::vector<double> err, drift;
   double above(Index e) const { return error_above_drift(err[e], drift[e]); }

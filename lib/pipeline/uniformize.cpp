@@ -154,7 +154,8 @@ std::vector<Index> cone_vertices(const Topology& topology, std::span<const doubl
 // its disk's faces and their vertices' origins (14 bytes per face) and the refinement's part.
 struct SurfaceDiff {
   bool held = false;
-  std::vector<Index> rewritten;       // input faces the cut rewrote, then their three vertices each
+  std::vector<Index> rewritten;          // input faces the cut rewrote
+  std::vector<Index> rewritten_corners;  // their three vertices each, as the cut has them
   std::vector<Index> appended_faces;  // surface_faces beyond the input's
   std::vector<Index> appended_origin; // surface_face_to_input beyond the input's faces
   std::vector<double> appended_positions;
@@ -170,15 +171,12 @@ void compact_surface(const Mesh& mesh, const Topology& t, CutResult& c, SurfaceD
     return;
   for (std::size_t f = 0; f < F; ++f)
     if (c.surface_face_to_input[f] != static_cast<Index>(f)) return;
-  std::vector<Index> rewritten_faces, rewritten_corners;
   for (std::size_t f = 0; f < F; ++f)
-    if (c.surface_faces[3 * f] != mesh.faces[3 * f] || c.surface_faces[3 * f + 1] != mesh.faces[3 * f + 1] ||
-        c.surface_faces[3 * f + 2] != mesh.faces[3 * f + 2]) {
-      rewritten_faces.push_back(static_cast<Index>(f));
-      rewritten_corners.insert(rewritten_corners.end(), c.surface_faces.begin() + 3 * f, c.surface_faces.begin() + 3 * f + 3);
+    if (!std::equal(mesh.faces.begin() + 3 * f, mesh.faces.begin() + 3 * f + 3, c.surface_faces.begin() + 3 * f)) {
+      diff.rewritten.push_back(static_cast<Index>(f));
+      diff.rewritten_corners.insert(diff.rewritten_corners.end(), c.surface_faces.begin() + 3 * f,
+                                    c.surface_faces.begin() + 3 * f + 3);
     }
-  diff.rewritten = std::move(rewritten_faces);
-  diff.rewritten.insert(diff.rewritten.end(), rewritten_corners.begin(), rewritten_corners.end());
   diff.appended_faces.assign(c.surface_faces.begin() + 3 * F, c.surface_faces.end());
   diff.appended_origin.assign(c.surface_face_to_input.begin() + F, c.surface_face_to_input.end());
   diff.appended_positions.assign(c.surface_positions.begin() + mesh.positions.size(), c.surface_positions.end());
@@ -189,11 +187,11 @@ void compact_surface(const Mesh& mesh, const Topology& t, CutResult& c, SurfaceD
 
 // The cut's surface again from the input and `diff` (compact_surface()).
 void expand_surface(const Mesh& mesh, const Topology& t, SurfaceDiff& diff, CutResult& c) {
-  const std::size_t F = static_cast<std::size_t>(t.num_faces), k = diff.rewritten.size() / 4;
+  const std::size_t F = static_cast<std::size_t>(t.num_faces);
   c.surface_faces = mesh.faces;
-  for (std::size_t i = 0; i < k; ++i)
+  for (std::size_t i = 0; i < diff.rewritten.size(); ++i)
     for (std::size_t j = 0; j < 3; ++j)
-      c.surface_faces[3 * static_cast<std::size_t>(diff.rewritten[i]) + j] = diff.rewritten[k + 3 * i + j];
+      c.surface_faces[3 * static_cast<std::size_t>(diff.rewritten[i]) + j] = diff.rewritten_corners[3 * i + j];
   c.surface_faces.insert(c.surface_faces.end(), diff.appended_faces.begin(), diff.appended_faces.end());
   c.surface_face_to_input.resize(F);
   std::iota(c.surface_face_to_input.begin(), c.surface_face_to_input.end(), Index{0});

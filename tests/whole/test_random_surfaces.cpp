@@ -415,9 +415,9 @@ TEST_CASE("uniformize: a long thin genus-0 surface whose vertex-scaling solve st
   // Draw 1375 of the small sweep (500–3000 faces): an icosphere stretched 54:1, 480 faces. Vertex
   // scaling with flips stalls (46 steps, the last 8 cut below 1/1024 of the Newton step, max
   // |K̄ − K| 0.721 → 0.717; before the stall rule it ran to its limit of 60, 0.714); the
-  // circle-packing fallback's lengths, at
-  // the area-4π scale, put an edge past π and were refused ("longer than π after scaling"); they
-  // are now scaled as vertex scaling's are (the longest 0.9π), and it converges.
+  // circle-packing fallback's lengths, at the area-4π scale, put an edge past π and were refused
+  // ("longer than π after scaling"); they are now scaled as vertex scaling's are (the longest
+  // 0.9π), and it converges.
   const ValidateResult v =
       ricci_shapes::validate_as_cli(ricci_shapes::random_surface(1375, ricci_shapes::random_surface_faces(1375, 500, 3000)).mesh);
   REQUIRE_MESSAGE(v.status == Status::Ok, v.message);
@@ -427,7 +427,16 @@ TEST_CASE("uniformize: a long thin genus-0 surface whose vertex-scaling solve st
   REQUIRE_MESSAGE(r.status == Status::Ok, r.message);
   CHECK(r.geometry == Geometry::Spherical);
   CHECK(r.intrinsic.fallback.find("Newton stalled") != std::string::npos);
-  CHECK(r.metric.length_scale > 0);
+  // The scale puts the longest input edge at 0.9π (the area-4π scale put one past π).
+  double longest = 0;
+  for (std::size_t f = 0; f < v.mesh.faces.size(); f += 3)
+    for (int k = 0; k < 3; ++k) {
+      const Index a = v.mesh.faces[f + k], b = v.mesh.faces[f + (k + 1) % 3];
+      longest = std::max(longest, std::hypot(v.mesh.positions[3 * a] - v.mesh.positions[3 * b],
+                                             v.mesh.positions[3 * a + 1] - v.mesh.positions[3 * b + 1],
+                                             v.mesh.positions[3 * a + 2] - v.mesh.positions[3 * b + 2]));
+    }
+  CHECK(std::abs(r.metric.length_scale * longest - 0.9 * std::numbers::pi) < 1e-12);
   CHECK(r.flow.max_curvature_error < 1e-12);
   CHECK(r.layout.max_edge_length_error < 1e-9);
   CHECK(r.layout.flipped_faces == 0);
