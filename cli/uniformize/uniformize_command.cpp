@@ -618,10 +618,10 @@ Json report_json(const Run& run) {
   j["input"] = run.file;
   j["embedded_default"] = run.embedded;
   if (run.have_mesh) {
-    const ricci::Topology& t = run.topo;
-    j["mesh"] = Json{{"vertices", t.num_vertices},     {"edges", t.num_edges},
-                     {"faces", t.num_faces},           {"boundary_loops", t.num_boundary_loops()},
-                     {"euler_characteristic", t.euler_characteristic()}, {"genus", t.genus()}};
+    const Run::Counts& t = run.counts;
+    j["mesh"] = Json{{"vertices", t.vertices},     {"edges", t.edges},
+                     {"faces", t.faces},           {"boundary_loops", t.boundary_loops},
+                     {"euler_characteristic", t.euler_characteristic}, {"genus", t.genus}};
   } else {
     j["mesh"] = nullptr;
   }
@@ -664,7 +664,7 @@ Json report_json(const Run& run) {
     j["steiner"] = nullptr;
   }
   j["fallback"] = have && !r.intrinsic.fallback.empty() ? Json(r.intrinsic.fallback) : Json(nullptr);
-  j["boundary"] = have && run.have_mesh ? (run.topo.is_closed() ? Json("none") : Json(std::string(ricci::boundary_mode_name(r.boundary))))
+  j["boundary"] = have && run.have_mesh ? (run.counts.boundary_loops == 0 ? Json("none") : Json(std::string(ricci::boundary_mode_name(r.boundary))))
                                         : Json(nullptr);
   const bool flowed = have && !run.from_metric && r.flow.status != Status::NotRun;
   j["iterations"] = flowed ? Json(r.flow.iterations) : Json(nullptr);
@@ -876,7 +876,7 @@ std::optional<int> load_for_run(const UniformizeCommandOptions& o, const char* c
   if (loaded.read.welded_vertices > 0)
     print_note(o.quiet, "welded " + std::to_string(loaded.read.welded_vertices) + " STL corners into earlier vertices");
   v = std::move(loaded.validated);
-  run.topo = v.topology;
+  run.counts.take(v.topology);
   run.have_mesh = true;
   const ricci::Topology& topo = v.topology;
   print_note(o.quiet, std::string(cmd) + ": loaded " + run.file + ": " + std::to_string(topo.num_vertices) +
@@ -910,7 +910,7 @@ std::optional<int> lay_out_stored_metric(const UniformizeCommandOptions& o, Run&
       v = std::move(w);
       run.repairs.push_back(v.repairs.back());
       print_note(o.quiet, v.repairs.back().message);
-      run.topo = v.topology;
+      run.counts.take(v.topology);
     }
   }
   if (m.status != Status::Ok) {
@@ -942,7 +942,7 @@ std::optional<int> uniformize_with_target(const UniformizeCommandOptions& o, Run
   if (prepared.ear_split) {
     run.repairs.push_back(*prepared.ear_split);
     print_note(o.quiet, prepared.ear_split->message);
-    run.topo = v.topology;
+    run.counts.take(v.topology);
   }
   if (prepared.usage) return usage_error(o, run, start, prepared.message);
   if (prepared.status != Status::Ok) {

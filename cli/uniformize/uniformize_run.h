@@ -61,7 +61,19 @@ struct UniformizeRun {
   std::string file;
   bool embedded = false;
   bool have_mesh = false;
-  ricci::Topology topo;
+  /// The validated input's counts for report.json (the topology itself stays in `input`).
+  struct Counts {
+    ricci::Index vertices = 0, edges = 0, faces = 0, boundary_loops = 0;
+    std::int64_t euler_characteristic = 0, genus = 0;
+    void take(const ricci::Topology& t) {
+      vertices = t.num_vertices;
+      edges = t.num_edges;
+      faces = t.num_faces;
+      boundary_loops = t.num_boundary_loops();
+      euler_characteristic = t.euler_characteristic();
+      genus = t.genus();
+    }
+  } counts;
   std::string scheme = "circle-packing";
   bool have_result = false;
   ricci::UniformizeResult result;
