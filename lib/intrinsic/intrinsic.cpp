@@ -66,6 +66,21 @@ void set_edge_corners(IntrinsicTriangulation& tri, Index e, Index a, Index b) {
   if (b == kInvalid) t.boundary_corners[tri.boundary_position[e]] = a;
 }
 
+// Records a flip of e into `journal` (when given) before anything of it is written.
+void record_flip(const IntrinsicTriangulation& tri, Index e, FlipJournal* journal) {
+  if (!journal) return;
+  const Topology& t = tri.topology;
+  FlipRecord r;
+  r.edge = e;
+  r.c0 = t.edge_corners[2 * e];
+  r.c1 = t.edge_corners[2 * e + 1];
+  r.across_jk = t.opposite[next_corner(r.c0)];
+  r.across_il = t.opposite[next_corner(r.c1)];
+  r.log_chord = tri.log_chord[e];
+  r.normal = tri.normal.size() == static_cast<std::size_t>(t.num_edges) ? tri.normal[e] : 0;
+  journal->records.push_back(r);
+}
+
 // Total area of the spherical triangles with side lengths s·l, or −1 when one of them is not a
 // spherical triangle (triangle inequality, perimeter below 2π). L'Huilier's formula. (No NaN: a
 // relational comparison with NaN raises FE_INVALID, which the test runner traps.)
@@ -216,25 +231,25 @@ IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& t
   return r;
 }
 
+double vertex_scaling_eta(const IntrinsicTriangulation& tri, Index e) {
+  // e^709 is about 8e307: beyond it η = e^{2 log B}/2 leaves double range (Ptolemy flips at a
+  // far line-search trial can make such chords); it is then +∞, not an overflow.
+  constexpr double kMaxTwiceLogChord = 709;
+  const double x = 2 * tri.log_chord_of(e);
+  return x <= kMaxTwiceLogChord ? 0.5 * std::exp(x) : std::numeric_limits<double>::infinity();
+}
+
 bool vertex_scaling_structure(const IntrinsicTriangulation& tri, ConformalStructure& structure) {
   structure.geometry = tri.geometry;
   structure.scheme = Scheme::Yamabe;
   structure.epsilon = 0;
   const Index ne = tri.topology.num_edges;
   structure.eta.resize(static_cast<std::size_t>(ne));
-  // e^709 is about 8e307: beyond it η = e^{2 log B}/2 leaves double range (Ptolemy flips at a
-  // far line-search trial can make such chords); it is then +∞, not an overflow.
-  constexpr double kMaxTwiceLogChord = 709;
   int beyond = 0;
 #pragma omp parallel for schedule(static) if (ne >= kParallelMin) reduction(max : beyond)
   for (Index e = 0; e < ne; ++e) {
-    const double x = 2 * tri.log_chord_of(e);
-    if (x <= kMaxTwiceLogChord) {
-      structure.eta[e] = 0.5 * std::exp(x);
-    } else {
-      structure.eta[e] = std::numeric_limits<double>::infinity();
-      beyond = 1;
-    }
+    structure.eta[e] = vertex_scaling_eta(tri, e);
+    if (structure.eta[e] == std::numeric_limits<double>::infinity()) beyond = 1;
   }
   return beyond == 0;
 }
@@ -305,6 +320,36 @@ void flip_connectivity(IntrinsicTriangulation& tri, Index e) {
   ++tri.flips;
 }
 
+// The inverse of flip_connectivity() for the flip `r` recorded, with e's log-chord and normal
+// coordinate: the triangles kil and ljk (corners c0, n0, p0 and c1, n1, p1) back to kij and lji.
+// The flip left n0 at i and n1 at j, c0 across il and c1 across jk; every entry it wrote is among
+// those set here, and edge_corners, edge_vertices and boundary_corners follow from Topology's
+// rules (set_edge_corners()), which the triangulation before the flip obeyed too.
+void unflip(IntrinsicTriangulation& tri, const FlipRecord& r) {
+  Topology& t = tri.topology;
+  const Index e = r.edge, c0 = r.c0, c1 = r.c1;
+  const Index n0 = next_corner(c0), p0 = prev_corner(c0), n1 = next_corner(c1), p1 = prev_corner(c1);
+  const Index e_il = t.corner_edge[c0], e_jk = t.corner_edge[c1];
+  t.corner_vertex[p0] = t.corner_vertex[n1];  // j
+  t.corner_vertex[p1] = t.corner_vertex[n0];  // i
+  t.corner_edge[c0] = e;
+  t.corner_edge[c1] = e;
+  t.corner_edge[n0] = e_jk;
+  t.corner_edge[n1] = e_il;
+  t.opposite[c0] = c1;
+  t.opposite[c1] = c0;
+  t.opposite[n0] = r.across_jk;
+  t.opposite[n1] = r.across_il;
+  if (r.across_jk != kInvalid) t.opposite[r.across_jk] = n0;
+  if (r.across_il != kInvalid) t.opposite[r.across_il] = n1;
+  set_edge_corners(tri, e, c0, c1);
+  set_edge_corners(tri, e_jk, n0, r.across_jk);
+  set_edge_corners(tri, e_il, n1, r.across_il);
+  tri.log_chord[e] = r.log_chord;
+  if (tri.normal.size() == static_cast<std::size_t>(t.num_edges)) tri.normal[e] = r.normal;
+  --tri.flips;
+}
+
 // The angle opposite the side of length a in a triangle with sides a, b, c in geometry g (half-angle
 // formula, as corner_angles()); −1 when a side is not a length (below) or the triangle inequality
 // fails. (Sentinels, not NaN, here and below: a relational comparison with NaN raises FE_INVALID.)
@@ -335,7 +380,7 @@ double length_of(Geometry g, double log_chord, double ua, double ub) {
 
 }  // namespace
 
-void flip_edge(IntrinsicTriangulation& tri, Index e) {
+void flip_edge(IntrinsicTriangulation& tri, Index e, FlipJournal* journal) {
   const Topology& t = tri.topology;
   const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
   const Index e_ki = t.corner_edge[prev_corner(c0)], e_jk = t.corner_edge[next_corner(c0)];
@@ -346,11 +391,12 @@ void flip_edge(IntrinsicTriangulation& tri, Index e) {
   const std::int64_t hi = std::max(a, b), lo = std::min(a, b);
   const double gap = static_cast<double>(lo - hi) * kLogChordUnit;  // ≤ 0
   const std::int64_t sigma = hi + std::llround(std::log1p(std::exp(gap)) / kLogChordUnit);
+  record_flip(tri, e, journal);
   tri.log_chord[e] = sigma - tri.log_chord[e];
   flip_connectivity(tri, e);
 }
 
-bool flip_edge_geometric(IntrinsicTriangulation& tri, std::span<const double> u, Index e) {
+bool flip_edge_geometric(IntrinsicTriangulation& tri, std::span<const double> u, Index e, FlipJournal* journal) {
   const Topology& t = tri.topology;
   const Geometry g = tri.geometry;
   const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
@@ -384,6 +430,7 @@ bool flip_edge_geometric(IntrinsicTriangulation& tri, std::span<const double> u,
   if (!(chord2 > 0) || !std::isfinite(chord2)) return false;
   const double log_chord = 0.5 * std::log(chord2) - 0.5 * (u[k] + u[l]);
   if (!(std::abs(log_chord) <= kMaxLogChord)) return false;
+  record_flip(tri, e, journal);
   tri.log_chord[e] = std::llround(log_chord / kLogChordUnit);
   flip_connectivity(tri, e);
   return true;
@@ -471,6 +518,11 @@ DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double
 
 DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, std::span<const Index> suspects,
                              const DelaunayOptions& options) {
+  return make_delaunay(tri, u, suspects, options, nullptr);
+}
+
+DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double> u, std::span<const Index> suspects,
+                             const DelaunayOptions& options, FlipJournal* journal) {
   DelaunayReport report;
   Topology& t = tri.topology;
   const Index ne = t.num_edges;
@@ -494,11 +546,11 @@ DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double
       break;
     }
     if (can_flip(tri, e) != FlipCheck::Ok || (options.keep_boundary_fans && makes_ear(t, e)) ||
-        (options.rule == FlipRule::Geometric && !flip_edge_geometric(tri, u, e))) {
+        (options.rule == FlipRule::Geometric && !flip_edge_geometric(tri, u, e, journal))) {
       refused.push_back(e);
       continue;
     }
-    if (options.rule == FlipRule::Ptolemy) flip_edge(tri, e);
+    if (options.rule == FlipRule::Ptolemy) flip_edge(tri, e, journal);
     ++report.flips;
     // The four edges of the quadrilateral may have become non-Delaunay.
     const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
@@ -517,6 +569,22 @@ DelaunayReport make_delaunay(IntrinsicTriangulation& tri, std::span<const double
     if (delaunay_margin(tri, u, e) < -tol) ++report.refused;
   if (report.flips > 0) refresh_vertex_corners(t);
   return report;
+}
+
+void FlipJournal::clear(std::size_t keep_bytes) {
+  if (records.capacity() * sizeof(FlipRecord) > keep_bytes)
+    records = std::vector<FlipRecord>{};
+  else
+    records.clear();
+}
+
+void undo_flips(IntrinsicTriangulation& tri, FlipJournal& journal, std::int64_t keep) {
+  const std::int64_t flips = journal.flips();
+  keep = std::clamp<std::int64_t>(keep, 0, flips);
+  if (keep == flips) return;
+  for (std::int64_t k = flips; k-- > keep;) unflip(tri, journal.records[static_cast<std::size_t>(k)]);
+  journal.records.resize(static_cast<std::size_t>(keep));
+  refresh_vertex_corners(tri.topology);
 }
 
 void refresh_vertex_corners(Topology& t) {

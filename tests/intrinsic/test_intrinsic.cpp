@@ -187,6 +187,78 @@ TEST_CASE("intrinsic: random flips keep the corner table valid and flipping back
   }
 }
 
+namespace {
+
+// Every array of the two triangulations equal, vertex_corners and normal coordinates included.
+void check_same_triangulation(const IntrinsicTriangulation& a, const IntrinsicTriangulation& b) {
+  const Topology &s = a.topology, &t = b.topology;
+  CHECK(s.corner_vertex == t.corner_vertex);
+  CHECK(s.opposite == t.opposite);
+  CHECK(s.corner_edge == t.corner_edge);
+  CHECK(s.edge_vertices == t.edge_vertices);
+  CHECK(s.edge_corners == t.edge_corners);
+  CHECK(s.vertex_corner_offsets == t.vertex_corner_offsets);
+  CHECK(s.vertex_corners == t.vertex_corners);
+  CHECK(s.boundary_offsets == t.boundary_offsets);
+  CHECK(s.boundary_vertices == t.boundary_vertices);
+  CHECK(s.boundary_corners == t.boundary_corners);
+  CHECK(a.log_chord == b.log_chord);
+  CHECK(a.boundary_position == b.boundary_position);
+  CHECK(a.normal == b.normal);
+  CHECK(a.flips == b.flips);
+}
+
+}  // namespace
+
+TEST_CASE("intrinsic: a flip journal puts the triangulation back bit for bit, wholly or to a mark") {
+  for (const Case& c : cases()) {
+    ricci_test::for_each_seed(1, 2, [&](std::uint64_t seed) {
+      INFO(c.name);
+      std::mt19937_64 rng(seed);
+      // Odd seeds start from build_topology()'s vertex_corners (no flips yet), even ones from a
+      // Delaunay triangulation's.
+      const IntrinsicTriangulation start = intrinsic(c, seed % 2 == 0);
+      REQUIRE(!start.normal.empty());
+      IntrinsicTriangulation tri = start;
+      FlipJournal journal;
+      // Delaunay at one u, then at another on top of it (what a trial and a quadrature node do).
+      const std::vector<double> u1 = random_u(tri.topology.num_vertices, rng, 0.5);
+      const DelaunayReport first = make_delaunay(tri, u1, non_delaunay_edges(tri, u1), {}, &journal);
+      REQUIRE(first.flips > 0);
+      CHECK(journal.flips() == first.flips);
+      CHECK(tri.flips == start.flips + first.flips);
+      const IntrinsicTriangulation after_first = tri;
+      const std::int64_t mark = journal.flips();
+      const std::vector<double> u2 = random_u(tri.topology.num_vertices, rng, 1.0);
+      const DelaunayReport second = make_delaunay(tri, u2, non_delaunay_edges(tri, u2), {}, &journal);
+      REQUIRE(second.flips > 0);
+      CHECK(non_delaunay_edges(tri, u2).size() == static_cast<std::size_t>(second.refused));
+      undo_flips(tri, journal, mark);
+      CHECK(journal.flips() == mark);
+      check_same_triangulation(tri, after_first);
+      // Random Ptolemy flips and geometric ones, recorded too: enough for Δ-complex quadrilaterals
+      // (two sides one edge, loops) to arise.
+      int glued = 0;  // flips of a quadrilateral with two of its sides one edge
+      for (int i = 0; i < 2000; ++i) {
+        const Index e = random_flippable_edge(tri, rng);
+        REQUIRE(e != kInvalid);
+        const Topology& t = tri.topology;
+        const Index c0 = t.edge_corners[2 * e], c1 = t.edge_corners[2 * e + 1];
+        std::array<Index, 4> sides = {t.corner_edge[next_corner(c0)], t.corner_edge[prev_corner(c0)],
+                                      t.corner_edge[next_corner(c1)], t.corner_edge[prev_corner(c1)]};
+        std::sort(sides.begin(), sides.end());
+        if (std::adjacent_find(sides.begin(), sides.end()) != sides.end()) ++glued;
+        if (i % 2 == 0 || !flip_edge_geometric(tri, u1, e, &journal)) flip_edge(tri, e, &journal);
+      }
+      CHECK(glued > 0);
+      undo_flips(tri, journal);
+      CHECK(journal.flips() == 0);
+      check_same_triangulation(tri, start);
+      CHECK(ricci_test::check_topology(tri.topology, tri.topology.corner_vertex) == "");
+    });
+  }
+}
+
 TEST_CASE("intrinsic: Ptolemy's relation holds for every flip and flips commute with vertex scaling") {
   for (const Case& c : cases()) {
     INFO(c.name);

@@ -115,6 +115,9 @@ IntrinsicResult mesh_intrinsic_triangulation(const Mesh& mesh, const Topology& t
 /// Overwrites `structure` (its eta is resized to #E). False when some chord is beyond double range
 /// (B_e² > e^709: its η is then +∞).
 bool vertex_scaling_structure(const IntrinsicTriangulation& triangulation, ConformalStructure& structure);
+/// η of edge e as vertex_scaling_structure() sets it (+∞ beyond double range), for updating a
+/// structure after flips changed a few edges.
+double vertex_scaling_eta(const IntrinsicTriangulation& triangulation, Index e);
 
 /// Why an edge cannot be flipped (FlipCheck::Ok when it can).
 enum class FlipCheck : int { Ok = 0, Boundary, SameFace };
@@ -123,14 +126,42 @@ enum class FlipCheck : int { Ok = 0, Boundary, SameFace };
 /// O(1).
 FlipCheck can_flip(const IntrinsicTriangulation& triangulation, Index e);
 
-/// Flips edge e (precondition: can_flip() is Ok) by Ptolemy's relation, in place. Leaves
-/// topology.vertex_corners stale (see refresh_vertex_corners()). O(1).
-void flip_edge(IntrinsicTriangulation& triangulation, Index e);
+/// One flip as FlipJournal keeps it: the edge, its two corners and the corners across the two
+/// sides the flip regroups (jk and il, from next(c0) and next(c1)) before it, its log-chord and
+/// normal coordinate before it. The rest of what the flip wrote follows from these.
+struct FlipRecord {
+  Index edge = kInvalid, c0 = kInvalid, c1 = kInvalid, across_jk = kInvalid, across_il = kInvalid;
+  std::int64_t log_chord = 0, normal = 0;
+};
+
+/// The flips made since some state of a triangulation, to put it back bit for bit (undo_flips())
+/// instead of keeping a copy of it: 40 bytes per flip against about 108 bytes per face for a copy.
+/// The flip functions below record into one when given it.
+struct FlipJournal {
+  std::vector<FlipRecord> records;  ///< oldest first
+
+  /// Flips recorded.
+  std::int64_t flips() const { return static_cast<std::int64_t>(records.size()); }
+  /// Forgets the recorded flips (they stay applied); frees the buffer when it has grown past
+  /// `keep_bytes`.
+  void clear(std::size_t keep_bytes = std::size_t{1} << 20);
+};
+
+/// Undoes the flips of `journal` after its first `keep` (newest first), restoring every entry they
+/// wrote and the flip count, then refreshes vertex_corners when any was undone; the journal keeps
+/// its first `keep`. The triangulation is then bit for bit what it was after those `keep` flips,
+/// vertex_corners included. O(undone flips + #F when any).
+void undo_flips(IntrinsicTriangulation& triangulation, FlipJournal& journal, std::int64_t keep = 0);
+
+/// Flips edge e (precondition: can_flip() is Ok) by Ptolemy's relation, in place, recording into
+/// `journal` when given. Leaves topology.vertex_corners stale (see refresh_vertex_corners()). O(1).
+void flip_edge(IntrinsicTriangulation& triangulation, Index e, FlipJournal* journal = nullptr);
 /// Flips edge e (precondition: can_flip() is Ok) to the other diagonal of its quadrilateral in
-/// the metric at u (FlipRule::Geometric). False, with nothing changed, when a triangle of the
-/// quadrilateral violates the triangle inequality or the quadrilateral is not convex at the ends
-/// of e. O(1).
-bool flip_edge_geometric(IntrinsicTriangulation& triangulation, std::span<const double> u, Index e);
+/// the metric at u (FlipRule::Geometric), recording into `journal` when given. False, with nothing
+/// changed or recorded, when a triangle of the quadrilateral violates the triangle inequality or
+/// the quadrilateral is not convex at the ends of e. O(1).
+bool flip_edge_geometric(IntrinsicTriangulation& triangulation, std::span<const double> u, Index e,
+                         FlipJournal* journal = nullptr);
 
 /// Q_e of the Delaunay test at u (#V), scaled by the largest chord of the two triangles to the
 /// fourth power (so it lies in [−4, 4]); +∞ for a boundary edge. Edge e is Delaunay when Q_e ≥ 0.
@@ -185,6 +216,9 @@ std::vector<Index> non_delaunay_edges(const IntrinsicTriangulation& triangulatio
 /// say): they seed the queue in their order instead of a first test of every edge.
 DelaunayReport make_delaunay(IntrinsicTriangulation& triangulation, std::span<const double> u,
                              std::span<const Index> suspects, const DelaunayOptions& options = {});
+/// The same, recording its flips into `journal` (undo_flips() takes them back).
+DelaunayReport make_delaunay(IntrinsicTriangulation& triangulation, std::span<const double> u,
+                             std::span<const Index> suspects, const DelaunayOptions& options, FlipJournal* journal);
 
 /// Recomputes topology.vertex_corners (and offsets) from corner_vertex and opposite, in the order
 /// build_topology() gives. O(#F).
