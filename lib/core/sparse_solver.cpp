@@ -381,6 +381,9 @@ FactorOutcome SymmetricSolver::analyze(std::int64_t n, std::span<const std::int6
   c.final_monotonic = 1;
   s.B = cholmod_l_zeros(static_cast<std::size_t>(n), 1, CHOLMOD_REAL, &c);
   if (!s.B) return s.status_outcome() == FactorOutcome::Ok ? FactorOutcome::Failed : s.status_outcome();
+  // The ordering's workspace (about 8 integers per unknown) is larger than the factorization's,
+  // which allocates what it needs.
+  cholmod_l_free_work(&c);
   return s.status_outcome();
 }
 

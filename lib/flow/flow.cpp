@@ -311,6 +311,11 @@ class FlowSolver {
   double judged_error(std::span<const double> K, std::span<const double> target) const;
   bool energy_difference(double t, double& dE);
   double directional_derivative(const Topology& t);
+  // blocks_, allocated (9 per face) if energy_difference() or finish() released it.
+  std::span<double> block_storage() {
+    if (blocks_.empty()) blocks_.assign(9 * static_cast<std::size_t>(t_.num_faces), 0.0);
+    return blocks_;
+  }
   void remove_gauge_mean(std::span<double> step) { vc_.remove_gauge_mean(t_, step, sum_); }
   void accept(double step_length, double dE);
   // Circle / LoopTotals coupling.
@@ -326,10 +331,8 @@ class FlowSolver {
   bool split_values();
   bool split_direction(std::span<const double> g);
   bool moebius_direction();
-  Validity evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
-                       ConformalStructure& s, bool& flipped);
-  const Topology& trial_topology() const { return trial_flipped_ ? trial_tri_.topology : t_; }
-  const ConformalStructure& trial_structure() const { return trial_flipped_ ? trial_s_ : s_; }
+  Validity evaluate_at(std::span<const double> u, MetricState& m, bool& flipped);
+  void undo_flips_after(std::int64_t keep);
   bool refresh_pattern();
   void keep_ordering(bool fresh);
   void compute_pin_edges();
@@ -432,13 +435,14 @@ class FlowSolver {
   const std::vector<Index>* order_hint_ = nullptr;
   std::vector<Index>* order_out_ = nullptr;
   // Intrinsic flips (set_intrinsic()): the current triangulation and structure (t_ and s_ refer
-  // to them), the trial's and a quadrature node's when flips at their u changed them (else they
-  // are evaluated on the current one), and whether the Newton pattern is that of an older
+  // to them), which a trial point and a quadrature node flip in place to their own Delaunay
+  // triangulation, the flips recorded in journal_ to be undone when the point is not accepted (a
+  // copy of the triangulation per point instead: 2 × 108 bytes per face held through the solve);
+  // whether they hold the trial's flips now, and whether the Newton pattern is that of an older
   // triangulation.
   IntrinsicTriangulation* tri_ = nullptr;
   ConformalStructure* s_mut_ = nullptr;
-  IntrinsicTriangulation trial_tri_, quad_tri_;
-  ConformalStructure trial_s_, quad_s_;
+  FlipJournal journal_;
   bool trial_flipped_ = false;
   bool pattern_stale_ = false;
   std::int64_t start_flips_ = 0;
@@ -508,22 +512,42 @@ class FlowSolver {
 // With intrinsic flips: the current triangulation when it is Delaunay at u, else a copy flipped
 // to the Delaunay triangulation of u in `tri` with its structure in `s` (`flipped` says which);
 // then evaluate() there.
-Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, IntrinsicTriangulation& tri,
-                                 ConformalStructure& s, bool& flipped) {
+// With intrinsic flips, flips the triangulation in place, on top of what it holds, to the
+// Delaunay triangulation at u (recorded in journal_; `flipped`: some flip was made) and updates the
+// structure's η on the flipped edges; then evaluates there.
+Validity FlowSolver::evaluate_at(std::span<const double> u, MetricState& m, bool& flipped) {
   flipped = false;
+  if (m.K.empty()) m.allocate(t_);
   if (tri_) {
     const std::vector<Index> suspects = non_delaunay_edges(*tri_, u);
     if (!suspects.empty()) {
-      tri = *tri_;
-      const DelaunayReport report = make_delaunay(tri, u, suspects);
+      const std::int64_t before = journal_.flips();
+      const DelaunayReport report = make_delaunay(*tri_, u, suspects, DelaunayOptions{}, &journal_);
       flips_refused_ = std::max(flips_refused_, report.refused);
+      flipped = journal_.flips() > before;
+      bool finite = true;
+      for (std::int64_t k = before; k < journal_.flips(); ++k) {
+        const Index e = journal_.records[static_cast<std::size_t>(k)].edge;
+        s_mut_->eta[e] = vertex_scaling_eta(*tri_, e);
+        finite = finite && std::isfinite(s_mut_->eta[e]);
+      }
       if (!report.complete) return Validity::FlipLimit;
-      flipped = true;
       // A chord the flips made beyond double range: no length there is a finite number.
-      if (!vertex_scaling_structure(tri, s)) return Validity::BadLength;
+      if (!finite) return Validity::BadLength;
     }
   }
-  return evaluate(flipped ? tri.topology : t_, flipped ? s : s_, u, m);
+  return evaluate(t_, s_, u, m);
+}
+
+// Undoes the recorded flips after the first `keep` (the triangulation and the structure's η are
+// then bit for bit what they were after those).
+void FlowSolver::undo_flips_after(std::int64_t keep) {
+  if (!tri_ || journal_.flips() <= keep) return;
+  std::vector<Index> edges;
+  for (auto r = journal_.records.begin() + keep; r != journal_.records.end(); ++r) edges.push_back(r->edge);
+  undo_flips(*tri_, journal_, keep);
+  for (const Index e : edges) s_mut_->eta[e] = vertex_scaling_eta(*tri_, e);
+  if (keep == 0) trial_flipped_ = false;
 }
 
 // After flips changed the triangulation: the Newton pattern of the new one, analysed again unless
@@ -562,6 +586,12 @@ bool FlowSolver::refresh_pattern() {
   pattern_stale_ = false;
   detail::HessianPattern next = detail::build_hessian_pattern(t_, vc_.unknown);
   const bool same = next.col_ptr == pattern_.col_ptr && next.row == pattern_.row;
+  // A new pattern: the old factor is of no use, and freed before the repair (it is the largest
+  // thing the solve holds).
+  if (!same) {
+    solver_.reset();
+    factor_current_ = false;
+  }
   if (!same && !analysis_order_.empty()) analysis_order_ = detail::repair_ordering(t_, pattern_, next, analysis_order_);
   pattern_ = std::move(next);
   if (vc_.spherical_gauge) compute_pin_edges();
@@ -574,8 +604,6 @@ bool FlowSolver::refresh_pattern() {
   }
   const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                      : detail::FactorKind::PositiveDefinite;
-  solver_.reset();
-  factor_current_ = false;
   detail::FactorOutcome analysis =
       solver_.analyze(pattern_.num_unknowns, pattern_.col_ptr, pattern_.row, kind, analysis_order_);
   ++reanalyses_;
@@ -637,6 +665,14 @@ void FlowSolver::compute_pin_edges() {
 // false when an interior node is not an admissible metric.
 bool FlowSolver::energy_difference(double t, double& dE) {
   const Index nv = t_.num_vertices;
+  // E and H: the derivative blocks (72 bytes per face) are given up while the quadrature's point
+  // is held beside the current and the trial one (32 bytes per face each), where the solve would
+  // otherwise peak in memory; the next step computes them again (one kernel pass). (In S a chord
+  // step's Möbius pins read the blocks of the factorization's point.)
+  if (s_.geometry != Geometry::Spherical) {
+    blocks_ = std::vector<double>{};
+    blocks_at_u_ = blocks_at_trial_ = false;
+  }
   auto slope_at = [&](const std::vector<double>& K) {
     return sum_(nv, [&](std::int64_t v) { return vc_.condition[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
   };
@@ -651,8 +687,12 @@ bool FlowSolver::energy_difference(double t, double& dE) {
     } else {
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
       for (Index v = 0; v < nv; ++v) u_quad_[v] = u_[v] + s * step_[v];
+      // Flipped on top of the trial's flips, and back.
+      const std::int64_t trial_flips = journal_.flips();
       bool flipped = false;
-      if (evaluate_at(u_quad_, quad_, quad_tri_, quad_s_, flipped) != Validity::Ok) return false;
+      const Validity validity = evaluate_at(u_quad_, quad_, flipped);
+      undo_flips_after(trial_flips);
+      if (validity != Validity::Ok) return false;
       f = slope_at(quad_.K);
     }
     dE += kQuadratureWeight[q] * f;
@@ -1073,13 +1113,14 @@ bool FlowSolver::split_direction(std::span<const double> g) {
   auto n_dot = [&](Index r, const double* x) {
     const std::vector<double>& row = r == 0 ? modes_.norm_c : modes_.norm_s;
     double sum = 0;
-    for (const Index v : modes_.vertices) {
-      const Index j = pattern_.vertex_unknown[v];
-      if (j != kInvalid) sum += row[v] * x[j];
+    for (std::size_t i = 0; i < modes_.vertices.size(); ++i) {
+      const Index j = pattern_.vertex_unknown[modes_.vertices[i]];
+      if (j != kInvalid) sum += row[i] * x[j];
     }
     return sum;
   };
   if (!split_ready_) {
+    std::vector<double> full(modes_.active ? static_cast<std::size_t>(t_.num_vertices) : 0);
     split_z_.assign(S * N, 0.0);
     split_c_.assign(S * S, 0.0);
     for (Index c = 0; c < size; ++c) {
@@ -1092,9 +1133,9 @@ bool FlowSolver::split_direction(std::span<const double> g) {
         for (Index p = t_.boundary_offsets[c - pins]; p < t_.boundary_offsets[c - pins + 1]; ++p)
           if (position_unknown_[p] != kInvalid) tmp_[position_unknown_[p]] += split_a_[p];
       } else {
-        std::copy((c == m ? modes_.a : modes_.b).begin(), (c == m ? modes_.a : modes_.b).end(), modes_.full.begin());
-        remove_gauge_mean(modes_.full);
-        for (Index j = 0; j < n; ++j) tmp_[j] = modes_.full[pattern_.unknown_vertex[j]];
+        modes_.scatter(c == m ? 0 : 1, full);
+        remove_gauge_mean(full);
+        for (Index j = 0; j < n; ++j) tmp_[j] = full[pattern_.unknown_vertex[j]];
       }
       const std::span<double> z(split_z_.data() + static_cast<std::size_t>(c) * N, N);
       if (!solver_.solve(tmp_, z)) return false;
@@ -1112,7 +1153,8 @@ bool FlowSolver::split_direction(std::span<const double> g) {
   for (Index r = 0; r < m; ++r) split_small_[static_cast<std::size_t>(r)] = v_dot(r, x_.data());
   for (Index r = 0; r < modes; ++r) {
     double nu = 0;
-    for (const Index v : modes_.vertices) nu += (r == 0 ? modes_.norm_c[v] : modes_.norm_s[v]) * u_[v];
+    for (std::size_t i = 0; i < modes_.vertices.size(); ++i)
+      nu += (r == 0 ? modes_.norm_c[i] : modes_.norm_s[i]) * u_[modes_.vertices[i]];
     split_small_[static_cast<std::size_t>(m + r)] = ((r == 0 ? modes_.norm_c0 : modes_.norm_s0) - nu) - n_dot(r, x_.data());
   }
   double* w = split_small_.data();
@@ -1159,42 +1201,50 @@ bool FlowSolver::split_direction(std::span<const double> g) {
 // 2×2 system is singular.
 bool FlowSolver::moebius_direction() {
   const Index n = pattern_.num_unknowns;
-  std::copy(x_.begin(), x_.end(), modes_.y.begin());
+  // Scratch for this step only (the solve's memory peaks later, in the line search).
+  std::vector<double> y(x_), z_a(static_cast<std::size_t>(n)), z_b(static_cast<std::size_t>(n)),
+      rhs(static_cast<std::size_t>(n)), full(static_cast<std::size_t>(t_.num_vertices));
   for (int k = 0; k < 2; ++k) {
-    const std::vector<double>& mode = k == 0 ? modes_.a : modes_.b;
-    std::vector<double>& z = k == 0 ? modes_.z_a : modes_.z_b;
-    std::copy(mode.begin(), mode.end(), modes_.full.begin());
-    remove_gauge_mean(modes_.full);
-    for (Index j = 0; j < n; ++j) modes_.rhs[j] = modes_.full[pattern_.unknown_vertex[j]];
-    if (!solver_.solve(modes_.rhs, x_) || !coupled_direction(modes_.rhs)) {
-      std::copy(modes_.y.begin(), modes_.y.end(), x_.begin());
+    std::vector<double>& z = k == 0 ? z_a : z_b;
+    modes_.scatter(k, full);
+    remove_gauge_mean(full);
+    for (Index j = 0; j < n; ++j) rhs[j] = full[pattern_.unknown_vertex[j]];
+    if (!solver_.solve(rhs, x_) || !coupled_direction(rhs)) {
+      std::copy(y.begin(), y.end(), x_.begin());
       return false;
     }
     std::copy(x_.begin(), x_.end(), z.begin());
   }
   // n·δ = n·u_start − n·u (zero up to rounding drift): the vertices' steps are x_ on the unknowns
-  // and 0 elsewhere, and the mean removal that follows does not change n·δ (n sums to zero).
+  // and 0 elsewhere, and the mean removal that follows does not change n·δ (n sums to zero). The
+  // rows vanish off the loop: the sums run over its unknowns, in the order of the unknowns.
+  std::vector<std::pair<Index, std::size_t>> on_loop;  // (unknown, position on the loop)
+  for (std::size_t i = 0; i < modes_.vertices.size(); ++i) {
+    const Index j = pattern_.vertex_unknown[modes_.vertices[i]];
+    if (j != kInvalid) on_loop.emplace_back(j, i);
+  }
+  std::sort(on_loop.begin(), on_loop.end());
   auto dot = [&](const std::vector<double>& row, const std::vector<double>& x) {
     double sum = 0;
-    for (Index j = 0; j < n; ++j) sum += row[pattern_.unknown_vertex[j]] * x[j];
+    for (const auto& [j, i] : on_loop) sum += row[i] * x[j];
     return sum;
   };
   double nu_c = 0, nu_s = 0;
-  for (const Index v : modes_.vertices) {
-    nu_c += modes_.norm_c[v] * u_[v];
-    nu_s += modes_.norm_s[v] * u_[v];
+  for (std::size_t i = 0; i < modes_.vertices.size(); ++i) {
+    nu_c += modes_.norm_c[i] * u_[modes_.vertices[i]];
+    nu_s += modes_.norm_s[i] * u_[modes_.vertices[i]];
   }
-  const double r_c = (modes_.norm_c0 - nu_c) - dot(modes_.norm_c, modes_.y), r_s = (modes_.norm_s0 - nu_s) - dot(modes_.norm_s, modes_.y);
-  const double m00 = dot(modes_.norm_c, modes_.z_a), m01 = dot(modes_.norm_c, modes_.z_b), m10 = dot(modes_.norm_s, modes_.z_a), m11 = dot(modes_.norm_s, modes_.z_b);
+  const double r_c = (modes_.norm_c0 - nu_c) - dot(modes_.norm_c, y), r_s = (modes_.norm_s0 - nu_s) - dot(modes_.norm_s, y);
+  const double m00 = dot(modes_.norm_c, z_a), m01 = dot(modes_.norm_c, z_b), m10 = dot(modes_.norm_s, z_a), m11 = dot(modes_.norm_s, z_b);
   const double det = m00 * m11 - m01 * m10;
   const double scale = std::max({std::abs(m00 * m11), std::abs(m01 * m10), 1e-300});
   if (!std::isfinite(det) || std::abs(det) <= 1e-12 * scale) {
-    std::copy(modes_.y.begin(), modes_.y.end(), x_.begin());
+    std::copy(y.begin(), y.end(), x_.begin());
     return false;
   }
   modes_.d_alpha = (r_c * m11 - m01 * r_s) / det;
   modes_.d_beta = (m00 * r_s - m10 * r_c) / det;
-  for (Index j = 0; j < n; ++j) x_[j] = modes_.y[j] + modes_.d_alpha * modes_.z_a[j] + modes_.d_beta * modes_.z_b[j];
+  for (Index j = 0; j < n; ++j) x_[j] = y[j] + modes_.d_alpha * z_a[j] + modes_.d_beta * z_b[j];
   // d/dt ½‖g‖² for the exact bordered step: −‖g‖² (J δ − a Δα − b Δβ = g).
   slope_ = -sum_(n, [&](std::int64_t j) { return rhs_[j] * rhs_[j]; });
   return std::isfinite(modes_.d_alpha) && std::isfinite(modes_.d_beta);
@@ -1277,11 +1327,18 @@ bool FlowSolver::compute_direction() {
   const Index n = pattern_.num_unknowns;
 
   // A chord step (chord_step()) solves with the last factor as it is: no kernels, no assembly.
+  // Otherwise the trial and quadrature states of the last line search are not needed through the
+  // factorization, where the solve peaks in memory (2 × 32 bytes per face): the next line search
+  // allocates them again (evaluate_at()).
+  if (!chord_) {
+    trial_ = MetricState{};
+    quad_ = MetricState{};
+  }
   if (!chord_ && pattern_stale_ && !refresh_pattern()) return false;  // timed as analysis
   Clock::time_point mark = Clock::now();
   const std::span<double> values = solver_.values();
   if (!chord_) {
-    if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+    if (!blocks_at_u_) angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, block_storage());
     blocks_at_u_ = true;
     if (!resolution_.current) update_resolution();
     iter_.derivatives += lap(mark);
@@ -1430,18 +1487,25 @@ bool FlowSolver::line_search() {
     return sum_(nv, [&](std::int64_t v) { return vc_.condition[v] ? (K[v] - K_target_[v]) * step_[v] : 0.0; });
   };
   const double f0 = spherical ? 0.0 : energy_slope(cur_.K);
+  search_kernels_ = 0;
+  if (!spherical && blocks_.empty()) {  // given up by energy_difference(), and a chord step needs them
+    const Clock::time_point kernel_start = Clock::now();
+    angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, block_storage());
+    blocks_at_u_ = true;
+    search_kernels_ += std::chrono::duration<double>(Clock::now() - kernel_start).count();
+  }
   const double df0 = spherical ? 0.0 : directional_derivative(t_);
   Validity last = Validity::Ok;
-  search_kernels_ = 0;
   for (double t = 1; t >= min_step; t *= 0.5) {
     blocks_at_trial_ = false;
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
     for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + t * step_[v];
-    last = evaluate_at(u_trial_, trial_, trial_tri_, trial_s_, trial_flipped_);
+    undo_flips_after(0);  // the last trial's
+    last = evaluate_at(u_trial_, trial_, trial_flipped_);
     if (last != Validity::Ok) continue;
     // The residual merit of a coupled target uses the target of the trial lengths.
     if (coupled_) {
-      effective_target(trial_topology(), target_, trial_.l, K_target_trial_, s_.geometry);
+      effective_target(t_, target_, trial_.l, K_target_trial_, s_.geometry);
       if (modes_.active) {
         modes_.alpha_trial = modes_.alpha + t * modes_.d_alpha;
         modes_.beta_trial = modes_.beta + t * modes_.d_beta;
@@ -1496,10 +1560,10 @@ bool FlowSolver::line_search() {
       double estimate = quadratic, spread = t * std::abs(f1 - f0 - t * df0) / 6;
       if (trial_error >= tolerance_) {
         const Clock::time_point kernel_start = Clock::now();
-        angle_derivative_blocks(trial_topology(), trial_structure(), u_trial_, trial_.l, trial_.theta, blocks_);
+        angle_derivative_blocks(t_, s_, u_trial_, trial_.l, trial_.theta, block_storage());
         blocks_at_u_ = false;
         blocks_at_trial_ = true;
-        const double df1 = directional_derivative(trial_topology());
+        const double df1 = directional_derivative(t_);
         estimate = t * (f0 + f1) / 2 + t * t * (df0 - df1) / 12;
         spread = std::abs(estimate - quadratic);
         search_kernels_ += std::chrono::duration<double>(Clock::now() - kernel_start).count();
@@ -1533,6 +1597,7 @@ bool FlowSolver::line_search() {
     accept(t, dE);
     return true;
   }
+  undo_flips_after(0);  // back to the current triangulation
   if (rounding_level) {
     fail(Status::LineSearchFailed, "Newton step " + std::to_string(iteration_) +
                                        " stalled at max |K̄ − K| = " + format_double("%.3g", error_) +
@@ -1553,9 +1618,8 @@ void FlowSolver::accept(double step_length, double dE) {
   u_.swap(u_trial_);
   cur_.swap(trial_);
   if (trial_flipped_) {
-    // The trial's Delaunay triangulation becomes the current one (t_ and s_ see it).
-    std::swap(*tri_, trial_tri_);
-    std::swap(*s_mut_, trial_s_);
+    // The trial's Delaunay triangulation (in place) becomes the current one.
+    journal_.clear();
     trial_flipped_ = false;
     pattern_stale_ = true;
   }
@@ -1567,8 +1631,8 @@ void FlowSolver::accept(double step_length, double dE) {
     double relative = 0;
     for (std::size_t i = 0; i < modes_.vertices.size(); ++i) {
       const Index v = modes_.vertices[i];
-      const double base = K_target_[v] - modes_.alpha * modes_.a[v] - modes_.beta * modes_.b[v];
-      if (base != 0) relative = std::max(relative, std::abs(modes_.alpha * modes_.a[v] + modes_.beta * modes_.b[v]) / std::abs(base));
+      const double base = K_target_[v] - modes_.alpha * modes_.a[i] - modes_.beta * modes_.b[i];
+      if (base != 0) relative = std::max(relative, std::abs(modes_.alpha * modes_.a[i] + modes_.beta * modes_.b[i]) / std::abs(base));
     }
     modes_.largest = relative;
   }
@@ -1645,7 +1709,7 @@ void FlowSolver::resolution_at_u() {
   if (resolution_.current) return;
   if (!blocks_at_u_) {
     const Clock::time_point mark = Clock::now();
-    angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, blocks_);
+    angle_derivative_blocks(t_, s_, u_, cur_.l, cur_.theta, block_storage());
     blocks_at_u_ = true;
     r_.timings.derivatives += std::chrono::duration<double>(Clock::now() - mark).count();
   }
@@ -1804,8 +1868,9 @@ bool FlowSolver::gradient_step() {
   remove_gauge_mean(step_);
 #pragma omp parallel for schedule(static) if (nv >= kParallelMin)
   for (Index v = 0; v < nv; ++v) u_trial_[v] = u_[v] + step_[v];
-  const Validity validity = evaluate_at(u_trial_, trial_, trial_tri_, trial_s_, trial_flipped_);
+  const Validity validity = evaluate_at(u_trial_, trial_, trial_flipped_);
   if (validity != Validity::Ok) {
+    undo_flips_after(0);
     fail(validity == Validity::TriangleInequality ? Status::TriangleInequality : Status::NumericalFailure,
          "gradient descent step " + std::to_string(iteration_) + " with step size " +
              format_double("%g", eps) + " left the admissible metrics: " + validity_text(validity) +
@@ -1831,11 +1896,7 @@ void FlowSolver::run() {
   grad_.assign(static_cast<std::size_t>(nv), 0.0);
   K_target_.assign(static_cast<std::size_t>(nv), 0.0);
   cur_.allocate(t_);
-  trial_.allocate(t_);
-  if (newton) {
-    u_quad_.assign(static_cast<std::size_t>(nv), 0.0);
-    quad_.allocate(t_);
-  }
+  if (newton) u_quad_.assign(static_cast<std::size_t>(nv), 0.0);
   r_.history.reserve(static_cast<std::size_t>(std::min(options_.max_iterations, 1 << 16)));
 
   if (tri_) {
@@ -1889,7 +1950,7 @@ void FlowSolver::run() {
       setup_coupling();
     if (coupled_ && options_.normalize_circle_domains && target_.boundary == BoundaryMode::Circle &&
         s_.geometry == Geometry::Euclidean && t_.num_components == 1 && t_.genus() == 0)
-      modes_.setup(t_, target_, cur_.l, vc_.condition, u_, pattern_.num_unknowns);
+      modes_.setup(t_, target_, cur_.l, vc_.condition, u_);
     residual_merit_ = s_.geometry == Geometry::Spherical || coupled_;
     const detail::FactorKind kind = s_.geometry == Geometry::Spherical ? detail::FactorKind::Indefinite
                                                                        : detail::FactorKind::PositiveDefinite;
@@ -1996,6 +2057,13 @@ bool FlowSolver::stalled() {
 }
 
 void FlowSolver::finish() {
+  undo_flips_after(0);  // a trial's flips left by a failure
+  // What only the iterations need is freed before the results are copied out (the factor first).
+  r_.factor_nonzeros = solver_.factor_nonzeros();
+  solver_.reset();
+  trial_ = MetricState{};
+  quad_ = MetricState{};
+  blocks_ = std::vector<double>{};
   const Geometry g = s_.geometry;
   r_.iterations = static_cast<int>(r_.history.size());
   r_.chord_steps = chords_;
@@ -2015,7 +2083,6 @@ void FlowSolver::finish() {
     face_areas(t_, g, cur_.l, cur_.theta, area_);
     r_.gauss_bonnet_error = std::abs(gauss_bonnet_defect(t_, g, cur_.K, area_));
   }
-  r_.factor_nonzeros = solver_.factor_nonzeros();
   if (tri_) {
     r_.flips = tri_->flips - start_flips_;
     r_.flips_refused = flips_refused_;

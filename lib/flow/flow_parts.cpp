@@ -361,7 +361,7 @@ double CurvatureResolution::judged_error(std::span<const double> K, std::span<co
 }
 
 void CircleDomainModes::setup(const Topology& t, const Target& target, std::span<const double> l,
-                              const std::vector<std::uint8_t>& condition, std::span<const double> u, Index unknowns) {
+                              const std::vector<std::uint8_t>& condition, std::span<const double> u) {
   Index outer = kInvalid;
   for (Index loop = 0; loop < t.num_boundary_loops(); ++loop)
     if (target.loop_total[loop] > 0 && (outer == kInvalid || target.loop_total[loop] > target.loop_total[outer]))
@@ -370,11 +370,10 @@ void CircleDomainModes::setup(const Topology& t, const Target& target, std::span
   const Index begin = t.boundary_offsets[outer], end = t.boundary_offsets[outer + 1];
   const Index count = end - begin;
   if (count < 4) return;
-  const auto nv = static_cast<std::size_t>(t.num_vertices);
-  a.assign(nv, 0.0);
-  b.assign(nv, 0.0);
-  norm_c.assign(nv, 0.0);
-  norm_s.assign(nv, 0.0);
+  a.assign(static_cast<std::size_t>(count), 0.0);
+  b.assign(static_cast<std::size_t>(count), 0.0);
+  norm_c.assign(static_cast<std::size_t>(count), 0.0);
+  norm_s.assign(static_cast<std::size_t>(count), 0.0);
   double L = 0;
   for (Index p = begin; p < end; ++p) L += l[t.corner_edge[t.boundary_corners[p]]];
   if (!(L > 0)) return;
@@ -403,27 +402,27 @@ void CircleDomainModes::setup(const Topology& t, const Target& target, std::span
     const Index v = t.boundary_vertices[begin + i];
     if (!condition[v]) return;  // every vertex of a Circle loop has a curvature condition
     vertices.push_back(v);
-    a[v] = std::cos(theta[i]) - mean_c;
-    b[v] = std::sin(theta[i]) - mean_s;
-    norm_c[v] = w[i] * (std::cos(theta[i]) - wc);
-    norm_s[v] = w[i] * (std::sin(theta[i]) - ws);
+    a[i] = std::cos(theta[i]) - mean_c;
+    b[i] = std::sin(theta[i]) - mean_s;
+    norm_c[i] = w[i] * (std::cos(theta[i]) - wc);
+    norm_s[i] = w[i] * (std::sin(theta[i]) - ws);
   }
   norm_c0 = norm_s0 = 0;
-  for (Index v : vertices) {
-    norm_c0 += norm_c[v] * u[v];
-    norm_s0 += norm_s[v] * u[v];
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    norm_c0 += norm_c[i] * u[vertices[i]];
+    norm_s0 += norm_s[i] * u[vertices[i]];
   }
-  const auto n = static_cast<std::size_t>(unknowns);
-  y.assign(n, 0.0);
-  z_a.assign(n, 0.0);
-  z_b.assign(n, 0.0);
-  rhs.assign(n, 0.0);
-  full.assign(nv, 0.0);
   active = true;
 }
 
+void CircleDomainModes::scatter(int k, std::span<double> full) const {
+  std::fill(full.begin(), full.end(), 0.0);
+  const std::vector<double>& mode = k == 0 ? a : b;
+  for (std::size_t i = 0; i < vertices.size(); ++i) full[vertices[i]] = mode[i];
+}
+
 void CircleDomainModes::add(double alpha_now, double beta_now, std::span<double> K_target) const {
-  for (const Index v : vertices) K_target[v] += alpha_now * a[v] + beta_now * b[v];
+  for (std::size_t i = 0; i < vertices.size(); ++i) K_target[vertices[i]] += alpha_now * a[i] + beta_now * b[i];
 }
 
 }  // namespace ricci::detail

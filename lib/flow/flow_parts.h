@@ -166,18 +166,21 @@ struct CurvatureResolution {
 // their coefficients α, β (current, step, trial), and the workspace of the bordered solve.
 struct CircleDomainModes {
   bool active = false;
-  std::vector<Index> vertices;  // the outer loop's
+  std::vector<Index> vertices;  // the outer loop's, in its order
+  // Per vertex of the loop (as `vertices`): the modes a, b and the normalization's rows n_c, n_s
+  // (all zero off the loop).
   std::vector<double> a, b, norm_c, norm_s;
   double norm_c0 = 0, norm_s0 = 0;  // n·u at the start
   double alpha = 0, beta = 0, d_alpha = 0, d_beta = 0, alpha_trial = 0, beta_trial = 0;
   double largest = 0;  // max over the run of max |α a + β b| / |the effective target without modes|
   int failures = 0;    // steps without the modes (singular 2×2 system)
-  std::vector<double> y, z_a, z_b, rhs, full;
 
   // Sets the modes up on the outer loop (the loop of largest positive total) at lengths l and u;
   // active stays false when there is none or a vertex of it has no curvature condition.
   void setup(const Topology& t, const Target& target, std::span<const double> l,
-             const std::vector<std::uint8_t>& condition, std::span<const double> u, Index unknowns);
+             const std::vector<std::uint8_t>& condition, std::span<const double> u);
+  // Mode k (0: a, 1: b) over all vertices, into `full` (#V).
+  void scatter(int k, std::span<double> full) const;
   // K_target += α a + β b on the outer loop.
   void add(double alpha_now, double beta_now, std::span<double> K_target) const;
 };
