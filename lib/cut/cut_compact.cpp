@@ -10,6 +10,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "radix_heap.h"
 #include "ricci/cut.h"
 
 namespace ricci {
@@ -41,14 +42,16 @@ double dual_weight(const Topology& t, std::span<const double> l, Index c) {
 
 // Quantum of the dual weights: 2^-kWeightBits of the largest one.
 constexpr int kWeightBits = 30;
+// A corner with no face across its edge (boundary), or a weight that is not a finite number.
+constexpr std::uint64_t kNoEdge = std::numeric_limits<std::uint64_t>::max();
 
 /// The dual weight of every interior edge (per corner: the edge opposite it; one value for both
-/// sides), rounded to a multiple of 2^-kWeightBits of the largest weight. Path sums are then exact
+/// sides) in integer units of 2^-kWeightBits of the largest weight. Path sums are then exact
 /// and equal weights compare equal, so the shortest-path tree, the double sweep and the centre of
 /// a symmetric mesh break their ties by face index (dual_distances()) and not by the last bits of
 /// the metric: metrics that differ by rounding (another factorization, another BLAS) give
 /// the same domain, and with it the same canonical words downstream.
-std::vector<double> dual_weights(const Topology& t, std::span<const double> l) {
+std::vector<std::uint64_t> dual_weights(const Topology& t, std::span<const double> l) {
   std::vector<double> w(static_cast<std::size_t>(3 * t.num_faces), kInf);
   double largest = 0;
   for (Index c = 0; c < 3 * t.num_faces; ++c) {
@@ -57,34 +60,36 @@ std::vector<double> dual_weights(const Topology& t, std::span<const double> l) {
     w[c] = w[o] = dual_weight(t, l, c);
     if (std::isfinite(w[c])) largest = std::max(largest, w[c]);
   }
-  if (!(largest > 0)) return w;
-  const int e = std::ilogb(largest) - kWeightBits;
-  for (double& x : w)
-    if (std::isfinite(x)) x = std::ldexp(std::nearbyint(std::ldexp(x, -e)), e);
-  return w;
+  std::vector<std::uint64_t> units(w.size(), kNoEdge);
+  const int e = largest > 0 ? std::ilogb(largest) - kWeightBits : 0;
+  for (std::size_t c = 0; c < w.size(); ++c)
+    if (std::isfinite(w[c])) units[c] = largest > 0 ? static_cast<std::uint64_t>(std::nearbyint(std::ldexp(w[c], -e))) : 0;
+  return units;
 }
 
-std::vector<double> dual_distances(const Topology& t, std::span<const double> w, Index source, std::vector<Index>* via) {
+/// Dijkstra on the dual graph from face `source` with the weights w (per corner); per face its
+/// distance (kNoEdge where unreached) and, with `via`, the corner it was reached across. Faces of
+/// equal distance are settled in index order (the radix heap pops (distance, face) in order).
+std::vector<std::uint64_t> dual_distances(const Topology& t, std::span<const std::uint64_t> w, Index source,
+                                          std::vector<Index>* via) {
   const Index F = t.num_faces;
-  std::vector<double> d(static_cast<std::size_t>(F), kInf);
+  std::vector<std::uint64_t> d(static_cast<std::size_t>(F), kNoEdge);
   if (via) via->assign(static_cast<std::size_t>(F), kInvalid);
-  using Item = std::pair<double, Index>;
-  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> pq;
+  detail::RadixHeap<Index> heap;
   d[source] = 0;
-  pq.push({0.0, source});
-  while (!pq.empty()) {
-    const auto [df, f] = pq.top();
-    pq.pop();
+  heap.push(0, source);
+  while (!heap.empty()) {
+    const auto [df, f] = heap.pop();
     if (df > d[f]) continue;
     for (int k = 0; k < 3; ++k) {
       const Index c = 3 * f + k, o = t.opposite[c];
-      if (o == kInvalid) continue;
+      if (o == kInvalid || w[c] == kNoEdge) continue;
       const Index g = corner_face(o);
-      const double nd = df + w[c];
+      const std::uint64_t nd = df + w[c];
       if (nd < d[g]) {
         d[g] = nd;
         if (via) (*via)[g] = o;  // g is reached across the edge of its corner o
-        pq.push({nd, g});
+        heap.push(nd, g);
       }
     }
   }
@@ -97,17 +102,17 @@ std::uint64_t pair_key(Index u, Index v) {
 
 /// The face minimising the larger distance to the two ends of a double-sweep diameter of the dual
 /// graph with edge weights w (per corner: the edge opposite it).
-Index dual_centre(const Topology& topo, const std::vector<double>& w) {
+Index dual_centre(const Topology& topo, const std::vector<std::uint64_t>& w) {
   const Index F = topo.num_faces;
-  auto farthest = [&](const std::vector<double>& d) {
+  auto farthest = [&](const std::vector<std::uint64_t>& d) {
     Index best = 0;
     for (Index f = 0; f < F; ++f)
       if (d[f] > d[best]) best = f;
     return best;
   };
   const Index a = farthest(dual_distances(topo, w, 0, nullptr));
-  const std::vector<double> da = dual_distances(topo, w, a, nullptr);
-  const std::vector<double> db = dual_distances(topo, w, farthest(da), nullptr);
+  const std::vector<std::uint64_t> da = dual_distances(topo, w, a, nullptr);
+  const std::vector<std::uint64_t> db = dual_distances(topo, w, farthest(da), nullptr);
   Index centre = 0;
   for (Index f = 1; f < F; ++f)
     if (std::max(da[f], db[f]) < std::max(da[centre], db[centre])) centre = f;
@@ -279,7 +284,7 @@ CutResult cut_compact(const Mesh& mesh, const Topology& topo, std::span<const do
   if (centre_face < -1 || centre_face >= F) return fail(Status::InvalidArgument, "centre_face out of range");
 
   // Dual edge weights (per corner: the edge opposite it), the centre, and the dual tree from it.
-  const std::vector<double> w = dual_weights(topo, lengths);
+  const std::vector<std::uint64_t> w = dual_weights(topo, lengths);
   if (centre_face < 0) centre_face = dual_centre(topo, w);
   std::vector<Index> via;
   dual_distances(topo, w, centre_face, &via);

@@ -509,9 +509,6 @@ class FlowSolver {
   std::vector<double> area_;
 };
 
-// With intrinsic flips: the current triangulation when it is Delaunay at u, else a copy flipped
-// to the Delaunay triangulation of u in `tri` with its structure in `s` (`flipped` says which);
-// then evaluate() there.
 // With intrinsic flips, flips the triangulation in place, on top of what it holds, to the
 // Delaunay triangulation at u (recorded in journal_; `flipped`: some flip was made) and updates the
 // structure's η on the flipped edges; then evaluates there.
@@ -666,7 +663,7 @@ void FlowSolver::compute_pin_edges() {
 bool FlowSolver::energy_difference(double t, double& dE) {
   const Index nv = t_.num_vertices;
   // E and H: the derivative blocks (72 bytes per face) are given up while the quadrature's point
-  // is held beside the current and the trial one (32 bytes per face each), where the solve would
+  // is held beside the current and the trial one (40 bytes per face each), where the solve would
   // otherwise peak in memory; the next step computes them again (one kernel pass). (In S a chord
   // step's Möbius pins read the blocks of the factorization's point.)
   if (s_.geometry != Geometry::Spherical) {
@@ -1328,7 +1325,7 @@ bool FlowSolver::compute_direction() {
 
   // A chord step (chord_step()) solves with the last factor as it is: no kernels, no assembly.
   // Otherwise the trial and quadrature states of the last line search are not needed through the
-  // factorization, where the solve peaks in memory (2 × 32 bytes per face): the next line search
+  // factorization, where the solve peaks in memory (2 × 40 bytes per face): the next line search
   // allocates them again (evaluate_at()).
   if (!chord_) {
     trial_ = MetricState{};
