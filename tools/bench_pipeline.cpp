@@ -20,7 +20,8 @@
 //                      packing, tools/BENCHMARK-flips.md)
 //   --cli PATH         the ricci CLI whose whole `uniformize --no-pictures` process is timed per input
 //                      (default: the one built beside this benchmark; none when it is not built)
-//   --cli-max-faces N  time the CLI only on inputs up to N faces (default 500000; 0: never)
+//   --cli-max-faces N  time the CLI only on inputs up to N faces (default 900000: face.obj subdivided
+//                      twice is the largest; 0: never)
 //   --peer PATH        tools/peer_cgal (CGAL's LSCM and discrete conformal map), timed on every disk
 //                      input in the same run: face.obj, its midpoint subdivisions and a generated
 //                      2M-face disk (default: the one built beside this benchmark with
@@ -93,7 +94,7 @@ struct Settings {
   bool flow_only = false;
   bool all_shared = false;
   std::string cli = RICCI_CLI_PATH;
-  std::int64_t cli_max_faces = 500000;
+  std::int64_t cli_max_faces = 900000;
   std::string peer = RICCI_PEER_PATH;
   std::int64_t peer_max_faces = 2100000;
 };
