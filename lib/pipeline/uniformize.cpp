@@ -351,7 +351,7 @@ bool flow_with_flips(const Mesh& mesh, const Topology& topology, const FlowOptio
   capped.max_iterations = std::min(fo.max_iterations, kMaxFlipIterations);
   const bool warm = start.size() == u0.size();
   // Only a warm start keeps the Delaunay triangulation for a second solve from u = 0 (one copy
-  // of the triangulation less while the flow peaks: 110 MB at 827k faces).
+  // of the triangulation less while the flow peaks: 89 MB at 827k faces).
   if (warm)
     tri = ir.triangulation;
   else
